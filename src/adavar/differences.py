@@ -1,0 +1,414 @@
+"""Exact finite differences of the integrated signal, and fast sums of their squares.
+
+Every Allan-family statistic is a sum of squared finite differences of the integrated
+signal (the "phase" ``S[j] = sum(u[0..j-1])`` of the increments ``u``). Computed from a plain
+cumulative sum these lose digits: with a constant offset of 1e6 standard deviations, or a
+drift, or a random walk, ``S`` grows far larger than the differences taken from it.
+
+This module stores the integrated signal in an *anchored* form: every ``BLOCK`` samples an
+anchor ``H[b] = S[b * BLOCK]`` held in double-double precision (``hh + hl``), and inside the
+block the local sum ``r[j] = S[j] - H[j // BLOCK]`` as a plain double computed with a
+compensated sum. ``r`` never exceeds one block's worth of data, so a difference
+``sum_k c_k S[i + k m]`` splits into an exactly computed anchor part (constant over runs of
+``i``) plus a small local part that vectorises. The error of every difference is then a few
+ulps of the difference itself, whatever the offset, drift or length of the record.
+
+The kernels here know nothing about statistics; :mod:`adavar.statistics` builds on them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from adavar._jit import jit, parallel_jit, prange
+
+__all__ = [
+    "BLOCK",
+    "AnchoredPhase",
+    "anchored_phase",
+]
+
+SHIFT = 10
+BLOCK = 1 << SHIFT  # anchor spacing, samples
+SUPERBLOCK = 1 << 14  # terms per parallel work item; each touches a few 128 KiB chunks
+
+
+# ---------------------------------------------------------------------------------------
+# double-double helpers (must not be compiled with fast-math: they rely on exact rounding)
+
+
+@jit(inline="always")
+def _two_sum(a: float, b: float) -> tuple[float, float]:
+    s = a + b
+    bb = s - a
+    e = (a - (s - bb)) + (b - bb)
+    return s, e
+
+
+@jit(inline="always")
+def _dd_add(ah: float, al: float, bh: float, bl: float) -> tuple[float, float]:
+    s, e = _two_sum(ah, bh)
+    e += al + bl
+    h = s + e
+    return h, e - (h - s)
+
+
+@jit(inline="always")
+def _dd_scaled_add(ah: float, al: float, c: int, bh: float, bl: float) -> tuple[float, float]:
+    """``a + c * b`` for a small integer ``c``, by repeated exact additions."""
+    if c < 0:
+        bh = -bh
+        bl = -bl
+        c = -c
+    for _ in range(c):
+        ah, al = _dd_add(ah, al, bh, bl)
+    return ah, al
+
+
+# ---------------------------------------------------------------------------------------
+# building the anchored phase
+
+
+@parallel_jit
+def _anchored_prefix(u, shift):  # pragma: no cover - compiled
+    n = u.size
+    npts = n + 1
+    nb = (npts + BLOCK - 1) >> SHIFT
+    r = np.empty(npts)
+    tot_h = np.zeros(nb)
+    tot_l = np.zeros(nb)
+    for b in prange(nb):
+        j0 = b << SHIFT
+        j1 = min(j0 + BLOCK, npts)
+        # the block's increments, including the one that leads to the next anchor
+        seg = u[j0 : min(j0 + BLOCK, n)]
+        out = r[j0 + 1 : j1]
+        s = 0.0
+        c = 0.0
+        r[j0] = 0.0
+        for k in range(out.size):
+            s, e = _two_sum(s, seg[k] - shift)
+            c += e
+            out[k] = s + c
+        if seg.size > out.size:
+            s, e = _two_sum(s, seg[seg.size - 1] - shift)
+            c += e
+        h = s + c
+        tot_h[b] = h
+        tot_l[b] = c - (h - s)
+    hh = np.empty(nb)
+    hl = np.empty(nb)
+    ah = 0.0
+    al = 0.0
+    for b in range(nb):
+        hh[b] = ah
+        hl[b] = al
+        ah, al = _dd_add(ah, al, tot_h[b], tot_l[b])
+    return r, hh, hl
+
+
+class AnchoredPhase:
+    """The integrated signal ``S[j] = sum(u[0..j-1] - shift)``, ``j = 0..len(u)``, anchored.
+
+    Parameters
+    ----------
+    r : ndarray
+        Local part, ``S[j] - H[j // BLOCK]``.
+    hh, hl : ndarray
+        Anchors ``H[b] = S[b * BLOCK]`` as double-double (high, low).
+    shift : float
+        Constant removed from every increment before summing. Differences whose
+        coefficients annihilate linear sequences (all the ones used here) do not depend on it.
+    """
+
+    __slots__ = ("hh", "hl", "r", "shift")
+
+    def __init__(self, r: np.ndarray, hh: np.ndarray, hl: np.ndarray, shift: float) -> None:
+        self.r = r
+        self.hh = hh
+        self.hl = hl
+        self.shift = shift
+
+    @property
+    def n_points(self) -> int:
+        """Number of points of the integrated signal (increments + 1)."""
+        return int(self.r.size)
+
+    def values(self) -> np.ndarray:
+        """``S`` rounded to double (for tests and small diagnostics)."""
+        b = np.arange(self.r.size) >> SHIFT
+        return (self.hh[b] + self.r) + self.hl[b]
+
+
+def anchored_phase(increments: np.ndarray, shift: float | None = None) -> AnchoredPhase:
+    """Integrate ``increments`` into an :class:`AnchoredPhase`.
+
+    Parameters
+    ----------
+    increments : ndarray of float64
+        ``u[i] = S[i+1] - S[i]``: rate samples times ``tau0`` or first differences of phase.
+    shift : float, optional
+        Constant subtracted from each increment first; default their mean, which removes a
+        constant offset exactly (the subtraction rounds relative to the residual only).
+    """
+    u = np.ascontiguousarray(increments, dtype=np.float64)
+    if shift is None:
+        shift = float(np.mean(u[:BLOCK])) if u.size else 0.0
+    r, hh, hl = _anchored_prefix(u, shift)
+    return AnchoredPhase(r, hh, hl, shift)
+
+
+# ---------------------------------------------------------------------------------------
+# one difference, exactly (used off the hot path and by the strided statistics)
+
+
+@jit
+def _anchor_combo(hh, hl, i, m, coefs):  # pragma: no cover - compiled
+    """Round-to-double of ``sum_k coefs[k] * H[(i + k m) // BLOCK]`` computed in double-double."""
+    ah = 0.0
+    al = 0.0
+    for k in range(coefs.size):
+        b = (i + k * m) >> SHIFT
+        ah, al = _dd_scaled_add(ah, al, coefs[k], hh[b], hl[b])
+    return ah + al
+
+
+@jit
+def _difference(r, hh, hl, i, m, coefs):  # pragma: no cover - compiled
+    """``sum_k coefs[k] * S[i + k m]`` to a few ulps."""
+    local = 0.0
+    for k in range(coefs.size):
+        local += coefs[k] * r[i + k * m]
+    return _anchor_combo(hh, hl, i, m, coefs) + local
+
+
+@jit
+def _segment_end(i, hi, m, npts_k):  # pragma: no cover - compiled
+    """First index after ``i`` (capped at ``hi``) where some ``i + k m`` enters a new block."""
+    end = hi
+    for k in range(npts_k):
+        j = i + k * m
+        e = i + ((((j >> SHIFT) + 1) << SHIFT) - j)
+        end = min(end, e)
+    return end
+
+
+# ---------------------------------------------------------------------------------------
+# hot loops: vectorised sums over a run of i with a constant anchor part
+
+
+# Slices and a 0-based counter let LLVM drop numba's negative-index checks and vectorise.
+
+
+@jit(fastmath=True)
+def _run_sq2(r, c, lo, hi, m):  # pragma: no cover - compiled
+    x0 = r[lo:hi]
+    x1 = r[lo + m : hi + m]
+    x2 = r[lo + 2 * m : hi + 2 * m]
+    acc = 0.0
+    for k in range(hi - lo):
+        v = c + ((x0[k] + x2[k]) - 2.0 * x1[k])
+        acc += v * v
+    return acc
+
+
+@jit(fastmath=True)
+def _run_sq3(r, c, lo, hi, m):  # pragma: no cover - compiled
+    x0 = r[lo:hi]
+    x1 = r[lo + m : hi + m]
+    x2 = r[lo + 2 * m : hi + 2 * m]
+    x3 = r[lo + 3 * m : hi + 3 * m]
+    acc = 0.0
+    for k in range(hi - lo):
+        v = c + ((x3[k] - x0[k]) + 3.0 * (x1[k] - x2[k]))
+        acc += v * v
+    return acc
+
+
+@jit(fastmath=True)
+def _run_fill2(r, c, lo, hi, m, out):  # pragma: no cover - compiled
+    x0 = r[lo:hi]
+    x1 = r[lo + m : hi + m]
+    x2 = r[lo + 2 * m : hi + 2 * m]
+    for k in range(hi - lo):
+        out[k] = c + ((x0[k] + x2[k]) - 2.0 * x1[k])
+
+
+@parallel_jit
+def _overlapping_sums(r, hh, hl, ms, starts, counts, coefs):  # pragma: no cover - compiled
+    """``sum_{i=start}^{start+count-1} (sum_k coefs[k] S[i + k m])^2`` for every tau.
+
+    Fused over taus: each work item takes one superblock of ``i`` and runs every tau over
+    it, so the chunks of ``r`` that neighbouring octaves share stay in cache.
+    """
+    nt = ms.size
+    kp = coefs.size
+    imax = 0
+    for t in range(nt):
+        imax = max(imax, starts[t] + counts[t])
+    nsb = (imax + SUPERBLOCK - 1) // SUPERBLOCK
+    partial = np.zeros((nsb, nt))
+    for sb in prange(nsb):
+        b0 = sb * SUPERBLOCK
+        b1 = b0 + SUPERBLOCK
+        for t in range(nt):
+            lo = max(b0, starts[t])
+            hi = min(b1, starts[t] + counts[t])
+            if lo >= hi:
+                continue
+            m = ms[t]
+            acc = 0.0
+            i = lo
+            while i < hi:
+                e = _segment_end(i, hi, m, kp)
+                c = _anchor_combo(hh, hl, i, m, coefs)
+                if kp == 3:
+                    acc += _run_sq2(r, c, i, e, m)
+                else:
+                    acc += _run_sq3(r, c, i, e, m)
+                i = e
+            partial[sb, t] = acc
+    out = np.zeros(nt)
+    for t in range(nt):
+        out[t] = np.sum(partial[:, t])
+    return out
+
+
+@parallel_jit
+def _strided_sums(r, hh, hl, ms, counts, coefs):  # pragma: no cover - compiled
+    """Non-overlapping version: terms at ``i = 0, m, 2m, ...`` (``counts[t]`` of them)."""
+    nt = ms.size
+    out = np.zeros(nt)
+    for t in prange(nt):
+        m = ms[t]
+        acc = 0.0
+        for q in range(counts[t]):
+            v = _difference(r, hh, hl, q * m, m, coefs)
+            acc += v * v
+        out[t] = acc
+    return out
+
+
+@jit
+def _fill_second_differences(r, hh, hl, m, lo, hi, out):  # pragma: no cover - compiled
+    """``out[i - lo] = S[i] - 2 S[i+m] + S[i+2m]`` for ``i`` in ``[lo, hi)``."""
+    coefs = np.array([1, -2, 1])
+    i = lo
+    while i < hi:
+        e = _segment_end(i, hi, m, 3)
+        c = _anchor_combo(hh, hl, i, m, coefs)
+        _run_fill2(r, c, i, e, m, out[i - lo :])
+        i = e
+
+
+_MOD_CHUNK = 1 << 14
+
+
+@parallel_jit
+def _modified_sums(r, hh, hl, ms, counts):  # pragma: no cover - compiled
+    """``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2`` for ``j = 0..count-1``: the MVAR numerator.
+
+    The inner sum slides along ``j`` with a compensated running total, fed by chunks of
+    second differences computed exactly (entering and leaving streams), so the cost is
+    O(N) per tau whatever ``m``.
+    """
+    nt = ms.size
+    out = np.zeros(nt)
+    for t in prange(nt):
+        m = ms[t]
+        count = counts[t]
+        first = np.empty(m)
+        _fill_second_differences(r, hh, hl, m, 0, m, first)
+        s = 0.0
+        c = 0.0
+        for k in range(m):
+            s, e = _two_sum(s, first[k])
+            c += e
+        total = s + c
+        acc = total * total
+        enter = np.empty(_MOD_CHUNK)
+        leave = np.empty(_MOD_CHUNK)
+        j = 1
+        while j < count:
+            n = min(_MOD_CHUNK, count - j)
+            _fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + n, enter)
+            _fill_second_differences(r, hh, hl, m, j - 1, j - 1 + n, leave)
+            for q in range(n):
+                s, e = _two_sum(s, enter[q])
+                c += e
+                s, e = _two_sum(s, -leave[q])
+                c += e
+                v = s + c
+                acc += v * v
+            j += n
+        out[t] = acc
+    return out
+
+
+@jit
+def _cluster_differences(r, hh, hl, m, count):  # pragma: no cover - compiled
+    """``S[(k+1) m] - S[k m]`` for ``k = 0..count-1`` (sums over non-overlapping clusters)."""
+    out = np.empty(count)
+    coefs = np.array([-1, 1])
+    for q in range(count):
+        out[q] = _difference(r, hh, hl, q * m, m, coefs)
+    return out
+
+
+# ---------------------------------------------------------------------------------------
+# public wrappers
+
+SECOND = np.array([1, -2, 1], dtype=np.int64)
+THIRD = np.array([-1, 3, -3, 1], dtype=np.int64)
+
+
+def overlapping_sums(
+    phase: AnchoredPhase,
+    ms: np.ndarray,
+    order: int,
+    starts: np.ndarray | None = None,
+    counts: np.ndarray | None = None,
+) -> np.ndarray:
+    """Sums of squared overlapping differences of ``order`` 2 or 3 at each ``m``.
+
+    By default ``i`` runs over every start that keeps ``i + order * m`` inside the data.
+    """
+    ms = np.asarray(ms, dtype=np.int64)
+    coefs = SECOND if order == 2 else THIRD
+    if starts is None:
+        starts = np.zeros_like(ms)
+    if counts is None:
+        counts = phase.n_points - order * ms
+    starts = np.ascontiguousarray(starts, dtype=np.int64)
+    counts = np.ascontiguousarray(counts, dtype=np.int64)
+    if np.any(counts < 1) or np.any(starts < 0):
+        raise ValueError("internal: empty or out-of-range difference sum")
+    if np.any(starts + counts - 1 + order * ms >= phase.n_points):
+        raise ValueError("internal: difference sum runs past the data")
+    return _overlapping_sums(phase.r, phase.hh, phase.hl, ms, starts, counts, coefs)
+
+
+def strided_sums(phase: AnchoredPhase, ms: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sums of squared non-overlapping differences (stride ``m``); returns (sums, counts)."""
+    ms = np.asarray(ms, dtype=np.int64)
+    coefs = SECOND if order == 2 else THIRD
+    counts = (phase.n_points - 1) // ms - order + 1
+    if np.any(counts < 1):
+        raise ValueError("internal: empty difference sum")
+    return _strided_sums(phase.r, phase.hh, phase.hl, ms, counts, coefs), counts
+
+
+def modified_sums(phase: AnchoredPhase, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """MVAR numerators ``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2``; returns (sums, counts)."""
+    ms = np.asarray(ms, dtype=np.int64)
+    counts = phase.n_points - 3 * ms + 1
+    if np.any(counts < 1):
+        raise ValueError("internal: empty difference sum")
+    return _modified_sums(phase.r, phase.hh, phase.hl, ms, counts), counts
+
+
+def cluster_sums(phase: AnchoredPhase, m: int) -> np.ndarray:
+    """Sums of the increments over non-overlapping clusters of ``m`` (shift added back)."""
+    count = (phase.n_points - 1) // m
+    out = _cluster_differences(phase.r, phase.hh, phase.hl, int(m), count)
+    return out + phase.shift * m

@@ -1,0 +1,363 @@
+"""Declared physical units of inertial-sensor data and of the IEEE noise coefficients.
+
+adavar never guesses a unit: the user declares the unit of the input rate samples
+(``"deg/s"``, ``"deg/h"``, ``"rad/s"`` for gyroscopes; ``"m/s^2"``, ``"g"`` for
+accelerometers) and this module converts the fitted noise coefficients, which come out of
+:func:`adavar.noise_model.fit_noise` in the data's own units with time in seconds, into the
+units the inertial community reports (METHOD.md section 1).
+
+Every unit known here is a *rate* unit times a power of time:
+
+=========================  ==========  ======================  ===========================
+term                       time power  natural unit            conventional unit (gyro/acc)
+=========================  ==========  ======================  ===========================
+quantization (Q)           +1          rate * s                arcsec / m/s
+angle_random_walk (N)      +1/2        rate * sqrt(s)          deg/sqrt(h) / m/s/sqrt(h)
+bias_instability (B)       0           rate                    deg/h / micro-g (``"ug"``)
+rate_random_walk (K)       -1/2        rate / sqrt(s)          deg/h/sqrt(h) / m/s^2/sqrt(h)
+rate_ramp (R)              -1          rate / s                deg/h^2 / m/s^2/h
+=========================  ==========  ======================  ===========================
+
+For accelerometers the "angle random walk" is the velocity random walk (VRW) and the "rate
+random walk" the acceleration random walk; the attribute names stay the same. The
+acceleration random walk is reported in m/s^2/sqrt(h) (``"ug/sqrt(h)"`` and
+``"m/s^2/sqrt(s)"`` are available through ``output_units``/:func:`convert`), and the
+accelerometer rate ramp in m/s^2/h. The standard gravity is ``1 g = 9.80665 m/s^2``.
+
+With the rate in deg/h and tau in s this reproduces the checks of METHOD.md:
+``N[deg/sqrt(h)] = sqrt(C_-1)/60``, ``K[deg/h/sqrt(h)] = 60 sqrt(3 C_1)``,
+``R[deg/h^2] = 3600 sqrt(2 C_2)`` and ``Q[arcsec] = sqrt(C_-2/3)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "CONVENTIONAL_UNITS",
+    "RATE_UNITS",
+    "TERM_TIME_POWER",
+    "ConvertedNoise",
+    "ConvertedTerm",
+    "UnitInfo",
+    "conventional_units",
+    "convert",
+    "convert_coefficient",
+    "rate_unit_info",
+    "unit_info",
+]
+
+STANDARD_GRAVITY = 9.80665  # m/s^2 per g (exact, CGPM 1901)
+
+_DEG = math.pi / 180.0  # rad per degree
+_ARCSEC = _DEG / 3600.0
+_HOUR = 3600.0  # s per hour
+_SQRT_HOUR = 60.0  # sqrt(s) per sqrt(h)
+
+
+@dataclass(frozen=True)
+class UnitInfo:
+    """What a unit string measures.
+
+    Attributes
+    ----------
+    sensor : str
+        ``"gyro"`` (angles, SI base rad) or ``"accelerometer"`` (velocities, SI base m).
+    time_power : float
+        Power of time by which the unit differs from a rate: +1 for an angle or a velocity,
+        +1/2 for a random walk of angle/velocity, 0 for a rate, -1/2 for a rate random walk,
+        -1 for a rate ramp.
+    si_factor : float
+        Value of 1 of this unit in SI (rad or m, times ``s**(time_power - 1)``).
+    """
+
+    sensor: str
+    time_power: float
+    si_factor: float
+
+
+def _units_table() -> dict[str, UnitInfo]:
+    g = STANDARD_GRAVITY
+    gyro, acc = "gyro", "accelerometer"
+    table = {
+        # gyro rates
+        "rad/s": UnitInfo(gyro, 0.0, 1.0),
+        "deg/s": UnitInfo(gyro, 0.0, _DEG),
+        "deg/h": UnitInfo(gyro, 0.0, _DEG / _HOUR),
+        # angles
+        "rad": UnitInfo(gyro, 1.0, 1.0),
+        "deg": UnitInfo(gyro, 1.0, _DEG),
+        "arcsec": UnitInfo(gyro, 1.0, _ARCSEC),
+        # angle random walk
+        "rad/sqrt(s)": UnitInfo(gyro, 0.5, 1.0),
+        "deg/sqrt(s)": UnitInfo(gyro, 0.5, _DEG),
+        "deg/sqrt(h)": UnitInfo(gyro, 0.5, _DEG / _SQRT_HOUR),
+        # rate random walk
+        "rad/s/sqrt(s)": UnitInfo(gyro, -0.5, 1.0),
+        "deg/s/sqrt(s)": UnitInfo(gyro, -0.5, _DEG),
+        "deg/h/sqrt(h)": UnitInfo(gyro, -0.5, _DEG / _HOUR / _SQRT_HOUR),
+        # rate ramp
+        "rad/s^2": UnitInfo(gyro, -1.0, 1.0),
+        "deg/s^2": UnitInfo(gyro, -1.0, _DEG),
+        "deg/h^2": UnitInfo(gyro, -1.0, _DEG / _HOUR**2),
+        # accelerations
+        "m/s^2": UnitInfo(acc, 0.0, 1.0),
+        "g": UnitInfo(acc, 0.0, g),
+        "mg": UnitInfo(acc, 0.0, 1e-3 * g),
+        "ug": UnitInfo(acc, 0.0, 1e-6 * g),
+        # velocities
+        "m/s": UnitInfo(acc, 1.0, 1.0),
+        # velocity random walk
+        "m/s/sqrt(s)": UnitInfo(acc, 0.5, 1.0),
+        "m/s/sqrt(h)": UnitInfo(acc, 0.5, 1.0 / _SQRT_HOUR),
+        # acceleration random walk
+        "m/s^2/sqrt(s)": UnitInfo(acc, -0.5, 1.0),
+        "m/s^2/sqrt(h)": UnitInfo(acc, -0.5, 1.0 / _SQRT_HOUR),
+        "ug/sqrt(h)": UnitInfo(acc, -0.5, 1e-6 * g / _SQRT_HOUR),
+        # acceleration ramp
+        "m/s^3": UnitInfo(acc, -1.0, 1.0),
+        "m/s^2/h": UnitInfo(acc, -1.0, 1.0 / _HOUR),
+        "ug/h": UnitInfo(acc, -1.0, 1e-6 * g / _HOUR),
+    }
+    return table
+
+
+_UNITS = _units_table()
+_ALIASES = {
+    "deg/hr": "deg/h",
+    "m/s/s": "m/s^2",
+    "m/s2": "m/s^2",
+    "micro-g": "ug",
+    "µg": "ug",
+    "milli-g": "mg",
+}
+
+#: Units accepted for the input rate samples (plus the aliases ``deg/hr``, ``m/s/s``,
+#: ``m/s2``, ``micro-g``, ``µg``, ``milli-g``).
+RATE_UNITS: tuple[str, ...] = tuple(u for u, i in _UNITS.items() if i.time_power == 0.0)
+
+#: Power of time that each noise coefficient carries on top of the rate unit.
+TERM_TIME_POWER: dict[str, float] = {
+    "quantization": 1.0,
+    "angle_random_walk": 0.5,
+    "bias_instability": 0.0,
+    "rate_random_walk": -0.5,
+    "rate_ramp": -1.0,
+}
+
+#: The conventional reporting unit of each term, per sensor kind.
+CONVENTIONAL_UNITS: dict[str, dict[str, str]] = {
+    "gyro": {
+        "quantization": "arcsec",
+        "angle_random_walk": "deg/sqrt(h)",
+        "bias_instability": "deg/h",
+        "rate_random_walk": "deg/h/sqrt(h)",
+        "rate_ramp": "deg/h^2",
+    },
+    "accelerometer": {
+        "quantization": "m/s",
+        "angle_random_walk": "m/s/sqrt(h)",
+        "bias_instability": "ug",
+        "rate_random_walk": "m/s^2/sqrt(h)",
+        "rate_ramp": "m/s^2/h",
+    },
+}
+
+
+def _canonical(unit: str) -> str:
+    if not isinstance(unit, str):
+        raise TypeError(f"a unit must be a string, got {type(unit).__name__}")
+    key = unit.strip().replace(" ", "")
+    return _ALIASES.get(key, key)
+
+
+def unit_info(unit: str) -> UnitInfo:
+    """Describe a unit string.
+
+    Parameters
+    ----------
+    unit : str
+        Any unit of this module (a rate, an angle/velocity or a noise-coefficient unit).
+
+    Returns
+    -------
+    UnitInfo
+
+    Raises
+    ------
+    ValueError
+        If the unit is unknown; the message lists the known units.
+    """
+    key = _canonical(unit)
+    try:
+        return _UNITS[key]
+    except KeyError:
+        raise ValueError(f"unknown unit {unit!r}; known units: {', '.join(_UNITS)}") from None
+
+
+def rate_unit_info(unit: str) -> UnitInfo:
+    """Describe a declared *input rate* unit (``time_power == 0``).
+
+    Parameters
+    ----------
+    unit : str
+        One of :data:`RATE_UNITS` or an alias.
+
+    Returns
+    -------
+    UnitInfo
+
+    Raises
+    ------
+    ValueError
+        If ``unit`` is not an accepted rate unit; the message lists the accepted ones.
+    """
+    key = _canonical(unit)
+    info = _UNITS.get(key)
+    if info is None or info.time_power != 0.0:
+        raise ValueError(
+            f"unknown input rate unit {unit!r}; accepted: {', '.join(RATE_UNITS)} "
+            "(aliases: deg/hr, m/s/s, m/s2, micro-g, µg, milli-g)"
+        )
+    return info
+
+
+def conventional_units(rate_unit: str) -> dict[str, str]:
+    """The conventional unit of every noise term for data declared in ``rate_unit``.
+
+    Parameters
+    ----------
+    rate_unit : str
+        Declared unit of the input rate samples.
+
+    Returns
+    -------
+    dict
+        Term name -> unit string (see the module docstring).
+    """
+    return dict(CONVENTIONAL_UNITS[rate_unit_info(rate_unit).sensor])
+
+
+def convert(value: Any, from_unit: str, to_unit: str) -> Any:
+    """Convert a value between two units of the same kind.
+
+    Parameters
+    ----------
+    value : float or array_like
+        Value(s) in ``from_unit``.
+    from_unit, to_unit : str
+        Units of this module; both must measure the same quantity (same sensor kind and
+        power of time), e.g. ``"deg/s"`` -> ``"deg/h"`` or ``"ug"`` -> ``"m/s^2"``.
+
+    Returns
+    -------
+    float or ndarray
+        ``value`` expressed in ``to_unit``.
+
+    Raises
+    ------
+    ValueError
+        If a unit is unknown or the two units measure different quantities.
+    """
+    src, dst = unit_info(from_unit), unit_info(to_unit)
+    if src.sensor != dst.sensor or src.time_power != dst.time_power:
+        raise ValueError(f"cannot convert {from_unit!r} to {to_unit!r}: different quantities")
+    factor = src.si_factor / dst.si_factor
+    if np.ndim(value) == 0:
+        return float(value) * factor
+    return np.asarray(value, dtype=float) * factor
+
+
+def convert_coefficient(value: Any, term: str, rate_unit: str, to_unit: str) -> Any:
+    """Convert a noise coefficient from the data's own units to ``to_unit``.
+
+    The coefficient is in the natural unit of the term: ``rate_unit * s**p`` with ``p`` from
+    :data:`TERM_TIME_POWER` (e.g. ``deg/h * sqrt(s)`` for the angle random walk of deg/h
+    data).
+
+    Parameters
+    ----------
+    value : float or array_like
+        Coefficient(s) in the natural unit.
+    term : str
+        One of the keys of :data:`TERM_TIME_POWER`.
+    rate_unit : str
+        Declared unit of the input rate samples.
+    to_unit : str
+        Target unit; must measure the term's quantity for that sensor kind.
+
+    Returns
+    -------
+    float or ndarray
+    """
+    if term not in TERM_TIME_POWER:
+        raise ValueError(f"unknown term {term!r}; valid terms: {', '.join(TERM_TIME_POWER)}")
+    src = rate_unit_info(rate_unit)
+    dst = unit_info(to_unit)
+    power = TERM_TIME_POWER[term]
+    if dst.sensor != src.sensor or dst.time_power != power:
+        expected = [
+            u for u, i in _UNITS.items() if i.sensor == src.sensor and i.time_power == power
+        ]
+        raise ValueError(
+            f"unit {to_unit!r} does not fit the {term} of {rate_unit!r} data; "
+            f"use one of: {', '.join(expected)}"
+        )
+    # natural unit = rate unit * s**power; seconds are SI, so only the rate factor converts.
+    factor = src.si_factor / dst.si_factor
+    if np.ndim(value) == 0:
+        return float(value) * factor
+    return np.asarray(value, dtype=float) * factor
+
+
+@dataclass(frozen=True)
+class ConvertedTerm:
+    """A noise coefficient in a reporting unit.
+
+    Attributes
+    ----------
+    value : float or ndarray
+    uncertainty : float or ndarray
+        1-sigma, converted with the same factor as ``value``.
+    unit : str
+    """
+
+    value: Any
+    uncertainty: Any
+    unit: str
+
+
+@dataclass(frozen=True)
+class ConvertedNoise:
+    """The five noise coefficients of a fit in reporting units (see :mod:`adavar.units`).
+
+    Attributes
+    ----------
+    quantization, angle_random_walk, bias_instability, rate_random_walk, rate_ramp : ConvertedTerm
+    input_unit : str
+        The declared unit of the input rate samples.
+    sensor : str
+        ``"gyro"`` or ``"accelerometer"``.
+    """
+
+    quantization: ConvertedTerm
+    angle_random_walk: ConvertedTerm
+    bias_instability: ConvertedTerm
+    rate_random_walk: ConvertedTerm
+    rate_ramp: ConvertedTerm
+    input_unit: str
+    sensor: str
+
+    def __getitem__(self, term: str) -> ConvertedTerm:
+        """Access a term by name, ``converted["angle_random_walk"]``."""
+        if term not in TERM_TIME_POWER:
+            raise KeyError(term)
+        return getattr(self, term)
+
+    def as_dict(self) -> dict[str, ConvertedTerm]:
+        """Term name -> :class:`ConvertedTerm`."""
+        return {name: getattr(self, name) for name in TERM_TIME_POWER}

@@ -1,0 +1,128 @@
+"""Slow, obviously correct reference implementations (NIST SP 1065 definitions).
+
+Every difference of the integrated signal is written as a signed list of the original
+samples and summed with ``math.fsum`` (correctly rounded), so these references are exact to
+one rounding whatever offset, drift or scale the data carry. They cost O(N * m) per tau.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def _seg(y, a, b, w=1):
+    """Terms of w * sum(y[a:b]) as a list of exactly representable values (|w| copies)."""
+    vals = [float(v) for v in y[a:b]]
+    if w < 0:
+        vals = [-v for v in vals]
+    return vals * abs(w)
+
+
+def d2_terms(y, i, m):
+    """Rate data: (x[i+2m] - 2x[i+m] + x[i]) / tau0 as terms of y (x = tau0 * cumsum)."""
+    return _seg(y, i + m, i + 2 * m) + _seg(y, i, i + m, -1)
+
+
+def d3_terms(y, i, m):
+    """Rate data: (x[i+3m] - 3x[i+2m] + 3x[i+m] - x[i]) / tau0 as terms of y."""
+    return _seg(y, i + 2 * m, i + 3 * m) + _seg(y, i + m, i + 2 * m, -2) + _seg(y, i, i + m)
+
+
+def _pd(x, i, m, coefs):
+    """sum_k coefs[k] * x[i + k m] exactly (a coefficient c is |c| copies of the value)."""
+    out = []
+    for k, c in enumerate(coefs):
+        v = float(x[i + k * m])
+        out += [v if c > 0 else -v] * abs(c)
+    return out
+
+
+def _exact_multiples(values, weights):
+    """Terms whose sum is sum(weights * values) exactly: each weight split into powers of 2."""
+    out = []
+    for v, w in zip(values, weights, strict=True):
+        w = int(w)
+        sign = 1.0 if w > 0 else -1.0
+        w = abs(w)
+        b = 0
+        while w:
+            if w & 1:
+                out.append(sign * math.ldexp(float(v), b))
+            w >>= 1
+            b += 1
+    return out
+
+
+def _modified_terms(y, j, m, phase):
+    """sum_{i=j}^{j+m-1} d2_m[i] as exact terms (integer weights on the samples)."""
+    if phase:
+        # d2 on phase: weights +1 at i, -2 at i+m, +1 at i+2m, summed over i = j..j+m-1
+        w = np.zeros(3 * m, dtype=np.int64)
+        for i in range(m):
+            w[i] += 1
+            w[i + m] -= 2
+            w[i + 2 * m] += 1
+        return _exact_multiples(y[j : j + 3 * m], w)
+    # rate: d2 = sum(y[i+m:i+2m]) - sum(y[i:i+m]); weights are a signed triangle pair
+    w = np.zeros(3 * m - 1, dtype=np.int64)
+    for i in range(m):
+        w[i + m : i + 2 * m] += 1
+        w[i : i + m] -= 1
+    return _exact_multiples(y[j : j + 3 * m - 1], w)
+
+
+def variance(data, m, stat, data_type="rate", tau0=1.0):
+    """Reference variance of ``stat`` at averaging factor ``m`` (tdev returns TVAR)."""
+    y = np.asarray(data, dtype=np.float64)
+    phase = data_type == "phase"
+    npts = y.size if phase else y.size + 1
+    tau = m * tau0
+
+    def d(i, order):
+        if phase:
+            return _pd(y, i, m, (1, -2, 1) if order == 2 else (-1, 3, -3, 1))
+        return d2_terms(y, i, m) if order == 2 else d3_terms(y, i, m)
+
+    def sq(terms):
+        v = math.fsum(terms)
+        return v * v
+
+    # scale: rate data differences are in units of y*samples, i.e. phase/tau0
+    unit = 1.0 if not phase else 1.0 / tau0**2
+    if stat == "oadev":
+        n = npts - 2 * m
+        s = math.fsum(sq(d(i, 2)) for i in range(n))
+        return unit * s / (2 * m * m * n)
+    if stat == "adev":
+        n = (npts - 1) // m - 1
+        s = math.fsum(sq(d(q * m, 2)) for q in range(n))
+        return unit * s / (2 * m * m * n)
+    if stat == "ohdev":
+        n = npts - 3 * m
+        s = math.fsum(sq(d(i, 3)) for i in range(n))
+        return unit * s / (6 * m * m * n)
+    if stat == "hdev":
+        n = (npts - 1) // m - 2
+        s = math.fsum(sq(d(q * m, 3)) for q in range(n))
+        return unit * s / (6 * m * m * n)
+    if stat in ("mdev", "tdev"):
+        n = npts - 3 * m + 1
+        s = math.fsum(sq(_modified_terms(y, j, m, phase)) for j in range(n))
+        mvar = unit * s / (2 * m**4 * n)
+        return mvar * tau * tau / 3 if stat == "tdev" else mvar
+    if stat == "totdev":
+        u = np.diff(y) if phase else y  # phase: one rounding per difference
+        ext = np.pad(u, npts - 2, mode="symmetric")
+        pad = npts - 2
+        n = npts - 2
+        s = math.fsum(
+            sq(d2_terms(ext, pad + 1 - m + k, m)) for k in range(n)
+        )
+        return unit * s / (2 * m * m * n)
+    raise ValueError(stat)
+
+
+def deviation(data, ms, stat, data_type="rate", tau0=1.0):
+    return np.sqrt([variance(data, int(m), stat, data_type, tau0) for m in ms])
