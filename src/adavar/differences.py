@@ -346,13 +346,142 @@ def _modified_sums(r, hh, hl, ms, counts):  # pragma: no cover - compiled
 
 
 @jit
+def _cluster_sum(r, hh, hl, j0, m):  # pragma: no cover - compiled
+    """``S[j0 + m] - S[j0]``; plain difference when both ends share an anchor block."""
+    j1 = j0 + m
+    b0 = j0 >> SHIFT
+    b1 = j1 >> SHIFT
+    if b0 == b1:
+        return r[j1] - r[j0]
+    dh, dl = _dd_add(hh[b1], hl[b1], -hh[b0], -hl[b0])
+    return (dh + (r[j1] - r[j0])) + dl
+
+
+@jit
 def _cluster_differences(r, hh, hl, m, count):  # pragma: no cover - compiled
     """``S[(k+1) m] - S[k m]`` for ``k = 0..count-1`` (sums over non-overlapping clusters)."""
     out = np.empty(count)
-    coefs = np.array([-1, 1])
     for q in range(count):
-        out[q] = _difference(r, hh, hl, q * m, m, coefs)
+        out[q] = _cluster_sum(r, hh, hl, q * m, m)
     return out
+
+
+@parallel_jit
+def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compiled
+    """Lag-1 autocorrelations of the linearly detrended cluster sums, differenced 0..dmax times.
+
+    Streams the cluster sums twice (line fit, then all difference orders at once) in
+    parallel chunks instead of materialising and refitting the series: O(N/m) time, O(1)
+    extra memory. ``dmax`` <= 3.
+    """
+    nch = max(1, min(256, count // 8192))
+    kc = 0.5 * (count - 1)
+    part1 = np.zeros((nch, 3))
+    for ch in prange(nch):
+        k0 = (count * ch) // nch
+        k1 = (count * (ch + 1)) // nch
+        sz = 0.0
+        stz = 0.0
+        zmax = 0.0
+        for k in range(k0, k1):
+            z = _cluster_sum(r, hh, hl, k * m, m)
+            sz += z
+            stz += (k - kc) * z
+            zmax = max(zmax, abs(z))
+        part1[ch, 0] = sz
+        part1[ch, 1] = stz
+        part1[ch, 2] = zmax
+    stt = count * (count * count - 1.0) / 12.0
+    a = np.sum(part1[:, 0]) / count
+    b = np.sum(part1[:, 1]) / stt if stt > 0 else 0.0
+    zmax = np.max(part1[:, 2])
+
+    # per chunk and order d: sum x, sum x^2, sum x_{k-1} x_k (pairs whose later index is here)
+    nd = dmax + 1
+    part2 = np.zeros((nch, 4, 3))
+    for ch in prange(nch):
+        k0 = (count * ch) // nch
+        k1 = (count * (ch + 1)) // nch
+        q0 = 0.0  # previous values of orders 0..3
+        q1 = 0.0
+        q2 = 0.0
+        q3 = 0.0
+        # local accumulators (kept in registers): sum x, sum x^2, sum of lag products
+        a0 = a1 = a2 = a3 = 0.0
+        b0 = b1 = b2 = b3 = 0.0
+        c0 = c1 = c2 = c3 = 0.0
+        for k in range(max(0, k0 - 4), k1):
+            x0 = _cluster_sum(r, hh, hl, k * m, m) - (a + b * (k - kc))
+            x1 = x0 - q0
+            x2 = x1 - q1
+            x3 = x2 - q2
+            if k >= k0:
+                a0 += x0
+                b0 += x0 * x0
+                if k >= 1:
+                    c0 += q0 * x0
+                if nd > 1:
+                    if k >= 1:
+                        a1 += x1
+                        b1 += x1 * x1
+                    if k >= 2:
+                        c1 += q1 * x1
+                        a2 += x2
+                        b2 += x2 * x2
+                    if k >= 3:
+                        c2 += q2 * x2
+                        a3 += x3
+                        b3 += x3 * x3
+                    if k >= 4:
+                        c3 += q3 * x3
+            q0 = x0
+            q1 = x1
+            q2 = x2
+            q3 = x3
+        part2[ch, 0, 0] = a0
+        part2[ch, 0, 1] = b0
+        part2[ch, 0, 2] = c0
+        part2[ch, 1, 0] = a1
+        part2[ch, 1, 1] = b1
+        part2[ch, 1, 2] = c1
+        part2[ch, 2, 0] = a2
+        part2[ch, 2, 1] = b2
+        part2[ch, 2, 2] = c2
+        part2[ch, 3, 0] = a3
+        part2[ch, 3, 1] = b3
+        part2[ch, 3, 2] = c3
+
+    # first and last values of each order, for the centred lag-1 sum (count >= 4)
+    h = np.empty(4)
+    t = np.empty(4)
+    for q in range(4):
+        h[q] = _cluster_sum(r, hh, hl, q * m, m) - (a + b * (q - kc))
+        k = count - 4 + q
+        t[q] = _cluster_sum(r, hh, hl, k * m, m) - (a + b * (k - kc))
+    first = np.array(
+        [h[0], h[1] - h[0], (h[2] - h[1]) - (h[1] - h[0]), h[3] - 3 * h[2] + 3 * h[1] - h[0]]
+    )
+    last = np.array(
+        [t[3], t[3] - t[2], (t[3] - t[2]) - (t[2] - t[1]), t[3] - 3 * t[2] + 3 * t[1] - t[0]]
+    )
+
+    r1 = np.full(nd, np.nan)
+    den = np.zeros(nd)
+    n = np.zeros(nd, dtype=np.int64)
+    for d in range(nd):
+        c = count - d
+        n[d] = max(c, 0)
+        if c < 2:
+            continue
+        s1 = np.sum(part2[:, d, 0])
+        s2 = np.sum(part2[:, d, 1])
+        s11 = np.sum(part2[:, d, 2])
+        mean = s1 / c
+        den[d] = s2 - c * mean * mean
+        num = s11 - mean * ((s1 - last[d]) + (s1 - first[d])) + (c - 1) * mean * mean
+        if den[d] > 0:
+            r1[d] = num / den[d]
+    return r1, den, n, zmax
 
 
 # ---------------------------------------------------------------------------------------
@@ -405,6 +534,19 @@ def modified_sums(phase: AnchoredPhase, ms: np.ndarray) -> tuple[np.ndarray, np.
     if np.any(counts < 1):
         raise ValueError("internal: empty difference sum")
     return _modified_sums(phase.r, phase.hh, phase.hl, ms, counts), counts
+
+
+def cluster_lag1(phase: AnchoredPhase, m: int, dmax: int):
+    """Lag-1 autocorrelation of the linearly detrended m-cluster sums.
+
+    Returns ``(r1, den, n, zmax)``: for ``d = 0..dmax`` differences the autocorrelation
+    (NaN where undefined), its denominator ``sum (x - mean)^2`` and the series length, and
+    the largest absolute cluster sum (the scale of the raw series).
+    """
+    count = (phase.n_points - 1) // m
+    if count < 8 or not 0 <= dmax <= 3:
+        raise ValueError("internal: lag-1 statistics need >= 8 clusters and dmax <= 3")
+    return _cluster_lag1_sums(phase.r, phase.hh, phase.hl, int(m), count, int(dmax))
 
 
 def cluster_sums(phase: AnchoredPhase, m: int) -> np.ndarray:

@@ -465,19 +465,6 @@ def _detrend(z: np.ndarray, deg: int) -> np.ndarray:
     return z - np.polynomial.polynomial.polyval(t, coef)
 
 
-def _lag1_acf(z: np.ndarray, scale: float) -> float:
-    """Lag-1 autocorrelation r1 = sum (z_n - mean)(z_n+1 - mean) / sum (z_n - mean)^2.
-
-    ``scale`` is the magnitude of the raw series: residuals at the rounding level of it
-    (a constant or a pure polynomial trend) are not noise and would give a random r1.
-    """
-    c = z - z.mean()
-    den = float(np.dot(c, c))
-    if not den > (1e3 * np.finfo(np.float64).eps * scale) ** 2 * z.size:
-        raise NoiseIdError("no noise left after removing the trend: cannot identify it")
-    return float(np.dot(c[:-1], c[1:])) / den
-
-
 def identify_noise_lag1(
     z: np.ndarray,
     *,
@@ -536,20 +523,61 @@ def identify_noise_lag1(
     if x.size < need:
         raise NoiseIdError(f"lag-1 ACF noise identification needs >= {need} points, got {x.size}")
     scale = float(np.max(np.abs(x)))
+    sizes = x.size - np.arange(dmax + 1)
     x = _detrend(x, 2 if kind == "phase" else 1)
+    r1 = np.full(dmax + 1, np.nan)
+    den = np.zeros(dmax + 1)
+    for d in range(dmax + 1):
+        c = x - x.mean()
+        den[d] = float(np.dot(c, c))
+        if den[d] > 0:
+            r1[d] = float(np.dot(c[:-1], c[1:])) / den[d]
+        x = np.diff(x)
+    return alpha_from_lag1(r1, den, sizes, scale, data_type=kind, dmin=dmin, dmax=dmax)
+
+
+def alpha_from_lag1(
+    r1: np.ndarray,
+    den: np.ndarray,
+    sizes: np.ndarray,
+    scale: float,
+    *,
+    data_type: str,
+    dmin: int = 0,
+    dmax: int = 2,
+) -> tuple[int, float]:
+    """Riley & Greenhall's decision rule, given the lag-1 autocorrelations per difference order.
+
+    Parameters
+    ----------
+    r1, den, sizes : ndarray
+        For ``d = 0..dmax`` differences of the detrended series: the lag-1 autocorrelation,
+        its denominator ``sum (x - mean)^2`` and the series length.
+    scale : float
+        Magnitude of the raw series: a residual at its rounding level (a constant or a pure
+        polynomial trend) is not noise and would give a random ``r1``.
+    data_type, dmin, dmax
+        As in :func:`identify_noise_lag1`.
+
+    Returns
+    -------
+    alpha_int, alpha : int, float
+        As in :func:`identify_noise_lag1`.
+    """
+    kind = _data_type(data_type)
     offset = 2 if kind == "phase" else 0  # alpha = beta + 2 for phase data
-    d = 0
-    while True:
-        r1 = _lag1_acf(x, scale)
-        if not r1 > -1.0:  # perfectly alternating series: delta = -inf
+    floor = (1e3 * np.finfo(np.float64).eps * scale) ** 2
+    for d in range(int(dmax) + 1):
+        if not den[d] > floor * sizes[d]:
+            raise NoiseIdError("no noise left after removing the trend: cannot identify it")
+        if not r1[d] > -1.0:  # perfectly alternating series: delta = -inf
             raise NoiseIdError("lag-1 autocorrelation is -1: series is not power-law noise")
-        delta = r1 / (1.0 + r1)
+        delta = r1[d] / (1.0 + r1[d])
         if d >= dmin and (delta < 0.25 or d >= dmax):
             alpha = -2.0 * (delta + d) + offset
             alpha_int = int(offset - 2 * d - np.rint(2.0 * delta))
-            return alpha_int, alpha
-        x = np.diff(x)
-        d += 1
+            return alpha_int, float(alpha)
+    raise AssertionError("unreachable: d reaches dmax")  # pragma: no cover
 
 
 def _b1_theory(n: int, mu: float) -> float:

@@ -84,13 +84,26 @@ def _m_max(stat: str, n_points: int) -> int:
     return (n_points - 1) // 3  # hdev, ohdev
 
 
-def _noise_types(phase: diff.AnchoredPhase, u: np.ndarray, ms: np.ndarray, dmax: int):
-    """Power-law noise exponent per tau: lag-1 ACF, B1 fallback, else the neighbour's."""
+def _noise_types(phase: diff.AnchoredPhase, ms: np.ndarray, dmax: int):
+    """Power-law noise exponent per tau: lag-1 ACF, B1 fallback, else the neighbour's.
+
+    The lag-1 statistics stream over the cluster sums of the anchored phase (no copy of the
+    record per tau); short series go to the B1 ratio of :mod:`adavar.edf`.
+    """
     alpha = np.full(ms.size, np.nan)
     for k, m in enumerate(ms):
-        z = u if m == 1 else diff.cluster_sums(phase, int(m)) / m
         try:
-            alpha[k] = edf_mod.identify_noise(z, data_type="rate", dmax=dmax)
+            if (phase.n_points - 1) // m >= edf_mod.MIN_POINTS_LAG1:
+                # most taus stop at d = 0 (delta < 0.25): try that cheaper pass first
+                r1, den, sizes, scale = diff.cluster_lag1(phase, int(m), 0)
+                if not r1[0] / (1.0 + r1[0]) < 0.25:
+                    r1, den, sizes, scale = diff.cluster_lag1(phase, int(m), dmax)
+                alpha[k] = edf_mod.alpha_from_lag1(
+                    r1, den, sizes, scale, data_type="rate", dmax=r1.size - 1
+                )[0]
+            else:
+                z = diff.cluster_sums(phase, int(m)) / m
+                alpha[k] = edf_mod.identify_noise(z, data_type="rate", dmax=dmax)
         except edf_mod.NoiseIdError:
             continue
     notes: tuple[str, ...] = ()
@@ -214,7 +227,7 @@ def deviation(
         edf_values, low, high = nan, nan.copy(), nan.copy()
     else:
         dmax = 3 if stat in ("hdev", "ohdev") else 2
-        alpha, id_notes = _noise_types(phase, u, ms, dmax)
+        alpha, id_notes = _noise_types(phase, ms, dmax)
         notes = notes + id_notes
         edf_values = np.array(
             [edf_mod.edf(stat, int(a), int(m), n_points) for a, m in zip(alpha, ms, strict=True)]
