@@ -69,14 +69,58 @@ def _dd_scaled_add(ah: float, al: float, c: int, bh: float, bl: float) -> tuple[
 # building the anchored phase
 
 
+#: Averaging factors whose lag-1 noise-identification sums ride along the integration pass.
+FUSED_LEVELS = 6  # m = 1, 2, 4, ..., 32
+
+
+@jit(fastmath=True)
+def _block_cluster_stats(rb, total, m, k_first, count, kc, out):  # pragma: no cover
+    """Moments of one block's m-cluster sums (cluster k covers increments k m .. k m + m - 1).
+
+    ``rb`` is the block's local integral (``rb[0] = 0``), ``total`` the integral at the block
+    end. Fills ``out`` with sum z, sum (k - kc) z, sum z^2, sum z_{k-1} z_k (pairs inside
+    the block), max |z|, first z, last z, and the number of clusters.
+    """
+    nq = max(min(rb.size // m, count - k_first), 0)
+    s1 = 0.0
+    st = 0.0
+    s2 = 0.0
+    s11 = 0.0
+    zmax = 0.0
+    prev = 0.0
+    first = 0.0
+    z = 0.0
+    for q in range(nq):
+        hi = (q + 1) * m
+        z = (rb[hi] if hi < rb.size else total) - rb[q * m]
+        s1 += z
+        st += (k_first + q - kc) * z
+        s2 += z * z
+        if q > 0:
+            s11 += prev * z
+        else:
+            first = z
+        zmax = max(zmax, abs(z))
+        prev = z
+    out[0] = s1
+    out[1] = st
+    out[2] = s2
+    out[3] = s11
+    out[4] = zmax
+    out[5] = first
+    out[6] = z
+    out[7] = nq
+
+
 @parallel_jit
-def _anchored_prefix(u, shift):  # pragma: no cover - compiled
+def _anchored_prefix(u, shift, nlev):  # pragma: no cover - compiled
     n = u.size
     npts = n + 1
     nb = (npts + BLOCK - 1) >> SHIFT
     r = np.empty(npts)
     tot_h = np.zeros(nb)
     tot_l = np.zeros(nb)
+    stats = np.zeros((nb, max(nlev, 1), 8))
     for b in prange(nb):
         j0 = b << SHIFT
         j1 = min(j0 + BLOCK, npts)
@@ -96,6 +140,14 @@ def _anchored_prefix(u, shift):  # pragma: no cover - compiled
         h = s + c
         tot_h[b] = h
         tot_l[b] = c - (h - s)
+        for lev in range(nlev):
+            m = 1 << lev
+            count = n // m
+            k_first = j0 // m
+            if k_first < count:
+                _block_cluster_stats(
+                    r[j0:j1], h, m, k_first, count, 0.5 * (count - 1), stats[b, lev]
+                )
     hh = np.empty(nb)
     hl = np.empty(nb)
     ah = 0.0
@@ -104,7 +156,7 @@ def _anchored_prefix(u, shift):  # pragma: no cover - compiled
         hh[b] = ah
         hl[b] = al
         ah, al = _dd_add(ah, al, tot_h[b], tot_l[b])
-    return r, hh, hl
+    return r, hh, hl, stats
 
 
 class AnchoredPhase:
@@ -121,13 +173,22 @@ class AnchoredPhase:
         coefficients annihilate linear sequences (all the ones used here) do not depend on it.
     """
 
-    __slots__ = ("hh", "hl", "r", "shift")
+    __slots__ = ("cluster_stats", "hh", "hl", "r", "shift")
 
-    def __init__(self, r: np.ndarray, hh: np.ndarray, hl: np.ndarray, shift: float) -> None:
+    def __init__(
+        self,
+        r: np.ndarray,
+        hh: np.ndarray,
+        hl: np.ndarray,
+        shift: float,
+        cluster_stats: np.ndarray | None = None,
+    ) -> None:
         self.r = r
         self.hh = hh
         self.hl = hl
         self.shift = shift
+        #: per block and level m = 2**lev: the moments of :func:`_block_cluster_stats`
+        self.cluster_stats = cluster_stats
 
     @property
     def n_points(self) -> int:
@@ -140,7 +201,9 @@ class AnchoredPhase:
         return (self.hh[b] + self.r) + self.hl[b]
 
 
-def anchored_phase(increments: np.ndarray, shift: float | None = None) -> AnchoredPhase:
+def anchored_phase(
+    increments: np.ndarray, shift: float | None = None, *, cluster_stats: bool = False
+) -> AnchoredPhase:
     """Integrate ``increments`` into an :class:`AnchoredPhase`.
 
     Parameters
@@ -150,12 +213,15 @@ def anchored_phase(increments: np.ndarray, shift: float | None = None) -> Anchor
     shift : float, optional
         Constant subtracted from each increment first; default their mean, which removes a
         constant offset exactly (the subtraction rounds relative to the residual only).
+    cluster_stats : bool
+        Also gather, in the same pass, the moments that the lag-1 noise identification
+        needs for ``m = 1, 2, 4, ..., 2**(FUSED_LEVELS-1)`` (see :func:`fused_lag1`).
     """
     u = np.ascontiguousarray(increments, dtype=np.float64)
     if shift is None:
         shift = float(np.mean(u[:BLOCK])) if u.size else 0.0
-    r, hh, hl = _anchored_prefix(u, shift)
-    return AnchoredPhase(r, hh, hl, shift)
+    r, hh, hl, stats = _anchored_prefix(u, shift, FUSED_LEVELS if cluster_stats else 0)
+    return AnchoredPhase(r, hh, hl, shift, stats if cluster_stats else None)
 
 
 # ---------------------------------------------------------------------------------------
@@ -547,6 +613,50 @@ def cluster_lag1(phase: AnchoredPhase, m: int, dmax: int):
     if count < 8 or not 0 <= dmax <= 3:
         raise ValueError("internal: lag-1 statistics need >= 8 clusters and dmax <= 3")
     return _cluster_lag1_sums(phase.r, phase.hh, phase.hl, int(m), count, int(dmax))
+
+
+def fused_lag1(phase: AnchoredPhase, m: int):
+    """Order-0 lag-1 autocorrelation of the detrended m-cluster sums from the fused moments.
+
+    Same quantity as ``cluster_lag1(phase, m, 0)`` but from the moments gathered during
+    integration (no further pass over the data), with the least-squares line removed
+    algebraically. Returns ``None`` when ``m`` is not a fused level, or when the series is so
+    dominated by its trend that the algebraic removal would lose the noise (the caller then
+    streams the data with :func:`cluster_lag1`).
+    """
+    if phase.cluster_stats is None or m & (m - 1) or m >= (1 << FUSED_LEVELS):
+        return None
+    st = phase.cluster_stats[:, m.bit_length() - 1, :]
+    c = (phase.n_points - 1) // m
+    if c < 8:
+        return None
+    used = st[:, 7] > 0
+    blocks = st[used]
+    z1, zt, z2 = blocks[:, 0].sum(), blocks[:, 1].sum(), blocks[:, 2].sum()
+    # lag products inside blocks, plus the pairs that straddle block boundaries
+    zl = blocks[:, 3].sum() + float(np.dot(blocks[:-1, 6], blocks[1:, 5]))
+    z_first, z_last = blocks[0, 5], blocks[-1, 6]
+    kc = 0.5 * (c - 1)
+    stt = c * (c * c - 1.0) / 12.0
+    t_first, t_last = -kc, kc
+    alpha = z1 / c
+    beta = zt / stt
+    den = z2 - c * alpha * alpha - stt * beta * beta
+    if not den > 1e-8 * z2:  # trend-dominated: the algebra would cancel away the noise
+        return None
+    cross1 = alpha * (z1 - z_last) + beta * (zt - t_last * z_last) + beta * (z1 - z_last)
+    cross2 = alpha * (z1 - z_first) + beta * (zt - t_first * z_first) - beta * (z1 - z_first)
+    lines = (c - 1) * alpha * alpha + alpha * beta * (c - 1 - 2 * t_last) + beta * beta * (
+        stt - t_last * t_last - t_last
+    )
+    num = zl - cross1 - cross2 + lines
+    zmax = float(blocks[:, 4].max())
+    return (
+        np.array([num / den]),
+        np.array([den]),
+        np.array([c], dtype=np.int64),
+        zmax,
+    )
 
 
 def cluster_sums(phase: AnchoredPhase, m: int) -> np.ndarray:

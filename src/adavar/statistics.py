@@ -94,8 +94,10 @@ def _noise_types(phase: diff.AnchoredPhase, ms: np.ndarray, dmax: int):
     for k, m in enumerate(ms):
         try:
             if (phase.n_points - 1) // m >= edf_mod.MIN_POINTS_LAG1:
-                # most taus stop at d = 0 (delta < 0.25): try that cheaper pass first
-                r1, den, sizes, scale = diff.cluster_lag1(phase, int(m), 0)
+                # most taus stop at d = 0 (delta < 0.25): try that cheaper pass first, from
+                # the moments gathered while integrating when m is short
+                stats = diff.fused_lag1(phase, int(m)) or diff.cluster_lag1(phase, int(m), 0)
+                r1, den, sizes, scale = stats
                 if not r1[0] / (1.0 + r1[0]) < 0.25:
                     r1, den, sizes, scale = diff.cluster_lag1(phase, int(m), dmax)
                 alpha[k] = edf_mod.alpha_from_lag1(
@@ -192,7 +194,7 @@ def deviation(
     n_points = u.size + 1
     ms, notes = averaging_factors(taus, _m_max(stat, n_points), step,
                                   points_per_decade=points_per_decade)
-    phase = diff.anchored_phase(u)
+    phase = diff.anchored_phase(u, cluster_stats=confidence is not None)
     m2 = ms.astype(np.float64) ** 2
 
     if stat == "oadev":
