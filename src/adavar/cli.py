@@ -1,0 +1,760 @@
+"""The ``adavar`` command line.
+
+Commands
+--------
+``adavar avar FILE --rate HZ --units UNIT [...]``
+    Allan-family deviation of one column of a text file, with confidence intervals, and
+    optionally the IEEE Std 952 noise fit; a table, JSON, or an output folder.
+``adavar demo [--out DIR] [--json] [--seed N]``
+    The NIST SP 1065 check values and a simulated MEMS gyroscope.
+
+Exit codes: 0 success, 1 internal error (a bug: the traceback with ``--debug`` or
+``ADAVAR_DEBUG=1``), 2 a user mistake (bad flag, unreadable file, bad data), reported as
+one line ``adavar: error: ...`` on stderr. 130 when interrupted.
+
+Only this module prints; the library functions it calls return data.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io as _stdio
+import json
+import math
+import os
+import sys
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+
+from adavar import __version__
+from adavar.errors import AdavarInputError
+from adavar.io import atomic_directory, check_output_directory, read_text
+from adavar.noise_model import ALLAN_STATS, TERM_NAMES, NoiseFit, fit_noise
+from adavar.results import DeviationResult
+from adavar.statistics import STATISTICS, deviation
+from adavar.taus import TAU_KEYWORDS
+
+__all__ = ["build_parser", "main"]
+
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_USAGE = 2
+EXIT_INTERRUPTED = 130
+
+#: Name of the marker file that identifies a folder written by ``adavar demo`` (such a
+#: folder is replaced by the next run; any other existing folder needs --force).
+DEMO_MARKER = ".adavar-demo"
+DEMO_DEFAULT_OUT = "adavar-demo"
+
+_TERM_ALIASES = {
+    "q": "quantization",
+    "n": "angle_random_walk",
+    "arw": "angle_random_walk",
+    "vrw": "angle_random_walk",
+    "b": "bias_instability",
+    "bi": "bias_instability",
+    "k": "rate_random_walk",
+    "rrw": "rate_random_walk",
+    "r": "rate_ramp",
+    "rr": "rate_ramp",
+}
+_TERM_LETTERS = {
+    "quantization": "Q",
+    "angle_random_walk": "N",
+    "bias_instability": "B",
+    "rate_random_walk": "K",
+    "rate_ramp": "R",
+}
+
+
+class UsageError(Exception):
+    """A mistake on the command line (exit code 2)."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser that raises :class:`UsageError` instead of printing usage and exiting."""
+
+    def error(self, message: str) -> NoReturn:
+        """Raise a one-line :class:`UsageError` pointing at this parser's ``--help``."""
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+# --------------------------------------------------------------------------------------
+# Flag values
+# --------------------------------------------------------------------------------------
+
+
+def _positive_float(what: str) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"must be a positive number of {what}, got {text!r}")
+        return value
+
+    return parse
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
+
+
+def _confidence(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(
+            f"must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), got {text!r}"
+        )
+    return value
+
+
+def _taus(text: str) -> str | list[float]:
+    key = text.strip().lower()
+    if key in TAU_KEYWORDS:
+        return key
+    try:
+        values = [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected {', '.join(TAU_KEYWORDS)} or comma-separated positive seconds "
+            f"(e.g. 0.1,1,10), got {text!r}"
+        )
+    return values
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
+    return value
+
+
+def _terms(text: str) -> tuple[str, ...]:
+    out = []
+    for part in text.split(","):
+        key = part.strip()
+        if not key:
+            continue
+        name = key if key in TERM_NAMES else _TERM_ALIASES.get(key.lower())
+        if name is None:
+            raise argparse.ArgumentTypeError(
+                f"unknown noise term {key!r}: use {', '.join(TERM_NAMES)} or the letters "
+                "Q, N, B, K, R"
+            )
+        if name not in out:
+            out.append(name)
+    if not out:
+        raise argparse.ArgumentTypeError("give at least one noise term")
+    return tuple(out)
+
+
+# --------------------------------------------------------------------------------------
+# Parser
+# --------------------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``adavar`` argument parser (its ``error`` raises :class:`UsageError`).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+    """
+    parser = _Parser(
+        prog="adavar",
+        description="Allan-family statistics with confidence intervals and IEEE Std 952 "
+        "noise-coefficient fits.",
+    )
+    parser.add_argument("--version", action="version", version=f"adavar {__version__}")
+    parser.add_argument(
+        "--debug", action="store_true", help="show the traceback of internal errors"
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    avar = sub.add_parser(
+        "avar",
+        help="deviation (and noise fit) of one column of a text file",
+        description="Allan-family deviation of one column of a CSV/TSV/whitespace text file, "
+        "with confidence intervals, and optionally the fit of the IEEE Std 952 noise terms. "
+        "The sampling rate and the unit of the samples are required: adavar never guesses "
+        "them.",
+    )
+    avar.add_argument("file", metavar="FILE", help="text file, one sample per row")
+    avar.add_argument(
+        "--column", metavar="NAME",
+        help="header name or 0-based index of the column (needed if there are several)",
+    )  # fmt: skip
+    avar.add_argument(
+        "--rate", metavar="HZ", type=_positive_float("Hz"),
+        help="sample rate in Hz (required, or --tau0)",
+    )  # fmt: skip
+    avar.add_argument(
+        "--tau0", metavar="SECONDS", type=_positive_float("seconds"),
+        help="sample interval in seconds, instead of --rate",
+    )  # fmt: skip
+    avar.add_argument(
+        "--units", metavar="UNIT",
+        help="unit of the samples, e.g. deg/s, deg/h, rad/s, m/s^2, g (required); with "
+        "--data-type phase the unit of the integrated samples, e.g. deg or s",
+    )  # fmt: skip
+    avar.add_argument(
+        "--stat", default="oadev", choices=STATISTICS, help="statistic (default: oadev)"
+    )
+    avar.add_argument(
+        "--data-type", default="rate", choices=("rate", "phase"),
+        help="rate samples (gyro rate, acceleration, fractional frequency) or their "
+        "integral (angle, velocity, time error); default: rate",
+    )  # fmt: skip
+    avar.add_argument(
+        "--taus", default="octave", type=_taus, metavar="SPEC",
+        help="octave (default), all, decade, log, or comma-separated taus in seconds",
+    )  # fmt: skip
+    avar.add_argument(
+        "--points-per-decade", default=10, type=_positive_int, metavar="K",
+        help="density of --taus log (default: 10)",
+    )  # fmt: skip
+    avar.add_argument(
+        "--confidence", default=0.683, type=_confidence, metavar="P",
+        help="two-sided confidence level of the intervals (default: 0.683)",
+    )  # fmt: skip
+    avar.add_argument("--fit", action="store_true", help="fit the IEEE Std 952 noise terms")
+    avar.add_argument(
+        "--terms", type=_terms, metavar="LIST",
+        help="comma-separated terms of the fit (names or Q,N,B,K,R; default: all five); "
+        "implies --fit",
+    )  # fmt: skip
+    avar.add_argument("--json", action="store_true", help="print one JSON object")
+    avar.add_argument(
+        "--out", metavar="DIR",
+        help="also write deviation.csv, result.json and the figure deviation.png/.svg to "
+        "this new folder",
+    )  # fmt: skip
+    avar.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    avar.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                      help=argparse.SUPPRESS)
+    avar.set_defaults(handler=_cmd_avar)
+
+    demo = sub.add_parser(
+        "demo",
+        help="NIST SP 1065 check values and a simulated MEMS gyro",
+        description="Reproduce the NIST SP 1065 published deviations and fit the noise terms "
+        "of a simulated MEMS gyroscope with known coefficients; writes the figure.",
+    )
+    demo.add_argument(
+        "--out", metavar="DIR", default=DEMO_DEFAULT_OUT,
+        help=f"output folder (default: ./{DEMO_DEFAULT_OUT}; replaced if it is an earlier "
+        "demo's folder)",
+    )  # fmt: skip
+    demo.add_argument("--json", action="store_true", help="print one JSON object")
+    demo.add_argument(
+        "--seed", type=_seed, default=2018, metavar="N", help="seed of the simulated gyro"
+    )
+    demo.add_argument(
+        "--force", action="store_true",
+        help="replace --out even if it is not a folder written by adavar demo",
+    )  # fmt: skip
+    demo.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                      help=argparse.SUPPRESS)
+    demo.set_defaults(handler=_cmd_demo)
+    return parser
+
+
+# --------------------------------------------------------------------------------------
+# JSON and tables
+# --------------------------------------------------------------------------------------
+
+
+def _jsonable(obj: Any) -> Any:
+    """Plain Python objects for json: arrays to lists, NaN/inf to None."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return [_jsonable(v) for v in obj.tolist()]
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        value = float(obj)
+        return value if math.isfinite(value) else None
+    return obj
+
+
+def _dumps(payload: dict[str, Any]) -> str:
+    return json.dumps(_jsonable(payload), indent=2, allow_nan=False)
+
+
+def _deviation_json(result: DeviationResult) -> dict[str, Any]:
+    return {
+        "stat": result.stat,
+        "confidence": result.confidence,
+        "tau": result.tau,
+        "dev": result.dev,
+        "dev_low": result.dev_low,
+        "dev_high": result.dev_high,
+        "edf": result.edf,
+        "n": result.n,
+        "m": result.m,
+        "alpha": result.alpha,
+        "notes": list(result.notes),
+    }
+
+
+def _conventional(fit: NoiseFit) -> Any:
+    """``fit.to_units()`` if the declared unit is an accepted rate unit, else None."""
+    if fit.units is None:
+        return None
+    try:
+        return fit.to_units()
+    except ValueError:
+        return None
+
+
+def _fit_json(fit: NoiseFit) -> dict[str, Any]:
+    from adavar.plots import term_unit
+
+    out: dict[str, Any] = {}
+    for name in TERM_NAMES:
+        term = fit.term(name)
+        out[name] = {
+            "value": term.value,
+            "uncertainty": term.uncertainty,
+            "unit": term_unit(name, fit.units),
+        }
+    conv = _conventional(fit)
+    out["conventional"] = (
+        None
+        if conv is None
+        else {
+            name: {"value": t.value, "uncertainty": t.uncertainty, "unit": t.unit}
+            for name, t in conv.as_dict().items()
+        }
+    )
+    out["reduced_chi2"] = fit.reduced_chi2
+    out["chi2"] = fit.chi2
+    out["dof"] = fit.dof
+    out["n_points"] = fit.n_points
+    out["terms"] = list(fit.terms)
+    return out
+
+
+def _table(headers: Sequence[str], rows: Sequence[Sequence[str]], indent: str = "") -> str:
+    """Right-aligned columns (the first left-aligned)."""
+    widths = [max(len(h), *(len(r[j]) for r in rows)) for j, h in enumerate(headers)]
+
+    def line(cells: Sequence[str]) -> str:
+        parts = [
+            cell.ljust(w) if j == 0 else cell.rjust(w)
+            for j, (cell, w) in enumerate(zip(cells, widths, strict=True))
+        ]
+        return indent + "  ".join(parts).rstrip()
+
+    return "\n".join([line(headers), *(line(r) for r in rows)])
+
+
+def _deviation_table(result: DeviationResult, indent: str = "") -> str:
+    headers = ["tau [s]", "n", "alpha", "edf", "dev", "dev_low", "dev_high"]
+    rows = [
+        [
+            f"{tau:.6g}", f"{n:d}", f"{alpha:d}", f"{edf:.5g}",
+            f"{dev:.6e}", f"{low:.6e}", f"{high:.6e}",
+        ]
+        for tau, n, alpha, edf, dev, low, high in zip(
+            result.tau, result.n, result.alpha, result.edf, result.dev, result.dev_low,
+            result.dev_high, strict=True,
+        )
+    ]
+    return _table(headers, rows, indent)
+
+
+def _fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = None) -> list[str]:
+    from adavar.plots import TERM_LABELS, format_pm, term_unit
+
+    conv = _conventional(fit)
+    red = float(fit.reduced_chi2)
+    terms = "all five terms" if len(fit.terms) == 5 else ", ".join(fit.terms)
+    lines = [
+        f"{indent}Noise fit ({terms}; non-negative least squares weighted by each point's "
+        f"edf): reduced chi2 = {f'{red:.3g}' if math.isfinite(red) else 'n/a'} "
+        f"(chi2 = {float(fit.chi2):.4g}, dof = {int(fit.dof)})"
+    ]
+    if int(fit.n_points) < len(fit.terms):
+        lines.append(
+            f"{indent}(not fitted: {int(fit.n_points)} usable points for {len(fit.terms)} "
+            "terms; use more taus, e.g. --taus all, or fewer --terms)"
+        )
+    if fit.units and conv is None:
+        lines.append(
+            f"{indent}(no conventional units for {fit.units!r}: declare deg/s, deg/h, rad/s, "
+            "m/s^2 or g to get them)"
+        )
+    headers = ["term", "value ± 1 sigma (data units)"]
+    if conv is not None:
+        headers.append("value ± 1 sigma (conventional)")
+    if true is not None:
+        headers += ["true value", "error"]
+    rows = []
+    for name in TERM_NAMES:
+        letter, long_name = TERM_LABELS[name]
+        term = fit.term(name)
+        row = [f"{letter}  {long_name}"]
+        if name not in fit.terms:
+            row += ["not in the model"] * (2 if conv is not None else 1)
+        else:
+            row.append(format_pm(term.value, term.uncertainty, term_unit(name, fit.units)))
+            if conv is not None:
+                c = conv[name]
+                row.append(format_pm(c.value, c.uncertainty, c.unit))
+        if true is not None:
+            value, unit = true[name]
+            row.append(f"{value:g} {unit}")
+            fitted = float(conv[name].value) if conv is not None else float(term.value)
+            row.append(f"{100 * (fitted / value - 1):+.1f} %" if value else "")
+        rows.append(row)
+    lines.append(_table(headers, rows, indent))
+    lines.append(
+        f"{indent}(0 (< x): pinned at zero by the non-negativity constraint, x is a "
+        "1-sigma upper bound)"
+    )
+    return lines
+
+
+def _write_csv(path: Path, result: DeviationResult, comment: str) -> None:
+    buffer = _stdio.StringIO()
+    buffer.write(f"# {comment}\n")
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(["tau_s", "n", "m", "alpha", "edf", "dev", "dev_low", "dev_high"])
+    for row in zip(
+        result.tau, result.n, result.m, result.alpha, result.edf, result.dev,
+        result.dev_low, result.dev_high, strict=True,
+    ):  # fmt: skip
+        tau, n, m, alpha, edf, dev, low, high = row
+        writer.writerow(
+            [repr(float(tau)), int(n), int(m), int(alpha), repr(float(edf)),
+             repr(float(dev)), repr(float(low)), repr(float(high))]
+        )  # fmt: skip
+    path.write_text(buffer.getvalue(), encoding="utf-8")
+
+
+def _guard_replacement(out: str, protected: Sequence[Path]) -> None:
+    """Refuse to replace a folder that holds the current directory or a protected path."""
+    target = Path(out).expanduser().resolve()
+    if not target.is_dir():
+        return
+    for path in (Path.cwd(), *protected):
+        resolved = path.resolve()
+        if resolved == target or target in resolved.parents:
+            raise AdavarInputError(
+                f"--out {out} holds {path if path != Path.cwd() else 'the current folder'}; "
+                "replacing it would delete that: choose another output folder"
+            )
+
+
+def _output_error(out: str | os.PathLike[str], exc: OSError) -> AdavarInputError:
+    return AdavarInputError(f"cannot write the output folder {out}: {exc.strerror or exc}")
+
+
+# --------------------------------------------------------------------------------------
+# Commands
+# --------------------------------------------------------------------------------------
+
+
+def _cmd_avar(args: argparse.Namespace) -> int:
+    from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
+
+    if args.units is None or not args.units.strip():
+        raise UsageError(
+            "declare the unit of the samples with --units (e.g. --units deg/s); adavar never "
+            "guesses units"
+        )
+    if (args.rate is None) == (args.tau0 is None):
+        which = "both" if args.rate is not None else "neither"
+        raise UsageError(
+            f"give exactly one of --rate HZ or --tau0 SECONDS ({which} given); adavar never "
+            "guesses the sampling rate"
+        )
+    do_fit = args.fit or args.terms is not None
+    if do_fit and args.stat not in ALLAN_STATS:
+        raise UsageError(
+            f"--fit needs an Allan statistic ({', '.join(sorted(ALLAN_STATS))}), not "
+            f"--stat {args.stat}"
+        )
+    if args.out is not None:
+        check_output_directory(args.out, replace=args.force)
+        _guard_replacement(args.out, [Path(args.file)])
+
+    units = args.units.strip()
+    tau0 = args.tau0 if args.tau0 is not None else 1.0 / args.rate
+    samples, meta = read_text(args.file, column=args.column)
+    rate_u = rate_unit(units, args.data_type)
+    result = deviation(
+        samples,
+        stat=args.stat,
+        tau0=tau0,
+        data_type=args.data_type,
+        taus=args.taus,
+        confidence=args.confidence,
+        points_per_decade=args.points_per_decade,
+        units=rate_u,
+    )
+    fit = None
+    if do_fit:
+        try:
+            fit = fit_noise(result, terms=args.terms or TERM_NAMES)
+        except ValueError as exc:
+            raise AdavarInputError(str(exc)) from None
+
+    payload: dict[str, Any] = {
+        "adavar_version": __version__,
+        "input": {
+            "file": meta["path"],
+            "column": meta["column"],
+            "rate": 1.0 / tau0,
+            "tau0": tau0,
+            "units": units,
+            "data_type": args.data_type,
+            "n_samples": result.n_samples,
+        },
+        "units": deviation_unit(args.stat, rate_u),
+        **_deviation_json(result),
+    }
+    if fit is not None:
+        payload["fit"] = _fit_json(fit)
+    text = _dumps(payload)
+
+    written: list[str] = []
+    if args.out is not None:
+        from adavar.plots import deviation_figure, save_figure
+
+        title = f"{Path(meta['path']).name}, column {meta['column']}"
+        fig = deviation_figure(result, fit, title=title)
+        try:
+            with atomic_directory(args.out, replace=args.force) as tmp:
+                _write_csv(
+                    tmp / "deviation.csv", result,
+                    f"adavar {__version__}: {args.stat} of {meta['path']} column "
+                    f"{meta['column']!r}; {args.data_type} data, tau0 = {tau0:g} s, "
+                    f"deviation in {deviation_unit(args.stat, rate_u) or 'data units'}",
+                )  # fmt: skip
+                (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
+                save_figure(fig, tmp / "deviation")
+        except OSError as exc:
+            raise _output_error(args.out, exc) from None
+        written = ["deviation.csv", "result.json", "deviation.png", "deviation.svg"]
+
+    if args.json:
+        print(text)
+        if written:
+            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
+        return EXIT_OK
+
+    dev_u = deviation_unit(args.stat, rate_u)
+    print(
+        f"{meta['path']}, column {meta['column']!r}: {result.n_samples} samples, "
+        f"{args.data_type} data in {units}, tau0 = {tau0:g} s ({1.0 / tau0:g} Hz)"
+    )
+    print(
+        f"{STAT_NAMES[args.stat]} ({args.stat.upper()})"
+        + (f" [{dev_u}]" if dev_u else "")
+        + f", {100 * result.confidence:.1f} % confidence intervals"
+    )
+    print(_deviation_table(result))
+    for note in result.notes:
+        print(f"note: {note}")
+    if fit is not None:
+        print()
+        print("\n".join(_fit_lines(fit)))
+    if written:
+        print()
+        print(f"wrote {args.out}/ ({', '.join(written)})")
+    return EXIT_OK
+
+
+def _demo_json(demo: Any, out: str, files: list[str]) -> dict[str, Any]:
+    gyro = demo.gyro
+    return {
+        "adavar_version": __version__,
+        "nist": {
+            "rows": [
+                {
+                    "stat": r.stat, "averaging_factor": r.averaging_factor, "tau": r.tau,
+                    "computed": r.computed, "published": r.published, "rel_diff": r.rel_diff,
+                }
+                for r in demo.nist
+            ],
+            "max_rel_diff": demo.nist_max_rel_diff,
+            "mean": {"computed": demo.nist_mean.computed, "published": demo.nist_mean.published},
+            "std": {"computed": demo.nist_std.computed, "published": demo.nist_std.published},
+        },
+        "gyro": {
+            "rate": gyro.rate,
+            "n_samples": gyro.n_samples,
+            "units": gyro.units,
+            "seed": gyro.seed,
+            "true": {
+                name: {"value": value, "unit": unit}
+                for name, (value, unit) in gyro.true_conventional.items()
+            },
+            **_deviation_json(gyro.result),
+            "fit": _fit_json(gyro.fit),
+        },
+        "out": {"dir": out, "files": files},
+        "elapsed_s": demo.elapsed,
+    }
+
+
+def _check_demo_out(out: str, force: bool) -> None:
+    path = Path(out)
+    if path.is_dir() and not path.is_symlink() and not force:
+        if any(path.iterdir()) and not (path / DEMO_MARKER).is_file():
+            raise AdavarInputError(
+                f"{out} exists and was not written by adavar demo: choose another --out, or "
+                "pass --force to replace it"
+            )
+    check_output_directory(out, replace=True)
+    _guard_replacement(out, [])
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from adavar.demo import GYRO_BIAS, run_demo
+    from adavar.plots import deviation_figure, save_figure
+
+    start = time.perf_counter()
+    _check_demo_out(args.out, args.force)
+    demo = run_demo(seed=args.seed)
+    gyro = demo.gyro
+    fig = deviation_figure(
+        gyro.result, gyro.fit,
+        title=f"Simulated MEMS gyro ({gyro.n_samples:,} samples at {gyro.rate:g} Hz, "
+        f"seed {gyro.seed})",
+    )  # fmt: skip
+    files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json"]
+    payload = _demo_json(demo, str(args.out), files)
+    text = _dumps(payload)
+    try:
+        with atomic_directory(args.out, replace=True) as tmp:
+            save_figure(fig, tmp / "gyro_oadev")
+            (tmp / "demo.json").write_text(text + "\n", encoding="utf-8")
+            (tmp / DEMO_MARKER).write_text(
+                "written by adavar demo; the next run replaces this folder\n", encoding="utf-8"
+            )
+    except OSError as exc:
+        raise _output_error(args.out, exc) from None
+    elapsed = time.perf_counter() - start
+
+    if args.json:
+        print(text)
+        print(f"adavar: wrote {args.out}/ ({', '.join(files)})", file=sys.stderr)
+        return EXIT_OK
+
+    print("1. NIST SP 1065 1000-point test data (fractional frequency, tau0 = 1 s)")
+    rows = [
+        [r.stat.upper(), f"{r.averaging_factor}", f"{r.computed:.7e}", f"{r.published:.6e}",
+         f"{r.rel_diff:+.1e}"]
+        for r in demo.nist
+    ]  # fmt: skip
+    for r in (demo.nist_mean, demo.nist_std):
+        rows.append([r.stat, "", f"{r.computed:.7e}", f"{r.published:.6e}", f"{r.rel_diff:+.1e}"])
+    print(_table(["stat", "AF", "adavar", "published", "rel. diff"], rows, "   "))
+    print(
+        f"   largest |relative difference| of the deviations: {demo.nist_max_rel_diff:.1e} "
+        "(the published values have 7 significant digits)"
+    )
+    print()
+    print(
+        f"2. Simulated MEMS gyro: {gyro.n_samples} samples at {gyro.rate:g} Hz in {gyro.units} "
+        f"(bias {GYRO_BIAS:g} {gyro.units}, seed {gyro.seed}), OADEV at octave taus"
+    )
+    print(_deviation_table(gyro.result, "   "))
+    print()
+    print("\n".join(_fit_lines(gyro.fit, "   ", true=gyro.true_conventional)))
+    print()
+    print(f"wrote {Path(args.out) / files[0]} and {files[1]}, {files[2]}")
+    print(f"done in {elapsed:.1f} s (computation {demo.elapsed:.2f} s)")
+    return EXIT_OK
+
+
+# --------------------------------------------------------------------------------------
+# Entry point
+# --------------------------------------------------------------------------------------
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the ``adavar`` command line.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments after the program name; ``sys.argv[1:]`` by default.
+
+    Returns
+    -------
+    int
+        The exit code: 0 success, 1 internal error, 2 user error, 130 interrupted.
+    """
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv or os.environ.get("ADAVAR_DEBUG", "").strip() not in ("", "0")
+    try:
+        args = build_parser().parse_args(argv)
+        if args.command is None:
+            raise UsageError(
+                "choose a command: avar (deviation of a data file) or demo (see 'adavar --help')"
+            )
+        return int(args.handler(args))
+    except SystemExit as exc:  # --help, --version
+        code = exc.code
+        return code if isinstance(code, int) else (EXIT_OK if code is None else EXIT_USAGE)
+    except (UsageError, AdavarInputError) as exc:
+        print(f"adavar: error: {_one_line(str(exc))}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print("adavar: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except BrokenPipeError:  # e.g. `adavar avar ... | head`
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+        except (OSError, ValueError, _stdio.UnsupportedOperation):
+            pass
+        return EXIT_INTERNAL
+    except Exception as exc:
+        if debug:
+            traceback.print_exc()
+        hint = "" if debug else " (rerun with --debug or ADAVAR_DEBUG=1 for the traceback)"
+        print(
+            f"adavar: internal error: {type(exc).__name__}: {_one_line(str(exc))}{hint}",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

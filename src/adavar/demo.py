@@ -1,0 +1,242 @@
+"""The built-in demonstration behind ``adavar demo``: data in, numbers out, no printing.
+
+Two parts:
+
+1. The NIST SP 1065 1000-point test data (:func:`adavar.datasets.nist_1000`, fractional
+   frequency, ``tau0 = 1 s``): ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV and TOTDEV at averaging
+   factors 1, 10 and 100 next to the values published in SP 1065 (copied from the
+   project's ``REFERENCE.md`` into :data:`NIST_PUBLISHED`).
+2. A simulated MEMS gyroscope (:func:`adavar.simulate.sensor`, 1e6 samples at 100 Hz in
+   deg/s) with known quantization, angle random walk, bias instability and rate random
+   walk: its overlapping Allan deviation with confidence intervals, the fit of the five
+   IEEE Std 952 terms, and the known true values to compare with.
+
+:func:`run_demo` returns a :class:`DemoResult`; the command line prints it and draws the
+figure.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from adavar import simulate
+from adavar.datasets import nist_1000
+from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
+from adavar.results import DeviationResult
+from adavar.statistics import deviation
+from adavar.units import ConvertedNoise, conventional_units, convert_coefficient
+
+__all__ = [
+    "GYRO_BIAS",
+    "GYRO_RATE",
+    "GYRO_SAMPLES",
+    "GYRO_TRUE",
+    "GYRO_UNITS",
+    "NIST_AVERAGING_FACTORS",
+    "NIST_MEAN",
+    "NIST_PUBLISHED",
+    "NIST_STD",
+    "DemoResult",
+    "GyroDemo",
+    "NistRow",
+    "run_demo",
+]
+
+#: Averaging factors of the published NIST values.
+NIST_AVERAGING_FACTORS: tuple[int, ...] = (1, 10, 100)
+
+#: NIST SP 1065 (section 12.4) published deviations of the 1000-point data at averaging
+#: factors 1, 10, 100 (7 significant digits; REFERENCE.md). The last digit of HDEV at
+#: AF = 100 is a rounding case (3.910861e-02 is as good).
+NIST_PUBLISHED: dict[str, tuple[float, float, float]] = {
+    "adev": (2.922319e-01, 9.965736e-02, 3.897804e-02),
+    "oadev": (2.922319e-01, 9.159953e-02, 3.241343e-02),
+    "mdev": (2.922319e-01, 6.172376e-02, 2.170921e-02),
+    "tdev": (1.687202e-01, 3.563623e-01, 1.253382e00),
+    "hdev": (2.943883e-01, 1.052754e-01, 3.910860e-02),
+    "ohdev": (2.943883e-01, 9.581083e-02, 3.237638e-02),
+    "totdev": (2.922319e-01, 9.134743e-02, 3.406530e-02),
+}
+#: Published mean and (sample) standard deviation of the same data.
+NIST_MEAN = 4.897745e-01
+NIST_STD = 2.884664e-01
+
+#: The simulated gyroscope: sample rate (Hz), number of samples, unit of the rate samples,
+#: constant turn-on bias (deg/s, invisible to the Allan variance).
+GYRO_RATE = 100.0
+GYRO_SAMPLES = 1_000_000
+GYRO_UNITS = "deg/s"
+GYRO_BIAS = 0.2
+
+#: True noise coefficients of the simulated gyroscope, in the conventional units
+#: (arcsec, deg/sqrt(h), deg/h, deg/h/sqrt(h), deg/h^2): a consumer-grade MEMS gyro.
+GYRO_TRUE: dict[str, float] = {
+    "quantization": 0.8,
+    "angle_random_walk": 0.1,
+    "bias_instability": 3.0,
+    "rate_random_walk": 20.0,
+    "rate_ramp": 0.0,
+}
+
+
+@dataclass(frozen=True)
+class NistRow:
+    """One computed NIST deviation next to its published value.
+
+    Attributes
+    ----------
+    stat : str
+    averaging_factor : int
+    tau : float
+        Seconds (``tau0 = 1 s``).
+    computed : float
+    published : float
+    """
+
+    stat: str
+    averaging_factor: int
+    tau: float
+    computed: float
+    published: float
+
+    @property
+    def rel_diff(self) -> float:
+        """``computed / published - 1``."""
+        return self.computed / self.published - 1.0
+
+
+@dataclass(frozen=True)
+class GyroDemo:
+    """The simulated gyroscope, its deviation and its noise fit.
+
+    Attributes
+    ----------
+    rate : float
+        Sample rate, Hz.
+    n_samples : int
+    units : str
+        Unit of the rate samples (``"deg/s"``).
+    seed : int
+    true : dict
+        True coefficients in the data's own units (deg, deg/sqrt(s), deg/s, deg/s/sqrt(s),
+        deg/s^2), as passed to :func:`adavar.simulate.sensor`.
+    true_conventional : dict
+        The same in the conventional units: term -> (value, unit).
+    result : DeviationResult
+        Overlapping Allan deviation at octave taus with 68.3 % confidence intervals.
+    fit : NoiseFit
+        The five-term fit of ``result``.
+    """
+
+    rate: float
+    n_samples: int
+    units: str
+    seed: int
+    true: dict[str, float]
+    true_conventional: dict[str, tuple[float, str]]
+    result: DeviationResult
+    fit: NoiseFit
+
+    @property
+    def fitted_conventional(self) -> ConvertedNoise:
+        """The fitted coefficients in the conventional units."""
+        return self.fit.to_units(self.units)
+
+
+@dataclass(frozen=True)
+class DemoResult:
+    """Everything the demo computed.
+
+    Attributes
+    ----------
+    nist : tuple of NistRow
+        Every statistic at every averaging factor, in the order of :data:`NIST_PUBLISHED`.
+    nist_results : dict
+        Statistic -> the :class:`DeviationResult` behind the rows.
+    nist_mean, nist_std : NistRow
+        Summary statistics of the data (``stat`` ``"mean"``/``"std"``, averaging factor 1).
+    gyro : GyroDemo
+    elapsed : float
+        Wall-clock seconds spent in :func:`run_demo`.
+    """
+
+    nist: tuple[NistRow, ...]
+    nist_results: dict[str, DeviationResult]
+    nist_mean: NistRow
+    nist_std: NistRow
+    gyro: GyroDemo
+    elapsed: float
+
+    @property
+    def nist_max_rel_diff(self) -> float:
+        """Largest ``|rel_diff|`` over the published deviations."""
+        return max(abs(row.rel_diff) for row in self.nist)
+
+
+def _nist() -> tuple[tuple[NistRow, ...], dict[str, DeviationResult], NistRow, NistRow]:
+    y = nist_1000()
+    rows = []
+    results = {}
+    for stat, published in NIST_PUBLISHED.items():
+        res = deviation(y, stat=stat, tau0=1.0, taus=list(NIST_AVERAGING_FACTORS))
+        results[stat] = res
+        for af, tau, value, ref in zip(
+            NIST_AVERAGING_FACTORS, res.tau, res.dev, published, strict=True
+        ):
+            rows.append(NistRow(stat, af, float(tau), float(value), ref))
+    mean = NistRow("mean", 1, 1.0, float(np.mean(y)), NIST_MEAN)
+    std = NistRow("std", 1, 1.0, float(np.std(y, ddof=1)), NIST_STD)
+    return tuple(rows), results, mean, std
+
+
+def _gyro(seed: int) -> GyroDemo:
+    targets = conventional_units(GYRO_UNITS)
+    true_conventional = {name: (GYRO_TRUE[name], targets[name]) for name in TERM_NAMES}
+    true = {
+        name: GYRO_TRUE[name] / convert_coefficient(1.0, name, GYRO_UNITS, targets[name])
+        for name in TERM_NAMES
+    }
+    samples = simulate.sensor(GYRO_SAMPLES, rate=GYRO_RATE, bias=GYRO_BIAS, seed=seed, **true)
+    result = deviation(
+        samples, stat="oadev", rate=GYRO_RATE, taus="octave", confidence=0.683, units=GYRO_UNITS
+    )
+    fit = fit_noise(result)
+    return GyroDemo(
+        rate=GYRO_RATE,
+        n_samples=GYRO_SAMPLES,
+        units=GYRO_UNITS,
+        seed=seed,
+        true=true,
+        true_conventional=true_conventional,
+        result=result,
+        fit=fit,
+    )
+
+
+def run_demo(seed: int = 2018) -> DemoResult:
+    """Run the demonstration (about a second).
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the simulated gyroscope.
+
+    Returns
+    -------
+    DemoResult
+        The NIST comparison and the simulated gyroscope's deviation, fit and true values.
+    """
+    start = time.perf_counter()
+    nist, nist_results, mean, std = _nist()
+    gyro = _gyro(int(seed))
+    return DemoResult(
+        nist=nist,
+        nist_results=nist_results,
+        nist_mean=mean,
+        nist_std=std,
+        gyro=gyro,
+        elapsed=time.perf_counter() - start,
+    )

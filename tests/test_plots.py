@@ -1,0 +1,173 @@
+"""Tests of adavar.plots: figures, atomic saving, unit labels and number formatting."""
+
+from __future__ import annotations
+
+import matplotlib
+import numpy as np
+import pytest
+from matplotlib.figure import Figure
+
+import adavar
+from adavar import simulate
+from adavar.plots import (
+    deviation_figure,
+    deviation_unit,
+    format_pm,
+    rate_unit,
+    save_figure,
+    term_unit,
+)
+
+
+@pytest.fixture(scope="module")
+def gyro():
+    x = simulate.sensor(
+        100_000, rate=100.0, angle_random_walk=2e-3, rate_random_walk=2e-4, seed=7
+    )
+    result = adavar.deviation(x, rate=100.0, units="deg/s")
+    return result, adavar.fit_noise(result)
+
+
+def legend_labels(fig: Figure) -> list[str]:
+    (ax,) = fig.axes
+    return [t.get_text() for t in ax.get_legend().get_texts()]
+
+
+def test_deviation_figure_without_fit(gyro):
+    result, _ = gyro
+    fig = deviation_figure(result)
+    assert isinstance(fig, Figure)
+    (ax,) = fig.axes
+    assert ax.get_xscale() == "log" and ax.get_yscale() == "log"
+    assert ax.get_xlabel() == "tau [s]"
+    assert ax.get_ylabel() == "Overlapping Allan deviation [deg/s]"
+    assert len(ax.containers) == 1  # the error bars
+    labels = legend_labels(fig)
+    assert labels == ["OADEV, 68.3 % confidence"]
+    data_line = ax.containers[0].lines[0]
+    np.testing.assert_array_equal(data_line.get_xdata(), result.tau)
+    np.testing.assert_array_equal(data_line.get_ydata(), result.dev)
+
+
+def test_deviation_figure_with_fit(gyro):
+    result, fit = gyro
+    fig = deviation_figure(result, fit, title="my gyro")
+    (ax,) = fig.axes
+    assert ax.get_title() == "my gyro"
+    n_active = int(np.count_nonzero(fit.coefficients > 0))
+    assert n_active >= 2
+    labels = legend_labels(fig)
+    assert len(labels) == 2 + n_active  # data, model, one asymptote per non-zero term
+    assert labels[0].startswith("OADEV")
+    assert labels[1].startswith("fitted model")
+    arw = [lab for lab in labels if lab.startswith("N (angle random walk) = ")]
+    assert len(arw) == 1 and arw[0].endswith("deg/sqrt(h)") and " ± " in arw[0]
+    assert any(lab.startswith("K (rate random walk) = ") for lab in labels)
+    # the model line is fit.model_dev on a grid spanning the taus
+    model = next(line for line in ax.get_lines() if line.get_label() == labels[1])
+    grid = model.get_xdata()
+    assert grid[0] == pytest.approx(result.tau[0]) and grid[-1] == pytest.approx(result.tau[-1])
+    np.testing.assert_allclose(model.get_ydata(), fit.model_dev(grid))
+
+
+def test_labels_without_known_unit():
+    x = simulate.white(4000, seed=1)
+    result = adavar.deviation(x, stat="mdev")
+    fig = deviation_figure(result)
+    assert fig.axes[0].get_ylabel() == "Modified Allan deviation"
+    # a unit outside adavar.units: natural units in the term labels
+    res = adavar.deviation(x, rate=10.0, units="V")
+    fit = adavar.fit_noise(res, terms=["angle_random_walk"])
+    labels = legend_labels(deviation_figure(res, fit))
+    assert labels[-1].startswith("N (angle random walk) = ") and labels[-1].endswith("V*sqrt(s)")
+
+
+def test_units_argument_overrides_and_tdev_unit(gyro):
+    x = simulate.white(4000, seed=1)
+    result = adavar.deviation(x, stat="tdev", rate=10.0, units="deg/s")
+    assert deviation_figure(result).axes[0].get_ylabel() == "Time deviation [deg]"
+    assert deviation_figure(result, units="rad/s").axes[0].get_ylabel() == (
+        "Time deviation [rad]"
+    )
+
+
+def test_no_confidence_interval_still_plots():
+    result = adavar.deviation(simulate.white(1000, seed=2), confidence=None)
+    fig = deviation_figure(result)
+    assert legend_labels(fig) == ["OADEV"]
+
+
+def test_no_pyplot_state(gyro):
+    import matplotlib.pyplot as plt
+
+    before = plt.get_fignums()
+    backend = matplotlib.get_backend()
+    result, fit = gyro
+    deviation_figure(result, fit)
+    assert plt.get_fignums() == before
+    assert matplotlib.get_backend() == backend
+
+
+def test_save_figure_both_formats_atomically(gyro, tmp_path):
+    result, fit = gyro
+    fig = deviation_figure(result, fit)
+    written = save_figure(fig, tmp_path / "dev")
+    assert written == [tmp_path / "dev.png", tmp_path / "dev.svg"]
+    assert (tmp_path / "dev.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "<svg" in (tmp_path / "dev.svg").read_text()[:2000]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dev.png", "dev.svg"]
+
+
+def test_save_figure_failure_leaves_no_temporary(tmp_path):
+    fig = deviation_figure(adavar.deviation(simulate.white(500, seed=3)))
+    with pytest.raises(ValueError):
+        save_figure(fig, tmp_path / "dev", formats=("png", "no-such-format"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["dev.png"]
+
+
+@pytest.mark.parametrize(
+    ("term", "unit", "expected"),
+    [
+        ("quantization", "deg/s", "deg"),
+        ("angle_random_walk", "deg/s", "deg/sqrt(s)"),
+        ("bias_instability", "deg/s", "deg/s"),
+        ("rate_random_walk", "deg/s", "deg/s/sqrt(s)"),
+        ("rate_ramp", "deg/s", "deg/s^2"),
+        ("quantization", "m/s^2", "m/s"),
+        ("angle_random_walk", "m/s^2", "m/s/sqrt(s)"),
+        ("rate_ramp", "m/s^2", "m/s^3"),
+        ("angle_random_walk", "deg/h", "deg/h*sqrt(s)"),
+        ("rate_random_walk", "", "1/sqrt(s)"),
+        ("bias_instability", None, None),
+    ],
+)
+def test_term_unit(term, unit, expected):
+    assert term_unit(term, unit) == expected
+
+
+def test_rate_and_deviation_units():
+    assert rate_unit("deg/s", "rate") == "deg/s"
+    assert rate_unit("deg", "phase") == "deg/s"
+    assert rate_unit("m/s", "phase") == "m/s^2"
+    assert rate_unit("s", "phase") == ""
+    assert rate_unit(None, "phase") is None
+    assert deviation_unit("oadev", "deg/s") == "deg/s"
+    assert deviation_unit("tdev", "deg/s") == "deg"
+    assert deviation_unit("tdev", "") == "s"
+
+
+@pytest.mark.parametrize(
+    ("value", "unc", "unit", "expected"),
+    [
+        (0.301313, 0.000556, "deg/sqrt(h)", "0.30131 ± 0.00056 deg/sqrt(h)"),
+        (6.8796, 0.2833, None, "6.88 ± 0.28"),
+        (9.7518e-05, 2.639e-06, "deg", "(9.75 ± 0.26)e-05 deg"),
+        (2105.3, 1255.0, "", "2100 ± 1300"),
+        (0.0, 1.4e-06, "deg/s^2", "0 (< 1.4e-06) deg/s^2"),
+        (2.89, 114.3, None, "2.9 ± 1.1e+02"),
+        (float("nan"), float("nan"), "deg", "not fitted"),
+        (1.5, float("nan"), "deg", "1.5 deg"),
+    ],
+)
+def test_format_pm(value, unc, unit, expected):
+    assert format_pm(value, unc, unit) == expected
