@@ -24,8 +24,15 @@ from adavar._jit import jit, parallel_jit, prange
 
 __all__ = [
     "BLOCK",
+    "FUSED_LEVELS",
     "AnchoredPhase",
     "anchored_phase",
+    "cluster_lag1",
+    "cluster_sums",
+    "fused_lag1",
+    "modified_sums",
+    "overlapping_sums",
+    "strided_sums",
 ]
 
 SHIFT = 10
