@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import numba
 
-__all__ = ["jit", "parallel_jit", "prange"]
+__all__ = ["get_num_threads", "jit", "parallel_jit", "prange"]
 
 prange = numba.prange
+get_num_threads = numba.get_num_threads
 
 
 def jit(*args, **kwargs):

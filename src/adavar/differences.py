@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit, parallel_jit, prange
+from adavar._jit import get_num_threads, jit, parallel_jit, prange
 
 __all__ = [
     "BLOCK",
@@ -33,9 +33,12 @@ __all__ = [
     "modified_sums",
     "overlapping_sums",
     "strided_sums",
+    "window_avar",
 ]
 
 SHIFT = 10
+SECOND = np.array([1, -2, 1], dtype=np.int64)  # coefficients of the Allan difference
+THIRD = np.array([-1, 3, -3, 1], dtype=np.int64)  # and of the Hadamard one
 BLOCK = 1 << SHIFT  # anchor spacing, samples
 SUPERBLOCK = 1 << 14  # terms per parallel work item; each touches a few 128 KiB chunks
 
@@ -365,7 +368,7 @@ def _strided_sums(r, hh, hl, ms, counts, coefs):  # pragma: no cover - compiled
 @jit
 def _fill_second_differences(r, hh, hl, m, lo, hi, out):  # pragma: no cover - compiled
     """``out[i - lo] = S[i] - 2 S[i+m] + S[i+2m]`` for ``i`` in ``[lo, hi)``."""
-    coefs = np.array([1, -2, 1])
+    coefs = SECOND
     i = lo
     while i < hi:
         e = _segment_end(i, hi, m, 3)
@@ -558,10 +561,183 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
 
 
 # ---------------------------------------------------------------------------------------
+# every window at once (the DAVAR engine's kernel)
+
+
+@jit
+def _prefix_squares(d, n, ph, pl):  # pragma: no cover - compiled
+    """Compensated prefix sums of ``d[k]**2``: ``P[k] = ph[k] + pl[k]`` to ~eps**2 * P.
+
+    Only ``s`` is on the loop-carried critical path (one add); the rounding errors gather
+    in a separate running sum, so the compensation costs throughput, not latency. No
+    fast-math: the error terms rely on exact IEEE rounding.
+    """
+    s = 0.0
+    c = 0.0
+    ph[0] = 0.0
+    pl[0] = 0.0
+    for k in range(n):
+        y = d[k] * d[k]
+        t = s + y
+        bb = t - s
+        c += (s - (t - bb)) + (y - bb)
+        s = t
+        ph[k + 1] = s
+        pl[k + 1] = c
+
+
+@jit
+def _window_sum(ph, pl, a, b):  # pragma: no cover - compiled
+    """``P[b] - P[a]`` from the compensated prefix, with the leading difference exact."""
+    s, e = _two_sum(ph[b], -ph[a])
+    return s + (e + (pl[b] - pl[a]))
+
+
+@jit
+def _eval_uniform(ph, pl, first, n, count, norm, res):  # pragma: no cover - compiled
+    """Windows ``[first + k, first + k + n)`` for ``k < count``: contiguous, vectorises."""
+    p0 = ph[first : first + count]
+    p1 = ph[first + n : first + n + count]
+    q0 = pl[first : first + count]
+    q1 = pl[first + n : first + n + count]
+    f = norm / n
+    for k in range(count):
+        s = p1[k] - p0[k]
+        bb = s - p1[k]
+        e = (p1[k] - (s - bb)) + (-p0[k] - bb)
+        res[k] = max(s + (e + (q1[k] - q0[k])), 0.0) * f
+
+
+@jit
+def _eval_general(ph, pl, aloc, lens, m, norm, res):  # pragma: no cover - compiled
+    """Any windows: window ``k`` covers prefix indices ``aloc[k] .. aloc[k] + L - 2m + 1``."""
+    for k in range(aloc.size):
+        L = lens[k]
+        if 3 * m > L:
+            res[k] = np.nan
+            continue
+        n = L - 2 * m + 1
+        a = aloc[k]
+        res[k] = max(_window_sum(ph, pl, a, a + n), 0.0) * (norm / n)
+
+
+@jit
+def _window_chunk(
+    r, hh, hl, ms, centres, lengths, offset, c0, c1, scale, widx, flo, fhi, out, out_lo,
+    out_hi, bounds, coefs, d, ph, pl,
+):  # pragma: no cover - compiled
+    """Windows ``c0 .. c1 - 1`` at every factor; returns the (possibly grown) scratch."""
+    nt = ms.size
+    size = c1 - c0
+    lens = lengths[c0:c1]
+    starts = np.empty(size, dtype=np.int64)
+    for k in range(size):
+        starts[k] = centres[c0 + k] - (lens[k] - 1) // 2 + offset
+    lo = starts[0]
+    for k in range(size):
+        lo = min(lo, starts[k])
+    aloc = np.empty(size, dtype=np.int64)
+    for k in range(size):
+        aloc[k] = starts[k] - lo
+    # one length and consecutive starts: the contiguous fast path
+    uniform = True
+    for k in range(size):
+        if lens[k] != lens[0] or aloc[k] != aloc[0] + k:
+            uniform = False
+            break
+    # span of each m, and whether the prefix route pays (the windows overlap)
+    span = np.zeros(nt, dtype=np.int64)
+    dense = np.zeros(nt, dtype=np.bool_)
+    need = 0
+    for t in range(nt):
+        m = ms[t]
+        hi = 0
+        total = 0
+        for k in range(size):
+            if 3 * m <= lens[k]:
+                n = lens[k] - 2 * m + 1
+                hi = max(hi, aloc[k] + n)
+                total += n
+        span[t] = hi
+        dense[t] = total > 0 and hi <= 2 * total
+        if dense[t]:
+            need = max(need, hi)
+    if need > d.size:
+        d = np.empty(need)
+        ph = np.empty(need + 1)
+        pl = np.empty(need + 1)
+    res = np.empty(size)
+    for t in range(nt):
+        m = ms[t]
+        norm = scale / (2.0 * m * m)
+        if dense[t]:
+            _fill_second_differences(r, hh, hl, m, lo, lo + span[t], d)
+            _prefix_squares(d, span[t], ph, pl)
+            if uniform and 3 * m <= lens[0]:
+                _eval_uniform(ph, pl, aloc[0], lens[0] - 2 * m + 1, size, norm, res)
+            else:
+                _eval_general(ph, pl, aloc, lens, m, norm, res)
+        else:
+            for k in range(size):
+                L = lens[k]
+                if 3 * m > L:
+                    res[k] = np.nan
+                    continue
+                n = L - 2 * m + 1
+                a = starts[k]
+                acc = 0.0
+                i = a
+                while i < a + n:
+                    e = _segment_end(i, a + n, m, 3)
+                    acc += _run_sq2(r, _anchor_combo(hh, hl, i, m, coefs), i, e, m)
+                    i = e
+                res[k] = max(acc, 0.0) * (norm / n)
+        for k in range(size):
+            out[c0 + k, t] = res[k]
+        if bounds:
+            for k in range(size):
+                w = widx[c0 + k]
+                out_lo[c0 + k, t] = res[k] * flo[w, t]
+                out_hi[c0 + k, t] = res[k] * fhi[w, t]
+    return d, ph, pl
+
+
+@parallel_jit
+def _window_avar(
+    r, hh, hl, ms, centres, lengths, offset, chunk, workers, scale, widx, flo, fhi, out,
+    out_lo, out_hi, bounds, coefs,
+):  # pragma: no cover - compiled
+    """Overlapping Allan variance of every window at every averaging factor.
+
+    Window ``c`` covers increments ``a .. a + lengths[c] - 1`` with
+    ``a = centres[c] - (lengths[c] - 1) // 2 + offset`` (phase points up to
+    ``a + lengths[c]``); at factor ``m`` it sums ``d_m[i]**2`` for
+    ``n = L - 2m + 1`` starts ``i``. The windows are cut into chunks of ``chunk``
+    consecutive centres. Per chunk and ``m``: when the windows overlap, the second
+    differences over the chunk's span are computed once (exact anchors), prefix-summed with
+    compensation, and every window is a difference of two prefix values (O(1) per window
+    whatever its length); when they are far apart, each window is summed directly. Cells
+    with ``3m > L`` are NaN.
+    """
+    nc = centres.size
+    nch = (nc + chunk - 1) // chunk
+    # one work item per worker, chunks dealt round-robin, so the scratch buffers are
+    # allocated once per worker: fresh pages for every chunk cost more than the arithmetic
+    for w in prange(workers):
+        d = np.empty(0)
+        ph = np.empty(1)
+        pl = np.empty(1)
+        for ch in range(w, nch, workers):
+            c0 = ch * chunk
+            d, ph, pl = _window_chunk(
+                r, hh, hl, ms, centres, lengths, offset, c0, min(c0 + chunk, nc), scale, widx,
+                flo, fhi, out, out_lo, out_hi, bounds, coefs, d, ph, pl,
+            )
+
+
+# ---------------------------------------------------------------------------------------
 # public wrappers
 
-SECOND = np.array([1, -2, 1], dtype=np.int64)
-THIRD = np.array([-1, 3, -3, 1], dtype=np.int64)
 
 
 def overlapping_sums(
@@ -671,3 +847,80 @@ def cluster_sums(phase: AnchoredPhase, m: int) -> np.ndarray:
     count = (phase.n_points - 1) // m
     out = _cluster_differences(phase.r, phase.hh, phase.hl, int(m), count)
     return out + phase.shift * m
+
+
+def window_avar(
+    phase: AnchoredPhase,
+    ms: np.ndarray,
+    centres: np.ndarray,
+    lengths: np.ndarray,
+    *,
+    offset: int = 0,
+    scale: float = 1.0,
+    chunk: int = 4096,
+    bound_factors: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """Overlapping Allan variance of many windows of ``phase`` at every factor ``ms``.
+
+    Parameters
+    ----------
+    phase : AnchoredPhase
+        The (extended) integrated record.
+    ms : ndarray of int
+        Averaging factors.
+    centres, lengths : ndarray of int
+        Window ``c`` holds the increments from ``centres[c] - (lengths[c] - 1) // 2 + offset``
+        on, ``lengths[c]`` of them (the convention of :mod:`adavar.windows`).
+    offset : int
+        Shift from centre indices to indices of ``phase`` (the mirrored samples before the
+        record).
+    scale : float
+        Multiplies every variance (``1 / tau0**2`` for phase input).
+    chunk : int
+        Consecutive windows per unit of work.
+    bound_factors : (widx, flo, fhi), optional
+        Confidence-bound factors ``flo[widx[c], t]``, ``fhi[widx[c], t]`` per window class;
+        when given, the bounds are filled in the same pass.
+
+    Returns
+    -------
+    avar, avar_low, avar_high : ndarray, shape (len(centres), len(ms))
+        NaN where ``3 m > L``; the bounds are None without ``bound_factors``.
+    """
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    centres = np.ascontiguousarray(centres, dtype=np.int64)
+    lengths = np.ascontiguousarray(lengths, dtype=np.int64)
+    if centres.shape != lengths.shape or centres.ndim != 1:
+        raise ValueError("internal: centres and lengths must be 1-D arrays of one shape")
+    if centres.size:
+        if lengths.min() == lengths.max():  # starts follow the centres: check the extremes
+            ends = centres[[0, -1]] if np.all(centres[:-1] <= centres[1:]) else centres
+            starts = ends - (lengths[0] - 1) // 2 + offset
+            stops = starts + lengths[0]
+        else:
+            starts = centres - (lengths - 1) // 2 + offset
+            stops = starts + lengths
+        if starts.min() < 0 or stops.max() > phase.n_points - 1:
+            raise ValueError("internal: a window runs past the data")
+    nc, nt = centres.size, ms.size
+    out = np.empty((nc, nt))
+    if bound_factors is None:
+        widx = np.zeros(0, dtype=np.int64)
+        flo = fhi = np.zeros((1, nt))
+        out_lo = out_hi = np.empty((0, nt))
+    else:
+        widx, flo, fhi = bound_factors
+        widx = np.ascontiguousarray(widx, dtype=np.int64)
+        flo = np.ascontiguousarray(flo, dtype=np.float64)
+        fhi = np.ascontiguousarray(fhi, dtype=np.float64)
+        out_lo = np.empty((nc, nt))
+        out_hi = np.empty((nc, nt))
+    chunk = int(max(chunk, 1))
+    workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
+    _window_avar(
+        phase.r, phase.hh, phase.hl, ms, centres, lengths, int(offset), chunk, workers,
+        float(scale), widx, flo, fhi, out, out_lo, out_hi, bound_factors is not None, SECOND,
+    )  # fmt: skip
+    if bound_factors is None:
+        return out, None, None
+    return out, out_lo, out_hi

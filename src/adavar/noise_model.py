@@ -178,6 +178,10 @@ class NoiseFit:
         Reweighting passes used.
     weighted : bool
         False when the fit used ``edf=None`` (relative weights only).
+    time : ndarray or None
+        For a DAVAR result: the window-centre times (the leading axis), else None.
+    spacing : str
+        The tau-spacing weighting used (see :func:`fit_avar`).
 
     Notes
     -----
@@ -195,6 +199,8 @@ class NoiseFit:
     units: str | None
     n_reweight: int
     weighted: bool = True
+    time: np.ndarray | None = None
+    spacing: str = "octave"
 
     def _term(self, k: int) -> NoiseTerm:
         c = self.coefficients[..., k]
@@ -751,6 +757,7 @@ def fit_avar(
     terms: Sequence[str] = TERM_NAMES,
     units: str | None = None,
     n_reweight: int = 3,
+    spacing: str = "octave",
 ) -> NoiseFit:
     """Fit the noise model to raw Allan-variance arrays.
 
@@ -773,6 +780,15 @@ def fit_avar(
     n_reweight : int
         Reweighting passes after the first (model avar in the weights); 0 keeps the
         weights of the measured avar.
+    spacing : {"octave", "independent"}
+        ``"octave"`` (default): each tau's weight is multiplied by its local spacing in
+        octaves, capped at 1 (``min(1, d log2(tau))``, central differences). Overlapping
+        Allan variances within an octave are strongly correlated, so a dense tau grid
+        (``taus="all"``, the paper's DAVAR) would otherwise count the same information many
+        times over and let the noisy long-tau points outvote the short ones: on unit white
+        noise in 600-sample windows with all taus, ``"independent"`` gives N 6 % low with a
+        spurious quantization term in most windows, ``"octave"`` gives N within 2 %. Octave
+        and decade grids are unchanged. ``"independent"``: the weights as they are.
 
     Returns
     -------
@@ -785,7 +801,7 @@ def fit_avar(
     """
     if units is not None:
         rate_unit_info(units)
-    return _fit(tau, avar, edf, terms, units, n_reweight)
+    return _fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing)
 
 
 def _fit(
@@ -795,8 +811,13 @@ def _fit(
     terms: Sequence[str],
     units: str | None,
     n_reweight: int,
+    *,
+    spacing: str = "octave",
+    time: np.ndarray | None = None,
 ) -> NoiseFit:
     """The common body of :func:`fit_avar` and :func:`fit_noise` (units already checked)."""
+    if spacing not in ("octave", "independent"):
+        raise ValueError(f"unknown spacing {spacing!r}: use 'octave' or 'independent'")
     terms = _check_terms(terms)
     if isinstance(n_reweight, bool) or int(n_reweight) != n_reweight or n_reweight < 0:
         raise ValueError(f"n_reweight must be a non-negative integer, got {n_reweight!r}")
@@ -818,6 +839,13 @@ def _fit(
         fits = False
     if not fits:
         raise ValueError(f"edf of shape {edf.shape} does not broadcast to avar's {avar.shape}")
+
+    if spacing == "octave" and tau.size > 1:
+        order = np.argsort(tau)
+        share = np.empty(tau.size)
+        share[order] = np.minimum(1.0, np.gradient(np.log2(tau[order])))
+        if np.any(share < 1.0):
+            edf = edf * share
 
     lead = avar.shape[:-1]
     n_tau = tau.size
@@ -866,6 +894,8 @@ def _fit(
         units=units,
         n_reweight=n_reweight,
         weighted=weighted,
+        time=time,
+        spacing=spacing,
     )
 
 
@@ -875,6 +905,7 @@ def fit_noise(
     terms: Sequence[str] = TERM_NAMES,
     units: str | None = None,
     n_reweight: int = 3,
+    spacing: str = "octave",
 ) -> NoiseFit:
     """Fit the IEEE noise model (METHOD.md Eq. 7) to an Allan-deviation result.
 
@@ -893,6 +924,8 @@ def fit_noise(
         one inherited from the result only when :meth:`NoiseFit.to_units` needs it.
     n_reweight : int
         Reweighting passes after the first (see the module docstring).
+    spacing : {"octave", "independent"}
+        Weighting of densely spaced taus, see :func:`fit_avar`.
 
     Returns
     -------
@@ -933,4 +966,7 @@ def fit_noise(
         rate_unit_info(units)
     else:
         units = declared
-    return _fit(result.tau, avar, edf, terms, units, n_reweight)
+    time = getattr(result, "time", None)
+    if time is not None and np.ndim(avar) != 2:
+        time = None
+    return _fit(result.tau, avar, edf, terms, units, n_reweight, spacing=spacing, time=time)

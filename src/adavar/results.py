@@ -1,12 +1,13 @@
-"""Result containers shared by the statistics and the fits."""
+"""Result containers shared by the statistics, the DAVAR engine and the fits."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-__all__ = ["DeviationResult"]
+__all__ = ["DavarResult", "DeviationResult"]
 
 
 @dataclass(frozen=True)
@@ -79,3 +80,167 @@ class DeviationResult:
     def avar(self) -> np.ndarray:
         """Alias of :attr:`var` (the variance that the noise model is fitted to)."""
         return self.dev**2
+
+
+@dataclass(frozen=True, eq=False)
+class DavarResult:
+    """A dynamic Allan variance surface: one overlapping Allan variance per window.
+
+    Attributes
+    ----------
+    time : ndarray, shape (T,)
+        Time of each window's centre sample, seconds (``t0 + centre * tau0``).
+    tau : ndarray, shape (M,)
+        Averaging times in seconds, ``m * tau0``.
+    avar : ndarray, shape (T, M)
+        Overlapping Allan variance of each window at each tau; NaN where ``3 m > L``
+        (a tau beyond a third of that window).
+    avar_low, avar_high : ndarray, shape (T, M), or None
+        Chi-square confidence bounds at ``confidence`` (None when computed with
+        ``confidence=None``).
+    window : ndarray of int64, shape (T,)
+        Window length (samples) at each centre.
+    centre : ndarray of int64, shape (T,)
+        Sample index of each centre in the input record (of the rate samples: for phase
+        input, of its first differences).
+    m : ndarray of int64, shape (M,)
+        Averaging factors.
+    alpha : ndarray of int64, shape (M,)
+        Power-law noise exponent per tau used for the EDF (-1 entries when no confidence
+        was computed); see :class:`DeviationResult`.
+    tau0 : float
+        Sample interval, seconds.
+    data_type : str
+        ``"rate"`` or ``"phase"``.
+    edges : str
+        ``"mirror"`` or ``"valid"``.
+    step : int
+        Spacing of the centres, samples.
+    confidence : float
+        Two-sided level of the bounds (NaN without bounds).
+    n_samples : int
+        Length of the input record.
+    units : str or None
+        Declared unit of the input samples.
+    notes : tuple of str
+        What the computation changed about the request.
+    edf_table : ndarray, shape (K, M), or None
+        Equivalent degrees of freedom per distinct window length (row ``window_class``).
+    window_class : ndarray of int64, shape (T,), or None
+        Row of ``edf_table`` for each centre.
+    """
+
+    time: np.ndarray
+    tau: np.ndarray
+    avar: np.ndarray
+    avar_low: np.ndarray | None
+    avar_high: np.ndarray | None
+    window: np.ndarray
+    centre: np.ndarray
+    m: np.ndarray
+    alpha: np.ndarray
+    tau0: float
+    data_type: str
+    edges: str
+    step: int
+    confidence: float
+    n_samples: int
+    units: str | None = None
+    notes: tuple[str, ...] = field(default_factory=tuple)
+    edf_table: np.ndarray | None = None
+    window_class: np.ndarray | None = None
+
+    #: the statistic of every window (the noise-model fit checks it)
+    stat = "oadev"
+
+    @property
+    def rate(self) -> float:
+        """Sample rate in Hz."""
+        return 1.0 / self.tau0
+
+    @property
+    def adev(self) -> np.ndarray:
+        """The dynamic Allan deviation, ``sqrt(avar)``."""
+        return np.sqrt(self.avar)
+
+    @property
+    def adev_low(self) -> np.ndarray | None:
+        """Lower confidence bound of :attr:`adev` (None without bounds)."""
+        return None if self.avar_low is None else np.sqrt(self.avar_low)
+
+    @property
+    def adev_high(self) -> np.ndarray | None:
+        """Upper confidence bound of :attr:`adev` (None without bounds)."""
+        return None if self.avar_high is None else np.sqrt(self.avar_high)
+
+    @property
+    def edf(self) -> np.ndarray | None:
+        """Equivalent degrees of freedom of every cell, shape (T, M) (None without bounds)."""
+        if self.edf_table is None or self.window_class is None:
+            return None
+        return self.edf_table[self.window_class]
+
+    @property
+    def n_terms(self) -> np.ndarray:
+        """Number of squared differences in each cell, ``L - 2m + 1`` (0 where undefined)."""
+        n = self.window[:, None] - 2 * self.m[None, :] + 1
+        return np.where(3 * self.m[None, :] <= self.window[:, None], n, 0)
+
+    def to_xarray(self) -> Any:
+        """The surface as an ``xarray.Dataset`` (dims ``time``, ``tau``); needs xarray."""
+        try:
+            import xarray as xr
+        except ImportError:  # pragma: no cover - depends on the environment
+            raise ImportError("to_xarray needs xarray: pip install xarray") from None
+        data_vars: dict[str, Any] = {
+            "avar": (("time", "tau"), self.avar),
+            "window": ("time", self.window),
+            "centre": ("time", self.centre),
+            "m": ("tau", self.m),
+            "alpha": ("tau", self.alpha),
+        }
+        if self.avar_low is not None and self.avar_high is not None:
+            data_vars["avar_low"] = (("time", "tau"), self.avar_low)
+            data_vars["avar_high"] = (("time", "tau"), self.avar_high)
+        ds = xr.Dataset(data_vars, coords={"time": self.time, "tau": self.tau})
+        ds["time"].attrs.update(units="s", long_name="window centre time")
+        ds["tau"].attrs.update(units="s", long_name="averaging time")
+        unit2 = f"({self.units})^2" if self.units else "input unit squared"
+        ds["avar"].attrs.update(units=unit2, long_name="overlapping Allan variance")
+        ds.attrs.update(self.metadata())
+        return ds
+
+    def to_pandas(self) -> Any:
+        """The surface as a long ``pandas.DataFrame``, one row per (time, tau) cell."""
+        try:
+            import pandas as pd
+        except ImportError:  # pragma: no cover - depends on the environment
+            raise ImportError("to_pandas needs pandas: pip install pandas") from None
+        nt, nm = self.avar.shape
+        cols: dict[str, Any] = {
+            "time": np.repeat(self.time, nm),
+            "tau": np.tile(self.tau, nt),
+            "window": np.repeat(self.window, nm),
+            "avar": self.avar.reshape(-1),
+        }
+        if self.avar_low is not None and self.avar_high is not None:
+            cols["avar_low"] = self.avar_low.reshape(-1)
+            cols["avar_high"] = self.avar_high.reshape(-1)
+        frame = pd.DataFrame(cols)
+        frame.attrs.update(self.metadata())
+        return frame
+
+    def metadata(self) -> dict[str, Any]:
+        """Scalar description of the computation (for file attributes and JSON)."""
+        return {
+            "statistic": self.stat,
+            "tau0": float(self.tau0),
+            "data_type": self.data_type,
+            "edges": self.edges,
+            "step": int(self.step),
+            "confidence": float(self.confidence),
+            "n_samples": int(self.n_samples),
+            "units": self.units or "",
+            "window_convention": "samples p-(L-1)//2 .. p-(L-1)//2+L-1 around centre p",
+            "notes": "; ".join(self.notes),
+        }

@@ -1,0 +1,282 @@
+"""The dynamic Allan variance (DAVAR) engine: every window, every tau, in O(N*M), exactly.
+
+:func:`davar` is the one place where a DAVAR surface is computed, for a fixed window
+(DAVAR-L) or any per-centre schedule (the adaptive controllers feed theirs in here).
+
+How it works (METHOD.md sections 2-3): the rate record is extended at both ends by time
+reversal (``edges="mirror"``), integrated once into the anchored double-double form of
+:mod:`adavar.differences`, and handed to a parallel kernel that, per chunk of consecutive
+centres and per averaging factor ``m``, computes the second differences ``d_m[i]`` over the
+chunk's span exactly, prefix-sums their squares with compensation, and reads each window's
+sum as the difference of two prefix values. The cost is O(1) per (centre, tau) whatever the
+window length, and a window's variance is exact to a few ulps even on records with a bias of
+1e6 standard deviations, a drift, or a short burst of much larger noise next to a quiet
+window. Centres far apart (``step`` larger than the window) are summed directly instead.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numba
+import numpy as np
+from scipy.stats import chi2
+
+from adavar import differences as diff
+from adavar import edf as edf_mod
+from adavar.errors import AdavarInputError
+from adavar.results import DavarResult
+from adavar.statistics import _DATA_TYPE_ALIASES, _noise_types, as_samples, resolve_tau0
+from adavar.taus import averaging_factors
+from adavar.windows import window_schedule
+
+__all__ = ["davar", "edf_table"]
+
+#: window lengths per tau at which the EDF is computed exactly; others are interpolated
+EDF_EXACT_LENGTHS = 24
+
+
+def edf_table(lengths: np.ndarray, ms: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+    """Greenhall EDF of the overlapping Allan variance of windows of each length.
+
+    Parameters
+    ----------
+    lengths : ndarray of int, shape (K,)
+        Distinct window lengths (rate samples), sorted.
+    ms : ndarray of int, shape (M,)
+        Averaging factors.
+    alpha : ndarray of int, shape (M,)
+        Power-law noise exponent per averaging factor.
+
+    Returns
+    -------
+    ndarray, shape (K, M)
+        EDF of a window of ``L`` samples (``L + 1`` phase points) at each ``m``; NaN where
+        ``3 m > L``. When more than :data:`EDF_EXACT_LENGTHS` lengths share an ``m``, the
+        EDF is computed exactly at that many lengths spread over their range and linearly
+        interpolated in ``L`` in between (it is smooth in ``L``: the interpolation error is
+        below 1e-3 relative, see the tests).
+    """
+    lengths = np.asarray(lengths, dtype=np.int64)
+    table = np.full((lengths.size, ms.size), np.nan)
+    for t, (m, a) in enumerate(zip(ms, alpha, strict=True)):
+        valid = 3 * m <= lengths
+        lv = lengths[valid]
+        if lv.size == 0:
+            continue
+        if lv.size <= EDF_EXACT_LENGTHS:
+            grid = lv
+        else:
+            grid = np.unique(np.round(np.linspace(lv[0], lv[-1], EDF_EXACT_LENGTHS)))
+            grid = grid.astype(np.int64)
+        values = np.array([edf_mod.edf("oadev", int(a), int(m), int(g) + 1) for g in grid])
+        table[valid, t] = values if grid is lv else np.interp(lv, grid, values)
+    return table
+
+
+def _bound_factors(table: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
+    """``edf / chi2.ppf`` factors of the lower and upper bounds (0 where undefined)."""
+    ok = np.isfinite(table)
+    k = np.where(ok, table, 1.0)
+    flo = np.where(ok, k / chi2.ppf(0.5 * (1.0 + confidence), k), 0.0)
+    fhi = np.where(ok, k / chi2.ppf(0.5 * (1.0 - confidence), k), 0.0)
+    return flo, fhi
+
+
+def _available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux), or None if unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:  # pragma: no cover - not Linux
+        return None
+    return None  # pragma: no cover
+
+
+def _check_memory(n_centres: int, n_taus: int, n_arrays: int) -> None:
+    need = n_centres * n_taus * n_arrays * 8
+    free = _available_memory()
+    if free is not None and need > 0.8 * free:
+        raise AdavarInputError(
+            f"the DAVAR surface would need {need / 2**30:.1f} GiB ({n_centres} centres x "
+            f"{n_taus} taus x {n_arrays} arrays) but {free / 2**30:.1f} GiB is free: compute "
+            "fewer centres (step), fewer taus (taus='octave'), or no bounds (confidence=None)"
+        )
+
+
+def _noise_alpha(
+    noise_type: str | int | Sequence[int], increments: np.ndarray, ms: np.ndarray
+) -> tuple[np.ndarray, tuple[str, ...]]:
+    if isinstance(noise_type, str):
+        if noise_type != "record":
+            raise AdavarInputError(
+                f"unknown noise_type {noise_type!r}: use 'record', an integer alpha "
+                "(2 white PM .. -2 random-walk FM) or one alpha per tau"
+            )
+        record = diff.anchored_phase(increments, cluster_stats=True)
+        return _noise_types(record, ms, 2)
+    alpha = np.atleast_1d(np.asarray(noise_type))
+    if not np.issubdtype(alpha.dtype, np.integer) or alpha.ndim != 1:
+        raise AdavarInputError("noise_type must be 'record', an integer, or integers per tau")
+    if alpha.size == 1:
+        alpha = np.full(ms.size, int(alpha[0]))
+    elif alpha.size != ms.size:
+        raise AdavarInputError(
+            f"noise_type has {alpha.size} values but there are {ms.size} taus: give one"
+        )
+    if np.any(alpha < -2) or np.any(alpha > 2):
+        raise AdavarInputError("noise_type alpha must lie in -2 .. 2 for the Allan variance")
+    return alpha.astype(np.int64), ()
+
+
+def _chunk_size(n_centres: int, longest: int, step: int) -> int:
+    """Centres per work item: spans of a few windows, and enough items for every thread."""
+    chunk = max(64, min(1 << 16, math.ceil(8 * longest / step)))
+    per_thread = math.ceil(n_centres / (4 * max(1, numba.get_num_threads())))
+    return int(max(64, min(chunk, per_thread)))
+
+
+def davar(
+    data: Sequence[float] | np.ndarray,
+    *,
+    window: int | Sequence[int] | np.ndarray,
+    rate: float = 1.0,
+    data_type: str = "rate",
+    taus: str | Sequence[float] | np.ndarray = "all",
+    edges: str = "mirror",
+    step: int = 1,
+    confidence: float | None = 0.683,
+    tau0: float | None = None,
+    t0: float = 0.0,
+    points_per_decade: int = 10,
+    noise_type: str | int | Sequence[int] = "record",
+    units: str | None = None,
+) -> DavarResult:
+    """Dynamic Allan variance: the overlapping Allan variance of a sliding window.
+
+    Parameters
+    ----------
+    data : array_like
+        The record, one sample per ``tau0``.
+    window : int or array_like of int
+        Window length in samples: an int for a fixed window (DAVAR-L), or one length per
+        sample of the record (any schedule, e.g. the adaptive controller's), or one per
+        computed centre (``ceil(N / step)`` values). At least 3 and at most the record
+        length. For even ``L`` the window holds ``L/2 - 1`` samples before its centre and
+        ``L/2`` after (see :mod:`adavar.windows`).
+    rate : float
+        Sample rate in Hz (ignored when ``tau0`` is given).
+    data_type : {"rate", "phase"}
+        Rate samples (gyro rate, accelerometer output, fractional frequency) or their
+        integral (angle, velocity, time error). Phase input is differenced first; windows,
+        centres and lengths then count its first differences.
+    taus : {"all", "octave", "decade", "log"} or sequence of float
+        Averaging times. ``"all"`` (the paper): ``m = 1 .. floor(Lmax / 3)``. Taus beyond a
+        third of a window are NaN for that window.
+    edges : {"mirror", "valid"}
+        ``"mirror"`` (METHOD.md section 3, the paper): every ``step``-th sample is a centre
+        and windows at the ends run into the time-reversed record; ``"valid"``: only
+        centres whose whole window lies inside the record.
+    step : int
+        Compute every ``step``-th centre only.
+    confidence : float or None
+        Two-sided level of the per-cell chi-square bounds (default 0.683, 1 sigma). The
+        EDF is the Greenhall-Riley EDF of an overlapping Allan variance of ``L + 1`` phase
+        points (``L - 2m + 1`` terms). ``None`` skips the bounds (faster, a third of the
+        memory).
+    tau0 : float, optional
+        Sample interval in seconds, instead of ``rate``.
+    t0 : float
+        Time of the first sample, seconds (``time = t0 + centre * tau0``).
+    points_per_decade : int
+        Density of ``taus="log"``.
+    noise_type : "record" or int or sequence of int
+        Power-law noise exponent alpha used for the EDF. ``"record"`` (default): identified
+        per tau on the whole record (lag-1 autocorrelation, B1 fallback), as
+        :func:`adavar.deviation` does; noise *levels* change from window to window, their
+        type at a given tau rarely does. An int applies one alpha everywhere (0: white rate
+        noise/ARW, -1: bias instability, -2: rate random walk, 1/2: flicker/white PM or
+        quantization); a sequence gives one per tau.
+    units : str, optional
+        Declared unit of the samples (carried to the fit and the figures). Never guessed.
+
+    Returns
+    -------
+    DavarResult
+        ``time``, ``tau``, ``avar`` (time x tau), ``avar_low``, ``avar_high``, ``window``,
+        ``centre``, ``.adev``, ``.edf``, ``.to_xarray()``, ``.to_pandas()``.
+
+    Raises
+    ------
+    AdavarInputError
+        Bad data, a window shorter than 3 or longer than the record, a non-positive rate,
+        unknown options, or a surface too large for the free memory.
+
+    Notes
+    -----
+    Cost O(N_centres * M) after an O(N) integration, independent of the window length,
+    parallel over chunks of centres. ``davar(x, window=L, edges="valid")`` at a centre
+    equals ``adavar.deviation(x[a:a+L], stat="oadev")`` to rounding.
+    """
+    dtype = _DATA_TYPE_ALIASES.get(str(data_type).lower())
+    if dtype is None:
+        raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
+    if confidence is not None and not (0.0 < float(confidence) < 1.0):
+        raise AdavarInputError(f"confidence must lie strictly between 0 and 1, got {confidence}")
+    try:
+        t0 = float(t0)
+    except (TypeError, ValueError):
+        raise AdavarInputError(f"t0 must be a number of seconds, got {t0!r}") from None
+    dt = resolve_tau0(rate, tau0)
+    x = as_samples(data, min_length=4 if dtype == "phase" else 3)
+    u = x if dtype == "rate" else np.diff(x)
+    scale = 1.0 if dtype == "rate" else 1.0 / dt**2
+
+    sched = window_schedule(u.size, window, edges=edges, step=step)
+    longest = int(sched.length.max())
+    ms, notes = averaging_factors(taus, longest // 3, dt, points_per_decade=points_per_decade)
+    n_arrays = 1 if confidence is None else 3
+    _check_memory(sched.centre.size, ms.size, n_arrays)
+
+    bound_factors = None
+    table = window_class = None
+    if confidence is None:
+        alpha = np.full(ms.size, -1, dtype=np.int64)
+    else:
+        alpha, id_notes = _noise_alpha(noise_type, u, ms)
+        notes = notes + id_notes
+        distinct, window_class = np.unique(sched.length, return_inverse=True)
+        table = edf_table(distinct, ms, alpha)
+        flo, fhi = _bound_factors(table, float(confidence))
+        bound_factors = (window_class, flo, fhi)
+
+    phase = diff.anchored_phase(sched.extend(u))
+    avar, low, high = diff.window_avar(
+        phase, ms, sched.centre, sched.length, offset=sched.pad_before, scale=scale,
+        chunk=_chunk_size(sched.centre.size, longest, sched.step),
+        bound_factors=bound_factors,
+    )  # fmt: skip
+    return DavarResult(
+        time=t0 + sched.centre * dt,
+        tau=ms * dt,
+        avar=avar,
+        avar_low=low,
+        avar_high=high,
+        window=sched.length,
+        centre=sched.centre,
+        m=ms,
+        alpha=alpha,
+        tau0=dt,
+        data_type=dtype,
+        edges=sched.edges,
+        step=sched.step,
+        confidence=float("nan") if confidence is None else float(confidence),
+        n_samples=int(x.size),
+        units=units,
+        notes=notes,
+        edf_table=table,
+        window_class=None if window_class is None else window_class.astype(np.int64),
+    )

@@ -1,0 +1,203 @@
+"""Window schedules: which samples each DAVAR window holds, and how the record is extended.
+
+The convention, used everywhere in adavar (the DAVAR engine, the sliding kurtosis, the
+adaptive controller): a window of ``L`` samples centred at sample ``p`` holds samples
+
+    ``p - (L - 1) // 2  ..  p - (L - 1) // 2 + L - 1``
+
+(METHOD.md section 2). For odd ``L`` it is symmetric; for even ``L`` it holds ``L/2 - 1``
+samples before the centre and ``L/2`` after it. (METHOD.md's sentence says "one more sample
+before"; its formula, which is followed here, gives one more after.)
+
+Near the ends of the record a window sticks out. With ``edges="mirror"`` (the paper,
+METHOD.md section 3) the rate samples are time-reversed about each end (``numpy.pad(...,
+mode="symmetric")``), which is the total-variance reflection of the integrated signal; with
+``edges="valid"`` only centres whose whole window lies inside the record are used.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from adavar.errors import AdavarInputError
+
+__all__ = ["EDGES", "MIN_WINDOW", "WindowSchedule", "window_schedule", "window_start"]
+
+EDGES = ("mirror", "valid")
+MIN_WINDOW = 3  # the shortest window with one Allan-variance term at m = 1
+
+
+def window_start(centre: Any, length: Any) -> Any:
+    """First sample of the window of ``length`` samples centred at ``centre``."""
+    return centre - (length - 1) // 2
+
+
+@dataclass(frozen=True)
+class WindowSchedule:
+    """The windows of a DAVAR computation.
+
+    Attributes
+    ----------
+    centre : ndarray of int64
+        Sample index of each window's centre in the original record.
+    length : ndarray of int64
+        Window length (samples) per centre.
+    pad_before, pad_after : int
+        Samples added by mirroring before the first and after the last sample (0 for
+        ``edges="valid"``).
+    n_samples : int
+        Length of the original record.
+    edges : str
+        ``"mirror"`` or ``"valid"``.
+    step : int
+        Spacing of the candidate centres.
+    """
+
+    centre: np.ndarray
+    length: np.ndarray
+    pad_before: int
+    pad_after: int
+    n_samples: int
+    edges: str
+    step: int
+
+    @property
+    def start(self) -> np.ndarray:
+        """First sample of each window, counted in the *extended* record."""
+        return window_start(self.centre, self.length) + self.pad_before
+
+    def extend(self, samples: np.ndarray) -> np.ndarray:
+        """The record with its mirrored ends (the array that ``start`` indexes)."""
+        if self.pad_before == 0 and self.pad_after == 0:
+            return samples
+        return np.pad(samples, (self.pad_before, self.pad_after), mode="symmetric")
+
+
+def _as_step(step: Any) -> int:
+    if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+        raise AdavarInputError(f"step must be a positive integer, got {step!r}")
+    return int(step)
+
+
+def _as_lengths(window: Any, n_samples: int) -> np.ndarray | int:
+    """An int, or a 1-D array of ints; checked against the record length."""
+    if isinstance(window, bool):
+        raise AdavarInputError(f"window must be a number of samples, got {window!r}")
+    if isinstance(window, (int, np.integer)):
+        lengths: np.ndarray | int = int(window)
+        lo = hi = int(window)
+    else:
+        try:
+            arr = np.asarray(window)
+        except Exception:  # pragma: no cover - exotic containers
+            raise AdavarInputError("window must be an int or an array of ints") from None
+        if arr.ndim == 0:
+            return _as_lengths(arr.item(), n_samples)
+        if arr.ndim != 1 or arr.size == 0:
+            raise AdavarInputError(
+                f"window must be an int or a 1-D array of ints, got shape {arr.shape}"
+            )
+        if not (np.issubdtype(arr.dtype, np.integer) or np.issubdtype(arr.dtype, np.floating)):
+            raise AdavarInputError("window must hold whole numbers of samples")
+        if np.issubdtype(arr.dtype, np.floating):
+            if not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)):
+                raise AdavarInputError("window must hold whole numbers of samples")
+        lengths = arr.astype(np.int64)
+        lo, hi = int(lengths.min()), int(lengths.max())
+    if lo < MIN_WINDOW:
+        raise AdavarInputError(
+            f"window of {lo} samples is too short: a window needs at least {MIN_WINDOW} "
+            "samples (one Allan-variance term at m = 1)"
+        )
+    if hi > n_samples:
+        raise AdavarInputError(
+            f"window of {hi} samples is longer than the record ({n_samples} samples): "
+            "choose a shorter window"
+        )
+    return lengths
+
+
+def window_schedule(
+    n_samples: int, window: Any, *, edges: str = "mirror", step: int = 1
+) -> WindowSchedule:
+    """Centres, lengths and starts of the DAVAR windows of a record.
+
+    Parameters
+    ----------
+    n_samples : int
+        Length of the record (rate samples).
+    window : int or array_like of int
+        A fixed length (DAVAR-L), or one length per sample of the record (``n_samples``
+        values, e.g. an adaptive schedule), or one per computed centre
+        (``ceil(n_samples / step)`` values, ``edges="mirror"`` only).
+    edges : {"mirror", "valid"}
+        ``"mirror"``: every ``step``-th sample is a centre and the record is extended by
+        time reversal at both ends; ``"valid"``: only centres whose whole window lies in
+        the record.
+    step : int
+        Spacing of the centres: samples ``0, step, 2 step, ...`` are candidates.
+
+    Returns
+    -------
+    WindowSchedule
+
+    Raises
+    ------
+    AdavarInputError
+        A window shorter than 3 samples or longer than the record, a bad ``step`` or
+        ``edges``, a window array of the wrong length, or no valid centre.
+    """
+    if edges not in EDGES:
+        raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
+    step = _as_step(step)
+    n_samples = int(n_samples)
+    lengths = _as_lengths(window, n_samples)
+    candidates = np.arange(0, n_samples, step, dtype=np.int64)
+    if isinstance(lengths, int):
+        length = None
+    elif lengths.size == n_samples:
+        length = lengths[candidates]
+    elif lengths.size == candidates.size and edges == "mirror":
+        length = lengths
+    else:
+        per_centre = f" or {candidates.size} (one per centre)" if step > 1 else ""
+        raise AdavarInputError(
+            f"window array has {lengths.size} values; give {n_samples} (one per sample)"
+            f"{per_centre}"
+        )
+    if isinstance(lengths, int):
+        # one length: the starts follow the centres, no per-centre arithmetic needed
+        before, after = (lengths - 1) // 2, lengths - 1 - (lengths - 1) // 2
+        if edges == "valid":
+            candidates = candidates[(candidates >= before) & (candidates + after < n_samples)]
+        first = int(candidates[0]) if candidates.size else 0
+        last = int(candidates[-1]) if candidates.size else 0
+        lowest, highest = first - before, last + after + 1
+    else:
+        start = window_start(candidates, length)
+        if edges == "valid":
+            keep = (start >= 0) & (start + length <= n_samples)
+            candidates, length, start = candidates[keep], length[keep], start[keep]
+        lowest = int(start.min()) if start.size else 0
+        highest = int((start + length).max()) if start.size else 0
+    if candidates.size == 0:
+        raise AdavarInputError(
+            "no window fits inside the record with edges='valid': use a shorter window "
+            "or edges='mirror'"
+        )
+    if isinstance(lengths, int):
+        length = np.full(candidates.size, lengths, dtype=np.int64)
+    pad_before = max(0, -lowest)
+    pad_after = max(0, highest - n_samples)
+    return WindowSchedule(
+        centre=candidates,
+        length=length,
+        pad_before=pad_before,
+        pad_after=pad_after,
+        n_samples=n_samples,
+        edges=edges,
+        step=step,
+    )
