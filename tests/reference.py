@@ -126,3 +126,55 @@ def variance(data, m, stat, data_type="rate", tau0=1.0):
 
 def deviation(data, ms, stat, data_type="rate", tau0=1.0):
     return np.sqrt([variance(data, int(m), stat, data_type, tau0) for m in ms])
+
+
+def davar_reference(x, window, *, edges="mirror", step=1, data_type="rate", tau0=1.0, ms=None):
+    """Dynamic Allan variance straight from its definition (slow: O(sum L * m) per window).
+
+    The rate samples ``v`` (``diff(x)`` for phase input) are extended by ``np.pad(v, k,
+    mode="symmetric")``; every ``step``-th sample ``p`` is a centre, its window is the ``L``
+    samples from ``p - (L - 1) // 2``, and at each ``m`` with ``3 m <= L``
+
+        avar = sum_i (sum(w[i+m:i+2m]) - sum(w[i:i+m]))**2 / (2 m**2 (L - 2m + 1))
+
+    with every second difference and the sum of squares taken with ``math.fsum``.
+    ``window`` is an int, one length per sample, or one per centre. ``edges="valid"`` keeps
+    the centres whose window lies inside the record. ``ms`` defaults to ``1 .. Lmax // 3``.
+
+    Returns ``(centre, length, ms, avar)`` with ``avar`` of shape (centres, taus).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    v = np.diff(x) if data_type == "phase" else x
+    unit = 1.0 / tau0**2 if data_type == "phase" else 1.0
+    n = v.size
+    centres = list(range(0, n, step))
+    w = np.asarray(window)
+    if w.ndim == 0:
+        lengths = [int(w)] * len(centres)
+    elif w.size == n:
+        lengths = [int(w[p]) for p in centres]
+    else:
+        assert w.size == len(centres)
+        lengths = [int(v_) for v_ in w]
+    pairs = [(p, L) for p, L in zip(centres, lengths, strict=True)]
+    if edges == "valid":
+        pairs = [(p, L) for p, L in pairs if p - (L - 1) // 2 >= 0 and p - (L - 1) // 2 + L <= n]
+    k = max(L for _, L in pairs)
+    ext = np.pad(v, k, mode="symmetric")  # ext[k + j] = v[j]
+    if ms is None:
+        ms = range(1, k // 3 + 1)
+    ms = [int(m) for m in ms]
+    out = np.full((len(pairs), len(ms)), np.nan)
+    for row, (p, L) in enumerate(pairs):
+        a = p - (L - 1) // 2
+        win = [float(s) for s in ext[k + a : k + a + L]]
+        for col, m in enumerate(ms):
+            if 3 * m > L:
+                continue
+            count = L - 2 * m + 1
+            d = [math.fsum(win[i + m : i + 2 * m] + [-s for s in win[i : i + m]])
+                 for i in range(count)]
+            out[row, col] = unit * math.fsum(di * di for di in d) / (2 * m * m * count)
+    centre = np.array([p for p, _ in pairs], dtype=np.int64)
+    length = np.array([L for _, L in pairs], dtype=np.int64)
+    return centre, length, np.asarray(ms, dtype=np.int64), out

@@ -1,9 +1,12 @@
-"""Reading records from plain text files, and writing output folders atomically.
+"""Reading records from plain text files, and writing output folders and surfaces atomically.
 
 :func:`read_text` reads one column of a CSV / TSV / semicolon- or whitespace-separated text
 file into a float64 array. :func:`atomic_directory` builds an output folder under a
 temporary sibling name and moves it into place only when everything in it was written, so
 an interrupted or failed run never leaves a half-written folder behind.
+:func:`write_surface` writes a DAVAR surface as NetCDF (readable by xarray, netCDF4,
+``scipy.io.netcdf_file``, ncdump, ...) or Parquet (pandas, pyarrow, polars, DuckDB, ...),
+so that it can be read without adavar.
 
 Every problem with the user's input raises :class:`adavar.errors.AdavarInputError` with a
 one-line message that names the problem and the way out.
@@ -18,13 +21,24 @@ import secrets
 import shutil
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from adavar.errors import AdavarInputError
 
-__all__ = ["COMMENT_PREFIXES", "atomic_directory", "check_output_directory", "read_text"]
+if TYPE_CHECKING:
+    from adavar.results import DavarResult
+
+__all__ = [
+    "COMMENT_PREFIXES",
+    "SURFACE_FORMATS",
+    "atomic_directory",
+    "check_output_directory",
+    "check_surface_format",
+    "read_text",
+    "write_surface",
+]
 
 #: Lines starting with one of these (after leading blanks) are comments.
 COMMENT_PREFIXES = ("#", "%")
