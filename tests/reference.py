@@ -172,8 +172,10 @@ def davar_reference(x, window, *, edges="mirror", step=1, data_type="rate", tau0
             if 3 * m > L:
                 continue
             count = L - 2 * m + 1
-            d = [math.fsum(win[i + m : i + 2 * m] + [-s for s in win[i : i + m]])
-                 for i in range(count)]
+            d = [
+                math.fsum(win[i + m : i + 2 * m] + [-s for s in win[i : i + m]])
+                for i in range(count)
+            ]
             out[row, col] = unit * math.fsum(di * di for di in d) / (2 * m * m * count)
     centre = np.array([p for p, _ in pairs], dtype=np.int64)
     length = np.array([L for _, L in pairs], dtype=np.int64)

@@ -5,6 +5,10 @@ Commands
 ``adavar avar FILE --rate HZ --units UNIT [...]``
     Allan-family deviation of one column of a text file, with confidence intervals, and
     optionally the IEEE Std 952 noise fit; a table, JSON, or an output folder.
+``adavar davar FILE --rate HZ --units UNIT --window L [...]``
+    The dynamic Allan variance of a sliding window and the noise coefficients of every
+    window over time (N(t), B(t), ...); a summary, JSON, or an output folder with the
+    surface (NetCDF or Parquet), the coefficients (CSV) and the figures.
 ``adavar demo [--out DIR] [--json] [--seed N]``
     The NIST SP 1065 check values and a simulated MEMS gyroscope.
 
@@ -33,12 +37,21 @@ from typing import Any, NoReturn
 import numpy as np
 
 from adavar import __version__
+from adavar.davar import davar
 from adavar.errors import AdavarInputError
-from adavar.io import atomic_directory, check_output_directory, read_text
+from adavar.io import (
+    SURFACE_FORMATS,
+    atomic_directory,
+    check_output_directory,
+    check_surface_format,
+    read_text,
+    write_surface,
+)
 from adavar.noise_model import ALLAN_STATS, TERM_NAMES, NoiseFit, fit_noise
-from adavar.results import DeviationResult
+from adavar.results import DavarResult, DeviationResult
 from adavar.statistics import STATISTICS, deviation
 from adavar.taus import TAU_KEYWORDS
+from adavar.windows import EDGES, MIN_WINDOW
 
 __all__ = ["build_parser", "main"]
 
@@ -63,6 +76,14 @@ _TERM_ALIASES = {
     "rrw": "rate_random_walk",
     "r": "rate_ramp",
     "rr": "rate_ramp",
+}
+#: File name (without suffix) of the coefficient figure of each term in a davar --out folder.
+_TERM_FILES = {
+    "quantization": "q",
+    "angle_random_walk": "arw",
+    "bias_instability": "bi",
+    "rate_random_walk": "rrw",
+    "rate_ramp": "rr",
 }
 _TERM_LETTERS = {
     "quantization": "Q",
@@ -121,6 +142,34 @@ def _confidence(text: str) -> float:
     if not 0.0 < value < 1.0:
         raise argparse.ArgumentTypeError(
             f"must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), got {text!r}"
+        )
+    return value
+
+
+def _confidence_or_none(text: str) -> float | None:
+    if text.strip().lower() in ("none", "off"):
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(
+            "must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), or none "
+            f"for no bounds and no fit, got {text!r}"
+        )
+    return value
+
+
+def _window_length(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < MIN_WINDOW:
+        raise argparse.ArgumentTypeError(
+            f"must be a whole number of samples, at least {MIN_WINDOW} (one Allan-variance "
+            f"term at m = 1), got {text!r}"
         )
     return value
 
@@ -185,7 +234,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="adavar",
         description="Allan-family statistics with confidence intervals and IEEE Std 952 "
-        "noise-coefficient fits.",
+        "noise-coefficient fits (avar), the dynamic Allan variance of a sliding window with "
+        "the noise coefficients over time (davar), and a demonstration (demo).",
     )
     parser.add_argument("--version", action="version", version=f"adavar {__version__}")
     parser.add_argument(
@@ -255,6 +305,89 @@ def build_parser() -> argparse.ArgumentParser:
     avar.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                       help=argparse.SUPPRESS)
     avar.set_defaults(handler=_cmd_avar)
+
+    dav = sub.add_parser(
+        "davar",
+        help="dynamic Allan variance and noise coefficients over time",
+        description="The dynamic Allan variance (DAVAR) of one column of a CSV/TSV/whitespace "
+        "text file: the overlapping Allan variance of a window of --window samples centred "
+        "on every --step-th sample, with per-cell confidence bounds, and the IEEE Std 952 "
+        "noise coefficients of every window (N(t), B(t), ...). Prints a summary (or JSON); "
+        "--out writes the surface, the coefficients and the figures. The sampling rate and "
+        "the unit of the samples are required: adavar never guesses them.",
+    )
+    dav.add_argument("file", metavar="FILE", help="text file, one sample per row")
+    dav.add_argument(
+        "--column", metavar="NAME",
+        help="header name or 0-based index of the column (needed if there are several)",
+    )  # fmt: skip
+    dav.add_argument(
+        "--rate", metavar="HZ", type=_positive_float("Hz"),
+        help="sample rate in Hz (required, or --tau0)",
+    )  # fmt: skip
+    dav.add_argument(
+        "--tau0", metavar="SECONDS", type=_positive_float("seconds"),
+        help="sample interval in seconds, instead of --rate",
+    )  # fmt: skip
+    dav.add_argument(
+        "--units", metavar="UNIT",
+        help="unit of the samples, e.g. deg/s, deg/h, rad/s, m/s^2, g (required); with "
+        "--data-type phase the unit of the integrated samples, e.g. deg or s",
+    )  # fmt: skip
+    dav.add_argument(
+        "--window", metavar="L", type=_window_length, required=True,
+        help=f"window length in samples (at least {MIN_WINDOW}, at most the record); taus "
+        "up to a third of it",
+    )  # fmt: skip
+    dav.add_argument(
+        "--step", metavar="S", type=_positive_int, default=1,
+        help="centre a window on every S-th sample only (default: 1, every sample)",
+    )  # fmt: skip
+    dav.add_argument(
+        "--taus", default="all", type=_taus, metavar="SPEC",
+        help="all (default: every multiple of tau0 up to a third of the window), octave, "
+        "decade, log, or comma-separated taus in seconds",
+    )  # fmt: skip
+    dav.add_argument(
+        "--edges", default="mirror", choices=EDGES,
+        help="mirror (default: every sample is a centre, the record is time-reversed at its "
+        "ends) or valid (only windows inside the record)",
+    )  # fmt: skip
+    dav.add_argument(
+        "--data-type", default="rate", choices=("rate", "phase"),
+        help="rate samples (gyro rate, acceleration, fractional frequency) or their "
+        "integral (angle, velocity, time error); default: rate",
+    )  # fmt: skip
+    dav.add_argument(
+        "--confidence", default=0.683, type=_confidence_or_none, metavar="P",
+        help="two-sided confidence level of the per-cell bounds (default: 0.683); none: no "
+        "bounds and no noise fit (faster, a third of the memory)",
+    )  # fmt: skip
+    dav.add_argument(
+        "--points-per-decade", default=10, type=_positive_int, metavar="K",
+        help="density of --taus log (default: 10)",
+    )  # fmt: skip
+    dav.add_argument(
+        "--terms", type=_terms, metavar="LIST",
+        help="comma-separated terms of the fit of every window (names or Q,N,B,K,R; "
+        "default: all five)",
+    )  # fmt: skip
+    dav.add_argument(
+        "--format", choices=tuple(SURFACE_FORMATS),
+        help="file format of the surface in --out: nc (NetCDF, default) or parquet (needs "
+        "pyarrow)",
+    )  # fmt: skip
+    dav.add_argument("--json", action="store_true", help="print one JSON object (a summary)")
+    dav.add_argument(
+        "--out", metavar="DIR",
+        help="also write surface.nc (or .parquet), coefficients.csv, result.json and the "
+        "figures davar_surface, davar_heatmap and arw (N(t); of the first term when N is "
+        "not fitted: q, bi, rrw or rr) as .png/.svg to this new folder",
+    )  # fmt: skip
+    dav.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    dav.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                     help=argparse.SUPPRESS)
+    dav.set_defaults(handler=_cmd_davar)
 
     demo = sub.add_parser(
         "demo",
@@ -483,9 +616,8 @@ def _output_error(out: str | os.PathLike[str], exc: OSError) -> AdavarInputError
 # --------------------------------------------------------------------------------------
 
 
-def _cmd_avar(args: argparse.Namespace) -> int:
-    from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
-
+def _require_units_and_rate(args: argparse.Namespace) -> tuple[str, float]:
+    """The declared unit and tau0 (seconds); a :class:`UsageError` if either is missing."""
     if args.units is None or not args.units.strip():
         raise UsageError(
             "declare the unit of the samples with --units (e.g. --units deg/s); adavar never "
@@ -497,6 +629,13 @@ def _cmd_avar(args: argparse.Namespace) -> int:
             f"give exactly one of --rate HZ or --tau0 SECONDS ({which} given); adavar never "
             "guesses the sampling rate"
         )
+    return args.units.strip(), args.tau0 if args.tau0 is not None else 1.0 / args.rate
+
+
+def _cmd_avar(args: argparse.Namespace) -> int:
+    from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
+
+    units, tau0 = _require_units_and_rate(args)
     do_fit = args.fit or args.terms is not None
     if do_fit and args.stat not in ALLAN_STATS:
         raise UsageError(
@@ -507,8 +646,6 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         check_output_directory(args.out, replace=args.force)
         _guard_replacement(args.out, [Path(args.file)])
 
-    units = args.units.strip()
-    tau0 = args.tau0 if args.tau0 is not None else 1.0 / args.rate
     samples, meta = read_text(args.file, column=args.column)
     rate_u = rate_unit(units, args.data_type)
     result = deviation(
@@ -591,6 +728,292 @@ def _cmd_avar(args: argparse.Namespace) -> int:
     if written:
         print()
         print(f"wrote {args.out}/ ({', '.join(written)})")
+    return EXIT_OK
+
+
+def _series_stats(values: Any, times: np.ndarray) -> dict[str, Any]:
+    """Median, 5th/95th percentiles, extremes (with their times) and mean of a time series,
+    over its finite values (None where there are none)."""
+    v = np.asarray(values, dtype=float).reshape(-1)
+    ok = np.isfinite(v)
+    keys = ("median", "p05", "p95", "min", "max", "mean", "time_of_min", "time_of_max")
+    if not ok.any():
+        return {"n": 0, **dict.fromkeys(keys)}
+    where = np.flatnonzero(ok)
+    finite = v[ok]
+    p05, median, p95 = np.percentile(finite, [5.0, 50.0, 95.0])
+    return {
+        "n": int(finite.size),
+        "median": float(median),
+        "p05": float(p05),
+        "p95": float(p95),
+        "min": float(finite.min()),
+        "max": float(finite.max()),
+        "mean": float(finite.mean()),
+        "time_of_min": float(times[where[np.argmin(finite)]]),
+        "time_of_max": float(times[where[np.argmax(finite)]]),
+    }
+
+
+def _fitted_windows(fit: NoiseFit) -> np.ndarray:
+    """True for every window whose fit succeeded (all coefficients finite)."""
+    return np.all(np.isfinite(np.asarray(fit.coefficients)), axis=-1).reshape(-1)
+
+
+def _davar_fit_json(fit: NoiseFit, times: np.ndarray) -> dict[str, Any]:
+    from adavar.plots import term_unit
+
+    conv = _conventional(fit)
+    fitted = _fitted_windows(fit)
+    terms: dict[str, Any] = {}
+    for name in TERM_NAMES:
+        if name not in fit.terms:
+            terms[name] = None
+            continue
+        term = fit.term(name)
+        terms[name] = {
+            "unit": term_unit(name, fit.units),
+            "value": _series_stats(term.value, times),
+            "uncertainty": _series_stats(term.uncertainty, times),
+            "conventional": None
+            if conv is None
+            else {"unit": conv[name].unit, "value": _series_stats(conv[name].value, times)},
+        }
+    return {
+        "terms": list(fit.terms),
+        "n_windows": int(fitted.size),
+        "n_fitted": int(np.count_nonzero(fitted)),
+        "coefficients": terms,
+        "reduced_chi2": _series_stats(fit.reduced_chi2, times),
+    }
+
+
+def _coefficient_term(fit: NoiseFit) -> str:
+    """The term drawn in the coefficient figure: N if fitted, else the first fitted term."""
+    return "angle_random_walk" if "angle_random_walk" in fit.terms else fit.terms[0]
+
+
+def _write_coefficients(path: Path, result: DavarResult, fit: NoiseFit, comment: str) -> None:
+    columns: list[tuple[str, Any]] = [("time_s", result.time), ("window", result.window)]
+    for name in fit.terms:
+        term = fit.term(name)
+        columns += [(name, term.value), (f"{name}_uncertainty", term.uncertainty)]
+    columns.append(("reduced_chi2", fit.reduced_chi2))
+    lists = [np.asarray(values).reshape(-1).tolist() for _, values in columns]
+    buffer = _stdio.StringIO()
+    buffer.write(f"# {comment}\n")
+    buffer.write(",".join(name for name, _ in columns) + "\n")
+    # str() of a Python float is its shortest round-trip form, as repr()
+    buffer.writelines(",".join(map(str, row)) + "\n" for row in zip(*lists, strict=True))
+    path.write_text(buffer.getvalue(), encoding="utf-8")
+
+
+def _davar_summary(
+    result: DavarResult, fit: NoiseFit | None, meta: dict[str, Any], units: str,
+    data_type: str, written: list[str], out: str | None,
+) -> list[str]:  # fmt: skip
+    from adavar.plots import TERM_LABELS, term_unit
+
+    tau0 = float(result.tau0)
+    window = np.asarray(result.window)
+    n_time, n_tau = np.shape(result.avar)
+    every = "every sample" if result.step == 1 else f"every {result.step} samples"
+    bounds = (
+        "no confidence bounds"
+        if result.avar_low is None
+        else f"{100 * result.confidence:.1f} % confidence bounds"
+    )
+    lines = [
+        f"{meta['path']}, column {meta['column']!r}: {result.n_samples} samples, "
+        f"{data_type} data in {units}, tau0 = {tau0:g} s ({1.0 / tau0:g} Hz), "
+        f"{result.n_samples * tau0:g} s",
+        f"Dynamic Allan deviation: window {int(window[0])} samples "
+        f"({int(window[0]) * tau0:g} s) centred on {every}, {result.edges} edges: "
+        f"{n_time} window{'s' if n_time != 1 else ''} ({result.time[0]:g} s .. "
+        f"{result.time[-1]:g} s) x {n_tau} tau{'s' if n_tau != 1 else ''} "
+        f"({result.tau[0]:g} s .. {result.tau[-1]:g} s), {bounds}",
+    ]
+    lines += [f"note: {note}" for note in result.notes]
+    if fit is None:
+        lines.append("(no noise fit: --confidence none computes no EDF to weight it)")
+    else:
+        fitted = _fitted_windows(fit)
+        terms = "all five terms" if len(fit.terms) == 5 else ", ".join(fit.terms)
+        red = _series_stats(fit.reduced_chi2, result.time)["median"]
+        lines.append("")
+        lines.append(
+            f"Noise coefficients of every window ({terms}): {int(fitted.sum())} of "
+            f"{fitted.size} windows fitted; median reduced chi2 = "
+            + (f"{red:.3g}" if red is not None else "n/a")
+        )
+        if not fitted.all():
+            lines.append(
+                f"({fitted.size - int(fitted.sum())} windows not fitted, too few taus for the "
+                "terms: NaN; use more taus or fewer --terms)"
+            )
+        conv = _conventional(fit)
+        times = np.asarray(result.time)
+
+        def row(label: str, unit: str | None, values: Any) -> list[str]:
+            st = _series_stats(values, times)
+            if st["n"] == 0:
+                return [label, unit or "", *(["n/a"] * 5)]
+            return [
+                label, unit or "1", f"{st['median']:.4g}", f"{st['p05']:.4g}",
+                f"{st['p95']:.4g}", f"{st['max']:.4g}", f"{st['time_of_max']:g}",
+            ]  # fmt: skip
+
+        rows = []
+        for name in fit.terms:
+            letter, long_name = TERM_LABELS[name]
+            rows.append(row(f"{letter}  {long_name}", term_unit(name, fit.units),
+                            fit.term(name).value))  # fmt: skip
+            if conv is not None:
+                rows.append(row("", conv[name].unit, conv[name].value))
+        headers = ["term", "unit", "median", "5 %", "95 %", "max", "max at t [s]"]
+        lines.append(_table(headers, rows, "  "))
+        if fit.units and conv is None:
+            lines.append(
+                f"  (no conventional units for {fit.units!r}: declare deg/s, deg/h, rad/s, "
+                "m/s^2 or g to get them)"
+            )
+    if written:
+        lines += ["", f"wrote {out}/ ({', '.join(written)})"]
+    return lines
+
+
+def _cmd_davar(args: argparse.Namespace) -> int:
+    from adavar.plots import rate_unit
+
+    units, tau0 = _require_units_and_rate(args)
+    if args.format is not None and args.out is None:
+        raise UsageError("--format chooses the surface file of --out: give --out DIR as well")
+    if args.confidence is None and args.terms is not None:
+        raise UsageError(
+            "--terms needs the confidence bounds (the fit is weighted by the EDF of every "
+            "cell): drop --confidence none"
+        )
+    fmt = check_surface_format(args.format or "nc")  # before the work: pyarrow installed?
+    if args.out is not None:
+        check_output_directory(args.out, replace=args.force)
+        _guard_replacement(args.out, [Path(args.file)])
+
+    samples, meta = read_text(args.file, column=args.column)
+    rate_u = rate_unit(units, args.data_type)
+    result = davar(
+        samples,
+        window=args.window,
+        tau0=tau0,
+        data_type=args.data_type,
+        taus=args.taus,
+        edges=args.edges,
+        step=args.step,
+        confidence=args.confidence,
+        points_per_decade=args.points_per_decade,
+        units=rate_u,
+    )
+    fit = None
+    if args.confidence is not None:
+        try:
+            fit = fit_noise(result, terms=args.terms or TERM_NAMES)
+        except ValueError as exc:
+            raise AdavarInputError(str(exc)) from None
+
+    written: list[str] = []
+    if args.out is not None:
+        written = [f"surface{SURFACE_FORMATS[fmt]}"]
+        if fit is not None:
+            written.append("coefficients.csv")
+        figure_stems = ["davar_surface", "davar_heatmap"]
+        if fit is not None:
+            figure_stems.append(_TERM_FILES[_coefficient_term(fit)])
+        written += [f"{stem}.{ext}" for stem in figure_stems for ext in ("png", "svg")]
+        written.append("result.json")
+
+    n_time, n_tau = np.shape(result.avar)
+    payload: dict[str, Any] = {
+        "adavar_version": __version__,
+        "input": {
+            "file": meta["path"],
+            "column": meta["column"],
+            "rate": 1.0 / tau0,
+            "tau0": tau0,
+            "units": units,
+            "data_type": args.data_type,
+            "n_samples": result.n_samples,
+        },
+        "parameters": {
+            "window": args.window,
+            "window_s": args.window * tau0,
+            "step": result.step,
+            "edges": result.edges,
+            "taus": args.taus,
+            "points_per_decade": args.points_per_decade,
+            "confidence": args.confidence,
+            "terms": None if fit is None else list(fit.terms),
+        },
+        "units": rate_u,
+        "shape": {"time": n_time, "tau": n_tau},
+        "time": {
+            "first": result.time[0],
+            "last": result.time[-1],
+            "spacing": result.step * tau0,
+        },
+        "tau": result.tau,
+        "m": result.m,
+        "alpha": result.alpha,
+        "notes": list(result.notes),
+        "fit": None if fit is None else _davar_fit_json(fit, np.asarray(result.time)),
+        "out": None if args.out is None else {"dir": args.out, "format": fmt, "files": written},
+    }
+    text = _dumps(payload)
+
+    if args.out is not None:
+        from adavar.plots import (
+            coefficient_figure,
+            davar_heatmap_figure,
+            davar_surface_figure,
+            save_figure,
+            term_unit,
+        )
+
+        title = f"{Path(meta['path']).name}, column {meta['column']}"
+        figures = {
+            "davar_surface": davar_surface_figure(result),
+            "davar_heatmap": davar_heatmap_figure(result),
+        }
+        if fit is not None:
+            term = _coefficient_term(fit)
+            figures[_TERM_FILES[term]] = coefficient_figure(
+                fit, term=term, title=f"{title}: window {args.window} samples"
+            )
+        try:
+            with atomic_directory(args.out, replace=args.force) as tmp:
+                write_surface(tmp / written[0], result, fmt=fmt)
+                if fit is not None:
+                    units_text = ", ".join(
+                        f"{name} in {term_unit(name, fit.units) or '1'}" for name in fit.terms
+                    )
+                    _write_coefficients(
+                        tmp / "coefficients.csv", result, fit,
+                        f"adavar {__version__}: noise coefficients of every DAVAR window of "
+                        f"{meta['path']} column {meta['column']!r} ({args.data_type} data, "
+                        f"tau0 = {tau0:g} s); time_s: window centre, window: samples; "
+                        f"{units_text}; uncertainties 1 sigma (an upper bound where the value "
+                        "is 0); nan: window not fitted",
+                    )  # fmt: skip
+                for stem, fig in figures.items():
+                    save_figure(fig, tmp / stem)
+                (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise _output_error(args.out, exc) from None
+
+    if args.json:
+        print(text)
+        if written:
+            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
+        return EXIT_OK
+    print("\n".join(_davar_summary(result, fit, meta, units, args.data_type, written, args.out)))
     return EXIT_OK
 
 
@@ -726,7 +1149,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = build_parser().parse_args(argv)
         if args.command is None:
             raise UsageError(
-                "choose a command: avar (deviation of a data file) or demo (see 'adavar --help')"
+                "choose a command: avar (deviation of a data file), davar (dynamic Allan "
+                "variance of a data file) or demo (see 'adavar --help')"
             )
         return int(args.handler(args))
     except SystemExit as exc:  # --help, --version

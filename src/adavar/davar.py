@@ -21,6 +21,7 @@ from collections.abc import Sequence
 
 import numba
 import numpy as np
+from scipy.interpolate import PchipInterpolator
 from scipy.stats import chi2
 
 from adavar import differences as diff
@@ -33,8 +34,10 @@ from adavar.windows import window_schedule
 
 __all__ = ["davar", "edf_table"]
 
-#: window lengths per tau at which the EDF is computed exactly; others are interpolated
-EDF_EXACT_LENGTHS = 24
+#: up to this many (length, tau) pairs every EDF is computed exactly (about 50 us each)
+EDF_EXACT_PAIRS = 4096
+#: beyond it, lengths per tau at which the EDF is computed exactly; others are interpolated
+EDF_EXACT_LENGTHS = 32
 
 
 def edf_table(lengths: np.ndarray, ms: np.ndarray, alpha: np.ndarray) -> np.ndarray:
@@ -53,25 +56,33 @@ def edf_table(lengths: np.ndarray, ms: np.ndarray, alpha: np.ndarray) -> np.ndar
     -------
     ndarray, shape (K, M)
         EDF of a window of ``L`` samples (``L + 1`` phase points) at each ``m``; NaN where
-        ``3 m > L``. When more than :data:`EDF_EXACT_LENGTHS` lengths share an ``m``, the
-        EDF is computed exactly at that many lengths spread over their range and linearly
-        interpolated in ``L`` in between (it is smooth in ``L``: the interpolation error is
-        below 1e-3 relative, see the tests).
+        ``3 m > L``. Every entry is exact (:func:`adavar.edf.edf`) when there are at most
+        :data:`EDF_EXACT_PAIRS` valid (L, m) pairs, e.g. an adaptive schedule over 200
+        lengths at octave taus. Beyond that, a tau with more than
+        :data:`EDF_EXACT_LENGTHS` lengths gets exact values at that many lengths spaced
+        geometrically in ``L - 3m + 1`` and a monotone cubic (PCHIP) interpolation in
+        log-log between them. Measured against exact values (lengths 5-40, 3-199,
+        400-600 and 3-5000; alpha -2..2; m up to 200): below 1e-3 relative except for
+        flicker PM (alpha = 1), where the Greenhall algorithm changes regime with ``L/m``
+        and the error reaches 1.2 %, far inside the EDF's own approximation.
     """
     lengths = np.asarray(lengths, dtype=np.int64)
     table = np.full((lengths.size, ms.size), np.nan)
+    valid = 3 * ms[None, :] <= lengths[:, None]
+    exact_everywhere = int(valid.sum()) <= EDF_EXACT_PAIRS
     for t, (m, a) in enumerate(zip(ms, alpha, strict=True)):
-        valid = 3 * m <= lengths
-        lv = lengths[valid]
+        lv = lengths[valid[:, t]]
         if lv.size == 0:
             continue
-        if lv.size <= EDF_EXACT_LENGTHS:
-            grid = lv
-        else:
-            grid = np.unique(np.round(np.linspace(lv[0], lv[-1], EDF_EXACT_LENGTHS)))
-            grid = grid.astype(np.int64)
-        values = np.array([edf_mod.edf("oadev", int(a), int(m), int(g) + 1) for g in grid])
-        table[valid, t] = values if grid is lv else np.interp(lv, grid, values)
+        if exact_everywhere or lv.size <= EDF_EXACT_LENGTHS:
+            table[valid[:, t], t] = [edf_mod.edf("oadev", int(a), int(m), int(L) + 1) for L in lv]
+            continue
+        x = lv - 3 * m + 1
+        nodes = np.unique(np.round(np.geomspace(x[0], x[-1], EDF_EXACT_LENGTHS)))
+        nodes = nodes.astype(np.int64)
+        values = [edf_mod.edf("oadev", int(a), int(m), int(g + 3 * m - 1) + 1) for g in nodes]
+        curve = PchipInterpolator(np.log(nodes), np.log(values))
+        table[valid[:, t], t] = np.exp(curve(np.log(x)))
     return table
 
 

@@ -423,3 +423,297 @@ def atomic_directory(
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+# --------------------------------------------------------------------------------------
+# DAVAR surfaces
+# --------------------------------------------------------------------------------------
+
+#: File formats of :func:`write_surface` and the file-name suffix of each.
+SURFACE_FORMATS: dict[str, str] = {"nc": ".nc", "parquet": ".parquet"}
+
+_FORMAT_ALIASES = {
+    "nc": "nc",
+    "netcdf": "nc",
+    "cdf": "nc",
+    "parquet": "parquet",
+    "pq": "parquet",
+}
+#: A 64-bit-offset (CDF-2) NetCDF file holds variables of at most 4 GiB - 4 bytes.
+_NETCDF_MAX_VARIABLE = 2**32 - 4
+_INT32 = np.iinfo(np.int32)
+
+
+def _require_pyarrow() -> tuple[Any, Any]:
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        raise _fail(
+            "writing Parquet needs pyarrow, which is not installed: pip install pyarrow "
+            "(or write NetCDF, format 'nc', which needs nothing more)"
+        ) from None
+    return pa, pq
+
+
+def check_surface_format(fmt: str) -> str:
+    """Check a surface file format (and that its writer is installed) before any work.
+
+    Parameters
+    ----------
+    fmt : str
+        ``"nc"`` (also ``"netcdf"``, ``"cdf"``) or ``"parquet"`` (also ``"pq"``), case
+        insensitive, with or without a leading dot.
+
+    Returns
+    -------
+    str
+        ``"nc"`` or ``"parquet"`` (a key of :data:`SURFACE_FORMATS`).
+
+    Raises
+    ------
+    AdavarInputError
+        An unknown format, or ``"parquet"`` without pyarrow installed (the message names
+        the fix, ``pip install pyarrow``).
+    """
+    key = _FORMAT_ALIASES.get(str(fmt).strip().lower().lstrip("."))
+    if key is None:
+        raise _fail(f"unknown surface format {fmt!r}: use 'nc' (NetCDF) or 'parquet'")
+    if key == "parquet":
+        _require_pyarrow()
+    return key
+
+
+def _surface_format(path: Path, fmt: str | None) -> str:
+    if fmt is not None:
+        return check_surface_format(fmt)
+    key = _FORMAT_ALIASES.get(path.suffix.lower().lstrip("."), "nc")
+    return check_surface_format(key)
+
+
+def _surface_variables(result: DavarResult) -> list[tuple[str, tuple[str, ...], Any, dict]]:
+    """(name, dimensions, data, CF attributes) of every variable of a surface file."""
+    unit = result.units
+    unit2: str | None
+    if unit is None:
+        unit2 = None
+    elif unit.strip() in ("", "1"):
+        unit2 = "1"
+    else:
+        unit2 = f"({unit})^2"
+
+    def with_unit(attrs: dict[str, Any]) -> dict[str, Any]:
+        return attrs if unit2 is None else {"units": unit2, **attrs}
+
+    out: list[tuple[str, tuple[str, ...], Any, dict]] = [
+        ("time", ("time",), result.time, {"units": "s", "long_name": "window centre time"}),
+        ("tau", ("tau",), result.tau, {"units": "s", "long_name": "averaging time"}),
+        ("avar", ("time", "tau"), result.avar,
+         with_unit({"long_name": "overlapping Allan variance of the window",
+                    "comment": "NaN where tau exceeds a third of the window"})),
+    ]  # fmt: skip
+    if result.avar_low is not None and result.avar_high is not None:
+        level = f"{100 * float(result.confidence):.4g} %"
+        for name, data, side in (
+            ("avar_low", result.avar_low, "lower"),
+            ("avar_high", result.avar_high, "upper"),
+        ):
+            attrs = {
+                "long_name": f"{side} bound of the {level} confidence interval of avar",
+                "confidence": float(result.confidence),
+            }
+            out.append((name, ("time", "tau"), data, with_unit(attrs)))
+    out += [
+        ("window", ("time",), result.window,
+         {"units": "1", "long_name": "window length in samples"}),
+        ("centre", ("time",), result.centre,
+         {"units": "1", "long_name": "index of the window's centre sample in the record"}),
+        ("m", ("tau",), result.m, {"units": "1", "long_name": "averaging factor tau / tau0"}),
+        ("alpha", ("tau",), result.alpha,
+         {"units": "1",
+          "long_name": "power-law noise exponent used for the EDF (-1: not identified)"}),
+    ]  # fmt: skip
+    return out
+
+
+def _global_attributes(result: DavarResult) -> dict[str, Any]:
+    from adavar import __version__
+
+    return {
+        "Conventions": "CF-1.8",
+        "title": "Dynamic Allan variance",
+        "source": f"adavar {__version__}",
+        **result.metadata(),
+    }
+
+
+def _nc_attribute(value: Any) -> Any:
+    """An attribute value scipy's NetCDF writer stores faithfully (doubles, not floats)."""
+    if isinstance(value, str):
+        return value.encode("utf-8")
+    if isinstance(value, (bool, np.bool_)):
+        return np.int32(value)
+    if isinstance(value, (int, np.integer)):
+        return np.int32(value) if _INT32.min <= value <= _INT32.max else np.float64(value)
+    if isinstance(value, (float, np.floating)):
+        return np.float64(value)
+    return str(value).encode("utf-8")
+
+
+def _write_netcdf(handle: Any, result: DavarResult) -> None:
+    from scipy.io import netcdf_file
+
+    n_time, n_tau = np.shape(result.avar)
+    if 8 * n_time * n_tau > _NETCDF_MAX_VARIABLE:
+        raise _fail(
+            f"a surface of {n_time} windows x {n_tau} taus ({8 * n_time * n_tau / 2**30:.1f} "
+            "GiB per variable) is too large for a NetCDF (64-bit offset) file: write Parquet "
+            "(pip install pyarrow), or compute fewer windows or taus"
+        )
+    nc = netcdf_file(handle, "w", version=2)
+    nc.createDimension("time", n_time)
+    nc.createDimension("tau", n_tau)
+    for name, dims, data, attrs in _surface_variables(result):
+        array = np.asarray(data)
+        if np.issubdtype(array.dtype, np.integer):
+            fits = array.size == 0 or (
+                _INT32.min <= int(array.min()) and int(array.max()) <= _INT32.max
+            )
+            typecode = "i" if fits else "d"
+        else:
+            typecode = "d"
+        var = nc.createVariable(name, typecode, dims)
+        var[...] = array
+        if typecode == "d" and name.startswith("avar"):
+            var._FillValue = np.float64(np.nan)  # NaN cells are missing to CF readers
+        for key, value in attrs.items():
+            setattr(var, key, _nc_attribute(value))
+    for key, value in _global_attributes(result).items():
+        name = key if not hasattr(nc, key) else f"adavar_{key}"  # never shadow internals
+        setattr(nc, name, _nc_attribute(value))
+    nc.close()  # writes the file (and closes the handle)
+
+
+def _json_scalar(value: Any) -> Any:
+    if isinstance(value, (float, np.floating)):
+        return float(value) if np.isfinite(value) else None
+    if isinstance(value, (np.integer, np.bool_)):
+        return value.item()
+    return value
+
+
+def _write_parquet(handle: Any, result: DavarResult) -> None:
+    import json
+
+    pa, pq = _require_pyarrow()
+    n_time, n_tau = np.shape(result.avar)
+    by_cell = {
+        "time": lambda a: np.repeat(a, n_tau),
+        "window": lambda a: np.repeat(a, n_tau),
+        "centre": lambda a: np.repeat(a, n_tau),
+        "tau": lambda a: np.tile(a, n_time),
+        "m": lambda a: np.tile(a, n_time),
+        "alpha": lambda a: np.tile(a, n_time),
+    }
+    arrays, fields = [], []
+    for name, _dims, data, attrs in _surface_variables(result):
+        array = np.asarray(data)
+        column = by_cell[name](array) if name in by_cell else array.reshape(-1)
+        arrays.append(pa.array(column))
+        meta = {key: str(value) for key, value in attrs.items()}
+        fields.append(pa.field(name, arrays[-1].type, metadata=meta))
+    attributes = {key: _json_scalar(v) for key, v in _global_attributes(result).items()}
+    schema_meta = {
+        "adavar": json.dumps(
+            {**attributes, "shape": [int(n_time), int(n_tau)],
+             "layout": "one row per (time, tau) cell, time-major"},
+            allow_nan=False,
+        ),
+        # pandas.read_parquet restores DataFrame.attrs from this key
+        "PANDAS_ATTRS": json.dumps(attributes, allow_nan=False),
+    }  # fmt: skip
+    table = pa.Table.from_arrays(arrays, schema=pa.schema(fields, metadata=schema_meta))
+    pq.write_table(table, handle)
+
+
+def write_surface(
+    path: str | os.PathLike[str], result: DavarResult, *, fmt: str | None = None
+) -> Path:
+    """Write a DAVAR surface to a file that can be read without adavar.
+
+    The file is written under a temporary name in the target folder and moved into place
+    with :func:`os.replace`: a reader never sees a half-written file, and a failure leaves
+    any earlier file at ``path`` untouched.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file to write (replaced if it exists).
+    result : DavarResult
+        From :func:`adavar.davar`.
+    fmt : {"nc", "parquet"}, optional
+        The format; by default from the suffix of ``path`` (``.parquet``/``.pq`` Parquet,
+        anything else NetCDF).
+
+        ``"nc"``: NetCDF classic with 64-bit offsets (``scipy.io.netcdf_file``,
+        ``version=2``). Dimensions ``time`` (T windows) and ``tau`` (M); variables
+        ``time`` and ``tau`` (s), ``avar`` (T x M, in the square of the data's unit; NaN
+        where tau exceeds a third of the window, with ``_FillValue = NaN``), ``avar_low``
+        and ``avar_high`` (when the result has bounds), ``window``, ``centre``, ``m``,
+        ``alpha`` (int32, or double if a value does not fit), each with CF ``units`` and
+        ``long_name``; global attributes ``Conventions``, ``title``, ``source`` and
+        :meth:`DavarResult.metadata`. Text attributes are UTF-8. Read it with
+        ``xarray.open_dataset(path)`` or ``scipy.io.netcdf_file(path)``.
+
+        ``"parquet"`` (needs pyarrow): a long table, one row per (time, tau) cell in
+        time-major order, columns ``time, tau, avar, [avar_low, avar_high,] window,
+        centre, m, alpha`` with ``units``/``long_name`` field metadata, and the global
+        attributes as JSON in the schema metadata (key ``adavar``, and ``PANDAS_ATTRS`` so
+        that ``pandas.read_parquet(path).attrs`` holds them). Read it with
+        ``pandas.read_parquet(path)``; ``frame.pivot(index="time", columns="tau",
+        values="avar")`` gives the T x M surface back.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    AdavarInputError
+        An unknown format, Parquet without pyarrow (``pip install pyarrow``), a surface
+        too large for NetCDF classic (a variable over 4 GiB), or a folder that cannot be
+        written.
+    """
+    target = Path(path)
+    kind = _surface_format(target, fmt)
+    if not target.parent.is_dir():
+        raise _fail(
+            f"the folder of {target} does not exist: create it first or choose another path"
+        )
+    if target.is_dir():
+        raise _fail(f"{target} is a folder: give the path of the file to write")
+    # not mkstemp: its 0600 mode would stick to the final file; "x" honours the umask
+    tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
+    try:
+        with open(tmp, "xb") as handle:
+            if kind == "nc":
+                _write_netcdf(handle, result)
+            else:
+                _write_parquet(handle, result)
+        with contextlib.suppress(OSError):  # data on disk before the name points at it
+            fd = os.open(tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        os.replace(tmp, target)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise _fail(f"cannot write {target}: {exc.strerror or exc}") from None
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    return target

@@ -1,4 +1,11 @@
-"""Figures of deviation curves and noise fits, and the unit labels they need.
+"""Figures of deviation curves, DAVAR surfaces and noise fits, and the unit labels they need.
+
+:func:`deviation_figure` draws one deviation curve and its noise fit;
+:func:`davar_surface_figure` (3-D) and :func:`davar_heatmap_figure` (time x tau map) draw a
+dynamic Allan deviation surface, and :func:`coefficient_figure` one noise coefficient of
+every DAVAR window over time (N(t), B(t), ...) with its uncertainty band. The DAVAR figures
+decimate the windows (and taus) before drawing, so a surface of 1e6 windows is drawn as
+fast as one of a few hundred.
 
 Every function builds a :class:`matplotlib.figure.Figure` with an Agg canvas attached and
 returns it; nothing touches pyplot's global state (no current figure, no backend switch),
@@ -23,14 +30,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from adavar.noise_model import TERM_NAMES
-from adavar.results import DeviationResult
+from adavar.results import DavarResult, DeviationResult
+from adavar.units import conventional_units, convert_coefficient
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI start-up)
     from matplotlib.figure import Figure
 
+    from adavar.noise_model import NoiseFit
+
 __all__ = [
     "STAT_NAMES",
     "TERM_LABELS",
+    "coefficient_figure",
+    "davar_heatmap_figure",
+    "davar_surface_figure",
     "deviation_figure",
     "deviation_unit",
     "format_pm",
@@ -217,11 +230,13 @@ def format_pm(value: Any, uncertainty: Any, unit: str | None = None, *, digits: 
 # --------------------------------------------------------------------------------------
 
 
-def _new_figure(figsize: tuple[float, float] = (7.5, 5.5)) -> Figure:
+def _new_figure(
+    figsize: tuple[float, float] = (7.5, 5.5), layout: str | None = "constrained"
+) -> Figure:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=figsize, layout="constrained")
+    fig = Figure(figsize=figsize, layout=layout)
     FigureCanvasAgg(fig)
     return fig
 
@@ -328,6 +343,336 @@ def deviation_figure(
     order = sorted(range(len(labels)), key=lambda k: labels[k] != label)  # the data first
     ax.legend([handles[k] for k in order], [labels[k] for k in order], fontsize="small",
               loc="best")
+    if title:
+        ax.set_title(title)
+    return fig
+
+
+# --------------------------------------------------------------------------------------
+# DAVAR figures
+# --------------------------------------------------------------------------------------
+
+
+def _spread(n: int, most: int) -> np.ndarray:
+    """Indices of at most ``most`` of ``n`` rows, evenly spread, first and last included."""
+    if most < 2:
+        raise ValueError(f"need room for at least 2 rows, got {most}")
+    if n <= most:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0.0, n - 1, most)).astype(np.int64))
+
+
+def _spread_log(values: np.ndarray, most: int) -> np.ndarray:
+    """Indices of at most ``most`` of the sorted positive ``values``, evenly spread in log
+    (the nearest value to each of ``most`` log-spaced targets), first and last included."""
+    n = values.size
+    if most < 2:
+        raise ValueError(f"need room for at least 2 taus, got {most}")
+    if n <= most:
+        return np.arange(n)
+    logs = np.log(values)
+    targets = np.linspace(logs[0], logs[-1], most)
+    right = np.clip(np.searchsorted(logs, targets), 1, n - 1)
+    nearer_left = (targets - logs[right - 1]) < (logs[right] - targets)
+    return np.unique(np.where(nearer_left, right - 1, right))
+
+
+def _log_dev(result: DavarResult, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """log10 of the Allan deviation at the chosen cells; NaN where undefined."""
+    avar = np.asarray(result.avar)[np.ix_(rows, cols)]
+    good = np.isfinite(avar) & (avar > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(good, 0.5 * np.log10(np.where(good, avar, 1.0)), np.nan)
+
+
+def _log_label(name: str, unit: str | None) -> str:
+    """``log10(name / unit)``, the unit in parentheses when it is compound."""
+    if not unit:
+        return f"log10 {name}"
+    shown = f"({unit})" if any(c in unit for c in "/*^ ") else unit
+    return f"log10({name} / {shown})"
+
+
+def _colour_limits(z: np.ndarray) -> tuple[float, float] | tuple[None, None]:
+    finite = z[np.isfinite(z)]
+    if finite.size == 0:
+        return None, None
+    lo, hi = float(finite.min()), float(finite.max())
+    return (lo - 0.5, hi + 0.5) if lo == hi else (lo, hi)
+
+
+def _edges(centres: np.ndarray, log: bool, half_width: float) -> np.ndarray:
+    """Cell edges around sorted centres (midpoints; geometric midpoints when ``log``)."""
+    x = np.log(centres) if log else np.asarray(centres, dtype=float)
+    if x.size == 1:
+        h = math.log(2.0) / 2 if log else half_width
+        edges = np.array([x[0] - h, x[0] + h])
+    else:
+        mid = 0.5 * (x[1:] + x[:-1])
+        edges = np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
+    return np.exp(edges) if log else edges
+
+
+def davar_surface_figure(
+    result: DavarResult,
+    *,
+    units: str | None = None,
+    title: str | None = None,
+    max_times: int = 400,
+    max_taus: int = 100,
+    cmap: str = "viridis",
+    elev: float = 28.0,
+    azim: float = -125.0,
+) -> Figure:
+    """The dynamic Allan deviation as a 3-D surface (the A-DAVAR paper's Fig. 4).
+
+    Axes: ``log10(tau)``, time, and ``log10`` of the Allan deviation of each window.
+
+    Parameters
+    ----------
+    result : DavarResult
+        From :func:`adavar.davar`.
+    units : str, optional
+        Unit of the rate; defaults to ``result.units``. Omitted from the labels if unknown.
+    title : str, optional
+        Figure title.
+    max_times : int
+        At most this many windows are drawn, evenly spread over the record (first and last
+        included): drawing cost does not grow with the number of windows.
+    max_taus : int
+        At most this many taus are drawn, evenly spread in ``log(tau)``.
+    cmap : str
+        Matplotlib colour map of the surface (coloured by height).
+    elev, azim : float
+        Viewing angles in degrees (see ``Axes3D.view_init``).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        A 3-D axes (``fig.axes[0]``) holding one surface (``ax.collections[0]``,
+        rasterized so that SVG files stay small; a line instead if there is a single
+        window or a single tau), and a colour bar (``fig.axes[1]``); the title is the
+        figure's suptitle. Cells where the deviation is undefined (tau beyond a
+        third of the window) are left out.
+    """
+    from mpl_toolkits.mplot3d import Axes3D  # noqa: F401  (registers the 3-D projection)
+
+    unit = units if units is not None else result.units
+    tau = np.asarray(result.tau, dtype=float)
+    time_ = np.asarray(result.time, dtype=float)
+    rows = _spread(time_.size, max_times)
+    cols = _spread_log(tau, max_taus)
+    z = _log_dev(result, rows, cols)
+    x, y = np.meshgrid(np.log10(tau[cols]), time_[rows])
+    vmin, vmax = _colour_limits(z)
+
+    # constrained layout does not see the 3-D axis labels: place the axes by hand
+    fig = _new_figure((8.0, 6.5), layout=None)
+    ax = fig.add_axes((0.02, 0.02, 0.8, 0.88), projection="3d")
+    cax = fig.add_axes((0.86, 0.22, 0.025, 0.56))
+    if min(z.shape) >= 2:
+        mappable: Any = ax.plot_surface(
+            x, y, np.ma.masked_invalid(z), cmap=cmap, vmin=vmin, vmax=vmax, rstride=1,
+            cstride=1, linewidth=0, antialiased=False, rasterized=True,
+        )  # fmt: skip
+    else:  # one window or one tau: a surface would have no cells, draw the curve
+        from matplotlib.cm import ScalarMappable
+        from matplotlib.colors import Normalize
+
+        ax.plot(x.ravel(), y.ravel(), z.ravel(), "o-", color="C0", markersize=3)
+        mappable = ScalarMappable(norm=Normalize(vmin, vmax), cmap=cmap)
+    dev_label = _log_label("ADEV", unit)
+    ax.set_xlabel("log10(tau / s)")
+    ax.set_ylabel("time [s]")
+    ax.set_zlabel(dev_label)
+    if vmin is not None:
+        ax.set_zlim(vmin, vmax)
+    ax.view_init(elev=elev, azim=azim)
+    ax.set_box_aspect(None, zoom=0.92)
+    fig.colorbar(mappable, cax=cax, label=_log_label("Allan deviation", unit))
+    fig.suptitle(title or _davar_title(result, rows.size, cols.size), fontsize="medium")
+    return fig
+
+
+def _davar_title(result: DavarResult, n_rows: int, n_cols: int) -> str:
+    windows = np.asarray(result.window)
+    length = (
+        f"window {int(windows[0])} samples"
+        if windows.size and windows.min() == windows.max()
+        else f"windows {int(windows.min())}..{int(windows.max())} samples"
+    )
+    shown = ""
+    if n_rows < windows.size or n_cols < np.size(result.tau):
+        shown = f" (drawn: {n_rows} x {n_cols})"
+    n_taus = int(np.size(result.tau))
+    return (
+        f"Dynamic Allan deviation, {length}: {_count(windows.size, 'window')} x "
+        f"{_count(n_taus, 'tau')}{shown}"
+    )
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
+def davar_heatmap_figure(
+    result: DavarResult,
+    *,
+    units: str | None = None,
+    title: str | None = None,
+    max_times: int = 1500,
+    max_taus: int = 300,
+    cmap: str = "viridis",
+) -> Figure:
+    """The dynamic Allan deviation as a colour map over time and tau.
+
+    Parameters
+    ----------
+    result : DavarResult
+        From :func:`adavar.davar`.
+    units : str, optional
+        Unit of the rate; defaults to ``result.units``. Omitted from the labels if unknown.
+    title : str, optional
+        Figure title.
+    max_times : int
+        At most this many windows are drawn, evenly spread over the record.
+    max_taus : int
+        At most this many taus are drawn, evenly spread in ``log(tau)``.
+    cmap : str
+        Matplotlib colour map.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        Two axes: the map (time on x, tau on a log y axis; ``ax.collections[0]`` is the
+        rasterized ``QuadMesh`` of ``log10`` deviation, shape (taus, times), NaN cells
+        masked), and its colour bar labelled ``log10(Allan deviation / unit)``.
+    """
+    unit = units if units is not None else result.units
+    tau = np.asarray(result.tau, dtype=float)
+    time_ = np.asarray(result.time, dtype=float)
+    rows = _spread(time_.size, max_times)
+    cols = _spread_log(tau, max_taus)
+    z = _log_dev(result, rows, cols)
+    vmin, vmax = _colour_limits(z)
+    half = 0.5 * float(result.tau0) * max(int(result.step), 1)
+    time_edges = _edges(time_[rows], False, half)
+    tau_edges = _edges(tau[cols], True, 0.0)
+
+    fig = _new_figure((8.0, 5.0))
+    ax = fig.add_subplot()
+    mesh = ax.pcolormesh(
+        time_edges, tau_edges, np.ma.masked_invalid(z.T), cmap=cmap, vmin=vmin, vmax=vmax,
+        shading="flat", rasterized=True,
+    )  # fmt: skip
+    ax.set_yscale("log")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("tau [s]")
+    fig.colorbar(mesh, ax=ax, label=_log_label("Allan deviation", unit))
+    ax.set_title(title or _davar_title(result, rows.size, cols.size), fontsize="medium")
+    return fig
+
+
+def coefficient_figure(
+    fit: NoiseFit,
+    *,
+    term: str = "angle_random_walk",
+    units: str | None = None,
+    truth: float | None = None,
+    conventional: bool = True,
+    title: str | None = None,
+    max_points: int = 4000,
+) -> Figure:
+    """One noise coefficient of every DAVAR window over time, with its 1-sigma band.
+
+    Parameters
+    ----------
+    fit : NoiseFit
+        From :func:`adavar.fit_noise` applied to a :class:`DavarResult` (one curve per
+        window, ``fit.time`` set).
+    term : str
+        One of :data:`adavar.noise_model.TERM_NAMES` (default: N, the angle random walk);
+        it must be in the fit's model.
+    units : str, optional
+        Unit of the rate; defaults to ``fit.units``.
+    truth : float, optional
+        A known value of the coefficient, in the fit's own units (those of
+        ``fit.term(term).value``), drawn as a dashed horizontal line.
+    conventional : bool
+        Draw in the term's conventional unit (deg/sqrt(h), deg/h, ...) when the unit is one
+        of :data:`adavar.units.RATE_UNITS`; otherwise, or if False, in the fit's own unit
+        (:func:`term_unit`).
+    title : str, optional
+        Figure title.
+    max_points : int
+        At most this many windows are drawn, evenly spread over time (every k-th window:
+        values between them are not drawn, so a feature shorter than ``k`` windows may be
+        missed; the coefficient of a window varies on the scale of the window length).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        One axes: the band ``value ± uncertainty`` clipped at 0 (``ax.collections[0]``;
+        for a coefficient pinned at 0, from 0 to its 1-sigma upper bound), the value
+        (``ax.get_lines()[0]``; with markers and error bars when at most 50 windows are
+        drawn), and the ``truth`` line if given (``ax.get_lines()[1]``). Windows where the
+        fit failed (NaN) are gaps.
+
+    Raises
+    ------
+    ValueError
+        If ``fit`` is not a time series of fits, or ``term`` is unknown or not in its model.
+    """
+    if term not in TERM_NAMES:
+        raise ValueError(f"unknown noise term {term!r}; valid names: {', '.join(TERM_NAMES)}")
+    if term not in fit.terms:
+        raise ValueError(
+            f"{term} is not in the model of this fit (terms: {', '.join(fit.terms)})"
+        )
+    noise = fit.term(term)
+    value = np.asarray(noise.value, dtype=float)
+    sigma = np.asarray(noise.uncertainty, dtype=float)
+    if fit.time is None or value.ndim != 1:
+        raise ValueError(
+            "coefficient_figure draws a time series: pass the fit of a DAVAR result, "
+            "adavar.fit_noise(adavar.davar(...))"
+        )
+    unit = units if units is not None else fit.units
+    shown_unit = term_unit(term, unit)
+    scale = 1.0
+    if conventional and unit is not None:
+        with contextlib.suppress(ValueError, TypeError):
+            target = conventional_units(unit)[term]
+            scale = float(convert_coefficient(1.0, term, unit, target))
+            shown_unit = target
+
+    rows = _spread(value.size, max_points)
+    t = np.asarray(fit.time, dtype=float)[rows]
+    v = value[rows] * scale
+    s = sigma[rows] * scale
+    letter, long_name = TERM_LABELS[term]
+
+    fig = _new_figure((8.0, 4.5))
+    ax = fig.add_subplot()
+    ax.fill_between(
+        t, np.maximum(v - s, 0.0), v + s, color="C0", alpha=0.3, linewidth=0,
+        label="±1 sigma",
+    )  # fmt: skip
+    few = v.size <= 50  # markers and error bars, or a single window would be invisible
+    ax.plot(t, v, "o-" if few else "-", color="C0", linewidth=1.2, markersize=3,
+            label=f"{letter}(t), {long_name}")  # fmt: skip
+    if few:  # no caps: they would be Line2D objects among ax.get_lines()
+        ax.errorbar(t, v, yerr=np.vstack([v - np.maximum(v - s, 0.0), s]), fmt="none",
+                    ecolor="C0", elinewidth=1.0, capsize=0)  # fmt: skip
+    if truth is not None:
+        true_value = float(truth) * scale
+        text = f"{true_value:.4g} {shown_unit}" if shown_unit else f"{true_value:.4g}"
+        ax.axhline(true_value, color="k", linestyle="--", linewidth=1.1,
+                   label=f"true value {text}")  # fmt: skip
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel(f"{letter} [{shown_unit}]" if shown_unit else letter)
+    ax.grid(True, alpha=0.4)
+    ax.legend(fontsize="small", loc="best")
     if title:
         ax.set_title(title)
     return fig

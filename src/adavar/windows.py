@@ -95,7 +95,14 @@ def _as_lengths(window: Any, n_samples: int) -> np.ndarray | int:
         except Exception:  # pragma: no cover - exotic containers
             raise AdavarInputError("window must be an int or an array of ints") from None
         if arr.ndim == 0:
-            return _as_lengths(arr.item(), n_samples)
+            value = arr.item()
+            if isinstance(value, float) and value.is_integer():
+                return _as_lengths(int(value), n_samples)
+            if isinstance(value, int) and not isinstance(value, bool):
+                return _as_lengths(value, n_samples)
+            raise AdavarInputError(
+                f"window must be a whole number of samples, got {window!r}"
+            )
         if arr.ndim != 1 or arr.size == 0:
             raise AdavarInputError(
                 f"window must be an int or a 1-D array of ints, got shape {arr.shape}"
