@@ -124,7 +124,7 @@ def main() -> None:
           f"{loop_estimate / full:10.0f}")
     print(f"max relative difference of adev at the {centres.size} compared windows: {rel:.1e}")
 
-    fit_t, fit_first, fit = timed(lambda: adavar.fit_noise(rf), 1)
+    fit_t, _, fit = timed(lambda: adavar.fit_noise(rf), 1)
     n_ok = int(np.isfinite(fit.angle_random_walk.value).sum())
     print(f"adavar.fit_noise on all {n:.0e} windows (5 terms, {ms.size} taus): "
           f"{fit_t:.2f} s ({n_ok} fitted; median N = "

@@ -212,7 +212,9 @@ def davar(
         noise/ARW, -1: bias instability, -2: rate random walk, 1/2: flicker/white PM or
         quantization); a sequence gives one per tau.
     units : str, optional
-        Declared unit of the samples (carried to the fit and the figures). Never guessed.
+        Declared unit of the *rate* (e.g. ``"deg/s"``; for phase input the unit of its
+        derivative: angle in deg gives ``"deg/s"``), carried to the fit's unit conversions
+        and the figures. Never guessed.
 
     Returns
     -------
@@ -271,7 +273,8 @@ def davar(
         bound_factors=bound_factors,
     )  # fmt: skip
     return DavarResult(
-        time=t0 + sched.centre * dt,
+        # dividing by an integral rate rounds once: 3999 / 10 is 399.9, 3999 * 0.1 is not
+        time=t0 + (sched.centre * dt if tau0 is not None else sched.centre / (1.0 / dt)),
         tau=ms * dt,
         avar=avar,
         avar_low=low,

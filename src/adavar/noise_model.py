@@ -160,8 +160,10 @@ class NoiseFit:
         The model at ``tau`` (also at points that were ignored).
     chi2 : ndarray or float
         Weighted residual sum of squares of the final pass.
-    dof : ndarray or int
-        ``n_points - len(terms)`` (clipped at 0).
+    dof : ndarray or int or float
+        ``n_points - len(terms)`` (clipped at 0); with ``spacing="octave"`` on a dense tau
+        grid, the effective number of points (each tau counted by its octave share) minus
+        ``len(terms)``.
     reduced_chi2 : ndarray or float
         ``chi2 / dof`` (NaN when ``dof == 0``): the goodness-of-fit figure, about 1 for
         independent taus when the model and the edf are right (below 1, about 0.6, on the
@@ -523,7 +525,7 @@ def _lawson_hanson(G, h, n_terms, sub_idx, sub_size, L, dsc, x, xcur):  # pragma
 
 @jit(error_model="numpy")
 def _fit_curve(
-    i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted,
+    i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
     coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x, best_x, xcur, dg,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Iteratively reweighted exact NNLS of row ``i`` of ``avar`` (see the module docs).
@@ -548,6 +550,7 @@ def _fit_curve(
     ie = i if edf.shape[0] > 1 else 0  # a single edf row serves every curve
     avar_i = avar[i]
     n = 0
+    n_eff = 0.0
     for j in range(n_tau):
         a = avar_i[j]
         e = edf[ie, j]
@@ -556,6 +559,7 @@ def _fit_curve(
         if good:
             ref[j] = a
             n += 1
+            n_eff += share[j]
     npts[i] = n
     for k in range(5):
         coef[i, k] = np.nan
@@ -632,7 +636,7 @@ def _fit_curve(
                 ref[j] = m if m > 0.0 else avar_i[j]
     chi2[i] = best_obj
     # covariance scale: max(1, chi2/dof) with absolute weights, chi2/dof otherwise
-    dof = n - n_terms
+    dof = n_eff - n_terms  # effective: densely spaced taus count by their octave share
     red = best_obj / dof if dof > 0 else np.nan
     if weighted:
         factor = max(1.0, red) if dof > 0 else 1.0
@@ -660,7 +664,7 @@ def _fit_curve(
 
 @jit(error_model="numpy")
 def _nnls_serial(
-    phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted,
+    phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
     coef, coef_sig, chi2, npts,
 ):  # fmt: skip  # pragma: no cover - compiled
     """:func:`_fit_curve` over every row, on the calling thread (small stacks)."""
@@ -680,13 +684,13 @@ def _nnls_serial(
     for i in range(n_curves):
         _fit_curve(
             i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted,
-            coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x, best_x, xcur, dg,
+            share, coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x, best_x, xcur, dg,
         )  # fmt: skip
 
 
 @parallel_jit(error_model="numpy")
 def _nnls_parallel(
-    phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted,
+    phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
     coef, coef_sig, chi2, npts,
 ):  # fmt: skip  # pragma: no cover - compiled
     """:func:`_fit_curve` over every row, blocks of rows in parallel (large stacks)."""
@@ -708,8 +712,8 @@ def _nnls_parallel(
         for i in range(blk * _BLOCK, min((blk + 1) * _BLOCK, n_curves)):
             _fit_curve(
                 i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale,
-                weighted, coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x, best_x,
-                xcur, dg,
+                weighted, share, coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x,
+                best_x, xcur, dg,
             )  # fmt: skip
 
 
@@ -840,9 +844,9 @@ def _fit(
     if not fits:
         raise ValueError(f"edf of shape {edf.shape} does not broadcast to avar's {avar.shape}")
 
+    share = np.ones(tau.size)
     if spacing == "octave" and tau.size > 1:
         order = np.argsort(tau)
-        share = np.empty(tau.size)
         share[order] = np.minimum(1.0, np.gradient(np.log2(tau[order])))
         if np.any(share < 1.0):
             edf = edf * share
@@ -870,11 +874,15 @@ def _fit(
     kernel = _nnls_parallel if n_curves >= _PARALLEL_MIN else _nnls_serial
     kernel(
         phi, a2, e2, n_reweight, sub_idx, sub_size, order, sel,
-        tau_ref ** (-powers.astype(float)), weighted,
+        tau_ref ** (-powers.astype(float)), weighted, share,
         coefficients, coef_sig, chi2, npts,
     )  # fmt: skip
 
-    dof = np.maximum(npts - len(sel), 0)
+    if np.all(share == 1.0):
+        dof = np.maximum(npts - len(sel), 0)
+    else:  # effective points: each tau counts by its octave share (as in the kernel)
+        good = np.isfinite(a2) & (a2 > 0) & np.isfinite(e2) & (e2 > 0)
+        dof = np.maximum(good @ share - len(sel), 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
         red = np.where(dof > 0, chi2 / dof, np.nan)
 
