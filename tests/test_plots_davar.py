@@ -45,7 +45,7 @@ def fake_result(n_time: int, n_tau: int) -> DavarResult:
     avar = np.broadcast_to(1e-4 / tau, (n_time, m.size)).copy()
     avar[:, -1] = np.nan
     return DavarResult(
-        time=t, tau=tau, avar=avar, avar_low=None, avar_high=None,
+        time=t, tau=tau, avar=avar,
         window=np.full(n_time, 600), centre=np.arange(n_time), m=m,
         alpha=np.zeros(m.size, dtype=np.int64), tau0=0.01, data_type="rate",
         edges="mirror", step=1, confidence=float("nan"), n_samples=n_time, units="deg/s",

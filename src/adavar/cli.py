@@ -903,7 +903,9 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     result = davar(
         samples,
         window=args.window,
-        tau0=tau0,
+        # the rate as given: times are centre / rate, without 0.1-step rounding noise
+        rate=args.rate if args.rate is not None else 1.0,
+        tau0=None if args.rate is not None else tau0,
         data_type=args.data_type,
         taus=args.taus,
         edges=args.edges,

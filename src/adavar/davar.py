@@ -108,13 +108,13 @@ def _available_memory() -> int | None:
 
 
 def _check_memory(n_centres: int, n_taus: int, n_arrays: int) -> None:
-    need = n_centres * n_taus * n_arrays * 8
+    need = n_centres * n_taus * n_arrays * 8  # the bounds are made only when read
     free = _available_memory()
     if free is not None and need > 0.8 * free:
         raise AdavarInputError(
             f"the DAVAR surface would need {need / 2**30:.1f} GiB ({n_centres} centres x "
             f"{n_taus} taus x {n_arrays} arrays) but {free / 2**30:.1f} GiB is free: compute "
-            "fewer centres (step), fewer taus (taus='octave'), or no bounds (confidence=None)"
+            "fewer centres (step) or fewer taus (taus='octave')"
         )
 
 
@@ -196,8 +196,8 @@ def davar(
     confidence : float or None
         Two-sided level of the per-cell chi-square bounds (default 0.683, 1 sigma). The
         EDF is the Greenhall-Riley EDF of an overlapping Allan variance of ``L + 1`` phase
-        points (``L - 2m + 1`` terms). ``None`` skips the bounds (faster, a third of the
-        memory).
+        points (``L - 2m + 1`` terms). The bounds are formed when first read (each costs
+        the memory of ``avar``). ``None`` skips the noise identification and the bounds.
     tau0 : float, optional
         Sample interval in seconds, instead of ``rate``.
     t0 : float
@@ -251,11 +251,9 @@ def davar(
     sched = window_schedule(u.size, window, edges=edges, step=step)
     longest = int(sched.length.max())
     ms, notes = averaging_factors(taus, longest // 3, dt, points_per_decade=points_per_decade)
-    n_arrays = 1 if confidence is None else 3
-    _check_memory(sched.centre.size, ms.size, n_arrays)
+    _check_memory(sched.centre.size, ms.size, 1)
 
-    bound_factors = None
-    table = window_class = None
+    bounds = table = window_class = None
     if confidence is None:
         alpha = np.full(ms.size, -1, dtype=np.int64)
     else:
@@ -263,22 +261,18 @@ def davar(
         notes = notes + id_notes
         distinct, window_class = np.unique(sched.length, return_inverse=True)
         table = edf_table(distinct, ms, alpha)
-        flo, fhi = _bound_factors(table, float(confidence))
-        bound_factors = (window_class, flo, fhi)
+        bounds = np.stack(_bound_factors(table, float(confidence)))
 
     phase = diff.anchored_phase(sched.extend(u))
-    avar, low, high = diff.window_avar(
+    avar = diff.window_avar(
         phase, ms, sched.centre, sched.length, offset=sched.pad_before, scale=scale,
         chunk=_chunk_size(sched.centre.size, longest, sched.step),
-        bound_factors=bound_factors,
     )  # fmt: skip
     return DavarResult(
         # dividing by an integral rate rounds once: 3999 / 10 is 399.9, 3999 * 0.1 is not
-        time=t0 + (sched.centre * dt if tau0 is not None else sched.centre / (1.0 / dt)),
+        time=t0 + (sched.centre * dt if tau0 is not None else sched.centre / float(rate)),
         tau=ms * dt,
         avar=avar,
-        avar_low=low,
-        avar_high=high,
         window=sched.length,
         centre=sched.centre,
         m=ms,
@@ -293,4 +287,5 @@ def davar(
         notes=notes,
         edf_table=table,
         window_class=None if window_class is None else window_class.astype(np.int64),
+        bound_table=bounds,
     )

@@ -629,8 +629,7 @@ def _eval_general(ph, pl, aloc, lens, m, norm, res):  # pragma: no cover - compi
 
 @jit
 def _window_chunk(
-    r, hh, hl, ms, centres, lengths, offset, c0, c1, scale, widx, flo, fhi, out, out_lo,
-    out_hi, bounds, coefs, d, ph, pl,
+    r, hh, hl, ms, centres, lengths, offset, c0, c1, scale, out, coefs, d, ph, pl,
 ):  # pragma: no cover - compiled
     """Windows ``c0 .. c1 - 1`` at every factor; returns the (possibly grown) scratch."""
     nt = ms.size
@@ -700,18 +699,12 @@ def _window_chunk(
                 res[k] = max(acc, 0.0) * (norm / n)
         for k in range(size):
             out[c0 + k, t] = res[k]
-        if bounds:
-            for k in range(size):
-                w = widx[c0 + k]
-                out_lo[c0 + k, t] = res[k] * flo[w, t]
-                out_hi[c0 + k, t] = res[k] * fhi[w, t]
     return d, ph, pl
 
 
 @parallel_jit
 def _window_avar(
-    r, hh, hl, ms, centres, lengths, offset, chunk, workers, scale, widx, flo, fhi, out,
-    out_lo, out_hi, bounds, coefs,
+    r, hh, hl, ms, centres, lengths, offset, chunk, workers, scale, out, coefs,
 ):  # pragma: no cover - compiled
     """Overlapping Allan variance of every window at every averaging factor.
 
@@ -736,8 +729,8 @@ def _window_avar(
         for ch in range(w, nch, workers):
             c0 = ch * chunk
             d, ph, pl = _window_chunk(
-                r, hh, hl, ms, centres, lengths, offset, c0, min(c0 + chunk, nc), scale, widx,
-                flo, fhi, out, out_lo, out_hi, bounds, coefs, d, ph, pl,
+                r, hh, hl, ms, centres, lengths, offset, c0, min(c0 + chunk, nc), scale, out,
+                coefs, d, ph, pl,
             )
 
 
@@ -864,8 +857,7 @@ def window_avar(
     offset: int = 0,
     scale: float = 1.0,
     chunk: int = 4096,
-    bound_factors: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
+) -> np.ndarray:
     """Overlapping Allan variance of many windows of ``phase`` at every factor ``ms``.
 
     Parameters
@@ -884,14 +876,11 @@ def window_avar(
         Multiplies every variance (``1 / tau0**2`` for phase input).
     chunk : int
         Consecutive windows per unit of work.
-    bound_factors : (widx, flo, fhi), optional
-        Confidence-bound factors ``flo[widx[c], t]``, ``fhi[widx[c], t]`` per window class;
-        when given, the bounds are filled in the same pass.
 
     Returns
     -------
-    avar, avar_low, avar_high : ndarray, shape (len(centres), len(ms))
-        NaN where ``3 m > L``; the bounds are None without ``bound_factors``.
+    ndarray, shape (len(centres), len(ms))
+        NaN where ``3 m > L``.
     """
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     centres = np.ascontiguousarray(centres, dtype=np.int64)
@@ -910,23 +899,10 @@ def window_avar(
             raise ValueError("internal: a window runs past the data")
     nc, nt = centres.size, ms.size
     out = np.empty((nc, nt))
-    if bound_factors is None:
-        widx = np.zeros(0, dtype=np.int64)
-        flo = fhi = np.zeros((1, nt))
-        out_lo = out_hi = np.empty((0, nt))
-    else:
-        widx, flo, fhi = bound_factors
-        widx = np.ascontiguousarray(widx, dtype=np.int64)
-        flo = np.ascontiguousarray(flo, dtype=np.float64)
-        fhi = np.ascontiguousarray(fhi, dtype=np.float64)
-        out_lo = np.empty((nc, nt))
-        out_hi = np.empty((nc, nt))
     chunk = int(max(chunk, 1))
     workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
     _window_avar(
         phase.r, phase.hh, phase.hl, ms, centres, lengths, int(offset), chunk, workers,
-        float(scale), widx, flo, fhi, out, out_lo, out_hi, bound_factors is not None, SECOND,
+        float(scale), out, SECOND,
     )  # fmt: skip
-    if bound_factors is None:
-        return out, None, None
-    return out, out_lo, out_hi
+    return out

@@ -854,6 +854,8 @@ def _fit(
     lead = avar.shape[:-1]
     n_tau = tau.size
     a2 = np.ascontiguousarray(avar.reshape(-1, n_tau))
+    if edf.ndim == 2 and edf.shape[0] > 1 and edf.strides[0] == 0:
+        edf = edf[0]  # one row broadcast over the stack (a fixed-window DAVAR)
     if edf.ndim <= 1 or math.prod(edf.shape[:-1]) == 1:
         # one edf row shared by every curve (the kernel then reads row 0): no per-curve copy
         e2 = np.ascontiguousarray(np.broadcast_to(edf.reshape(-1), (n_tau,)))[None, :]

@@ -97,7 +97,9 @@ class DavarResult:
         (a tau beyond a third of that window).
     avar_low, avar_high : ndarray, shape (T, M), or None
         Chi-square confidence bounds at ``confidence`` (None when computed with
-        ``confidence=None``).
+        ``confidence=None``). Computed on first access from ``avar`` and the per-length
+        factors in ``bound_table`` (then kept), so a surface whose bounds are never read
+        costs no memory for them.
     window : ndarray of int64, shape (T,)
         Window length (samples) at each centre.
     centre : ndarray of int64, shape (T,)
@@ -128,13 +130,14 @@ class DavarResult:
         Equivalent degrees of freedom per distinct window length (row ``window_class``).
     window_class : ndarray of int64, shape (T,), or None
         Row of ``edf_table`` for each centre.
+    bound_table : ndarray, shape (2, K, M), or None
+        ``avar_low / avar`` and ``avar_high / avar`` per distinct window length
+        (``edf / chi2.ppf``; 0 where a tau is undefined).
     """
 
     time: np.ndarray
     tau: np.ndarray
     avar: np.ndarray
-    avar_low: np.ndarray | None
-    avar_high: np.ndarray | None
     window: np.ndarray
     centre: np.ndarray
     m: np.ndarray
@@ -149,9 +152,38 @@ class DavarResult:
     notes: tuple[str, ...] = field(default_factory=tuple)
     edf_table: np.ndarray | None = None
     window_class: np.ndarray | None = None
+    bound_table: np.ndarray | None = None
+    _cache: dict[str, np.ndarray] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     #: the statistic of every window (the noise-model fit checks it)
     stat = "oadev"
+
+    def _per_cell(self, table: np.ndarray) -> np.ndarray:
+        """A (K, M) per-length table spread to (T, M) (no gather for one length)."""
+        if table.shape[0] == 1:
+            return np.broadcast_to(table[0], self.avar.shape)
+        assert self.window_class is not None
+        return table[self.window_class]
+
+    def _bound(self, which: int) -> np.ndarray | None:
+        if self.bound_table is None or self.window_class is None:
+            return None
+        key = ("avar_low", "avar_high")[which]
+        if key not in self._cache:
+            self._cache[key] = self.avar * self._per_cell(self.bound_table[which])
+        return self._cache[key]
+
+    @property
+    def avar_low(self) -> np.ndarray | None:
+        """Lower confidence bound of :attr:`avar` (None without bounds)."""
+        return self._bound(0)
+
+    @property
+    def avar_high(self) -> np.ndarray | None:
+        """Upper confidence bound of :attr:`avar` (None without bounds)."""
+        return self._bound(1)
 
     @property
     def rate(self) -> float:
@@ -178,7 +210,7 @@ class DavarResult:
         """Equivalent degrees of freedom of every cell, shape (T, M) (None without bounds)."""
         if self.edf_table is None or self.window_class is None:
             return None
-        return self.edf_table[self.window_class]
+        return self._per_cell(self.edf_table)
 
     @property
     def n_terms(self) -> np.ndarray:
