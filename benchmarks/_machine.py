@@ -1,9 +1,12 @@
-"""Describe the machine a benchmark ran on (printed at the top of every benchmark)."""
+"""Shared by the benchmarks: the machine they ran on, and a best-of-n timer."""
 
 from __future__ import annotations
 
 import os
 import platform
+import time
+from collections.abc import Callable
+from typing import Any
 
 
 def describe() -> str:
@@ -30,3 +33,14 @@ def describe() -> str:
         f"Python {platform.python_version()}, numpy {numpy.__version__}, "
         f"numba {numba.__version__}"
     )
+
+
+def timed(fn: Callable[[], Any], repeat: int) -> tuple[float, float, Any]:
+    """Best and first of ``repeat`` calls of ``fn`` (seconds), and its last result."""
+    times = []
+    out = None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return min(times), times[0], out

@@ -27,19 +27,9 @@ import allantools
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _machine import describe
+from _machine import describe, timed
 
 import adavar
-
-
-def timed(fn, repeat):
-    times = []
-    out = None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t)
-    return min(times), times[0], out
 
 
 def _status_kib(key: str) -> int:

@@ -224,6 +224,28 @@ def _terms(text: str) -> tuple[str, ...]:
 # --------------------------------------------------------------------------------------
 
 
+def _add_input_arguments(cmd: argparse.ArgumentParser) -> None:
+    """FILE, --column, --rate/--tau0 and --units: how every analysis command reads a record."""
+    cmd.add_argument("file", metavar="FILE", help="text file, one sample per row")
+    cmd.add_argument(
+        "--column", metavar="NAME",
+        help="header name or 0-based index of the column (needed if there are several)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--rate", metavar="HZ", type=_positive_float("Hz"),
+        help="sample rate in Hz (required, or --tau0)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--tau0", metavar="SECONDS", type=_positive_float("seconds"),
+        help="sample interval in seconds, instead of --rate",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--units", metavar="UNIT",
+        help="unit of the samples, e.g. deg/s, deg/h, rad/s, m/s^2, g (required); with "
+        "--data-type phase the unit of the integrated samples, e.g. deg or s",
+    )  # fmt: skip
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``adavar`` argument parser (its ``error`` raises :class:`UsageError`).
 
@@ -251,24 +273,7 @@ def build_parser() -> argparse.ArgumentParser:
         "The sampling rate and the unit of the samples are required: adavar never guesses "
         "them.",
     )
-    avar.add_argument("file", metavar="FILE", help="text file, one sample per row")
-    avar.add_argument(
-        "--column", metavar="NAME",
-        help="header name or 0-based index of the column (needed if there are several)",
-    )  # fmt: skip
-    avar.add_argument(
-        "--rate", metavar="HZ", type=_positive_float("Hz"),
-        help="sample rate in Hz (required, or --tau0)",
-    )  # fmt: skip
-    avar.add_argument(
-        "--tau0", metavar="SECONDS", type=_positive_float("seconds"),
-        help="sample interval in seconds, instead of --rate",
-    )  # fmt: skip
-    avar.add_argument(
-        "--units", metavar="UNIT",
-        help="unit of the samples, e.g. deg/s, deg/h, rad/s, m/s^2, g (required); with "
-        "--data-type phase the unit of the integrated samples, e.g. deg or s",
-    )  # fmt: skip
+    _add_input_arguments(avar)
     avar.add_argument(
         "--stat", default="oadev", choices=STATISTICS, help="statistic (default: oadev)"
     )
@@ -316,24 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--out writes the surface, the coefficients and the figures. The sampling rate and "
         "the unit of the samples are required: adavar never guesses them.",
     )
-    dav.add_argument("file", metavar="FILE", help="text file, one sample per row")
-    dav.add_argument(
-        "--column", metavar="NAME",
-        help="header name or 0-based index of the column (needed if there are several)",
-    )  # fmt: skip
-    dav.add_argument(
-        "--rate", metavar="HZ", type=_positive_float("Hz"),
-        help="sample rate in Hz (required, or --tau0)",
-    )  # fmt: skip
-    dav.add_argument(
-        "--tau0", metavar="SECONDS", type=_positive_float("seconds"),
-        help="sample interval in seconds, instead of --rate",
-    )  # fmt: skip
-    dav.add_argument(
-        "--units", metavar="UNIT",
-        help="unit of the samples, e.g. deg/s, deg/h, rad/s, m/s^2, g (required); with "
-        "--data-type phase the unit of the integrated samples, e.g. deg or s",
-    )  # fmt: skip
+    _add_input_arguments(dav)
     dav.add_argument(
         "--window", metavar="L", type=_window_length, required=True,
         help=f"window length in samples (at least {MIN_WINDOW}, at most the record); taus "
