@@ -6,12 +6,16 @@ The public entry points:
   confidence intervals;
 - :func:`davar`: the dynamic Allan variance surface (every window, every tau) for a fixed
   window or any per-centre schedule, with per-cell confidence bounds;
+- :func:`adaptive_davar`: the paper's adaptive-window DAVAR (A-DAVAR) and its baselines
+  (DAVAR-K, an oracle schedule, a fixed window), steered by the kurtosis and the sliding
+  kurtosis contribution coefficient;
 - :func:`fit_noise`: the IEEE-952 noise coefficients (Q, N, B, K, R) of a deviation curve, or
   of every DAVAR window at once (N(t), B(t), ...);
 - :mod:`adavar.simulate`: seeded generators of the noise processes.
 """
 
 from adavar import simulate
+from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
 from adavar.davar import davar
 from adavar.errors import AdavarInputError
 from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
@@ -19,11 +23,14 @@ from adavar.results import DavarResult, DeviationResult
 from adavar.statistics import deviation
 
 __all__ = [
+    "AdaptiveResult",
     "AdavarInputError",
     "DavarResult",
     "DeviationResult",
     "NoiseFit",
     "NoiseTerm",
+    "adaptive_davar",
+    "adaptive_schedule",
     "davar",
     "deviation",
     "fit_avar",

@@ -1,0 +1,727 @@
+"""The adaptive window (A-DAVAR) and its baselines: METHOD.md section 5, step by step.
+
+The controller walks the centres in order. At each centre ``p`` it takes the window of the
+current length ``L`` centred at ``p`` (mirror-extended record), computes its kurtosis ``k``
+and the sliding kurtosis contribution coefficient ``S`` of its last ``l`` samples, raises
+
+* ``f1`` when ``k`` leaves ``[K1, K2]`` (the window is not Gaussian-stationary, Eq. 16),
+* ``f2`` when ``S > S2`` (a shock has just entered the leading edge, Eq. 17),
+
+combines them (``f = f1 or f2``, Eq. 18), records ``L`` as the window of ``p``, and then
+shrinks ``L`` by ``dL1`` (``f = 1``) or regrows it by ``dL0`` (``f = 0``) within
+``[Lmin, Lmax]`` (Eq. 19-22). The schedule then goes to :func:`adavar.davar`, the one place
+where a DAVAR surface is computed.
+
+The pass is sequential (each length depends on the last decision) and O(N): the window
+and its leading segment slide by at most ``max(dL0, dL1)`` samples per step, and their
+power sums ``sum (x - a)**k``, ``k = 1..4``, are kept in double-double precision around an
+anchor ``a`` that is moved to the window's mean every :data:`REANCHOR` steps (the sums are
+then recomputed), so offsets of 1e6 standard deviations, drifts and bursts cost no digits.
+
+Methods: ``"adaptive"`` (A-DAVAR, ``f = f1 or f2``), ``"kurtosis"`` (DAVAR-K, the
+kurtosis-only controller of Wang/Zhu, ``f = f1``), ``"oracle"`` (the ideal schedule for known
+change times), ``"fixed"`` (DAVAR-L with ``L = lmax``, its kurtosis and S recorded along).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from adavar._jit import jit
+from adavar.davar import davar
+from adavar.differences import _two_sum
+from adavar.errors import AdavarInputError
+from adavar.results import DavarResult
+from adavar.statistics import _DATA_TYPE_ALIASES, as_samples, resolve_tau0
+
+__all__ = [
+    "METHODS",
+    "AdaptiveResult",
+    "Schedule",
+    "adaptive_davar",
+    "adaptive_schedule",
+    "calibrated_thresholds",
+    "false_alarm_rate",
+    "oracle_schedule",
+]
+
+METHODS = ("adaptive", "kurtosis", "oracle", "fixed")
+S_TESTS = ("upper", "band", "abs")
+COMBINES = ("or", "and")
+#: steps between re-anchorings of the running power sums (each costs O(L))
+REANCHOR = 512
+
+_S_TEST_CODE = {"upper": 0, "band": 1, "abs": 2}
+
+
+# ---------------------------------------------------------------------------------------
+# the sequential controller
+
+
+@jit(inline="always")
+def _acc(h, lo, v):  # pragma: no cover - compiled
+    """Double-double accumulation; only ``h + v`` is on the loop-carried path."""
+    s, e = _two_sum(h, v)
+    return s, lo + e
+
+
+@jit(inline="always")
+def _add_range(x, i0, i1, anchor, sign, q):  # pragma: no cover - compiled
+    """``q`` (8 floats: dd sums of d, d^2, d^3, d^4) plus ``sign * (x[i] - anchor)**k``."""
+    h1, l1, h2, l2, h3, l3, h4, l4 = q
+    for i in range(i0, i1):
+        d = x[i] - anchor
+        d2 = d * d
+        h1, l1 = _acc(h1, l1, sign * d)
+        h2, l2 = _acc(h2, l2, sign * d2)
+        h3, l3 = _acc(h3, l3, sign * (d2 * d))
+        h4, l4 = _acc(h4, l4, sign * (d2 * d2))
+    return h1, l1, h2, l2, h3, l3, h4, l4
+
+
+@jit(inline="always")
+def _slide(x, a_old, b_old, a_new, b_new, anchor, q):  # pragma: no cover - compiled
+    """Sums of ``[a_old, b_old)`` moved to ``[a_new, b_new)``."""
+    if a_new >= b_old or b_new <= a_old:  # disjoint: start over
+        zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return _add_range(x, a_new, b_new, anchor, 1.0, zero)
+    if a_new > a_old:
+        q = _add_range(x, a_old, a_new, anchor, -1.0, q)
+    elif a_new < a_old:
+        q = _add_range(x, a_new, a_old, anchor, 1.0, q)
+    if b_new > b_old:
+        q = _add_range(x, b_old, b_new, anchor, 1.0, q)
+    elif b_new < b_old:
+        q = _add_range(x, b_new, b_old, anchor, -1.0, q)
+    return q
+
+
+@jit(inline="always")
+def _kurt_from(inv_n, s1, s2, s3, s4):  # pragma: no cover - compiled
+    """Pearson kurtosis (biased moments) from power sums about an anchor near the mean."""
+    d = s1 * inv_n
+    e2 = s2 * inv_n
+    e3 = s3 * inv_n
+    e4 = s4 * inv_n
+    m2 = e2 - d * d
+    m4 = e4 - 4.0 * d * e3 + 6.0 * d * d * e2 - 3.0 * d * d * d * d
+    if not m2 > 0.0:
+        return np.nan
+    return m4 / (m2 * m2)
+
+
+@jit(inline="always")
+def _minus(h, lo, hs, ls):  # pragma: no cover - compiled
+    """``(h + lo) - (hs + ls)`` rounded once the leading parts have cancelled exactly."""
+    s, e = _two_sum(h, -hs)
+    return s + (e + (lo - ls))
+
+
+@jit(inline="always")
+def _kurtoses(qx, qs, n_x, n_s):  # pragma: no cover - compiled
+    """Kurtosis of the window and the S coefficient of its last segment (Eq. 15)."""
+    kx = _kurt_from(1.0 / n_x, qx[0] + qx[1], qx[2] + qx[3], qx[4] + qx[5], qx[6] + qx[7])
+    kc = _kurt_from(
+        1.0 / (n_x - n_s), _minus(qx[0], qx[1], qs[0], qs[1]), _minus(qx[2], qx[3], qs[2], qs[3]),
+        _minus(qx[4], qx[5], qs[4], qs[5]), _minus(qx[6], qx[7], qs[6], qs[7]),
+    )  # fmt: skip
+    return kx, (kx - kc) / kx
+
+
+@jit
+def _controller(
+    x, offset, n, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and,
+    adapt, given, window, kurt, scoef, f1, f2, f,
+):  # fmt: skip  # pragma: no cover - compiled
+    """Run the controller over centres ``0..n-1`` (METHOD.md section 5).
+
+    ``x`` is the extended record, centre ``p`` at ``x[p + offset]``. ``k1[L]``, ``k2[L]``,
+    ``s2[L]`` are the thresholds for a window of length ``L``. With ``adapt`` false the
+    lengths come from ``given`` and only the kurtosis, S and flags are recorded. The sums
+    of the window and of its leading segment live in registers (two 8-tuples).
+    """
+    zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    L = lmax if adapt else given[0]
+    a = offset - (L - 1) // 2
+    b = a + L
+    anchor = x[offset]
+    qx = _add_range(x, a, b, anchor, 1.0, zero)
+    qs = _add_range(x, b - seg, b, anchor, 1.0, zero)
+    since = 0
+    for p in range(n):
+        if not adapt:
+            L = given[p]
+        a_new = p + offset - (L - 1) // 2
+        b_new = a_new + L
+        if since >= REANCHOR:  # move the anchor to the window's mean and sum afresh
+            anchor = anchor + (qx[0] + qx[1]) / (b - a)
+            qx = _add_range(x, a_new, b_new, anchor, 1.0, zero)
+            qs = _add_range(x, b_new - seg, b_new, anchor, 1.0, zero)
+            since = 0
+        else:
+            qx = _slide(x, a, b, a_new, b_new, anchor, qx)
+            qs = _slide(x, b - seg, b, b_new - seg, b_new, anchor, qs)
+        a = a_new
+        b = b_new
+        since += 1
+        kx, sv = _kurtoses(qx, qs, float(L), float(seg))
+        flag1 = not (k1[L] <= kx <= k2[L])
+        if s_test == 0:
+            flag2 = sv > s2[L]
+        elif s_test == 1:
+            flag2 = not (s1 <= sv <= s2[L])
+        else:
+            flag2 = abs(sv) > s2[L]
+        if not use_f2:
+            flag = flag1
+        elif use_and:
+            flag = flag1 and flag2
+        else:
+            flag = flag1 or flag2
+        window[p] = L
+        kurt[p] = kx
+        scoef[p] = sv
+        f1[p] = flag1
+        f2[p] = flag2
+        f[p] = flag
+        if adapt:
+            if flag:
+                L = max(L - dl1, lmin)
+            else:
+                L = min(L + dl0, lmax)
+
+
+# ---------------------------------------------------------------------------------------
+# thresholds
+
+
+def _anscombe_glynn(n: int) -> tuple[float, float, float]:
+    """Mean and deviation of the kurtosis of ``n`` Gaussian samples, and the transform's A."""
+    e = 3.0 * (n - 1) / (n + 1)
+    sd = math.sqrt(24.0 * n * (n - 2) * (n - 3) / ((n + 1) ** 2 * (n + 3) * (n + 5)))
+    sqrtbeta1 = (
+        6.0 * (n * n - 5 * n + 2) / ((n + 7) * (n + 9))
+        * math.sqrt(6.0 * (n + 3) * (n + 5) / (n * (n - 2) * (n - 3)))
+    )  # fmt: skip
+    a = 6.0 + 8.0 / sqrtbeta1 * (2.0 / sqrtbeta1 + math.sqrt(1 + 4.0 / sqrtbeta1**2))
+    return e, sd, a
+
+
+def _kurtosis_z(b2: float, n: int) -> float:
+    """Anscombe-Glynn z-score of a sample kurtosis ``b2`` of ``n`` Gaussian samples.
+
+    The transformation behind ``scipy.stats.kurtosistest`` (Anscombe & Glynn 1983); defined
+    above its pole ``1 + x sqrt(2 / (A - 4)) = 0``.
+    """
+    e, sd, a = _anscombe_glynn(n)
+    x = (b2 - e) / sd
+    term1 = 1 - 2 / (9.0 * a)
+    denom = 1 + x * math.sqrt(2 / (a - 4.0))
+    term2 = np.cbrt((1 - 2.0 / a) / denom)
+    return float((term1 - term2) / math.sqrt(2 / (9.0 * a)))
+
+
+def _kurtosis_quantile(q: float, n: int) -> float:
+    """Kurtosis of ``n`` Gaussian samples with lower-tail probability ``q`` (Anscombe-Glynn)."""
+    from scipy.optimize import brentq
+
+    z = stats.norm.ppf(q)
+    e, sd, a = _anscombe_glynn(n)
+    pole = e - sd * math.sqrt((a - 4.0) / 2.0)  # z -> -inf just above it
+    lo = pole + 1e-9 * sd
+    return float(brentq(lambda b: _kurtosis_z(b, n) - z, lo, e + 40 * sd, xtol=1e-12))
+
+
+def _s_quantile(q: float, length: int, seg: int, draws: int, seed: int) -> float:
+    """Quantile of S (last ``seg`` of ``length`` Gaussian samples) by simulation."""
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal((draws, length))
+    kx = stats.kurtosis(x, axis=1, fisher=False)
+    kc = stats.kurtosis(x[:, : length - seg], axis=1, fisher=False)
+    return float(np.quantile((kx - kc) / kx, q))
+
+
+@dataclass(frozen=True)
+class Thresholds:
+    """Per-length thresholds of the controller: ``k1[L]``, ``k2[L]``, ``s2[L]``."""
+
+    k1: np.ndarray
+    k2: np.ndarray
+    s2: np.ndarray
+    source: str
+
+
+def calibrated_thresholds(
+    lmin: int,
+    lmax: int,
+    segment: int,
+    *,
+    false_alarm: float = 0.01,
+    s_false_alarm: float | None = None,
+    draws: int = 20_000,
+    seed: int = 0,
+) -> Thresholds:
+    """Thresholds from the sampling distribution of the kurtosis, for a target false-alarm rate.
+
+    Beyond the paper, which fixes ``K1 = 2.5, K2 = 3.3, S2 = 0.07`` by hand (METHOD.md
+    section 7). For a window of ``L`` Gaussian samples, ``K1(L)`` and ``K2(L)`` are the
+    ``false_alarm / 2`` and ``1 - false_alarm / 2`` quantiles of its sample kurtosis (the
+    Anscombe-Glynn normal approximation used by ``scipy.stats.kurtosistest``, accurate to
+    a few 1e-3 in probability at these sizes), so ``f1`` fires on stationary Gaussian noise
+    with probability ``false_alarm`` at every length. ``S2(L)`` is the ``1 - s_false_alarm``
+    quantile of ``S`` (default ``s_false_alarm = false_alarm``), simulated with ``draws``
+    Gaussian windows at ``L = lmin`` and ``L = lmax`` (seeded, so the thresholds are
+    reproducible) and interpolated in ``1/L`` between them.
+
+    Parameters
+    ----------
+    lmin, lmax : int
+        Range of window lengths.
+    segment : int
+        The leading segment ``l`` of the S test.
+    false_alarm : float
+        Per-step probability that ``f1`` fires on stationary Gaussian noise.
+    s_false_alarm : float, optional
+        Per-step probability that ``f2`` fires (``S > S2``); default ``false_alarm``.
+    draws : int
+        Simulated windows per length for the S quantile.
+    seed : int
+        Seed of that simulation.
+
+    Returns
+    -------
+    Thresholds
+    """
+    if not 0.0 < false_alarm < 1.0:
+        raise AdavarInputError(f"false_alarm must lie in (0, 1), got {false_alarm}")
+    sq = false_alarm if s_false_alarm is None else float(s_false_alarm)
+    if not 0.0 < sq < 1.0:
+        raise AdavarInputError(f"s_false_alarm must lie in (0, 1), got {s_false_alarm}")
+    size = lmax + 1
+    k1 = np.full(size, np.nan)
+    k2 = np.full(size, np.nan)
+    s2 = np.full(size, np.nan)
+    lengths = np.arange(lmin, lmax + 1)
+    # the quantiles are smooth in L: solve at a few lengths, interpolate in 1/L
+    nodes = np.unique(np.round(np.geomspace(lmin, lmax, 9)).astype(np.int64))
+    lo = [_kurtosis_quantile(false_alarm / 2, int(n)) for n in nodes]
+    hi = [_kurtosis_quantile(1 - false_alarm / 2, int(n)) for n in nodes]
+    inv = 1.0 / lengths
+    k1[lmin:] = np.interp(inv, 1.0 / nodes[::-1], np.array(lo)[::-1])
+    k2[lmin:] = np.interp(inv, 1.0 / nodes[::-1], np.array(hi)[::-1])
+    ends = sorted({lmin, lmax})
+    sv = [_s_quantile(1 - sq, int(n), segment, draws, seed) for n in ends]
+    if len(ends) == 1:
+        s2[lmin:] = sv[0]
+    else:
+        s2[lmin:] = np.interp(inv, [1.0 / ends[1], 1.0 / ends[0]], [sv[1], sv[0]])
+    return Thresholds(k1=k1, k2=k2, s2=s2, source=f"calibrated, false alarm {false_alarm:g}")
+
+
+def _fixed_thresholds(lmax: int, k1: float, k2: float, s2: float) -> Thresholds:
+    size = lmax + 1
+    return Thresholds(
+        k1=np.full(size, float(k1)), k2=np.full(size, float(k2)), s2=np.full(size, float(s2)),
+        source="fixed",
+    )  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------
+# schedules
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """A per-centre window schedule and the controller's decisions.
+
+    Attributes
+    ----------
+    window : ndarray of int64, shape (N,)
+        Window length used at each centre (the length in force before the update).
+    kurtosis : ndarray, shape (N,)
+        Pearson kurtosis of that window.
+    s : ndarray, shape (N,)
+        Sliding kurtosis contribution coefficient of its last ``l`` samples (Eq. 15).
+    f1, f2, f : ndarray of bool, shape (N,)
+        The kurtosis flag (Eq. 16), the S flag (Eq. 17) and their combination (Eq. 18); for
+        ``"kurtosis"`` ``f = f1``; for ``"oracle"`` and ``"fixed"`` the flags the
+        adaptive controller would have raised on those windows.
+    centre : ndarray of int64
+        Sample index of each centre.
+    method : str
+    thresholds : Thresholds
+    parameters : dict
+        Every setting used, for reports.
+    """
+
+    window: np.ndarray
+    kurtosis: np.ndarray
+    s: np.ndarray
+    f1: np.ndarray
+    f2: np.ndarray
+    f: np.ndarray
+    centre: np.ndarray
+    method: str
+    thresholds: Thresholds
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+
+def oracle_schedule(
+    n_samples: int, change_samples: Sequence[int], *, lmax: int = 600, lmin: int = 400
+) -> np.ndarray:
+    """The ideal window lengths for changes at known samples (METHOD.md section 5).
+
+    For each change ``X`` the length is ``lmax`` until the window's leading edge reaches
+    ``X``, shrinks with the leading edge pinned on ``X`` to ``lmin``, stays there until the
+    trailing edge reaches ``X``, and regrows with the trailing edge pinned on ``X``; with
+    the window convention of :mod:`adavar.windows` (edges ``p + L // 2`` and
+    ``p - (L - 1) // 2``) that is ``clamp(max(2 (X - p), 2 (p - X + 1)), lmin, lmax)`` for
+    even lengths. Several changes: the shortest of their lengths.
+
+    Parameters
+    ----------
+    n_samples : int
+        Record length.
+    change_samples : sequence of int
+        Sample indices of the changes.
+    lmax, lmin : int
+        Longest and shortest window.
+
+    Returns
+    -------
+    ndarray of int64, shape (n_samples,)
+    """
+    p = np.arange(n_samples, dtype=np.int64)
+    out = np.full(n_samples, lmax, dtype=np.int64)
+    odd = lmax % 2
+    for x in change_samples:
+        x = int(x)
+        ideal = np.maximum(2 * (x - p), 2 * (p - x + 1)) + odd
+        out = np.minimum(out, np.clip(ideal, lmin, lmax))
+    return out
+
+
+def _check_int(name: str, value: Any, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise AdavarInputError(f"{name} must be an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def adaptive_schedule(
+    data: Sequence[float] | np.ndarray,
+    *,
+    method: str = "adaptive",
+    lmax: int = 600,
+    lmin: int = 400,
+    k1: float = 2.5,
+    k2: float = 3.3,
+    s1: float = 0.0,
+    s2: float = 0.07,
+    l: int = 100,  # noqa: E741 - the paper's name
+    dl0: int = 2,
+    dl1: int = 2,
+    s_test: str = "upper",
+    combine: str = "or",
+    edges: str = "mirror",
+    change_times: Sequence[float] | None = None,
+    thresholds: str = "paper",
+    false_alarm: float = 0.01,
+    rate: float = 1.0,
+    tau0: float | None = None,
+) -> Schedule:
+    """The window schedule of A-DAVAR, DAVAR-K, the oracle or a fixed window.
+
+    Parameters are those of :func:`adaptive_davar` (which calls this and then
+    :func:`adavar.davar` on the schedule).
+
+    Returns
+    -------
+    Schedule
+    """
+    if method not in METHODS:
+        raise AdavarInputError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
+    if s_test not in S_TESTS:
+        raise AdavarInputError(f"unknown s_test {s_test!r}: use one of {', '.join(S_TESTS)}")
+    if combine not in COMBINES:
+        raise AdavarInputError(f"unknown combine {combine!r}: use 'or' or 'and'")
+    if edges not in ("mirror", "valid"):
+        raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
+    if thresholds not in ("paper", "calibrated"):
+        raise AdavarInputError(f"unknown thresholds {thresholds!r}: use 'paper' or 'calibrated'")
+    lmax = _check_int("lmax", lmax, 5)
+    lmin = _check_int("lmin", lmin, 5)
+    seg = _check_int("l", l, 1)
+    dl0 = _check_int("dl0", dl0, 0)
+    dl1 = _check_int("dl1", dl1, 0)
+    if lmin > lmax:
+        raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
+    if (lmax - lmin) % 2 or dl0 % 2 or dl1 % 2:
+        raise AdavarInputError(
+            "lmax - lmin, dl0 and dl1 must be even: the window keeps the parity of its length "
+            "(METHOD.md section 5)"
+        )
+    if seg > lmin - 4:
+        raise AdavarInputError(
+            f"l = {seg} leaves fewer than 4 samples of the shortest window ({lmin}) for S: "
+            "choose l < lmin - 3"
+        )
+    for name, value in (("k1", k1), ("k2", k2), ("s1", s1), ("s2", s2)):
+        if not np.isfinite(float(value)):
+            raise AdavarInputError(f"{name} must be a finite number, got {value!r}")
+    if float(k1) > float(k2):
+        raise AdavarInputError(f"k1 ({k1}) must not exceed k2 ({k2})")
+    dt = resolve_tau0(rate, tau0)
+    x = as_samples(data, min_length=lmax)
+    n = x.size
+
+    if thresholds == "calibrated":
+        th = calibrated_thresholds(lmin, lmax, seg, false_alarm=false_alarm)
+    else:
+        th = _fixed_thresholds(lmax, k1, k2, s2)
+
+    if method == "oracle":
+        if change_times is None or len(change_times) == 0:
+            raise AdavarInputError("method='oracle' needs change_times (seconds)")
+        changes = np.round(np.asarray(change_times, dtype=float) / dt).astype(np.int64)
+        given = oracle_schedule(n, changes, lmax=lmax, lmin=lmin)
+    elif method == "fixed":
+        given = np.full(n, lmax, dtype=np.int64)
+    else:
+        given = np.zeros(1, dtype=np.int64)
+
+    if edges == "valid":
+        first, last = (lmax - 1) // 2, n - 1 - lmax // 2
+        if last < first:  # pragma: no cover - lmax <= n is checked by as_samples
+            raise AdavarInputError("no window of lmax samples fits in the record")
+        centres = np.arange(first, last + 1)
+        ext, offset = x, first  # the controller's centre q is sample first + q
+        n_c = centres.size
+        if method in ("oracle", "fixed"):
+            given = given[first : last + 1]
+    else:
+        pad = lmax // 2 + 1
+        ext = np.pad(x, pad, mode="symmetric")
+        offset = pad
+        centres = np.arange(n)
+        n_c = n
+
+    window = np.empty(n_c, dtype=np.int64)
+    kurt = np.empty(n_c)
+    scoef = np.empty(n_c)
+    f1 = np.empty(n_c, dtype=np.bool_)
+    f2 = np.empty(n_c, dtype=np.bool_)
+    f = np.empty(n_c, dtype=np.bool_)
+    _controller(
+        ext, offset, n_c, lmax, lmin, th.k1, th.k2, float(s1), th.s2, seg, dl0, dl1,
+        _S_TEST_CODE[s_test], method != "kurtosis", combine == "and",
+        method in ("adaptive", "kurtosis"), given, window, kurt, scoef, f1, f2, f,
+    )  # fmt: skip
+    parameters = dict(
+        method=method, lmax=lmax, lmin=lmin, k1=float(k1), k2=float(k2), s1=float(s1),
+        s2=float(s2), l=seg, dl0=dl0, dl1=dl1, s_test=s_test, combine=combine, edges=edges,
+        thresholds=thresholds, false_alarm=float(false_alarm) if thresholds == "calibrated"
+        else None, change_times=None if change_times is None else list(map(float, change_times)),
+    )  # fmt: skip
+    return Schedule(
+        window=window, kurtosis=kurt, s=scoef, f1=f1, f2=f2, f=f, centre=centres,
+        method=method, thresholds=th, parameters=parameters,
+    )  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------
+# the surface
+
+
+@dataclass(frozen=True, eq=False)
+class AdaptiveResult(DavarResult):
+    """A DAVAR surface computed on an adaptive (or oracle/fixed) window schedule.
+
+    All the fields of :class:`adavar.results.DavarResult` (``window`` is the schedule),
+    plus the controller's per-centre record.
+
+    Attributes
+    ----------
+    kurtosis, s : ndarray
+        Kurtosis of each centre's window and the S coefficient of its last ``l`` samples.
+    f1, f2, f : ndarray of bool
+        The controller's flags (see :class:`Schedule`).
+    method : str
+        ``"adaptive"``, ``"kurtosis"``, ``"oracle"`` or ``"fixed"``.
+    parameters : dict
+        Every controller setting used.
+    """
+
+    kurtosis: np.ndarray | None = None
+    s: np.ndarray | None = None
+    f1: np.ndarray | None = None
+    f2: np.ndarray | None = None
+    f: np.ndarray | None = None
+    method: str = "adaptive"
+    parameters: dict[str, Any] = field(default_factory=dict)
+
+
+def adaptive_davar(
+    data: Sequence[float] | np.ndarray,
+    *,
+    rate: float = 1.0,
+    method: str = "adaptive",
+    lmax: int = 600,
+    lmin: int = 400,
+    k1: float = 2.5,
+    k2: float = 3.3,
+    s1: float = 0.0,
+    s2: float = 0.07,
+    l: int = 100,  # noqa: E741 - the paper's name
+    dl0: int = 2,
+    dl1: int = 2,
+    s_test: str = "upper",
+    combine: str = "or",
+    taus: str | Sequence[float] | np.ndarray = "all",
+    edges: str = "mirror",
+    change_times: Sequence[float] | None = None,
+    thresholds: str = "paper",
+    false_alarm: float = 0.01,
+    step: int = 1,
+    confidence: float | None = 0.683,
+    data_type: str = "rate",
+    tau0: float | None = None,
+    t0: float = 0.0,
+    points_per_decade: int = 10,
+    noise_type: str | int | Sequence[int] = "record",
+    units: str | None = None,
+) -> AdaptiveResult:
+    """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
+
+    Parameters
+    ----------
+    data : array_like
+        The record (rate samples, or phase with ``data_type="phase"``).
+    rate : float
+        Sample rate in Hz (or give ``tau0``).
+    method : {"adaptive", "kurtosis", "oracle", "fixed"}
+        ``"adaptive"``: A-DAVAR, METHOD.md section 5 (``f = f1 combine f2``);
+        ``"kurtosis"``: DAVAR-K (``f = f1``); ``"oracle"``: the ideal schedule for
+        ``change_times``; ``"fixed"``: DAVAR-``lmax`` (kurtosis and flags recorded along).
+    lmax, lmin : int
+        Longest (start) and shortest window, samples (paper: 600, 400).
+    k1, k2 : float
+        Kurtosis band of a stationary window (Eq. 16; paper: 2.5, 3.3).
+    s1, s2 : float
+        S thresholds (Eq. 17; paper: 0, 0.07); ``s1`` is used by ``s_test="band"`` only.
+    l : int
+        Leading segment of the S test, samples (paper: 100).
+    dl0, dl1 : int
+        Regrow and shrink steps (paper: 2, 2); even, so the parity of ``L`` is kept.
+    s_test : {"upper", "band", "abs"}
+        The paper's ambiguous f2 test (METHOD.md section 5): ``"upper"`` (default) flags
+        ``S > s2``; ``"band"`` (the literal reading) flags ``S`` outside ``[s1, s2]``, which
+        fires on about half of all stationary windows; ``"abs"`` flags ``|S| > s2``.
+    combine : {"or", "and"}
+        ``f = f1 or f2`` (default, reproduces the paper's nodes) or ``f1 and f2``.
+    taus, edges, step, confidence, data_type, tau0, t0, points_per_decade, noise_type, units
+        As in :func:`adavar.davar`. With ``edges="valid"`` the controller runs on the
+        centres whose ``lmax`` window fits in the record.
+    change_times : sequence of float, optional
+        Known change times (seconds from the first sample) for ``method="oracle"``.
+    thresholds : {"paper", "calibrated"}
+        ``"paper"``: ``k1, k2, s2`` as given; ``"calibrated"``: per-length thresholds from the
+        sampling distribution of the kurtosis for a per-step false-alarm rate
+        ``false_alarm`` on stationary Gaussian noise (:func:`calibrated_thresholds`).
+    false_alarm : float
+        Target of ``thresholds="calibrated"``.
+
+    Returns
+    -------
+    AdaptiveResult
+        The DAVAR surface on the schedule, plus ``kurtosis``, ``s``, ``f1``, ``f2``, ``f``.
+
+    Notes
+    -----
+    The controller is an O(N) sequential pass; the surface is :func:`adavar.davar` with
+    ``window`` = the schedule, so it costs what a fixed window costs.
+    """
+    dtype = _DATA_TYPE_ALIASES.get(str(data_type).lower())
+    if dtype is None:
+        raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
+    x = as_samples(data, min_length=4 if dtype == "phase" else 3)
+    u = x if dtype == "rate" else np.diff(x)
+    sched = adaptive_schedule(
+        u, method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0,
+        dl1=dl1, s_test=s_test, combine=combine, edges=edges, change_times=change_times,
+        thresholds=thresholds, false_alarm=false_alarm, rate=rate, tau0=tau0,
+    )  # fmt: skip
+    step = int(step) if isinstance(step, (int, np.integer)) and not isinstance(step, bool) else 0
+    if step < 1:
+        raise AdavarInputError("step must be a positive integer")
+    if edges == "valid":
+        # the schedule covers the centres where an lmax window fits; others are not computed
+        full = np.full(u.size, lmax, dtype=np.int64)
+        full[sched.centre] = sched.window
+        window = full
+    else:
+        window = sched.window
+    surface = davar(
+        x, window=window, rate=rate, data_type=dtype, taus=taus, edges=edges, step=step,
+        confidence=confidence, tau0=tau0, t0=t0, points_per_decade=points_per_decade,
+        noise_type=noise_type, units=units,
+    )  # fmt: skip
+    rows = np.searchsorted(sched.centre, surface.centre)
+    keep = (rows < sched.centre.size) & (sched.centre[np.minimum(rows, sched.centre.size - 1)]
+                                         == surface.centre)
+    if not keep.all():  # pragma: no cover - valid edges keep the same centres
+        raise AssertionError("internal: surface centres outside the schedule")
+    fields = {name: getattr(surface, name) for name in surface.__dataclass_fields__
+              if name != "_cache"}
+    return AdaptiveResult(
+        **fields,
+        kurtosis=sched.kurtosis[rows], s=sched.s[rows], f1=sched.f1[rows],
+        f2=sched.f2[rows], f=sched.f[rows], method=method, parameters=sched.parameters,
+    )  # fmt: skip
+
+
+def false_alarm_rate(
+    *,
+    n: int = 200_000,
+    seeds: Sequence[int] = (0, 1, 2),
+    **controller: Any,
+) -> dict[str, float]:
+    """Fraction of steps at which the controller flags stationary Gaussian white noise.
+
+    Runs :func:`adaptive_schedule` on unit white noise (``n`` samples per seed) with the
+    given settings and returns the rates of ``f1``, ``f2`` and ``f`` and the fraction of
+    centres whose window is shorter than ``lmax`` (windows shrunk by false alarms), over
+    the centres whose ``lmax`` window lies inside the record.
+
+    Parameters
+    ----------
+    n : int
+        Samples per seed.
+    seeds : sequence of int
+        Seeds of the noise.
+    **controller
+        Settings of :func:`adaptive_schedule` (``method``, ``k1``, ``thresholds``, ...).
+
+    Returns
+    -------
+    dict
+        ``{"f1": ..., "f2": ..., "f": ..., "shrunk": ...}``.
+    """
+    totals = {"f1": 0.0, "f2": 0.0, "f": 0.0, "shrunk": 0.0}
+    count = 0
+    lmax = int(controller.get("lmax", 600))
+    for seed in seeds:
+        x = np.random.default_rng(seed).standard_normal(n)
+        sched = adaptive_schedule(x, **controller)
+        inner = slice(lmax, n - lmax)
+        totals["f1"] += float(sched.f1[inner].sum())
+        totals["f2"] += float(sched.f2[inner].sum())
+        totals["f"] += float(sched.f[inner].sum())
+        totals["shrunk"] += float((sched.window[inner] < lmax).sum())
+        count += sched.f[inner].size
+    return {k: v / count for k, v in totals.items()}
