@@ -103,17 +103,13 @@ def _slide(x, a_old, b_old, a_new, b_new, anchor, q):  # pragma: no cover - comp
 
 
 @jit(inline="always")
-def _kurt_from(inv_n, s1, s2, s3, s4):  # pragma: no cover - compiled
-    """Pearson kurtosis (biased moments) from power sums about an anchor near the mean."""
+def _central(inv_n, s1, s2, s3, s4):  # pragma: no cover - compiled
+    """Second and fourth central moments from power sums about an anchor near the mean."""
     d = s1 * inv_n
     e2 = s2 * inv_n
-    e3 = s3 * inv_n
-    e4 = s4 * inv_n
     m2 = e2 - d * d
-    m4 = e4 - 4.0 * d * e3 + 6.0 * d * d * e2 - 3.0 * d * d * d * d
-    if not m2 > 0.0:
-        return np.nan
-    return m4 / (m2 * m2)
+    m4 = s4 * inv_n - 4.0 * d * (s3 * inv_n) + 6.0 * d * d * e2 - 3.0 * d * d * d * d
+    return m2, m4
 
 
 @jit(inline="always")
@@ -124,14 +120,14 @@ def _minus(h, lo, hs, ls):  # pragma: no cover - compiled
 
 
 @jit(inline="always")
-def _kurtoses(qx, qs, n_x, n_s):  # pragma: no cover - compiled
-    """Kurtosis of the window and the S coefficient of its last segment (Eq. 15)."""
-    kx = _kurt_from(1.0 / n_x, qx[0] + qx[1], qx[2] + qx[3], qx[4] + qx[5], qx[6] + qx[7])
-    kc = _kurt_from(
-        1.0 / (n_x - n_s), _minus(qx[0], qx[1], qs[0], qs[1]), _minus(qx[2], qx[3], qs[2], qs[3]),
+def _moments(qx, qs, inv_x, inv_c):  # pragma: no cover - compiled
+    """(m2, m4) of the window and of its complement (the window without its segment)."""
+    m2x, m4x = _central(inv_x, qx[0] + qx[1], qx[2] + qx[3], qx[4] + qx[5], qx[6] + qx[7])
+    m2c, m4c = _central(
+        inv_c, _minus(qx[0], qx[1], qs[0], qs[1]), _minus(qx[2], qx[3], qs[2], qs[3]),
         _minus(qx[4], qx[5], qs[4], qs[5]), _minus(qx[6], qx[7], qs[6], qs[7]),
     )  # fmt: skip
-    return kx, (kx - kc) / kx
+    return m2x, m4x, m2c, m4c
 
 
 @jit
@@ -147,6 +143,10 @@ def _controller(
     of the window and of its leading segment live in registers (two 8-tuples).
     """
     zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    inv = np.empty(lmax + 1)  # 1/n by lookup: no division on the loop-carried path
+    inv[0] = np.inf
+    for k in range(1, lmax + 1):
+        inv[k] = 1.0 / k
     L = lmax if adapt else given[0]
     a = offset - (L - 1) // 2
     b = a + L
@@ -170,20 +170,30 @@ def _controller(
         a = a_new
         b = b_new
         since += 1
-        kx, sv = _kurtoses(qx, qs, float(L), float(seg))
-        flag1 = not (k1[L] <= kx <= k2[L])
+        m2x, m4x, m2c, m4c = _moments(qx, qs, inv[L], inv[L - seg])
+        # the decisions by products, not quotients: the next window waits only on them
+        ok_x = m2x > 0.0
+        ok = ok_x and m2c > 0.0
+        vx = m2x * m2x
+        flag1 = not (ok_x and k1[L] * vx <= m4x <= k2[L] * vx)
+        lhs = m4x * (m2c * m2c)  # kx - kc > t kx  <=>  (1 - t) m4x m2c^2 > m4c m2x^2
+        rhs = m4c * vx
+        above = ok and (1.0 - s2[L]) * lhs > rhs
         if s_test == 0:
-            flag2 = sv > s2[L]
+            flag2 = above
         elif s_test == 1:
-            flag2 = not (s1 <= sv <= s2[L])
+            flag2 = not ok or above or (1.0 - s1) * lhs < rhs
         else:
-            flag2 = abs(sv) > s2[L]
+            flag2 = above or (ok and (1.0 + s2[L]) * lhs < rhs)
         if not use_f2:
             flag = flag1
         elif use_and:
             flag = flag1 and flag2
         else:
             flag = flag1 or flag2
+        kx = m4x / vx if ok_x else np.nan
+        kc = m4c / (m2c * m2c) if m2c > 0.0 else np.nan
+        sv = (kx - kc) / kx
         window[p] = L
         kurt[p] = kx
         scoef[p] = sv
@@ -671,10 +681,10 @@ def adaptive_davar(
         confidence=confidence, tau0=tau0, t0=t0, points_per_decade=points_per_decade,
         noise_type=noise_type, units=units,
     )  # fmt: skip
-    rows = np.searchsorted(sched.centre, surface.centre)
-    keep = (rows < sched.centre.size) & (sched.centre[np.minimum(rows, sched.centre.size - 1)]
-                                         == surface.centre)
-    if not keep.all():  # pragma: no cover - valid edges keep the same centres
+    # the surface's centres are every step-th of the schedule's: slices, no copies
+    first = int(surface.centre[0] - sched.centre[0])
+    rows = slice(first, first + step * (surface.centre.size - 1) + 1, step)
+    if not np.array_equal(sched.centre[rows], surface.centre):  # pragma: no cover
         raise AssertionError("internal: surface centres outside the schedule")
     fields = {name: getattr(surface, name) for name in surface.__dataclass_fields__
               if name != "_cache"}

@@ -259,7 +259,10 @@ def davar(
     else:
         alpha, id_notes = _noise_alpha(noise_type, u, ms)
         notes = notes + id_notes
-        distinct, window_class = np.unique(sched.length, return_inverse=True)
+        # lengths are small integers: classes by a lookup table, not a sort of N values
+        present = np.bincount(sched.length) > 0
+        distinct = np.flatnonzero(present)
+        window_class = (np.cumsum(present) - 1)[sched.length]
         table = edf_table(distinct, ms, alpha)
         bounds = np.stack(_bound_factors(table, float(confidence)))
 

@@ -848,6 +848,18 @@ def cluster_sums(phase: AnchoredPhase, m: int) -> np.ndarray:
     return out + phase.shift * m
 
 
+@jit
+def _window_extent(centres, lengths, offset):  # pragma: no cover - compiled
+    """First sample and end of the union of the windows (no temporary arrays)."""
+    first = centres[0] - (lengths[0] - 1) // 2 + offset
+    stop = first + lengths[0]
+    for c in range(centres.size):
+        a = centres[c] - (lengths[c] - 1) // 2 + offset
+        first = min(first, a)
+        stop = max(stop, a + lengths[c])
+    return first, stop
+
+
 def window_avar(
     phase: AnchoredPhase,
     ms: np.ndarray,
@@ -888,14 +900,8 @@ def window_avar(
     if centres.shape != lengths.shape or centres.ndim != 1:
         raise ValueError("internal: centres and lengths must be 1-D arrays of one shape")
     if centres.size:
-        if lengths.min() == lengths.max():  # starts follow the centres: check the extremes
-            ends = centres[[0, -1]] if np.all(centres[:-1] <= centres[1:]) else centres
-            starts = ends - (lengths[0] - 1) // 2 + offset
-            stops = starts + lengths[0]
-        else:
-            starts = centres - (lengths - 1) // 2 + offset
-            stops = starts + lengths
-        if starts.min() < 0 or stops.max() > phase.n_points - 1:
+        first, stop = _window_extent(centres, lengths, int(offset))
+        if first < 0 or stop > phase.n_points - 1:
             raise ValueError("internal: a window runs past the data")
     nc, nt = centres.size, ms.size
     out = np.empty((nc, nt))
