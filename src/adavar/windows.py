@@ -112,7 +112,7 @@ def _as_lengths(window: Any, n_samples: int) -> np.ndarray | int:
         if np.issubdtype(arr.dtype, np.floating):
             if not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)):
                 raise AdavarInputError("window must hold whole numbers of samples")
-        lengths = arr.astype(np.int64)
+        lengths = arr.astype(np.int64)  # a copy: the result must not alias the caller
         lo, hi = int(lengths.min()), int(lengths.max())
     if lo < MIN_WINDOW:
         raise AdavarInputError(
@@ -166,7 +166,7 @@ def window_schedule(
     if isinstance(lengths, int):
         length = None
     elif lengths.size == n_samples:
-        length = lengths[candidates]
+        length = lengths if step == 1 else lengths[candidates]
     elif lengths.size == candidates.size and edges == "mirror":
         length = lengths
     else:
