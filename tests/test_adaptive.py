@@ -18,7 +18,7 @@ from adavar.adaptive import (
 )
 from adavar.errors import AdavarInputError
 
-SMALL = dict(lmax=200, lmin=120, l=30)  # noqa: E741 - the paper's name
+SMALL = dict(lmax=200, lmin=120, l=30)  # l: the paper's name of the segment
 
 
 def literal_controller(

@@ -259,14 +259,31 @@ def test_help_and_version_exit_0(capsys):
 # --------------------------------------------------------------------------------------
 
 
-def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path):
+PAPER_DEMO_FILES = [
+    "paper_arw.csv", "paper_crossings.csv", "paper_intervals.csv", "paper_metrics.csv",
+    "paper_nodes.csv", "paper_seeds_nodes.csv",
+    *(f"{stem}.{ext}" for stem in ("fig06_kurtosis_windows", "fig07_contribution",
+                                   "fig08_thresholds", "fig10_controller",
+                                   "fig11_adavar_surface", "fig12_arw")
+      for ext in ("png", "svg")),
+]  # fmt: skip
+
+
+def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path, monkeypatch):
     out_dir = tmp_path / "demo"
+    monkeypatch.setattr("adavar.demo.PAPER_SEEDS", 6)  # fewer realisations than the demo's
     code, out, err = run(capsys, ["demo", "--out", str(out_dir)])
     assert code == 0, err
     assert "NIST SP 1065" in out and "TOTDEV" in out and "angle random walk" in out
     assert str(out_dir / "gyro_oadev.png") in out
     assert (out_dir / "gyro_oadev.png").is_file() and (out_dir / "gyro_oadev.svg").is_file()
+    # 3. the paper's scenario 1, end to end
+    assert "3. The A-DAVAR paper's scenario 1" in out
+    assert "Beginning(3000)" in out and "paper A-DAVAR" in out and "over 6 realisations" in out
+    names = {p.name for p in out_dir.iterdir()}
+    assert set(PAPER_DEMO_FILES) <= names, set(PAPER_DEMO_FILES) - names
 
+    monkeypatch.setattr("adavar.demo.PAPER_SEEDS", 4)
     code, out, err = run(capsys, ["demo", "--out", str(out_dir), "--json", "--seed", "5"])
     assert code == 0, err
     payload = json.loads(out)
@@ -280,6 +297,11 @@ def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path):
     for name in ("quantization", "angle_random_walk", "bias_instability"):
         assert fitted[name]["value"] == pytest.approx(true[name]["value"], rel=0.15), name
     assert json.loads((out_dir / "demo.json").read_text())["gyro"]["seed"] == 5
+    paper = payload["paper"]
+    assert paper["seeds"]["n_seeds"] == 4 and paper["seeds"]["seeds"] == [5, 8]
+    assert paper["comparison"]["scenario"] == 1
+    assert paper["comparison"]["methods"]["a-davar"]["nodes"][0]["change"] == 3000.0
+    assert set(PAPER_DEMO_FILES) <= set(payload["out"]["files"])
     assert [p.name for p in tmp_path.iterdir()] == ["demo"]
 
 

@@ -9,6 +9,9 @@ The public entry points:
 - :func:`adaptive_davar`: the paper's adaptive-window DAVAR (A-DAVAR) and its baselines
   (DAVAR-K, an oracle schedule, a fixed window), steered by the kurtosis and the sliding
   kurtosis contribution coefficient;
+- :func:`compare` / :func:`compare_seeds`: DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR on
+  one signal (or the paper's scenarios, :func:`adavar.simulate.paper_scenario`, over many
+  seeds): node tables beside the paper's, ground-truth tracking metrics;
 - :func:`fit_noise`: the IEEE-952 noise coefficients (Q, N, B, K, R) of a deviation curve, or
   of every DAVAR window at once (N(t), B(t), ...);
 - :mod:`adavar.simulate`: seeded generators of the noise processes.
@@ -16,6 +19,7 @@ The public entry points:
 
 from adavar import simulate
 from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
+from adavar.compare import compare, compare_seeds
 from adavar.davar import davar
 from adavar.errors import AdavarInputError
 from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
@@ -31,6 +35,8 @@ __all__ = [
     "NoiseTerm",
     "adaptive_davar",
     "adaptive_schedule",
+    "compare",
+    "compare_seeds",
     "davar",
     "deviation",
     "fit_avar",

@@ -28,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -310,6 +311,7 @@ class Thresholds:
     source: str
 
 
+@lru_cache(maxsize=32)
 def calibrated_thresholds(
     lmin: int,
     lmax: int,
@@ -350,6 +352,7 @@ def calibrated_thresholds(
     Returns
     -------
     Thresholds
+        Cached: the same settings return the same tables (do not modify them).
     """
     if not 0.0 < false_alarm < 1.0:
         raise AdavarInputError(f"false_alarm must lie in (0, 1), got {false_alarm}")
@@ -534,7 +537,7 @@ def adaptive_schedule(
     n = x.size
 
     if thresholds == "calibrated":
-        th = calibrated_thresholds(lmin, lmax, seg, false_alarm=false_alarm)
+        th = calibrated_thresholds(lmin, lmax, seg, false_alarm=float(false_alarm))
     else:
         th = _fixed_thresholds(lmax, k1, k2, s2)
 

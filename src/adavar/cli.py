@@ -9,8 +9,13 @@ Commands
     The dynamic Allan variance of a sliding window and the noise coefficients of every
     window over time (N(t), B(t), ...); a summary, JSON, or an output folder with the
     surface (NetCDF or Parquet), the coefficients (CSV) and the figures.
+``adavar compare (FILE --rate HZ --units UNIT | --scenario 1|2) [--seeds N] [...]``
+    DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR on the same record: the node times around
+    each change next to the paper's Table 1, ARW interval means, ground-truth confidence
+    and tracking metrics (simulated scenarios), the kurtosis threshold crossings (Fig. 8);
+    ``--out`` writes the tables (CSV, JSON) and the paper's figures.
 ``adavar demo [--out DIR] [--json] [--seed N]``
-    The NIST SP 1065 check values and a simulated MEMS gyroscope.
+    The NIST SP 1065 check values, a simulated MEMS gyroscope and the paper's scenario 1.
 
 Exit codes: 0 success, 1 internal error (a bug: the traceback with ``--debug`` or
 ``ADAVAR_DEBUG=1``), 2 a user mistake (bad flag, unreadable file, bad data), reported as
@@ -200,6 +205,35 @@ def _seed(text: str) -> int:
     return value
 
 
+def _finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def _seconds_list(text: str) -> list[float]:
+    try:
+        values = [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated positive times in seconds (e.g. 3000,4000), got {text!r}"
+        )
+    return values
+
+
+def _names(text: str) -> list[str]:
+    names = [part.strip().lower() for part in text.split(",") if part.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("give at least one method, e.g. davar-400,a-davar")
+    return names
+
+
 def _terms(text: str) -> tuple[str, ...]:
     out = []
     for part in text.split(","):
@@ -257,7 +291,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="adavar",
         description="Allan-family statistics with confidence intervals and IEEE Std 952 "
         "noise-coefficient fits (avar), the dynamic Allan variance of a sliding window with "
-        "the noise coefficients over time (davar), and a demonstration (demo).",
+        "the noise coefficients over time (davar), fixed and adaptive windows side by side "
+        "(compare), and a demonstration (demo).",
     )
     parser.add_argument("--version", action="version", version=f"adavar {__version__}")
     parser.add_argument(
@@ -377,11 +412,111 @@ def build_parser() -> argparse.ArgumentParser:
                      help=argparse.SUPPRESS)
     dav.set_defaults(handler=_cmd_davar)
 
+    cmp_ = sub.add_parser(
+        "compare",
+        help="DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR side by side (the paper's Table 1)",
+        description="Run fixed windows of Lmin and Lmax samples, the kurtosis-only controller "
+        "(DAVAR-K) and the adaptive window (A-DAVAR) on the same record, fit N(t) of every "
+        "window, and print the node times around each change next to the paper's values, "
+        "the ARW interval means and, on a simulated scenario, the ground-truth confidence and "
+        "tracking metrics and the kurtosis threshold crossings (the paper's Fig. 8). Give a "
+        "data FILE (with --rate and --units, and --change-times for the nodes) or --scenario.",
+    )
+    cmp_.add_argument("file", metavar="FILE", nargs="?",
+                      help="text file, one sample per row (or use --scenario)")  # fmt: skip
+    cmp_.add_argument(
+        "--column", metavar="NAME",
+        help="header name or 0-based index of the column (needed if there are several)",
+    )  # fmt: skip
+    cmp_.add_argument("--rate", metavar="HZ", type=_positive_float("Hz"),
+                      help="sample rate of FILE in Hz (or --tau0)")  # fmt: skip
+    cmp_.add_argument("--tau0", metavar="SECONDS", type=_positive_float("seconds"),
+                      help="sample interval of FILE in seconds, instead of --rate")  # fmt: skip
+    cmp_.add_argument("--units", metavar="UNIT",
+                      help="unit of the rate samples of FILE, e.g. deg/s or deg/h")  # fmt: skip
+    cmp_.add_argument(
+        "--scenario", type=int, choices=(1, 2),
+        help="simulate the paper's scenario 1 (disturbance at 3000-4000 s) or 2 (1000-2000 s "
+        "and 4000-5000 s) instead of reading FILE",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--variance-reading", action="store_true",
+        help="scenario disturbance of variance 3 (the paper's text read literally) instead "
+        "of standard deviation 3",
+    )  # fmt: skip
+    cmp_.add_argument("--seed", type=_seed, default=2018, metavar="N",
+                      help="seed of the (first) simulated realisation (default: 2018)")
+    cmp_.add_argument(
+        "--seeds", type=_positive_int, default=1, metavar="N",
+        help="with --scenario: repeat over N realisations (seeds SEED .. SEED+N-1) and report "
+        "medians and quartiles (default: 1)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--change-times", type=_seconds_list, metavar="T,...",
+        help="known change times of FILE in seconds, for the nodes (and the oracle)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--methods", type=_names, metavar="LIST",
+        help="comma-separated methods: davar-<L> (fixed window), davar-k, a-davar, oracle "
+        "(default: davar-LMIN,davar-LMAX,davar-k,a-davar)",
+    )  # fmt: skip
+    cmp_.add_argument("--lmax", type=_positive_int, default=600, metavar="L",
+                      help="longest window, samples (default: 600)")  # fmt: skip
+    cmp_.add_argument("--lmin", type=_positive_int, default=400, metavar="L",
+                      help="shortest window, samples (default: 400)")  # fmt: skip
+    cmp_.add_argument("--k1", type=_finite_float, default=2.5, metavar="K",
+                      help="lower kurtosis threshold (default: 2.5)")  # fmt: skip
+    cmp_.add_argument("--k2", type=_finite_float, default=3.3, metavar="K",
+                      help="upper kurtosis threshold (default: 3.3)")  # fmt: skip
+    cmp_.add_argument("--s1", type=_finite_float, default=0.0, metavar="S",
+                      help="lower S threshold, --s-test band only (default: 0)")  # fmt: skip
+    cmp_.add_argument("--s2", type=_finite_float, default=0.07, metavar="S",
+                      help="upper S threshold (default: 0.07)")  # fmt: skip
+    cmp_.add_argument("--l", type=_positive_int, default=100, metavar="N", dest="segment",
+                      help="leading segment of the S test, samples (default: 100)")  # fmt: skip
+    cmp_.add_argument("--dl0", type=_seed, default=2, metavar="N",
+                      help="regrow step, samples (default: 2)")  # fmt: skip
+    cmp_.add_argument("--dl1", type=_seed, default=2, metavar="N",
+                      help="shrink step, samples (default: 2)")  # fmt: skip
+    cmp_.add_argument("--s-test", default="upper", choices=("upper", "band", "abs"),
+                      help="f2 test: S > S2 (default), S outside [S1, S2], |S| > S2")
+    cmp_.add_argument("--combine", default="or", choices=("or", "and"),
+                      help="f = f1 or f2 (default) / f1 and f2")  # fmt: skip
+    cmp_.add_argument(
+        "--thresholds", default="paper", choices=("paper", "calibrated"),
+        help="paper: K1, K2, S2 as given (default); calibrated: from the sampling "
+        "distribution of the kurtosis for --false-alarm",
+    )  # fmt: skip
+    cmp_.add_argument("--false-alarm", type=_confidence, default=0.01, metavar="P",
+                      help="per-step false-alarm rate of --thresholds calibrated (default: "
+                      "0.01)")  # fmt: skip
+    cmp_.add_argument(
+        "--taus", type=_taus, metavar="SPEC",
+        help="taus of every surface: all (default for one realisation, the paper's), octave "
+        "(default with --seeds > 1), decade, log, or comma-separated seconds",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--terms", type=_terms, metavar="LIST",
+        help="terms of the noise fit of every window (default: all five, the paper's)",
+    )  # fmt: skip
+    cmp_.add_argument("--json", action="store_true", help="print one JSON object")
+    cmp_.add_argument(
+        "--out", metavar="DIR",
+        help="also write the tables (CSV), result.json and the figures (the paper's Figs. 6, "
+        "7, 8, 10, 11, 12 as .png/.svg) to this new folder",
+    )  # fmt: skip
+    cmp_.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    cmp_.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                      help=argparse.SUPPRESS)
+    cmp_.set_defaults(handler=_cmd_compare)
+
     demo = sub.add_parser(
         "demo",
-        help="NIST SP 1065 check values and a simulated MEMS gyro",
-        description="Reproduce the NIST SP 1065 published deviations and fit the noise terms "
-        "of a simulated MEMS gyroscope with known coefficients; writes the figure.",
+        help="NIST SP 1065 check values, a simulated MEMS gyro and the paper's scenario 1",
+        description="Reproduce the NIST SP 1065 published deviations, fit the noise terms "
+        "of a simulated MEMS gyroscope with known coefficients, and run the A-DAVAR paper's "
+        "scenario 1 end to end (DAVAR-400/600, DAVAR-K and A-DAVAR: nodes next to the paper's "
+        "Table 1, metrics, Fig. 8 crossings); writes the figures and tables.",
     )
     demo.add_argument(
         "--out", metavar="DIR", default=DEMO_DEFAULT_OUT,
@@ -1007,6 +1142,475 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+# --------------------------------------------------------------------------------------
+# compare (and the paper part of the demo)
+# --------------------------------------------------------------------------------------
+
+_NODE_TITLES = {"beginning": "Beginning", "end": "End", "restore": "Restore"}
+#: Thresholds of the Fig. 8 study (the paper's), plus --k2 when it differs.
+_FIG8_THRESHOLDS = (3.3, 3.45, 4.0)
+
+
+def _fmt_time(value: float) -> str:
+    return "-" if not math.isfinite(value) else f"{value:.0f}"
+
+
+def _fmt_summary(stats: dict[str, float]) -> str:
+    if not math.isfinite(stats["median"]):
+        return "-"
+    text = f"{stats['median']:.0f} [{stats['q25']:.0f},{stats['q75']:.0f}]"
+    return text + (f" ({stats['missed']} missed)" if stats["missed"] else "")
+
+
+def _paper_columns(comp: Any, paper: dict[str, Any]) -> list[str]:
+    return [name for name in comp.methods if name in paper]
+
+
+def _compare_node_lines(comp: Any, study: Any) -> list[str]:
+    from adavar.compare import PAPER_LABELS
+
+    if not comp.change_times:
+        return ["Nodes: no change times (give --change-times T,... for a data file)"]
+    labels = comp.labels
+    if study is None:
+        rows_in = comp.node_rows()
+        paper = comp.paper_nodes()
+    else:
+        rows_in = study.node_rows()
+        paper = study.paper_nodes()
+    cols = _paper_columns(comp, paper)
+    headers = ["node [s]", *labels.values(), *(f"paper {PAPER_LABELS[m]}" for m in cols)]
+    rows = []
+    for r in rows_in:
+        name = f"{_NODE_TITLES[r['node']]}({r['change']:g})"
+        if study is None:
+            cells = [_fmt_time(r["values"][m]) for m in labels]
+        else:
+            cells = [_fmt_summary(r["stats"][m]) for m in labels]
+        rows.append([name, *cells, *(_fmt_time(r["paper"].get(m, math.nan)) for m in cols)])
+    if study is None:
+        title = "Node times (window centres, s), one realisation"
+    else:
+        title = (f"Node times (window centres, s): median [quartiles] over {len(study.seeds)} "
+                 "realisations")  # fmt: skip
+    lines = [title, _table(headers, rows, "  ")]
+    if comp.scenario == 2 and cols:
+        lines.append("  (paper: its Table 3 is a measured gyroscope with this scenario's shape, "
+                     "not this simulation)")  # fmt: skip
+    lines.append("  (fixed windows: X -/+ L/2 by definition; adaptive: Restore = first centre "
+                 ">= X at Lmax, End = start of the regrowth into it, Beginning = where L left "
+                 "Lmax before it)")  # fmt: skip
+    return lines
+
+
+def _compare_interval_lines(comp: Any, study: Any) -> list[str]:
+    from adavar.compare import PAPER_LABELS, PAPER_TABLE1_ARW
+
+    labels = comp.labels
+    paper = PAPER_TABLE1_ARW if comp.scenario == 1 else {}
+    cols = _paper_columns(comp, paper)
+    if study is None:
+        values = {m: [run.intervals[iv] for iv in comp.intervals]
+                  for m, run in comp.methods.items()}  # fmt: skip
+    else:
+        values = {m: [r["values"][m] for r in study.arw_rows()] for m in labels}
+    headers = ["interval [s]", *labels.values(), *(f"paper {PAPER_LABELS[m]}" for m in cols)]
+    rows = []
+    for j, (a, b) in enumerate(comp.intervals):
+        rows.append([f"ARW({a:g}~{b:g})", *(f"{values[m][j]:.4g}" for m in labels),
+                     *(f"{paper[m].get((a, b), math.nan):.4g}" for m in cols)])  # fmt: skip
+    a0, b0 = comp.intervals[0]
+    for j, (a, b) in enumerate(comp.intervals[1:], start=1):
+        ratio = [values[m][j] / values[m][0] for m in labels]
+        pr = [paper[m].get((a, b), math.nan) / paper[m].get((a0, b0), math.nan) for m in cols]
+        rows.append([f"  ARW({a:g}~{b:g}) / ARW({a0:g}~{b0:g})", *(f"{v:.3f}" for v in ratio),
+                     *(f"{v:.3f}" for v in pr)])  # fmt: skip
+    unit = None
+    if comp.units:
+        from adavar.plots import term_unit
+
+        unit = term_unit("angle_random_walk", comp.units)
+    what = f"N in {unit}" if unit else "N in sample unit x sqrt(s)"
+    over = "" if study is None else f", median over {len(study.seeds)} realisations"
+    lines = [f"ARW interval means ({what}{over})", _table(headers, rows, "  ")]
+    if cols:
+        lines.append("  (paper values in 1e-3 deg/sqrt(h), a scale its text does not define: "
+                     "compare the ratios)")  # fmt: skip
+    return lines
+
+
+_METRIC_TEXT = {
+    "bias": "bias of N/N_true - 1, stationary",
+    "std": "std of N/N_true - 1, stationary",
+    "mad": "1.4826 MAD of N/N_true - 1, stationary",
+    "error": "error at {X}: mean |N/N_true - 1|",
+    "delay": "delay at {X}: midpoint passage [s]",
+    "rise": "rise at {X}: 10-90 % [s]",
+}
+
+
+def _compare_metric_lines(comp: Any, study: Any) -> list[str]:
+    labels = comp.labels
+    if study is None:
+        if comp.truth is None:
+            return []
+        rows_in = []
+        for key in ("bias", "std", "mad"):
+            rows_in.append({"metric": key, "change": None,
+                            "values": {m: getattr(r.metrics, key)
+                                       for m, r in comp.methods.items()}})  # fmt: skip
+        for j, change in enumerate(comp.change_times):
+            for key in ("error", "delay", "rise"):
+                rows_in.append({"metric": key, "change": change,
+                                "values": {m: getattr(r.metrics.changes[j], key)
+                                           for m, r in comp.methods.items()}})  # fmt: skip
+    else:
+        rows_in = study.metric_rows()
+    rows = []
+    for r in rows_in:
+        key = r["metric"]
+        vals = [r["values"][m] for m in labels]
+        finite = [abs(v) for v in vals if math.isfinite(v)]
+        best = min(finite) if finite else math.nan
+        cells = []
+        for v in vals:
+            if not math.isfinite(v):
+                cells.append("-")
+                continue
+            text = f"{100 * v:+.1f} %" if key == "bias" else (
+                f"{100 * v:.1f} %" if key in ("std", "mad", "error") else f"{v:+.0f}"
+                if key == "delay" else f"{v:.0f}")  # fmt: skip
+            cells.append(text + ("*" if abs(v) == best else " "))
+        change = "" if r["change"] is None else f"{r['change']:g} s"
+        rows.append([_METRIC_TEXT[key].format(X=change), *cells])
+    over = "one realisation" if study is None else f"median over {len(study.seeds)} realisations"
+    return [
+        f"Ground truth ({over}; * best; stationary: farther than Lmax/2 from every change; "
+        "error around a change: within Lmax)",
+        _table(["metric", *labels.values()], rows, "  "),
+    ]
+
+
+def _crossing_lines(thr: Any, study: Any, scenario: int | None) -> list[str]:
+    from adavar.compare import PAPER_FIG8_CROSSINGS
+
+    if thr is None:
+        return []
+    rows = []
+    if study is None:
+        for th in thr.thresholds:
+            paper = PAPER_FIG8_CROSSINGS.get(th, {}) if scenario == 1 else {}
+            for j, change in enumerate(thr.change_times):
+                exp = (thr.expected_crossings[th][j] if thr.expected_crossings is not None
+                       else (math.nan, math.nan))  # fmt: skip
+                pp = paper.get(change, (math.nan, math.nan))
+                rows.append([f"{th:g}", f"{change:g}", _fmt_time(thr.crossings[th][j, 0]),
+                             _fmt_time(thr.crossings[th][j, 1]),
+                             f"{_fmt_time(exp[0])} / {_fmt_time(exp[1])}",
+                             f"{_fmt_time(pp[0])} / {_fmt_time(pp[1])}"])  # fmt: skip
+        title = f"Kurtosis of a fixed window of {thr.window} samples crossing K2 (paper Fig. 8)"
+    else:
+        for r in study.crossing_rows():
+            pp = r["paper"] or (math.nan, math.nan)
+            rows.append([f"{r['threshold']:g}", f"{r['change']:g}", _fmt_summary(r["rise"]),
+                         _fmt_summary(r["fall"]),
+                         f"{_fmt_time(r['expected'][0])} / {_fmt_time(r['expected'][1])}",
+                         f"{_fmt_time(pp[0])} / {_fmt_time(pp[1])}"])  # fmt: skip
+        title = (f"Kurtosis of a fixed window of {study.crossing_window} samples crossing K2 "
+                 f"(paper Fig. 8): median [quartiles] over {len(study.seeds)} realisations")
+    headers = ["K2", "change [s]", "rises above [s]", "falls back [s]", "expected (truth)",
+               "paper"]  # fmt: skip
+    return [title, _table(headers, rows, "  ")]
+
+
+def _compare_report(comp: Any, study: Any, thr: Any) -> list[str]:
+    taus = comp.parameters["taus"]
+    if study is not None:
+        taus = f"{taus} (one realisation), {study.parameters['taus']} (over seeds)"
+    lines = [f"{comp.description}", "methods: " + ", ".join(comp.labels.values())
+             + f"; taus {taus}; fit terms "
+             + ("all five" if len(comp.parameters["terms"]) == 5
+                else ",".join(comp.parameters["terms"]))]  # fmt: skip
+    p = comp.parameters
+    if p["thresholds"] == "calibrated":
+        limits = f"thresholds calibrated for a false-alarm rate of {p['false_alarm']:g}"
+    else:
+        limits = f"K1 {p['k1']:g}, K2 {p['k2']:g}, S2 {p['s2']:g}"
+    lines.append(
+        f"controller: Lmax {p['lmax']}, Lmin {p['lmin']}, l {p['l']}, dL0 {p['dl0']}, "
+        f"dL1 {p['dl1']}, f2 test {p['s_test']}, combine {p['combine']}; {limits}"
+    )
+    for block in (_compare_node_lines(comp, study), _compare_interval_lines(comp, study),
+                  _compare_metric_lines(comp, study),
+                  _crossing_lines(thr, study, comp.scenario)):  # fmt: skip
+        if block:
+            lines += ["", *block]
+    return lines
+
+
+def _csv_text(header_comment: str, columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
+    buffer = _stdio.StringIO()
+    buffer.write(f"# {header_comment}\n")
+    writer = csv.writer(buffer, lineterminator="\n")
+    writer.writerow(columns)
+    for row in rows:
+        # NaN (a node that does not apply, a value the paper does not give) as "nan": an
+        # empty last cell would read as a trailing delimiter
+        writer.writerow([repr(float(v)) if isinstance(v, (float, np.floating)) else v
+                         for v in row])  # fmt: skip
+    return buffer.getvalue()
+
+
+def _compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
+    """CSV file name -> text."""
+    from adavar.compare import PAPER_FIG8_CROSSINGS, PAPER_REFERENCE, PAPER_TABLE1_ARW
+
+    head = f"adavar {__version__}: {comp.description}"
+    names = list(comp.methods)
+    files: dict[str, str] = {}
+    if comp.change_times:
+        paper = comp.paper_nodes() if study is None else study.paper_nodes()
+        cols = _paper_columns(comp, paper)
+        if study is None:
+            rows = [[r["node"], r["change"], *(r["values"][m] for m in names),
+                     *(r["paper"].get(m, math.nan) for m in cols)] for r in comp.node_rows()]
+            columns = ["node", "change_s", *names]
+        else:
+            stats = ("median", "q25", "q75", "missed")
+            rows = [[r["node"], r["change"],
+                     *(r["stats"][m][k] for m in names for k in stats),
+                     *(r["paper"].get(m, math.nan) for m in cols)] for r in study.node_rows()]
+            columns = ["node", "change_s", *(f"{m}_{k}" for m in names for k in stats)]
+        files["nodes.csv"] = _csv_text(
+            f"{head}; node times (window centres) in s; paper_*: {PAPER_REFERENCE}",
+            [*columns, *(f"paper_{m}" for m in cols)], rows,
+        )  # fmt: skip
+    paper_arw = PAPER_TABLE1_ARW if comp.scenario == 1 else {}
+    cols = _paper_columns(comp, paper_arw)
+    if study is None:
+        vals = {m: [run.intervals[iv] for iv in comp.intervals] for m, run in comp.methods.items()}
+    else:
+        vals = {m: [r["values"][m] for r in study.arw_rows()] for m in names}
+    files["intervals.csv"] = _csv_text(
+        f"{head}; ARW(a~b) = mean of N(t) over centres in [a, b]"
+        + ("" if study is None else f", median over {len(study.seeds)} realisations")
+        + "; paper_* in 1e-3 deg/sqrt(h) (scale not reproducible: compare ratios)",
+        ["a_s", "b_s", *names, *(f"paper_{m}" for m in cols)],
+        [[a, b, *(vals[m][j] for m in names), *(paper_arw[m].get((a, b), math.nan) for m in cols)]
+         for j, (a, b) in enumerate(comp.intervals)],
+    )  # fmt: skip
+    if study is not None or comp.truth is not None:
+        rows = []
+        if study is None:
+            for m, run in comp.methods.items():
+                met = run.metrics
+                rows.append([m, "bias", "", met.bias])
+                rows.append([m, "std", "", met.std])
+                rows.append([m, "mad", "", met.mad])
+                for c in met.changes:
+                    rows += [[m, "error", c.change, c.error], [m, "delay", c.change, c.delay],
+                             [m, "rise", c.change, c.rise]]  # fmt: skip
+        else:
+            for r in study.metric_rows():
+                for m in names:
+                    rows.append([m, r["metric"], "" if r["change"] is None else r["change"],
+                                 r["values"][m]])  # fmt: skip
+        files["metrics.csv"] = _csv_text(
+            f"{head}; ground-truth metrics"
+            + ("" if study is None else f", median over {len(study.seeds)} realisations")
+            + "; bias/std/mad of N/N_true - 1 over stationary centres; error: mean "
+            "|N/N_true - 1| within Lmax of the change; delay, rise in s",
+            ["method", "metric", "change_s", "value"], rows,
+        )  # fmt: skip
+    cols_arw = ["time_s"] + (["true_N"] if comp.truth is not None else [])
+    cols_arw += [f"N_{m}" for m in names] + [f"window_{m}" for m in names]
+    arrays = [comp.time] + ([comp.truth] if comp.truth is not None else [])
+    arrays += [comp.methods[m].arw for m in names] + [comp.methods[m].window for m in names]
+    body = [[float(a[i]) if a.dtype.kind == "f" else int(a[i]) for a in arrays]
+            for i in range(comp.time.size)]  # fmt: skip
+    files["arw.csv"] = _csv_text(
+        f"{head}; N(t) of every window (sample unit x sqrt(s)) and window lengths (samples)",
+        cols_arw, body,
+    )  # fmt: skip
+    if thr is not None:
+        rows = []
+        for th in thr.thresholds:
+            paper = PAPER_FIG8_CROSSINGS.get(th, {}) if comp.scenario == 1 else {}
+            for j, change in enumerate(thr.change_times):
+                if study is None:
+                    rise, fall = thr.crossings[th][j]
+                else:
+                    rise = _median_of(study.crossings[th][:, j, 0])
+                    fall = _median_of(study.crossings[th][:, j, 1])
+                exp = (thr.expected_crossings[th][j] if thr.expected_crossings is not None
+                       else (math.nan, math.nan))  # fmt: skip
+                pp = paper.get(change, (math.nan, math.nan))
+                rows.append([th, change, rise, fall, exp[0], exp[1], pp[0], pp[1]])
+        files["crossings.csv"] = _csv_text(
+            f"{head}; kurtosis of a fixed window of {thr.window} samples: times (s) at which it "
+            "rises above K2 and falls back"
+            + ("" if study is None else f" (median over {len(study.seeds)} realisations)"),
+            ["k2", "change_s", "rise_s", "fall_s", "expected_rise_s", "expected_fall_s",
+             "paper_rise_s", "paper_fall_s"], rows,
+        )  # fmt: skip
+    if study is not None:
+        rows = []
+        for i, seed in enumerate(study.seeds):
+            for m in names:
+                for j, change in enumerate(study.change_times):
+                    rows.append([seed, m, change, *study.nodes[m][i, j]])
+        files["seeds_nodes.csv"] = _csv_text(
+            f"{head}; node times (s) of every realisation",
+            ["seed", "method", "change_s", "beginning_s", "end_s", "restore_s"], rows,
+        )  # fmt: skip
+    return files
+
+
+def _median_of(values: np.ndarray) -> float:
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    return float(np.median(v)) if v.size else math.nan
+
+
+def _compare_figures(comp: Any, kurt: Any, thr: Any) -> dict[str, Any]:
+    from adavar.plots import comparison_figures
+
+    return comparison_figures(comp, kurtosis=kurt, thresholds=thr)
+
+
+def _crossings_json(thr: Any) -> Any:
+    if thr is None:
+        return None
+    return {
+        "window": thr.window,
+        "rows": [
+            {"threshold": th, "change": change, "rise": thr.crossings[th][j, 0],
+             "fall": thr.crossings[th][j, 1],
+             "expected": None if thr.expected_crossings is None
+             else list(thr.expected_crossings[th][j])}
+            for th in thr.thresholds for j, change in enumerate(thr.change_times)
+        ],
+    }  # fmt: skip
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    from adavar import simulate
+    from adavar.compare import compare, compare_seeds, kurtosis_study, threshold_study
+
+    if (args.file is None) == (args.scenario is None):
+        raise UsageError("give a data FILE or --scenario 1|2 (one of them)")
+    units: str | None = None
+    tau0 = 1.0
+    if args.scenario is not None:
+        for flag, value in (("--column", args.column), ("--rate", args.rate),
+                            ("--tau0", args.tau0), ("--units", args.units),
+                            ("--change-times", args.change_times)):  # fmt: skip
+            if value is not None:
+                raise UsageError(
+                    f"{flag} describes a data FILE; --scenario simulates its own record "
+                    "(unit-less, 1 Hz, known changes): drop it"
+                )
+    else:
+        if args.seeds > 1:
+            raise UsageError("--seeds repeats a simulated --scenario; a data FILE is one record")
+        if args.variance_reading:
+            raise UsageError("--variance-reading chooses a --scenario's disturbance")
+        units, tau0 = _require_units_and_rate(args)
+    if args.out is not None:
+        check_output_directory(args.out, replace=args.force)
+        _guard_replacement(args.out, [Path(args.file)] if args.file is not None else [])
+
+    controller = dict(
+        lmax=args.lmax, lmin=args.lmin, k1=args.k1, k2=args.k2, s1=args.s1, s2=args.s2,
+        l=args.segment, dl0=args.dl0, dl1=args.dl1, s_test=args.s_test,
+        combine=args.combine, thresholds=args.thresholds, false_alarm=args.false_alarm,
+    )  # fmt: skip
+    terms = args.terms or TERM_NAMES
+    fig8 = tuple(sorted({*_FIG8_THRESHOLDS, float(args.k2)}))
+    start = time.perf_counter()
+    if args.scenario is not None:
+        data: Any = simulate.paper_scenario(
+            args.scenario, seed=args.seed, variance_reading=args.variance_reading
+        )
+        rate = None
+        changes = None
+        input_json: dict[str, Any] = {
+            "scenario": args.scenario, "seed": args.seed,
+            "variance_reading": args.variance_reading, "description": data.description,
+        }  # fmt: skip
+        description = None
+    else:
+        samples, meta = read_text(args.file, column=args.column)
+        data = samples
+        rate = args.rate if args.rate is not None else 1.0 / tau0
+        changes = args.change_times
+        input_json = {
+            "file": meta["path"], "column": meta["column"], "rate": 1.0 / tau0, "tau0": tau0,
+            "units": units, "n_samples": int(samples.size),
+        }  # fmt: skip
+        description = (f"{meta['path']}, column {meta['column']!r}: {samples.size} samples at "
+                       f"{1.0 / tau0:g} Hz in {units}")  # fmt: skip
+    comp = compare(
+        data, methods=args.methods, rate=rate, change_times=changes, taus=args.taus or "all",
+        terms=terms, units=units, description=description, **controller,
+    )  # fmt: skip
+    thr = None
+    if comp.change_times:
+        thr = threshold_study(data, change_times=comp.change_times, window=args.lmax,
+                              thresholds=fig8, rate=comp.rate)  # fmt: skip
+    study = None
+    if args.seeds > 1:
+        study = compare_seeds(
+            args.scenario, range(args.seed, args.seed + args.seeds),
+            variance_reading=args.variance_reading, methods=args.methods,
+            taus=args.taus or "octave", terms=terms, crossing_thresholds=fig8, **controller,
+        )  # fmt: skip
+    kurt = None
+    if args.out is not None:
+        windows = tuple(w for w in (11, 201, 601) if w <= comp.data.size)
+        kurt = kurtosis_study(data, rate=comp.rate, windows=windows,
+                              change_times=comp.change_times)  # fmt: skip
+    elapsed = time.perf_counter() - start
+
+    tables = _compare_tables(comp, study, thr)
+    figures = _compare_figures(comp, kurt, thr) if args.out is not None else {}
+    written = [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg")),
+               "result.json"] if args.out is not None else []  # fmt: skip
+    payload = {
+        "adavar_version": __version__,
+        "input": input_json,
+        "comparison": comp.to_dict(),
+        "crossings": _crossings_json(thr),
+        "seeds": None if study is None else study.to_dict(),
+        "elapsed_s": elapsed,
+        "out": None if args.out is None else {"dir": args.out, "files": written},
+    }
+    text = _dumps(payload)
+    if args.out is not None:
+        from adavar.plots import save_figure
+
+        try:
+            with atomic_directory(args.out, replace=args.force) as tmp:
+                for name, body in tables.items():
+                    (tmp / name).write_text(body, encoding="utf-8")
+                for stem, fig in figures.items():
+                    save_figure(fig, tmp / stem)
+                (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise _output_error(args.out, exc) from None
+    if args.json:
+        print(text)
+        if written:
+            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
+        return EXIT_OK
+    lines = _compare_report(comp, study, thr)
+    if written:
+        lines += ["", f"wrote {args.out}/ ({', '.join(written)})"]
+    lines.append(f"done in {elapsed:.1f} s of computation")
+    print("\n".join(lines))
+    return EXIT_OK
+
+
 def _demo_json(demo: Any, out: str, files: list[str]) -> dict[str, Any]:
     gyro = demo.gyro
     return {
@@ -1034,6 +1638,11 @@ def _demo_json(demo: Any, out: str, files: list[str]) -> dict[str, Any]:
             },
             **_deviation_json(gyro.result),
             "fit": _fit_json(gyro.fit),
+        },
+        "paper": None if demo.paper is None else {
+            "comparison": demo.paper.comparison.to_dict(),
+            "crossings": _crossings_json(demo.paper.thresholds),
+            "seeds": demo.paper.study.to_dict(),
         },
         "out": {"dir": out, "files": files},
         "elapsed_s": demo.elapsed,
@@ -1066,11 +1675,23 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         f"seed {gyro.seed})",
     )  # fmt: skip
     files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json"]
+    tables: dict[str, str] = {}
+    figures: dict[str, Any] = {}
+    paper = demo.paper
+    if paper is not None:
+        tables = {f"paper_{name}": body for name, body in
+                  _compare_tables(paper.comparison, paper.study, paper.thresholds).items()}
+        figures = _compare_figures(paper.comparison, paper.kurtosis, paper.thresholds)
+        files += [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg"))]
     payload = _demo_json(demo, str(args.out), files)
     text = _dumps(payload)
     try:
         with atomic_directory(args.out, replace=True) as tmp:
             save_figure(fig, tmp / "gyro_oadev")
+            for name, body in tables.items():
+                (tmp / name).write_text(body, encoding="utf-8")
+            for stem, paper_fig in figures.items():
+                save_figure(paper_fig, tmp / stem)
             (tmp / "demo.json").write_text(text + "\n", encoding="utf-8")
             (tmp / DEMO_MARKER).write_text(
                 "written by adavar demo; the next run replaces this folder\n", encoding="utf-8"
@@ -1106,7 +1727,15 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     print()
     print("\n".join(_fit_lines(gyro.fit, "   ", true=gyro.true_conventional)))
     print()
-    print(f"wrote {Path(args.out) / files[0]} and {files[1]}, {files[2]}")
+    if paper is not None:
+        print(
+            "3. The A-DAVAR paper's scenario 1 (Micromachines 2018, 9(8), 373): "
+            "DAVAR-400, DAVAR-600, DAVAR-K and A-DAVAR"
+        )
+        report = "\n".join(_compare_report(paper.comparison, paper.study, paper.thresholds))
+        print("\n".join("   " + line if line else line for line in report.splitlines()))
+        print()
+    print(f"wrote {Path(args.out) / files[0]} and {', '.join(files[1:])}")
     print(f"done in {elapsed:.1f} s (computation {demo.elapsed:.2f} s)")
     return EXIT_OK
 
@@ -1140,7 +1769,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         if args.command is None:
             raise UsageError(
                 "choose a command: avar (deviation of a data file), davar (dynamic Allan "
-                "variance of a data file) or demo (see 'adavar --help')"
+                "variance of a data file), compare (fixed and adaptive windows side by side) "
+                "or demo (see 'adavar --help')"
             )
         return int(args.handler(args))
     except SystemExit as exc:  # --help, --version

@@ -1,6 +1,6 @@
 """The built-in demonstration behind ``adavar demo``: data in, numbers out, no printing.
 
-Two parts:
+Three parts:
 
 1. The NIST SP 1065 1000-point test data (:func:`adavar.datasets.nist_1000`, fractional
    frequency, ``tau0 = 1 s``): ADEV, OADEV, MDEV, TDEV, HDEV, OHDEV and TOTDEV at averaging
@@ -11,8 +11,14 @@ Two parts:
    walk: its overlapping Allan deviation with confidence intervals, the fit of the five
    IEEE Std 952 terms, and the known true values to compare with.
 
+3. The A-DAVAR paper's scenario 1 (:func:`adavar.simulate.paper_scenario`): DAVAR-400,
+   DAVAR-600, DAVAR-K and A-DAVAR on one realisation (:func:`adavar.compare.compare`, with
+   the kurtosis studies of the paper's Figs. 6-8), and the node times over
+   :data:`PAPER_SEEDS` realisations next to the paper's Table 1
+   (:func:`adavar.compare.compare_seeds`).
+
 :func:`run_demo` returns a :class:`DemoResult`; the command line prints it and draws the
-figure.
+figures.
 """
 
 from __future__ import annotations
@@ -23,6 +29,16 @@ from dataclasses import dataclass
 import numpy as np
 
 from adavar import simulate
+from adavar.compare import (
+    Comparison,
+    KurtosisStudy,
+    SeedStudy,
+    ThresholdStudy,
+    compare,
+    compare_seeds,
+    kurtosis_study,
+    threshold_study,
+)
 from adavar.datasets import nist_1000
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
 from adavar.results import DeviationResult
@@ -39,9 +55,11 @@ __all__ = [
     "NIST_MEAN",
     "NIST_PUBLISHED",
     "NIST_STD",
+    "PAPER_SEEDS",
     "DemoResult",
     "GyroDemo",
     "NistRow",
+    "PaperDemo",
     "run_demo",
 ]
 
@@ -80,6 +98,11 @@ GYRO_TRUE: dict[str, float] = {
     "rate_random_walk": 20.0,
     "rate_ramp": 0.0,
 }
+
+
+#: Realisations of the paper's scenario 1 behind the demo's node table (seeds SEED ..
+#: SEED + PAPER_SEEDS - 1).
+PAPER_SEEDS = 30
 
 
 @dataclass(frozen=True)
@@ -146,6 +169,29 @@ class GyroDemo:
         return self.fit.to_units(self.units)
 
 
+@dataclass(frozen=True, eq=False)
+class PaperDemo:
+    """The A-DAVAR paper's scenario 1, end to end.
+
+    Attributes
+    ----------
+    comparison : Comparison
+        DAVAR-400, DAVAR-600, DAVAR-K and A-DAVAR on the realisation of the demo's seed
+        (all taus, as in the paper).
+    kurtosis : KurtosisStudy
+        Kurtosis at windows 11, 201, 601 and the record-form S of window 11 (Figs. 6-7).
+    thresholds : ThresholdStudy
+        Crossings of the fixed 600-sample window's kurtosis (Fig. 8).
+    study : SeedStudy
+        Nodes, metrics and crossings over :data:`PAPER_SEEDS` realisations (octave taus).
+    """
+
+    comparison: Comparison
+    kurtosis: KurtosisStudy
+    thresholds: ThresholdStudy
+    study: SeedStudy
+
+
 @dataclass(frozen=True)
 class DemoResult:
     """Everything the demo computed.
@@ -161,6 +207,8 @@ class DemoResult:
     gyro : GyroDemo
     elapsed : float
         Wall-clock seconds spent in :func:`run_demo`.
+    paper : PaperDemo or None
+        The paper's scenario 1 (None when run with ``paper=False``).
     """
 
     nist: tuple[NistRow, ...]
@@ -169,6 +217,7 @@ class DemoResult:
     nist_std: NistRow
     gyro: GyroDemo
     elapsed: float
+    paper: PaperDemo | None = None
 
     @property
     def nist_max_rel_diff(self) -> float:
@@ -216,22 +265,37 @@ def _gyro(seed: int) -> GyroDemo:
     )
 
 
-def run_demo(seed: int = 2018) -> DemoResult:
-    """Run the demonstration (about a second).
+def _paper(seed: int) -> PaperDemo:
+    scenario = simulate.paper_scenario(1, seed=seed)
+    return PaperDemo(
+        comparison=compare(scenario),
+        kurtosis=kurtosis_study(scenario),
+        thresholds=threshold_study(scenario),
+        study=compare_seeds(1, range(seed, seed + PAPER_SEEDS)),
+    )
+
+
+def run_demo(seed: int = 2018, *, paper: bool = True) -> DemoResult:
+    """Run the demonstration (a few seconds).
 
     Parameters
     ----------
     seed : int
-        Seed of the simulated gyroscope.
+        Seed of the simulated gyroscope and of the (first) realisation of the paper's
+        scenario 1.
+    paper : bool
+        Also run the paper's scenario 1 (about 3 s).
 
     Returns
     -------
     DemoResult
-        The NIST comparison and the simulated gyroscope's deviation, fit and true values.
+        The NIST comparison, the simulated gyroscope's deviation, fit and true values, and
+        the paper's scenario 1.
     """
     start = time.perf_counter()
     nist, nist_results, mean, std = _nist()
     gyro = _gyro(int(seed))
+    paper_part = _paper(int(seed)) if paper else None
     return DemoResult(
         nist=nist,
         nist_results=nist_results,
@@ -239,4 +303,5 @@ def run_demo(seed: int = 2018) -> DemoResult:
         nist_std=std,
         gyro=gyro,
         elapsed=time.perf_counter() - start,
+        paper=paper_part,
     )
