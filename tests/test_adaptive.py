@@ -243,3 +243,13 @@ def test_bad_settings_are_one_line_errors(kwargs):
     with pytest.raises(AdavarInputError) as info:
         adaptive_schedule(x, **kwargs)
     assert "\n" not in str(info.value)
+
+
+def test_controller_statistics_agree_with_the_kurtosis_module():
+    """The controller's running kurtosis and S equal the O(N) sliding ones on its schedule."""
+    x = scenario(8) + 1e3
+    sched = adaptive_schedule(x, **SMALL)
+    k = adavar.sliding_kurtosis(x, window=sched.window)
+    s = adavar.kurtosis_contribution(x, window=sched.window, segment=SMALL["l"])
+    np.testing.assert_allclose(sched.kurtosis, k, atol=1e-9, rtol=0)
+    np.testing.assert_allclose(sched.s, s, atol=1e-9, rtol=0)

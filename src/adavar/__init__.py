@@ -6,6 +6,8 @@ The public entry points:
   confidence intervals;
 - :func:`davar`: the dynamic Allan variance surface (every window, every tau) for a fixed
   window or any per-centre schedule, with per-cell confidence bounds;
+- :func:`sliding_kurtosis`, :func:`kurtosis_contribution`: the kurtosis of every window and
+  the sliding kurtosis contribution coefficient S (paper Eq. 14-15), exact and O(N);
 - :func:`adaptive_davar`: the paper's adaptive-window DAVAR (A-DAVAR) and its baselines
   (DAVAR-K, an oracle schedule, a fixed window), steered by the kurtosis and the sliding
   kurtosis contribution coefficient;
@@ -22,6 +24,7 @@ from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
 from adavar.compare import compare, compare_seeds
 from adavar.davar import davar
 from adavar.errors import AdavarInputError
+from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
 from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
 from adavar.results import DavarResult, DeviationResult
 from adavar.statistics import deviation
@@ -41,7 +44,9 @@ __all__ = [
     "deviation",
     "fit_avar",
     "fit_noise",
+    "kurtosis_contribution",
     "simulate",
+    "sliding_kurtosis",
 ]
 
 __version__ = "0.1.0"
