@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from adavar._jit import jit
+from adavar._jit import get_num_threads, jit, parallel_jit, prange
 from adavar.davar import davar
 from adavar.differences import _two_sum
 from adavar.errors import AdavarInputError
@@ -55,8 +55,10 @@ __all__ = [
 METHODS = ("adaptive", "kurtosis", "oracle", "fixed")
 S_TESTS = ("upper", "band", "abs")
 COMBINES = ("or", "and")
-#: steps between re-anchorings of the running power sums (each costs O(L))
+#: centres between re-anchorings of the running power sums (each costs O(L))
 REANCHOR = 512
+#: centres a speculative segment runs before its own start (see :func:`_controller`)
+WARM_UP = 8192
 
 _S_TEST_CODE = {"upper": 0, "band": 1, "abs": 2}
 
@@ -117,42 +119,58 @@ def _moments(
 
 
 @jit
-def _controller(
-    x, offset, n, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and,
-    adapt, given, window, kurt, scoef, f1, f2, f,
-):  # fmt: skip  # pragma: no cover - compiled
-    """Run the controller over centres ``0..n-1`` (METHOD.md section 5).
+def _window_mean(x, a, b):  # pragma: no cover - compiled
+    """Mean of ``x[a:b]`` from a double-double sum (a deterministic re-anchoring point)."""
+    h = 0.0
+    lo = 0.0
+    for i in range(a, b):
+        h, lo = _acc(h, lo, x[i])
+    return (h + lo) / (b - a)
 
-    ``x`` is the extended record, centre ``p`` at ``x[p + offset]``. ``k1[L]``, ``k2[L]``,
-    ``s2[L]`` are the thresholds for a window of length ``L``. With ``adapt`` false the
-    lengths come from ``given`` and only the kurtosis, S and flags are recorded. The sums
-    of the window and of its leading segment live in scalars (registers): written as
-    tuples passed through helper calls, the same loop ran six times slower.
+
+@jit
+def _run(
+    x, offset, p_start, p_end, record_from, L, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
+    s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
+):  # fmt: skip  # pragma: no cover - compiled
+    """Run the controller over centres ``p_start .. p_end - 1`` from length ``L``.
+
+    METHOD.md section 5. ``x`` is the extended record, centre ``p`` at ``x[p + offset]``.
+    ``k1[L]``, ``k2[L]``, ``s2[L]`` are the thresholds for a window of length ``L``. With
+    ``adapt`` false the lengths come from ``given`` and only the kurtosis, S and flags are
+    recorded. Outputs are written for ``p >= record_from``. Returns the length in force
+    at ``record_from`` and the length after the last update.
+
+    The power sums of the window and of its leading segment live in scalars (registers;
+    written as tuples passed through helper calls the loop ran six times slower). They are
+    recomputed afresh, about the window's mean, at ``p_start`` and at every multiple of
+    :data:`REANCHOR`: so everything from such a centre on depends only on the length in
+    force there, which is what lets :func:`_controller` run segments in parallel and still
+    give the sequential result bit for bit.
     """
     inv = np.empty(lmax + 1)  # 1/n by lookup: no division on the loop-carried path
     inv[0] = np.inf
     for k in range(1, lmax + 1):
         inv[k] = 1.0 / k
-    L = lmax if adapt else given[0]
-    a = offset - (L - 1) // 2
-    b = a + L
-    anchor = x[offset]
-    # running sums, kept in scalars (registers): window h/l, leading segment g/k
-    h1, l1, h2, l2, h3, l3, h4, l4 = _fresh_sums(x, a, b, anchor)
-    g1, k1_, g2, k2_, g3, k3_, g4, k4_ = _fresh_sums(x, b - seg, b, anchor)
-    since = 0
-    for p in range(n):
+    a = 0
+    b = 0
+    anchor = 0.0
+    h1 = l1 = h2 = l2 = h3 = l3 = h4 = l4 = 0.0
+    g1 = k1_ = g2 = k2_ = g3 = k3_ = g4 = k4_ = 0.0
+    at_record = L
+    for p in range(p_start, p_end):
         if not adapt:
             L = given[p]
+        if p == record_from:
+            at_record = L
         a_new = p + offset - (L - 1) // 2
         b_new = a_new + L
-        if since >= REANCHOR:  # move the anchor to the window's mean and sum afresh
-            anchor = anchor + (h1 + l1) * inv[b - a]
+        if p == p_start or p % REANCHOR == 0:  # anchor at the window's mean, sum afresh
+            anchor = _window_mean(x, a_new, b_new)
             h1, l1, h2, l2, h3, l3, h4, l4 = _fresh_sums(x, a_new, b_new, anchor)
             g1, k1_, g2, k2_, g3, k3_, g4, k4_ = _fresh_sums(x, b_new - seg, b_new, anchor)
             a = a_new
             b = b_new
-            since = 0
         while a < a_new:  # the trailing edge advances: samples leave the window
             d = x[a] - anchor
             d2 = d * d
@@ -210,7 +228,6 @@ def _controller(
             g2, k2_ = _acc(g2, k2_, q2)
             g3, k3_ = _acc(g3, k3_, q2 * q)
             g4, k4_ = _acc(g4, k4_, q2 * q2)
-        since += 1
         m2x, m4x, m2c, m4c = _moments(
             h1, l1, h2, l2, h3, l3, h4, l4, g1, k1_, g2, k2_, g3, k3_, g4, k4_,
             inv[L], inv[L - seg],
@@ -238,17 +255,67 @@ def _controller(
         kx = m4x / vx if ok_x else np.nan
         kc = m4c / (m2c * m2c) if m2c > 0.0 else np.nan
         sv = (kx - kc) / kx
-        window[p] = L
-        kurt[p] = kx
-        scoef[p] = sv
-        f1[p] = flag1
-        f2[p] = flag2
-        f[p] = flag
+        if p >= record_from:
+            window[p] = L
+            kurt[p] = kx
+            scoef[p] = sv
+            f1[p] = flag1
+            f2[p] = flag2
+            f[p] = flag
         if adapt:
             if flag:
                 L = max(L - dl1, lmin)
             else:
                 L = min(L + dl0, lmax)
+    return at_record, L
+
+
+@parallel_jit
+def _controller(
+    x, offset, n, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and,
+    adapt, given, window, kurt, scoef, f1, f2, f, n_segments,
+):  # fmt: skip  # pragma: no cover - compiled
+    """The controller over centres ``0..n-1``: sequential result, segments in parallel.
+
+    The record is cut into ``n_segments`` pieces whose bounds are multiples of
+    :data:`REANCHOR`. Each piece but the first is run speculatively from ``lmax``, starting
+    :data:`WARM_UP` centres early so that its length has forgotten the guess (the length
+    coalesces with the true one whenever both sit at ``lmax`` or ``lmin``). Then, in order,
+    a piece whose speculative length at its start differs from the length its predecessor
+    actually ended with is run again from the true length. Since the running sums restart
+    at every multiple of REANCHOR, a piece that starts from the true length reproduces the
+    sequential pass exactly.
+    """
+    bounds = np.empty(n_segments + 1, dtype=np.int64)
+    for k in range(n_segments + 1):
+        bounds[k] = min(n, (k * n // n_segments) // REANCHOR * REANCHOR)
+    bounds[n_segments] = n
+    start_state = np.zeros(n_segments, dtype=np.int64)
+    end_state = np.zeros(n_segments, dtype=np.int64)
+    for k in prange(n_segments):
+        s0 = bounds[k]
+        s1_ = bounds[k + 1]
+        if s1_ <= s0:
+            continue
+        p0 = 0 if k == 0 else max(0, (s0 - WARM_UP) // REANCHOR * REANCHOR)
+        L0 = lmax if adapt else given[p0]
+        start_state[k], end_state[k] = _run(
+            x, offset, p0, s1_, s0, L0, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test,
+            use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
+        )  # fmt: skip
+    if adapt:
+        last = -1
+        for k in range(n_segments):
+            s0 = bounds[k]
+            s1_ = bounds[k + 1]
+            if s1_ <= s0:
+                continue
+            if last >= 0 and start_state[k] != last:  # the guess did not coalesce: rerun
+                start_state[k], end_state[k] = _run(
+                    x, offset, s0, s1_, s0, last, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
+                    s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
+                )  # fmt: skip
+            last = end_state[k]
 
 
 # ---------------------------------------------------------------------------------------
@@ -463,6 +530,13 @@ def oracle_schedule(
     return out
 
 
+def _segments(n: int) -> int:
+    """Pieces of the controller pass: a few per thread once the warm-up is cheap."""
+    if n < 8 * WARM_UP:
+        return 1
+    return int(min(4 * get_num_threads(), n // (4 * WARM_UP)))
+
+
 def _check_int(name: str, value: Any, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise AdavarInputError(f"{name} must be an integer >= {minimum}, got {value!r}")
@@ -577,6 +651,7 @@ def adaptive_schedule(
         ext, offset, n_c, lmax, lmin, th.k1, th.k2, float(s1), th.s2, seg, dl0, dl1,
         _S_TEST_CODE[s_test], method != "kurtosis", combine == "and",
         method in ("adaptive", "kurtosis"), given, window, kurt, scoef, f1, f2, f,
+        _segments(n_c),
     )  # fmt: skip
     parameters = dict(
         method=method, lmax=lmax, lmin=lmin, k1=float(k1), k2=float(k2), s1=float(s1),
@@ -722,6 +797,7 @@ def adaptive_davar(
         window = full
     else:
         window = sched.window
+        window.flags.writeable = False  # shared with the surface, not copied
     surface = davar(
         x, window=window, rate=rate, data_type=dtype, taus=taus, edges=edges, step=step,
         confidence=confidence, tau0=tau0, t0=t0, points_per_decade=points_per_decade,

@@ -289,6 +289,6 @@ def davar(
         units=units,
         notes=notes,
         edf_table=table,
-        window_class=None if window_class is None else window_class.astype(np.int64),
+        window_class=window_class,
         bound_table=bounds,
     )

@@ -600,31 +600,42 @@ def _window_sum(ph, pl, a, b):  # pragma: no cover - compiled
 
 
 @jit
-def _eval_uniform(ph, pl, first, n, count, norm, res):  # pragma: no cover - compiled
-    """Windows ``[first + k, first + k + n)`` for ``k < count``: contiguous, vectorises."""
+def _eval_uniform(ph, pl, first, n, count, norm, res, at):  # pragma: no cover - compiled
+    """Windows ``[first + k, first + k + n)`` into ``res[at + k]``, ``k < count``: vectorises."""
     p0 = ph[first : first + count]
     p1 = ph[first + n : first + n + count]
     q0 = pl[first : first + count]
     q1 = pl[first + n : first + n + count]
+    out = res[at : at + count]
     f = norm / n
     for k in range(count):
         s = p1[k] - p0[k]
         bb = s - p1[k]
         e = (p1[k] - (s - bb)) + (-p0[k] - bb)
-        res[k] = max(s + (e + (q1[k] - q0[k])), 0.0) * f
+        out[k] = max(s + (e + (q1[k] - q0[k])), 0.0) * f
 
 
 @jit
-def _eval_general(ph, pl, aloc, lens, m, norm, res):  # pragma: no cover - compiled
-    """Any windows: window ``k`` covers prefix indices ``aloc[k] .. aloc[k] + L - 2m + 1``."""
-    for k in range(aloc.size):
-        L = lens[k]
+def _eval_runs(ph, pl, aloc, lens, runs, n_runs, m, norm, res):  # pragma: no cover - compiled
+    """Any windows, as runs of one length with consecutive starts (``runs[j]`` .. next).
+
+    An adaptive schedule holds its length for long stretches (at ``Lmax`` most of the
+    time): each such run takes the contiguous, vectorised path.
+    """
+    for j in range(n_runs):
+        k0 = runs[j]
+        k1 = runs[j + 1]
+        L = lens[k0]
         if 3 * m > L:
-            res[k] = np.nan
+            for k in range(k0, k1):
+                res[k] = np.nan
             continue
         n = L - 2 * m + 1
-        a = aloc[k]
-        res[k] = max(_window_sum(ph, pl, a, a + n), 0.0) * (norm / n)
+        if k1 - k0 == 1:
+            a = aloc[k0]
+            res[k0] = max(_window_sum(ph, pl, a, a + n), 0.0) * (norm / n)
+        else:
+            _eval_uniform(ph, pl, aloc[k0], n, k1 - k0, norm, res, k0)
 
 
 @jit
@@ -644,12 +655,14 @@ def _window_chunk(
     aloc = np.empty(size, dtype=np.int64)
     for k in range(size):
         aloc[k] = starts[k] - lo
-    # one length and consecutive starts: the contiguous fast path
-    uniform = True
+    # runs of one length with consecutive starts take the contiguous fast path
+    runs = np.empty(size + 1, dtype=np.int64)
+    n_runs = 0
     for k in range(size):
-        if lens[k] != lens[0] or aloc[k] != aloc[0] + k:
-            uniform = False
-            break
+        if k == 0 or lens[k] != lens[k - 1] or aloc[k] != aloc[k - 1] + 1:
+            runs[n_runs] = k
+            n_runs += 1
+    runs[n_runs] = size
     # span of each m, and whether the prefix route pays (the windows overlap)
     span = np.zeros(nt, dtype=np.int64)
     dense = np.zeros(nt, dtype=np.bool_)
@@ -678,10 +691,7 @@ def _window_chunk(
         if dense[t]:
             _fill_second_differences(r, hh, hl, m, lo, lo + span[t], d)
             _prefix_squares(d, span[t], ph, pl)
-            if uniform and 3 * m <= lens[0]:
-                _eval_uniform(ph, pl, aloc[0], lens[0] - 2 * m + 1, size, norm, res)
-            else:
-                _eval_general(ph, pl, aloc, lens, m, norm, res)
+            _eval_runs(ph, pl, aloc, lens, runs, n_runs, m, norm, res)
         else:
             for k in range(size):
                 L = lens[k]

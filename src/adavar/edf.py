@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from functools import lru_cache
 from typing import Final
 
 import numpy as np
@@ -375,6 +376,9 @@ def greenhall_edf(
 def edf(stat: str, alpha: int, m: int, n_phase: int) -> float:
     """Equivalent degrees of freedom of a statistic at one averaging time.
 
+    Results are cached (a DAVAR asks for the same few thousand (L, m) pairs again and
+    again); the function is pure.
+
     Parameters
     ----------
     stat : {"adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev"}
@@ -408,10 +412,13 @@ def edf(stat: str, alpha: int, m: int, n_phase: int) -> float:
       conservative (slightly wide) interval rather than an invented formula. (allantools
       uses ``N/m`` for ``T/tau`` and the simple SP 1065 Table 5 AVAR formulas for PM.)
     """
-    stat = stat.lower()
+    return _edf_cached(str(stat).lower(), int(alpha), int(m), int(n_phase))
+
+
+@lru_cache(maxsize=1 << 16)
+def _edf_cached(stat: str, alpha: int, m: int, n_phase: int) -> float:
     if stat not in STAT_ALPHA_RANGE:
         raise ValueError(f"unknown statistic {stat!r}; expected one of {sorted(STAT_ALPHA_RANGE)}")
-    m, n_phase = int(m), int(n_phase)
     if m < 1:
         raise ValueError(f"averaging factor m must be >= 1, got {m}")
     lo, hi = STAT_ALPHA_RANGE[stat]

@@ -112,7 +112,10 @@ def _as_lengths(window: Any, n_samples: int) -> np.ndarray | int:
         if np.issubdtype(arr.dtype, np.floating):
             if not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)):
                 raise AdavarInputError("window must hold whole numbers of samples")
-        lengths = arr.astype(np.int64)  # a copy: the result must not alias the caller
+        if arr.dtype == np.int64 and not arr.flags.writeable:
+            lengths = arr  # read-only: safe to share (the adaptive controller's schedule)
+        else:
+            lengths = arr.astype(np.int64)  # a copy: the result must not alias the caller
         lo, hi = int(lengths.min()), int(lengths.max())
     if lo < MIN_WINDOW:
         raise AdavarInputError(
