@@ -273,14 +273,15 @@ def _run(
 @parallel_jit
 def _controller(
     x, offset, n, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and,
-    adapt, given, window, kurt, scoef, f1, f2, f, n_segments,
+    adapt, given, window, kurt, scoef, f1, f2, f, n_segments, warm_up,
 ):  # fmt: skip  # pragma: no cover - compiled
     """The controller over centres ``0..n-1``: sequential result, segments in parallel.
 
     The record is cut into ``n_segments`` pieces whose bounds are multiples of
-    :data:`REANCHOR`. Each piece but the first is run speculatively from ``lmax``, starting
-    :data:`WARM_UP` centres early so that its length has forgotten the guess (the length
-    coalesces with the true one whenever both sit at ``lmax`` or ``lmin``). Then, in order,
+    :data:`REANCHOR`. Each piece but the first is run speculatively from ``lmax``,
+    starting ``warm_up`` centres early (:data:`WARM_UP`) so that its length has forgotten
+    the guess (the length coalesces with the true one whenever both sit at ``lmax`` or
+    ``lmin``). Then, in order,
     a piece whose speculative length at its start differs from the length its predecessor
     actually ended with is run again from the true length. Since the running sums restart
     at every multiple of REANCHOR, a piece that starts from the true length reproduces the
@@ -297,7 +298,7 @@ def _controller(
         s1_ = bounds[k + 1]
         if s1_ <= s0:
             continue
-        p0 = 0 if k == 0 else max(0, (s0 - WARM_UP) // REANCHOR * REANCHOR)
+        p0 = 0 if k == 0 else max(0, (s0 - warm_up) // REANCHOR * REANCHOR)
         L0 = lmax if adapt else given[p0]
         start_state[k], end_state[k] = _run(
             x, offset, p0, s1_, s0, L0, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test,
@@ -651,7 +652,7 @@ def adaptive_schedule(
         ext, offset, n_c, lmax, lmin, th.k1, th.k2, float(s1), th.s2, seg, dl0, dl1,
         _S_TEST_CODE[s_test], method != "kurtosis", combine == "and",
         method in ("adaptive", "kurtosis"), given, window, kurt, scoef, f1, f2, f,
-        _segments(n_c),
+        _segments(n_c), WARM_UP,
     )  # fmt: skip
     parameters = dict(
         method=method, lmax=lmax, lmin=lmin, k1=float(k1), k2=float(k2), s1=float(s1),
