@@ -280,6 +280,14 @@ def _add_input_arguments(cmd: argparse.ArgumentParser) -> None:
     )  # fmt: skip
 
 
+def _add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
+    """--out DIR, --force and the hidden --debug of an analysis command."""
+    cmd.add_argument("--out", metavar="DIR", help=out_help)
+    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    cmd.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                     help=argparse.SUPPRESS)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``adavar`` argument parser (its ``error`` raises :class:`UsageError`).
 
@@ -336,14 +344,11 @@ def build_parser() -> argparse.ArgumentParser:
         "implies --fit",
     )  # fmt: skip
     avar.add_argument("--json", action="store_true", help="print one JSON object")
-    avar.add_argument(
-        "--out", metavar="DIR",
-        help="also write deviation.csv, result.json and the figure deviation.png/.svg to "
+    _add_output_arguments(
+        avar,
+        "also write deviation.csv, result.json and the figure deviation.png/.svg to "
         "this new folder",
-    )  # fmt: skip
-    avar.add_argument("--force", action="store_true", help="replace an existing --out folder")
-    avar.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                      help=argparse.SUPPRESS)
+    )
     avar.set_defaults(handler=_cmd_avar)
 
     dav = sub.add_parser(
@@ -401,15 +406,12 @@ def build_parser() -> argparse.ArgumentParser:
         "pyarrow)",
     )  # fmt: skip
     dav.add_argument("--json", action="store_true", help="print one JSON object (a summary)")
-    dav.add_argument(
-        "--out", metavar="DIR",
-        help="also write surface.nc (or .parquet), coefficients.csv, result.json and the "
+    _add_output_arguments(
+        dav,
+        "also write surface.nc (or .parquet), coefficients.csv, result.json and the "
         "figures davar_surface, davar_heatmap and arw (N(t); of the first term when N is "
         "not fitted: q, bi, rrw or rr) as .png/.svg to this new folder",
-    )  # fmt: skip
-    dav.add_argument("--force", action="store_true", help="replace an existing --out folder")
-    dav.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                     help=argparse.SUPPRESS)
+    )
     dav.set_defaults(handler=_cmd_davar)
 
     cmp_ = sub.add_parser(
@@ -500,14 +502,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="terms of the noise fit of every window (default: all five, the paper's)",
     )  # fmt: skip
     cmp_.add_argument("--json", action="store_true", help="print one JSON object")
-    cmp_.add_argument(
-        "--out", metavar="DIR",
-        help="also write the tables (CSV), result.json and the figures (the paper's Figs. 6, "
+    _add_output_arguments(
+        cmp_,
+        "also write the tables (CSV), result.json and the figures (the paper's Figs. 6, "
         "7, 8, 10, 11, 12 as .png/.svg) to this new folder",
-    )  # fmt: skip
-    cmp_.add_argument("--force", action="store_true", help="replace an existing --out folder")
-    cmp_.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                      help=argparse.SUPPRESS)
+    )
     cmp_.set_defaults(handler=_cmd_compare)
 
     demo = sub.add_parser(
