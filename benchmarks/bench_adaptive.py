@@ -40,8 +40,8 @@ def main() -> None:
     # one untimed full-size call of each, so that every timed call finds warm memory (on this
     # VM the first touch of fresh pages costs more than the arithmetic; first calls are
     # reported in brackets anyway)
-    adavar.davar(x, window=600, taus="octave").avar_high
-    adavar.adaptive_davar(x, taus="octave").avar_high
+    _ = adavar.davar(x, window=600, taus="octave").avar_high
+    _ = adavar.adaptive_davar(x, taus="octave").avar_high
 
     rows = []
     for conf in (None, 0.683):

@@ -42,6 +42,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from adavar import __version__
+from adavar.adaptive import adaptive_davar
 from adavar.davar import davar
 from adavar.errors import AdavarInputError
 from adavar.io import (
@@ -288,6 +289,82 @@ def _add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
                      help=argparse.SUPPRESS)
 
 
+def _add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The adaptive window's settings (METHOD.md section 5; the paper's values by default)."""
+    cmd.add_argument("--lmax", type=_positive_int, default=600, metavar="L",
+                      help="longest window, samples (default: 600)")  # fmt: skip
+    cmd.add_argument("--lmin", type=_positive_int, default=400, metavar="L",
+                      help="shortest window, samples (default: 400)")  # fmt: skip
+    cmd.add_argument("--k1", type=_finite_float, default=2.5, metavar="K",
+                      help="lower kurtosis threshold (default: 2.5)")  # fmt: skip
+    cmd.add_argument("--k2", type=_finite_float, default=3.3, metavar="K",
+                      help="upper kurtosis threshold (default: 3.3)")  # fmt: skip
+    cmd.add_argument("--s1", type=_finite_float, default=0.0, metavar="S",
+                      help="lower S threshold, --s-test band only (default: 0)")  # fmt: skip
+    cmd.add_argument("--s2", type=_finite_float, default=0.07, metavar="S",
+                      help="upper S threshold (default: 0.07)")  # fmt: skip
+    cmd.add_argument("--l", type=_positive_int, default=100, metavar="N", dest="segment",
+                      help="leading segment of the S test, samples (default: 100)")  # fmt: skip
+    cmd.add_argument("--dl0", type=_seed, default=2, metavar="N",
+                      help="regrow step, samples (default: 2)")  # fmt: skip
+    cmd.add_argument("--dl1", type=_seed, default=2, metavar="N",
+                      help="shrink step, samples (default: 2)")  # fmt: skip
+    cmd.add_argument("--s-test", default="upper", choices=("upper", "band", "abs"),
+                      help="f2 test: S > S2 (default), S outside [S1, S2], |S| > S2")
+    cmd.add_argument("--combine", default="or", choices=("or", "and"),
+                      help="f = f1 or f2 (default) / f1 and f2")  # fmt: skip
+    cmd.add_argument(
+        "--thresholds", default="paper", choices=("paper", "calibrated"),
+        help="paper: K1, K2, S2 as given (default); calibrated: from the sampling "
+        "distribution of the kurtosis for --false-alarm",
+    )  # fmt: skip
+    cmd.add_argument("--false-alarm", type=_confidence, default=0.01, metavar="P",
+                      help="per-step false-alarm rate of --thresholds calibrated (default: "
+                      "0.01)")  # fmt: skip
+
+
+def _add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
+    """Options of a DAVAR surface: centres, taus, edges, data type, bounds, fit, file format."""
+    cmd.add_argument(
+        "--step", metavar="S", type=_positive_int, default=1,
+        help="centre a window on every S-th sample only (default: 1, every sample)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--taus", default="all", type=_taus, metavar="SPEC",
+        help="all (default: every multiple of tau0 up to a third of the window), octave, "
+        "decade, log, or comma-separated taus in seconds",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--edges", default="mirror", choices=EDGES,
+        help="mirror (default: every sample is a centre, the record is time-reversed at its "
+        "ends) or valid (only windows inside the record)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--data-type", default="rate", choices=("rate", "phase"),
+        help="rate samples (gyro rate, acceleration, fractional frequency) or their "
+        "integral (angle, velocity, time error); default: rate",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--confidence", default=0.683, type=_confidence_or_none, metavar="P",
+        help="two-sided confidence level of the per-cell bounds (default: 0.683); none: no "
+        "bounds and no noise fit (faster, a third of the memory)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--points-per-decade", default=10, type=_positive_int, metavar="K",
+        help="density of --taus log (default: 10)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--terms", type=_terms, metavar="LIST",
+        help="comma-separated terms of the fit of every window (names or Q,N,B,K,R; "
+        "default: all five)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--format", choices=tuple(SURFACE_FORMATS),
+        help="file format of the surface in --out: nc (NetCDF, default) or parquet (needs "
+        "pyarrow)",
+    )  # fmt: skip
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``adavar`` argument parser (its ``error`` raises :class:`UsageError`).
 
@@ -367,44 +444,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"window length in samples (at least {MIN_WINDOW}, at most the record); taus "
         "up to a third of it",
     )  # fmt: skip
-    dav.add_argument(
-        "--step", metavar="S", type=_positive_int, default=1,
-        help="centre a window on every S-th sample only (default: 1, every sample)",
-    )  # fmt: skip
-    dav.add_argument(
-        "--taus", default="all", type=_taus, metavar="SPEC",
-        help="all (default: every multiple of tau0 up to a third of the window), octave, "
-        "decade, log, or comma-separated taus in seconds",
-    )  # fmt: skip
-    dav.add_argument(
-        "--edges", default="mirror", choices=EDGES,
-        help="mirror (default: every sample is a centre, the record is time-reversed at its "
-        "ends) or valid (only windows inside the record)",
-    )  # fmt: skip
-    dav.add_argument(
-        "--data-type", default="rate", choices=("rate", "phase"),
-        help="rate samples (gyro rate, acceleration, fractional frequency) or their "
-        "integral (angle, velocity, time error); default: rate",
-    )  # fmt: skip
-    dav.add_argument(
-        "--confidence", default=0.683, type=_confidence_or_none, metavar="P",
-        help="two-sided confidence level of the per-cell bounds (default: 0.683); none: no "
-        "bounds and no noise fit (faster, a third of the memory)",
-    )  # fmt: skip
-    dav.add_argument(
-        "--points-per-decade", default=10, type=_positive_int, metavar="K",
-        help="density of --taus log (default: 10)",
-    )  # fmt: skip
-    dav.add_argument(
-        "--terms", type=_terms, metavar="LIST",
-        help="comma-separated terms of the fit of every window (names or Q,N,B,K,R; "
-        "default: all five)",
-    )  # fmt: skip
-    dav.add_argument(
-        "--format", choices=tuple(SURFACE_FORMATS),
-        help="file format of the surface in --out: nc (NetCDF, default) or parquet (needs "
-        "pyarrow)",
-    )  # fmt: skip
+    _add_surface_arguments(dav)
     dav.add_argument("--json", action="store_true", help="print one JSON object (a summary)")
     _add_output_arguments(
         dav,
@@ -413,6 +453,38 @@ def build_parser() -> argparse.ArgumentParser:
         "not fitted: q, bi, rrw or rr) as .png/.svg to this new folder",
     )
     dav.set_defaults(handler=_cmd_davar)
+
+    ada = sub.add_parser(
+        "adaptive",
+        help="A-DAVAR: the dynamic Allan variance with the paper's adaptive window",
+        description="The adaptive-window dynamic Allan variance (A-DAVAR, METHOD.md section "
+        "5) of one column of a text file: the window shrinks from --lmax towards --lmin where "
+        "the kurtosis leaves [--k1, --k2] or a shock enters its leading --l samples (S > "
+        "--s2), and regrows where the noise is stationary; then the surface, its per-cell "
+        "bounds and the noise coefficients of every window, as for davar. --method kurtosis "
+        "runs DAVAR-K (the kurtosis test alone), --method oracle the ideal schedule for "
+        "--change-times. The sampling rate and the unit are required: adavar never guesses.",
+    )
+    _add_input_arguments(ada)
+    ada.add_argument(
+        "--method", default="adaptive", choices=("adaptive", "kurtosis", "oracle"),
+        help="adaptive (A-DAVAR, default), kurtosis (DAVAR-K) or oracle (needs "
+        "--change-times)",
+    )  # fmt: skip
+    ada.add_argument(
+        "--change-times", type=_seconds_list, metavar="T,...",
+        help="known change times in seconds, for --method oracle",
+    )  # fmt: skip
+    _add_controller_arguments(ada)
+    _add_surface_arguments(ada)
+    ada.add_argument("--json", action="store_true", help="print one JSON object (a summary)")
+    _add_output_arguments(
+        ada,
+        "also write surface.nc (or .parquet), coefficients.csv, result.json and the "
+        "figures davar_surface, davar_heatmap, arw and controller (kurtosis, S, flags and "
+        "window length over time) as .png/.svg to this new folder",
+    )
+    ada.set_defaults(handler=_cmd_davar, window=None)
 
     cmp_ = sub.add_parser(
         "compare",
@@ -462,36 +534,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated methods: davar-<L> (fixed window), davar-k, a-davar, oracle "
         "(default: davar-LMIN,davar-LMAX,davar-k,a-davar)",
     )  # fmt: skip
-    cmp_.add_argument("--lmax", type=_positive_int, default=600, metavar="L",
-                      help="longest window, samples (default: 600)")  # fmt: skip
-    cmp_.add_argument("--lmin", type=_positive_int, default=400, metavar="L",
-                      help="shortest window, samples (default: 400)")  # fmt: skip
-    cmp_.add_argument("--k1", type=_finite_float, default=2.5, metavar="K",
-                      help="lower kurtosis threshold (default: 2.5)")  # fmt: skip
-    cmp_.add_argument("--k2", type=_finite_float, default=3.3, metavar="K",
-                      help="upper kurtosis threshold (default: 3.3)")  # fmt: skip
-    cmp_.add_argument("--s1", type=_finite_float, default=0.0, metavar="S",
-                      help="lower S threshold, --s-test band only (default: 0)")  # fmt: skip
-    cmp_.add_argument("--s2", type=_finite_float, default=0.07, metavar="S",
-                      help="upper S threshold (default: 0.07)")  # fmt: skip
-    cmp_.add_argument("--l", type=_positive_int, default=100, metavar="N", dest="segment",
-                      help="leading segment of the S test, samples (default: 100)")  # fmt: skip
-    cmp_.add_argument("--dl0", type=_seed, default=2, metavar="N",
-                      help="regrow step, samples (default: 2)")  # fmt: skip
-    cmp_.add_argument("--dl1", type=_seed, default=2, metavar="N",
-                      help="shrink step, samples (default: 2)")  # fmt: skip
-    cmp_.add_argument("--s-test", default="upper", choices=("upper", "band", "abs"),
-                      help="f2 test: S > S2 (default), S outside [S1, S2], |S| > S2")
-    cmp_.add_argument("--combine", default="or", choices=("or", "and"),
-                      help="f = f1 or f2 (default) / f1 and f2")  # fmt: skip
-    cmp_.add_argument(
-        "--thresholds", default="paper", choices=("paper", "calibrated"),
-        help="paper: K1, K2, S2 as given (default); calibrated: from the sampling "
-        "distribution of the kurtosis for --false-alarm",
-    )  # fmt: skip
-    cmp_.add_argument("--false-alarm", type=_confidence, default=0.01, metavar="P",
-                      help="per-step false-alarm rate of --thresholds calibrated (default: "
-                      "0.01)")  # fmt: skip
+    _add_controller_arguments(cmp_)
     cmp_.add_argument(
         "--taus", type=_taus, metavar="SPEC",
         help="taus of every surface: all (default for one realisation, the paper's), octave "
@@ -949,8 +992,16 @@ def _davar_summary(
         f"{meta['path']}, column {meta['column']!r}: {result.n_samples} samples, "
         f"{data_type} data in {units}, tau0 = {tau0:g} s ({1.0 / tau0:g} Hz), "
         f"{result.n_samples * tau0:g} s",
-        f"Dynamic Allan deviation: window {int(window[0])} samples "
-        f"({int(window[0]) * tau0:g} s) centred on {every}, {result.edges} edges: "
+        (
+            f"Dynamic Allan deviation: window {int(window[0])} samples "
+            f"({int(window[0]) * tau0:g} s)"
+            if not hasattr(result, "method")
+            else f"Adaptive dynamic Allan deviation ({result.method}): window "
+            f"{int(window.min())} .. {int(window.max())} samples, shorter than "
+            f"{result.parameters['lmax']} at {np.mean(window < result.parameters['lmax']):.1%} "
+            "of the centres,"
+        )
+        + f" centred on {every}, {result.edges} edges: "
         f"{n_time} window{'s' if n_time != 1 else ''} ({result.time[0]:g} s .. "
         f"{result.time[-1]:g} s) x {n_tau} tau{'s' if n_tau != 1 else ''} "
         f"({result.tau[0]:g} s .. {result.tau[-1]:g} s), {bounds}",
@@ -1004,6 +1055,31 @@ def _davar_summary(
     return lines
 
 
+def _controller_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The controller keywords of :func:`adavar.adaptive_davar` from the parsed flags."""
+    return dict(
+        lmax=args.lmax, lmin=args.lmin, k1=args.k1, k2=args.k2, s1=args.s1, s2=args.s2,
+        l=args.segment, dl0=args.dl0, dl1=args.dl1, s_test=args.s_test, combine=args.combine,
+        thresholds=args.thresholds, false_alarm=args.false_alarm,
+    )  # fmt: skip
+
+
+def _schedule_of(result: Any) -> Any:
+    """The controller record of an AdaptiveResult as a Schedule (for the Fig. 10 panels)."""
+    from adavar.adaptive import Schedule, _fixed_thresholds, calibrated_thresholds
+
+    p = result.parameters
+    if p.get("thresholds") == "calibrated":
+        th = calibrated_thresholds(p["lmin"], p["lmax"], p["l"], false_alarm=p["false_alarm"])
+    else:
+        th = _fixed_thresholds(p["lmax"], p["k1"], p["k2"], p["s2"])
+    return Schedule(
+        window=result.window, kurtosis=result.kurtosis, s=result.s, f1=result.f1,
+        f2=result.f2, f=result.f, centre=result.centre, method=result.method,
+        thresholds=th, parameters=p,
+    )  # fmt: skip
+
+
 def _cmd_davar(args: argparse.Namespace) -> int:
     from adavar.plots import rate_unit
 
@@ -1020,11 +1096,12 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         check_output_directory(args.out, replace=args.force)
         _guard_replacement(args.out, [Path(args.file)])
 
+    adaptive = args.command == "adaptive"
+    if adaptive and args.method == "oracle" and not args.change_times:
+        raise UsageError("--method oracle needs --change-times T,... (seconds)")
     samples, meta = read_text(args.file, column=args.column)
     rate_u = rate_unit(units, args.data_type)
-    result = davar(
-        samples,
-        window=args.window,
+    common = dict(
         # the rate as given: times are centre / rate, without 0.1-step rounding noise
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,
@@ -1036,6 +1113,13 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         points_per_decade=args.points_per_decade,
         units=rate_u,
     )
+    if adaptive:
+        result = adaptive_davar(
+            samples, method=args.method, change_times=args.change_times,
+            **_controller_settings(args), **common,
+        )  # fmt: skip
+    else:
+        result = davar(samples, window=args.window, **common)
     fit = None
     if args.confidence is not None:
         try:
@@ -1049,6 +1133,8 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         if fit is not None:
             written.append("coefficients.csv")
         figure_stems = ["davar_surface", "davar_heatmap"]
+        if adaptive:
+            figure_stems.append("controller")
         if fit is not None:
             figure_stems.append(_TERM_FILES[_coefficient_term(fit)])
         written += [f"{stem}.{ext}" for stem in figure_stems for ext in ("png", "svg")]
@@ -1068,7 +1154,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         },
         "parameters": {
             "window": args.window,
-            "window_s": args.window * tau0,
+            "window_s": None if args.window is None else args.window * tau0,
             "step": result.step,
             "edges": result.edges,
             "taus": args.taus,
@@ -1090,6 +1176,12 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         "fit": None if fit is None else _davar_fit_json(fit, np.asarray(result.time)),
         "out": None if args.out is None else {"dir": args.out, "format": fmt, "files": written},
     }
+    if adaptive:
+        payload["parameters"]["controller"] = result.parameters
+        payload["window"] = {
+            "min": int(np.min(result.window)), "max": int(np.max(result.window)),
+            "shrunk_fraction": float(np.mean(result.window < result.parameters["lmax"])),
+        }  # fmt: skip
     text = _dumps(payload)
 
     if args.out is not None:
@@ -1106,10 +1198,18 @@ def _cmd_davar(args: argparse.Namespace) -> int:
             "davar_surface": davar_surface_figure(result),
             "davar_heatmap": davar_heatmap_figure(result),
         }
+        if adaptive:
+            from adavar.plots import controller_figure
+
+            figures["controller"] = controller_figure(
+                _schedule_of(result), result.time, change_times=args.change_times or (),
+                title=f"{title}: {result.method} window",
+            )  # fmt: skip
         if fit is not None:
             term = _coefficient_term(fit)
+            what = f"window {args.window} samples" if not adaptive else f"{result.method} window"
             figures[_TERM_FILES[term]] = coefficient_figure(
-                fit, term=term, title=f"{title}: window {args.window} samples"
+                fit, term=term, title=f"{title}: {what}"
             )
         try:
             with atomic_directory(args.out, replace=args.force) as tmp:

@@ -1,0 +1,895 @@
+"""One self-contained, interactive HTML report of an analysis.
+
+:func:`build_report` turns the results of an analysis (a deviation curve and its noise fit,
+a DAVAR surface, the noise coefficients of every window, an adaptive controller's record, a
+method comparison, the parameters and preprocessing used) into one HTML document, and
+:func:`write_report` writes it atomically.
+
+The document needs no network: plotly.js (from the ``plotly`` Python package) is embedded
+inline once, no file, font or style sheet is referenced, and the figures are plain JSON
+drawn by a short inline script. Every string that comes from the user (title, file and
+column names, units, parameter values, notes) is HTML-escaped before it reaches the page,
+and the figure JSON is made safe inside ``<script>`` (``<``, ``>`` and ``&`` written as
+``\\u003c`` ...; the text fields plotly renders as pseudo-HTML are HTML-escaped too).
+
+Large inputs are thinned before drawing so the file stays a few MB (plotly.js alone is
+about 4.8 MB): a DAVAR surface to at most :data:`MAX_SURFACE_TIMES` windows (evenly spread
+over time) x :data:`MAX_SURFACE_TAUS` taus (evenly spread in log tau), the time series to
+at most :data:`MAX_SERIES_POINTS` points (flags by "any in the bin", window lengths by
+"shortest in the bin", so that a short alarm or a dip of the window still shows).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import html as _html
+import json
+import math
+import os
+import tempfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adavar.noise_model import TERM_NAMES
+from adavar.plots import (
+    STAT_NAMES,
+    TERM_LABELS,
+    deviation_unit,
+    format_pm,
+    rate_unit,
+    term_unit,
+)
+from adavar.units import conventional_units, convert_coefficient
+
+__all__ = [
+    "MAX_SERIES_POINTS",
+    "MAX_SURFACE_TAUS",
+    "MAX_SURFACE_TIMES",
+    "build_report",
+    "write_report",
+]
+
+#: Most windows (rows) of a DAVAR surface drawn in 3-D.
+MAX_SURFACE_TIMES = 300
+#: Most taus (columns) of a DAVAR surface drawn in 3-D.
+MAX_SURFACE_TAUS = 100
+#: Most points of every time series (coefficients, controller panels, N(t) per method).
+MAX_SERIES_POINTS = 2000
+
+_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
+            "#7f7f7f", "#bcbd22", "#17becf")  # fmt: skip
+
+_CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,Helvetica,Arial,sans-serif;
+margin:0 auto;max-width:1100px;padding:0 1.2em 2em;color:#222;line-height:1.4}
+h1{font-size:1.6em;margin:1em 0 .2em}h2{font-size:1.25em;margin-top:1.8em;
+border-bottom:1px solid #ccc;padding-bottom:.2em}
+table{border-collapse:collapse;margin:.6em 0;font-size:.92em}
+th,td{border:1px solid #ccc;padding:.25em .6em;text-align:left;vertical-align:top}
+th{background:#f3f3f3}td.num{text-align:right;font-variant-numeric:tabular-nums}
+.plot{width:100%;min-height:300px}.caption{color:#555;font-size:.9em}
+.notes{color:#7a4b00;font-size:.9em}footer{margin-top:3em;color:#666;font-size:.85em;
+border-top:1px solid #ccc;padding-top:.5em}code{font-size:.95em}
+"""
+
+_RENDER_JS = """
+(function () {
+  var figures = JSON.parse(document.getElementById("adavar-figures").textContent);
+  var ids = Object.keys(figures);
+  var done = ids.map(function (id) {
+    var f = figures[id];
+    return Plotly.newPlot(id, f.data, f.layout, f.config);
+  });
+  Promise.all(done).then(function () {
+    document.body.setAttribute("data-adavar-rendered", String(ids.length));
+  }, function (err) {
+    console.error("adavar report: a plot failed to render: " + err);
+  });
+})();
+"""
+
+
+# --------------------------------------------------------------------------------------
+# Escaping and numbers
+# --------------------------------------------------------------------------------------
+
+
+def _esc(value: Any) -> str:
+    """HTML-escape any value's text (quotes too: safe in text and in attributes)."""
+    return _html.escape(str(value), quote=True)
+
+
+def _script_json(obj: Any) -> str:
+    """JSON that is safe inside a ``<script>`` element (no ``<``, ``>``, ``&`` at all)."""
+    text = json.dumps(obj, allow_nan=False, separators=(",", ":"), ensure_ascii=False)
+    for char, code in (("<", "\\u003c"), (">", "\\u003e"), ("&", "\\u0026"),
+                       ("\u2028", "\\u2028"), ("\u2029", "\\u2029")):  # fmt: skip
+        text = text.replace(char, code)
+    return text
+
+
+def _num(values: Any, digits: int = 6) -> Any:
+    """Floats for JSON, rounded to ``digits`` significant digits; NaN/inf as None (a gap)."""
+    arr = np.asarray(values, dtype=float)
+    if arr.ndim == 0:
+        v = float(arr)
+        return float(f"{v:.{digits}g}") if math.isfinite(v) else None
+    return (
+        [_num(row, digits) for row in arr]
+        if arr.ndim > 1
+        else [float(f"{v:.{digits}g}") if math.isfinite(v) else None for v in arr.tolist()]
+    )
+
+
+def _fmt(value: Any) -> str:
+    """A parameter value as plain text."""
+    if isinstance(value, float | np.floating):
+        return "NaN" if math.isnan(value) else f"{float(value):.6g}"
+    if isinstance(value, Mapping):
+        return ", ".join(f"{k}={_fmt(v)}" for k, v in value.items())
+    if isinstance(value, list | tuple | np.ndarray):
+        return ", ".join(_fmt(v) for v in value)
+    return "" if value is None else str(value)
+
+
+def _unit_label(name: str, unit: str | None) -> str:
+    return f"{name} [{unit}]" if unit else name
+
+
+# --------------------------------------------------------------------------------------
+# Thinning
+# --------------------------------------------------------------------------------------
+
+
+def _spread(n: int, most: int) -> np.ndarray:
+    """At most ``most`` of ``n`` indices, evenly spread, first and last included."""
+    if n <= most:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0.0, n - 1, most)).astype(np.int64))
+
+
+def _spread_log(values: np.ndarray, most: int) -> np.ndarray:
+    """At most ``most`` indices of sorted positive ``values``, evenly spread in log."""
+    n = values.size
+    if n <= most:
+        return np.arange(n)
+    logs = np.log(values)
+    targets = np.linspace(logs[0], logs[-1], most)
+    right = np.clip(np.searchsorted(logs, targets), 1, n - 1)
+    nearer_left = (targets - logs[right - 1]) < (logs[right] - targets)
+    return np.unique(np.where(nearer_left, right - 1, right))
+
+
+def _bins(n: int, most: int) -> np.ndarray | None:
+    """Start index of each of at most ``most`` bins over ``n`` points (None: no binning)."""
+    if n <= most:
+        return None
+    return np.unique(np.floor(np.linspace(0.0, n, most, endpoint=False)).astype(np.int64))
+
+
+def _pool(values: Any, starts: np.ndarray | None, how: str) -> np.ndarray:
+    """Reduce ``values`` over the bins starting at ``starts`` (``first``, ``any``, ``min``)."""
+    arr = np.asarray(values)
+    if starts is None:
+        return arr
+    if how == "any":
+        return np.logical_or.reduceat(arr.astype(bool), starts)
+    if how == "min":
+        return np.minimum.reduceat(arr, starts)
+    return arr[starts]
+
+
+# --------------------------------------------------------------------------------------
+# Figures (plain plotly JSON)
+# --------------------------------------------------------------------------------------
+
+
+def _config() -> dict[str, Any]:
+    return {"responsive": True, "displaylogo": False, "showLink": False,
+            "showEditInChartStudio": False, "showSendToCloud": False}  # fmt: skip
+
+
+def _base_layout(height: int) -> dict[str, Any]:
+    return {
+        "height": height,
+        "margin": {"l": 70, "r": 20, "t": 30, "b": 55},
+        "hovermode": "closest",
+        "legend": {"font": {"size": 11}},
+        "template": {"layout": {"plot_bgcolor": "#fafafa"}},
+    }
+
+
+def _stacked_layout(
+    heights: Sequence[float], labels: Sequence[str], xlabel: str, height: int
+) -> dict[str, Any]:
+    """One shared time axis under stacked panels of the given relative heights."""
+    layout = _base_layout(height)
+    gap = 0.03
+    total = float(sum(heights))
+    usable = 1.0 - gap * (len(heights) - 1)
+    top = 1.0
+    for k, (h, label) in enumerate(zip(heights, labels, strict=True)):
+        bottom = max(top - usable * h / total, 0.0)
+        name = "yaxis" if k == 0 else f"yaxis{k + 1}"
+        layout[name] = {"domain": [bottom, top], "anchor": "x",
+                        "title": {"text": label, "font": {"size": 11}}}  # fmt: skip
+        top = bottom - gap
+    layout["xaxis"] = {"anchor": f"y{len(heights)}" if len(heights) > 1 else "y",
+                       "title": {"text": xlabel}}  # fmt: skip
+    return layout
+
+
+def _rgba(colour: str, alpha: float) -> str:
+    """``#rrggbb`` with an opacity, as ``rgba(...)``."""
+    r, g, b = (int(colour[i : i + 2], 16) for i in (1, 3, 5))
+    return f"rgba({r},{g},{b},{alpha})"
+
+
+def _yref(k: int) -> str:
+    return "y" if k == 0 else f"y{k + 1}"
+
+
+def _band_traces(
+    t: Any,
+    value: np.ndarray,
+    sigma: np.ndarray,
+    colour: str,
+    name: str,
+    unit: str | None,
+    yaxis: str = "y",
+) -> list[dict[str, Any]]:
+    """A line with a shaded ±1-sigma band (clipped at 0)."""
+    low = np.maximum(value - sigma, 0.0)
+    high = value + sigma
+    hover_unit = f" {_esc(unit)}" if unit else ""
+    return [
+        {"type": "scatter", "mode": "lines", "x": t, "y": _num(high), "yaxis": yaxis,
+         "line": {"width": 0, "color": colour}, "hoverinfo": "skip", "showlegend": False,
+         "legendgroup": name},
+        {"type": "scatter", "mode": "lines", "x": t, "y": _num(low), "yaxis": yaxis,
+         "fill": "tonexty", "fillcolor": _rgba(colour, 0.25), "line": {"width": 0, "color": colour},
+         "hoverinfo": "skip", "name": "±1 sigma", "legendgroup": name, "showlegend": False},
+        {"type": "scatter", "mode": "lines", "x": t, "y": _num(value), "yaxis": yaxis,
+         "name": name, "legendgroup": name, "line": {"width": 1.4, "color": colour},
+         "customdata": _num(sigma),
+         "hovertemplate": f"t = %{{x:.6g}} s<br>{name} = %{{y:.4g}} ± %{{customdata:.2g}}"
+                          f"{hover_unit}<extra></extra>"},
+    ]  # fmt: skip
+
+
+def _deviation_figure(deviation: Any, fit: Any, units: str | None) -> dict[str, Any]:
+    traces: list[dict[str, Any]] = []
+    if deviation is not None:
+        unit = rate_unit(deviation.units or units, deviation.data_type)
+        stat = deviation.stat
+        tau = np.asarray(deviation.tau, dtype=float)
+        dev = np.asarray(deviation.dev, dtype=float)
+        low = np.asarray(deviation.dev_low, dtype=float)
+        high = np.asarray(deviation.dev_high, dtype=float)
+        dev_unit = deviation_unit(stat, unit)
+        u = f" {_esc(dev_unit)}" if dev_unit else ""
+        ci = f"{100 * deviation.confidence:.1f} %"
+        traces.append({
+            "type": "scatter", "mode": "lines+markers", "x": _num(tau), "y": _num(dev),
+            "name": f"{_esc(stat.upper())} ({ci} confidence)",
+            "marker": {"size": 6, "color": _COLOURS[0]}, "line": {"color": _COLOURS[0]},
+            "error_y": {"type": "data", "symmetric": False, "array": _num(high - dev),
+                        "arrayminus": _num(dev - low), "thickness": 1.2, "width": 3},
+            "customdata": [[_num(a), _num(b), _num(c, 3), int(d)] for a, b, c, d in zip(
+                low, high, deviation.edf, deviation.n, strict=True)],
+            "hovertemplate": ("τ = %{x:.6g} s<br>σ = %{y:.5g}" + u
+                              + f"<br>{ci}: [%{{customdata[0]:.4g}}, %{{customdata[1]:.4g}}]"
+                              "<br>edf = %{customdata[2]}<br>terms = %{customdata[3]}"
+                              "<extra></extra>"),
+        })  # fmt: skip
+        ylabel = _esc(_unit_label(STAT_NAMES.get(stat, stat), dev_unit))
+    else:
+        unit = fit.units or units
+        tau = np.asarray(fit.tau, dtype=float)
+        ylabel = _esc(_unit_label("Allan deviation", unit))
+    if fit is not None:
+        grid = np.geomspace(tau.min(), tau.max(), 200) if tau.size > 1 else tau
+        red = float(fit.reduced_chi2)
+        name = "fitted model" + (f" (reduced χ² = {red:.2f})" if math.isfinite(red) else "")
+        traces.append(
+            {
+                "type": "scatter",
+                "mode": "lines",
+                "x": _num(grid),
+                "y": _num(fit.model_dev(grid)),
+                "name": name,
+                "line": {"color": "#000", "width": 2},
+                "hovertemplate": "τ = %{x:.6g} s<br>model σ = %{y:.5g}<extra></extra>",
+            }
+        )
+        labels = _term_texts(fit, unit)
+        coefficients = np.asarray(fit.coefficients)
+        for k, term in enumerate(TERM_NAMES):
+            if coefficients[k] > 0:
+                letter = TERM_LABELS[term][0]
+                traces.append({
+                    "type": "scatter", "mode": "lines", "x": _num(grid),
+                    "y": _num(fit.term_dev(term, grid)), "name": _esc(labels[term][0]),
+                    "line": {"dash": "dash", "width": 1.3, "color": _COLOURS[k + 1]},
+                    "hovertemplate": f"{letter}: τ = %{{x:.6g}} s, σ = %{{y:.4g}}<br>"
+                                     f"{_esc(labels[term][1])}<extra></extra>",
+                })  # fmt: skip
+    layout = _base_layout(520)
+    layout["xaxis"] = {"type": "log", "title": {"text": "averaging time τ [s]"},
+                       "exponentformat": "power"}  # fmt: skip
+    layout["yaxis"] = {"type": "log", "title": {"text": ylabel}, "exponentformat": "power"}
+    return {"data": traces, "layout": layout, "config": _config()}
+
+
+def _converted(fit: Any, unit: str | None) -> Any:
+    """``fit.to_units`` when the unit is known and convertible, else None."""
+    with contextlib.suppress(ValueError, TypeError, KeyError):
+        return fit.to_units(None if fit.units is not None else unit)
+    return None
+
+
+def _term_texts(fit: Any, unit: str | None) -> dict[str, tuple[str, str]]:
+    """Per term: legend text (conventional units if possible) and data-unit text."""
+    converted = _converted(fit, unit)
+    out = {}
+    for name in TERM_NAMES:
+        letter, long_name = TERM_LABELS[name]
+        own = fit.term(name)
+        own_text = format_pm(own.value, own.uncertainty, term_unit(name, unit))
+        if converted is not None:
+            c = converted[name]
+            text = format_pm(c.value, c.uncertainty, c.unit)
+        else:
+            text = own_text
+        out[name] = (f"{letter} ({long_name}) = {text}", own_text)
+    return out
+
+
+def _surface_figure(surface: Any, units: str | None) -> tuple[dict[str, Any], str]:
+    tau = np.asarray(surface.tau, dtype=float)
+    time = np.asarray(surface.time, dtype=float)
+    rows = _spread(time.size, MAX_SURFACE_TIMES)
+    cols = _spread_log(tau, MAX_SURFACE_TAUS)
+    avar = np.asarray(surface.avar, dtype=float)[np.ix_(rows, cols)]
+    good = np.isfinite(avar) & (avar > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = np.where(good, 0.5 * np.log10(np.where(good, avar, 1.0)), np.nan)
+    unit = rate_unit(surface.units or units, surface.data_type)
+    zlabel = "log10 σ" + (f" [{_esc(unit)}]" if unit else "")
+    trace = {
+        "type": "surface", "x": _num(np.log10(tau[cols]), 5), "y": _num(time[rows], 7),
+        "z": _num(z, 4), "colorscale": "Viridis", "connectgaps": False,
+        "colorbar": {"title": {"text": "log10 σ"}},
+        "hovertemplate": "log10 τ = %{x:.3f}<br>time = %{y:.6g} s<br>log10 σ = %{z:.3f}"
+                         "<extra></extra>",
+    }  # fmt: skip
+    layout = _base_layout(650)
+    layout["margin"] = {"l": 0, "r": 0, "t": 20, "b": 0}
+    layout["scene"] = {
+        "xaxis": {"title": {"text": "log10(τ / s)"}},
+        "yaxis": {"title": {"text": "time [s]"}},
+        "zaxis": {"title": {"text": zlabel}},
+        "camera": {"eye": {"x": 1.6, "y": -1.6, "z": 0.9}},
+    }
+    caption = (
+        f"{rows.size} of {time.size} windows (evenly spread over time) x "
+        f"{cols.size} of {tau.size} taus (evenly spread in log τ) drawn; "
+        "blank cells: τ beyond a third of the window. Drag to rotate, scroll to zoom."
+    )
+    return {"data": [trace], "layout": layout, "config": _config()}, caption
+
+
+def _coefficient_figure(fit: Any, units: str | None) -> tuple[dict[str, Any], list[str]]:
+    if fit.time is None or np.ndim(fit.coefficients) != 2:
+        raise ValueError(
+            "coefficients= takes the fit of a DAVAR surface, "
+            "adavar.fit_noise(adavar.davar(...)): one fit per window, fit.time set"
+        )
+    unit = fit.units or units
+    time = np.asarray(fit.time, dtype=float)
+    starts = _bins(time.size, MAX_SERIES_POINTS)
+    t = _num(_pool(time, starts, "first"), 8)
+    terms = [name for name in TERM_NAMES
+             if name in fit.terms and np.any(np.asarray(fit.term(name).value) > 0)]  # fmt: skip
+    traces: list[dict[str, Any]] = []
+    labels = []
+    for k, name in enumerate(terms):
+        letter = TERM_LABELS[name][0]
+        term = fit.term(name)
+        shown = term_unit(name, unit)
+        scale = 1.0
+        if unit is not None:
+            with contextlib.suppress(ValueError, TypeError, KeyError):
+                target = conventional_units(unit)[name]
+                scale = float(convert_coefficient(1.0, name, unit, target))
+                shown = target
+        value = _pool(np.asarray(term.value, dtype=float), starts, "first") * scale
+        sigma = _pool(np.asarray(term.uncertainty, dtype=float), starts, "first") * scale
+        colour = _COLOURS[TERM_NAMES.index(name)]
+        traces += _band_traces(t, value, sigma, colour, f"{letter}(t)", shown, _yref(k))
+        labels.append(_esc(_unit_label(letter, shown)))
+    if not terms:
+        return {}, []
+    layout = _stacked_layout(
+        [1.0] * len(terms), labels, "time (window centre) [s]", 180 + 190 * len(terms)
+    )
+    names = [f"{TERM_LABELS[n][0]} ({TERM_LABELS[n][1]})" for n in terms]
+    return {"data": traces, "layout": layout, "config": _config()}, names
+
+
+def _adaptive_figure(adaptive: Any) -> dict[str, Any]:
+    time = np.asarray(adaptive.time, dtype=float)
+    starts = _bins(time.size, MAX_SERIES_POINTS)
+    t = _num(_pool(time, starts, "first"), 8)
+    p = adaptive.parameters or {}
+    paper = p.get("thresholds", "paper") == "paper"
+    traces: list[dict[str, Any]] = []
+    panels: list[str] = []
+
+    def line(y: Any, name: str, colour: str, k: int, shape: str = "linear") -> None:
+        traces.append({"type": "scatter", "mode": "lines", "x": t, "y": y,
+                       "name": name, "yaxis": _yref(k),
+                       "line": {"color": colour, "width": 1.1, "shape": shape},
+                       "hovertemplate": f"t = %{{x:.6g}} s<br>{name} = %{{y:.4g}}"
+                                        "<extra></extra>"})  # fmt: skip
+
+    def level(value: Any, name: str, k: int) -> None:
+        with contextlib.suppress(TypeError, ValueError):
+            v = float(value)
+            if math.isfinite(v):
+                traces.append({"type": "scatter", "mode": "lines", "x": [t[0], t[-1]],
+                               "y": [v, v], "name": _esc(f"{name} = {v:g}"),
+                               "yaxis": _yref(k), "hoverinfo": "name",
+                               "line": {"color": "#000", "dash": "dash", "width": 1}})  # fmt: skip
+
+    k = 0
+    if adaptive.kurtosis is not None:
+        line(_num(_pool(adaptive.kurtosis, starts, "first"), 5), "kurtosis", _COLOURS[0], k)
+        if paper:
+            level(p.get("k1"), "K1", k)
+            level(p.get("k2"), "K2", k)
+        panels.append("kurtosis")
+        k += 1
+    if adaptive.s is not None:
+        line(_num(_pool(adaptive.s, starts, "first"), 5), "S", _COLOURS[3], k)
+        if paper:
+            level(p.get("s2"), "S2", k)
+        panels.append("S (last l)")
+        k += 1
+    for flag, colour in (("f1", _COLOURS[0]), ("f2", _COLOURS[3]), ("f", _COLOURS[2])):
+        values = getattr(adaptive, flag, None)
+        if values is not None:
+            pooled = _pool(values, starts, "any").astype(int).tolist()
+            line(pooled, flag, colour, k, shape="hv")
+            panels.append(flag)
+            k += 1
+    window = _pool(np.asarray(adaptive.window, dtype=np.int64), starts, "min")
+    line(window.tolist(), "window L", _COLOURS[2], k, shape="hv")
+    panels.append("L [samples]")
+    heights = [0.5 if name in ("f1", "f2", "f") else 1.5 for name in panels]
+    layout = _stacked_layout(heights, panels, "time (window centre) [s]", 760)
+    for j, name in enumerate(panels):
+        if name in ("f1", "f2", "f"):
+            key = "yaxis" if j == 0 else f"yaxis{j + 1}"
+            layout[key].update(range=[-0.2, 1.2], tickvals=[0, 1])
+    return {"data": traces, "layout": layout, "config": _config()}
+
+
+def _comparison_figure(comparison: Any, units: str | None) -> dict[str, Any]:
+    unit = comparison.units or units
+    time = np.asarray(comparison.time, dtype=float)
+    starts = _bins(time.size, MAX_SERIES_POINTS)
+    t = _num(_pool(time, starts, "first"), 8)
+    shown = term_unit("angle_random_walk", unit)
+    scale = 1.0
+    if unit is not None:
+        with contextlib.suppress(ValueError, TypeError, KeyError):
+            target = conventional_units(unit)["angle_random_walk"]
+            scale = float(convert_coefficient(1.0, "angle_random_walk", unit, target))
+            shown = target
+    traces: list[dict[str, Any]] = []
+    hover_unit = f" {_esc(shown)}" if shown else ""
+    for j, run in enumerate(comparison.methods.values()):
+        colour = _COLOURS[j % len(_COLOURS)]
+        label = _esc(run.label)
+        traces.append({"type": "scatter", "mode": "lines", "x": t,
+                       "y": _num(_pool(np.asarray(run.arw, dtype=float), starts, "first")
+                                 * scale),
+                       "name": label, "legendgroup": label,
+                       "line": {"color": colour, "width": 1.1},
+                       "hovertemplate": f"{label}<br>t = %{{x:.6g}} s<br>N = %{{y:.4g}}"
+                                        f"{hover_unit}<extra></extra>"})  # fmt: skip
+        traces.append({"type": "scatter", "mode": "lines", "x": t, "yaxis": "y2",
+                       "y": _pool(np.asarray(run.window, dtype=np.int64), starts,
+                                  "min").tolist(),
+                       "name": label, "legendgroup": label, "showlegend": False,
+                       "line": {"color": colour, "width": 1.1, "shape": "hv"},
+                       "hovertemplate": f"{label}<br>t = %{{x:.6g}} s<br>L = %{{y}}"
+                                        "<extra></extra>"})  # fmt: skip
+    if comparison.truth is not None:
+        truth = _pool(np.asarray(comparison.truth, dtype=float), starts, "first") * scale
+        traces.append(
+            {
+                "type": "scatter",
+                "mode": "lines",
+                "x": t,
+                "y": _num(truth),
+                "name": "true N",
+                "line": {"color": "#000", "dash": "dash"},
+            }
+        )
+    layout = _stacked_layout(
+        [3.0, 1.2], [_esc(_unit_label("N", shown)), "L [samples]"], "time (window centre) [s]", 620
+    )
+    layout["shapes"] = [
+        {"type": "line", "xref": "x", "yref": "paper", "x0": c, "x1": c, "y0": 0, "y1": 1,
+         "line": {"color": "#888", "dash": "dot", "width": 1}}
+        for c in _num(np.asarray(comparison.change_times, dtype=float), 8)
+        if c is not None
+    ]  # fmt: skip
+    return {"data": traces, "layout": layout, "config": _config()}
+
+
+# --------------------------------------------------------------------------------------
+# HTML pieces
+# --------------------------------------------------------------------------------------
+
+
+def _table(
+    header: Sequence[str], rows: Sequence[Sequence[Any]], numeric: Sequence[bool] | None = None
+) -> str:
+    """An HTML table; every cell is escaped here."""
+    numeric = numeric or [False] * len(header)
+    head = "".join(f"<th>{_esc(h)}</th>" for h in header)
+    body = "".join(
+        "<tr>" + "".join(
+            f'<td class="num">{_esc(c)}</td>' if numeric[i] else f"<td>{_esc(c)}</td>"
+            for i, c in enumerate(row)
+        ) + "</tr>"
+        for row in rows
+    )  # fmt: skip
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _notes(notes: Sequence[str] | None) -> str:
+    if not notes:
+        return ""
+    items = "".join(f"<li>{_esc(n)}</li>" for n in notes)
+    return f'<ul class="notes">{items}</ul>'
+
+
+def _coefficient_table(fit: Any, units: str | None) -> str:
+    unit = fit.units or units
+    converted = _converted(fit, unit)
+    rows = []
+    for name in TERM_NAMES:
+        letter, long_name = TERM_LABELS[name]
+        term = fit.term(name)
+        if name not in fit.terms:
+            state = "not in the model"
+        elif float(term.value) > 0:
+            state = "fitted"
+        else:
+            state = "pinned at 0 (1-sigma upper bound)"
+        row = [
+            letter,
+            long_name,
+            state,
+            format_pm(term.value, term.uncertainty, term_unit(name, unit)),
+        ]
+        if converted is not None:
+            c = converted[name]
+            row.append(format_pm(c.value, c.uncertainty, c.unit))
+        rows.append(row)
+    header = ["term", "name", "status", "value ± 1σ (data units)"]
+    if converted is not None:
+        header.append("value ± 1σ (conventional units)")
+    red = float(fit.reduced_chi2)
+    summary = (
+        f"Fitted on {int(fit.n_points)} taus with terms {', '.join(fit.terms)}; "
+        f"χ² = {float(fit.chi2):.4g}, dof = {float(fit.dof):.4g}, reduced χ² = "
+        f"{red:.3g}; {fit.n_reweight} reweighting passes, spacing {fit.spacing!r}."
+    )
+    if unit is None:
+        summary += " No unit declared: values in the data's own units."
+    elif converted is None:
+        summary += f" Unit {unit!r} has no conventional reporting units."
+    return _table(header, rows) + f'<p class="caption">{_esc(summary)}</p>'
+
+
+def _comparison_tables(comparison: Any) -> str:
+    labels = comparison.labels
+    names = list(labels)
+    rows = comparison.node_rows()
+    has_paper = any(row["paper"] for row in rows)
+    header = ["change [s]", "node", *[labels[n] for n in names]]
+    if has_paper:
+        header += [f"paper {labels[n]}" for n in names]
+    body = []
+    for row in rows:
+        cells = [
+            _fmt(float(row["change"])),
+            row["node"],
+            *[_fmt(float(row["values"][n])) for n in names],
+        ]
+        if has_paper:
+            cells += [_fmt(float(row["paper"][n])) if n in row["paper"] else "" for n in names]
+        body.append(cells)
+    numeric = [True, False] + [True] * (len(header) - 2)
+    parts = []
+    if body:
+        parts.append("<h3>Nodes around every change (window-centre times, s)</h3>")
+        parts.append(_table(header, body, numeric))
+    else:
+        parts.append('<p class="caption">No change times given: no node table.</p>')
+    intervals = [(a, b) for a, b in comparison.intervals]
+    if intervals:
+        ih = ["interval [s]", *[labels[n] for n in names]]
+        irows = [[f"{_fmt(float(a))} ~ {_fmt(float(b))}",
+                  *[_fmt(float(comparison.methods[n].intervals.get((a, b), math.nan)))
+                    for n in names]] for a, b in intervals]  # fmt: skip
+        parts.append("<h3>Mean N over intervals, ARW(a~b), data units</h3>")
+        parts.append(_table(ih, irows, [False] + [True] * len(names)))
+    metric_rows = []
+    for n in names:
+        m = comparison.methods[n].metrics
+        if m is not None:
+            metric_rows.append(
+                [
+                    labels[n],
+                    _fmt(m.bias),
+                    _fmt(m.std),
+                    _fmt(m.mad),
+                    _fmt(m.error),
+                    _fmt(m.abs_delay),
+                    _fmt(m.rise),
+                ]
+            )
+    if metric_rows:
+        parts.append("<h3>Ground-truth metrics</h3>")
+        parts.append(_table(["method", "bias", "std", "mad", "tracking error",
+                             "|delay| [s]", "rise [s]"], metric_rows,
+                            [False] + [True] * 6))  # fmt: skip
+    return "".join(parts)
+
+
+def _mapping_table(mapping: Mapping[str, Any]) -> str:
+    return _table(["name", "value"], [[k, _fmt(v)] for k, v in mapping.items()])
+
+
+# --------------------------------------------------------------------------------------
+# Public API
+# --------------------------------------------------------------------------------------
+
+
+def build_report(
+    *,
+    title: str,
+    source: str | Mapping[str, Any] | None = None,
+    deviation: Any = None,
+    fit: Any = None,
+    surface: Any = None,
+    coefficients: Any = None,
+    adaptive: Any = None,
+    comparison: Any = None,
+    parameters: Mapping[str, Any] | None = None,
+    preprocessing: Sequence[str] | None = None,
+    units: str | None = None,
+) -> str:
+    """One self-contained HTML document with interactive plots of an analysis.
+
+    Only the sections whose input is given are written. The document loads nothing: plotly.js
+    is embedded inline (once), and every user string is HTML-escaped.
+
+    Parameters
+    ----------
+    title : str
+        Title of the page.
+    source : str or mapping, optional
+        What was analysed: a file name, or ``{"file": ..., "column": ..., ...}``.
+    deviation : DeviationResult, optional
+        From :func:`adavar.deviation`: log-log plot with confidence bars (hover shows the
+        bounds, edf and number of terms).
+    fit : NoiseFit, optional
+        A single-curve fit (:func:`adavar.fit_noise` of ``deviation``): the model and every
+        non-zero term on the deviation plot, and the coefficient table (data units and,
+        when the unit is known, conventional units).
+    surface : DavarResult, optional
+        From :func:`adavar.davar` (or :func:`adavar.adaptive_davar`): a rotatable 3-D
+        surface (log10 tau, time, log10 deviation), thinned to at most
+        :data:`MAX_SURFACE_TIMES` x :data:`MAX_SURFACE_TAUS` cells.
+    coefficients : NoiseFit, optional
+        The fit of every DAVAR window (``adavar.fit_noise(surface)``): every term in the
+        model that is non-zero somewhere, over time, with its 1-sigma band.
+    adaptive : AdaptiveResult, optional
+        From :func:`adavar.adaptive_davar`: the controller's kurtosis, S, flags f1, f2, f and
+        window length over time.
+    comparison : Comparison, optional
+        From :func:`adavar.compare.compare`: N(t) and the window of every method, the node
+        table (with the paper's values for its scenarios), the ARW(a~b) intervals and the
+        ground-truth metrics when known.
+    parameters : mapping, optional
+        Settings used (name -> value), shown as a table.
+    preprocessing : sequence of str, optional
+        Preprocessing steps applied to the data, in order.
+    units : str, optional
+        Unit of the rate samples, for results that do not carry one.
+
+    Returns
+    -------
+    str
+        The HTML document.
+
+    Raises
+    ------
+    ImportError
+        If the ``plotly`` package (which ships plotly.js) is missing and a plot is needed.
+    ValueError
+        If ``fit`` is not a single curve, or ``coefficients`` is not a fit per window.
+    """
+    from adavar import __version__
+
+    if fit is not None and np.ndim(fit.coefficients) != 1:
+        raise ValueError(
+            "fit= takes a single-curve NoiseFit; pass the fit of every DAVAR window as "
+            "coefficients="
+        )
+    figures: dict[str, dict[str, Any]] = {}
+    sections: list[str] = []
+
+    def plot(key: str, figure: dict[str, Any]) -> str:
+        div_id = f"plot-{key}"
+        figures[div_id] = figure
+        return f'<div class="plot" id="{div_id}"></div>'
+
+    if source is not None:
+        if isinstance(source, Mapping):
+            body = _mapping_table(source)
+        else:
+            body = f"<p><code>{_esc(source)}</code></p>"
+        sections.append(f'<section id="source"><h2>Data</h2>{body}</section>')
+
+    if deviation is not None or fit is not None:
+        parts = ['<section id="deviation"><h2>Deviation and noise fit</h2>']
+        parts.append(plot("deviation", _deviation_figure(deviation, fit, units)))
+        if deviation is not None:
+            stat = STAT_NAMES.get(deviation.stat, deviation.stat)
+            cap = (
+                f"{stat} of {deviation.n_samples} samples at {deviation.rate:.6g} Hz "
+                f"({deviation.data_type} data), {deviation.tau.size} taus; bars: "
+                f"{100 * deviation.confidence:.1f} % confidence interval. Hover for values."
+            )
+            parts.append(f'<p class="caption">{_esc(cap)}</p>{_notes(deviation.notes)}')
+        parts.append("</section>")
+        sections.append("".join(parts))
+
+    if fit is not None:
+        sections.append('<section id="coefficients-table"><h2>Noise coefficients</h2>'
+                        f"{_coefficient_table(fit, units)}</section>")  # fmt: skip
+
+    if surface is not None:
+        figure, caption = _surface_figure(surface, units)
+        sections.append(
+            '<section id="surface"><h2>Dynamic Allan deviation surface</h2>'
+            f'{plot("surface", figure)}<p class="caption">{_esc(caption)}</p>'
+            f"{_notes(surface.notes)}</section>"
+        )
+
+    if coefficients is not None:
+        figure, names = _coefficient_figure(coefficients, units)
+        if figure:
+            body = plot("coefficients", figure)
+            cap = (
+                f"{', '.join(names)} of every window over time; band: ±1σ (clipped at "
+                "0; from 0 to the 1-sigma upper bound where a term is pinned at 0)."
+            )
+        else:
+            body, cap = "", "No term is non-zero in any window."
+        sections.append(
+            '<section id="coefficients-time"><h2>Noise coefficients over time</h2>'
+            f'{body}<p class="caption">{_esc(cap)}</p></section>'
+        )
+
+    if adaptive is not None:
+        method = getattr(adaptive, "method", "adaptive")
+        p = adaptive.parameters or {}
+        cap = (
+            f"{method} controller: kurtosis of every window (K1, K2 band), S of its last "
+            f"l samples (S2), the flags f1, f2, f and the window length L "
+            f"(Lmax {p.get('lmax')}, Lmin {p.get('lmin')}, l {p.get('l')}, "
+            f"thresholds {p.get('thresholds')})."
+        )
+        sections.append(
+            '<section id="adaptive"><h2>Adaptive window controller</h2>'
+            f"{plot('adaptive', _adaptive_figure(adaptive))}"
+            f'<p class="caption">{_esc(cap)}</p>{_notes(adaptive.notes)}</section>'
+        )
+
+    if comparison is not None:
+        cap = comparison.description or ""
+        sections.append(
+            '<section id="comparison"><h2>Method comparison</h2>'
+            f'<p class="caption">{_esc(cap)}</p>'
+            f"{plot('comparison', _comparison_figure(comparison, units))}"
+            f"{_comparison_tables(comparison)}</section>"
+        )
+
+    if parameters:
+        sections.append('<section id="parameters"><h2>Parameters</h2>'
+                        f"{_mapping_table(parameters)}</section>")  # fmt: skip
+
+    if preprocessing:
+        items = "".join(f"<li>{_esc(step)}</li>" for step in preprocessing)
+        sections.append(f'<section id="preprocessing"><h2>Preprocessing</h2><ol>{items}</ol>'
+                        "</section>")  # fmt: skip
+
+    scripts = ""
+    plotly_version = ""
+    if figures:
+        plotly_js, plotly_version = _plotly_js()
+        scripts = (f"<script>{plotly_js}</script>\n"
+                   f'<script type="application/json" id="adavar-figures">'
+                   f"{_script_json(figures)}</script>\n<script>{_RENDER_JS}</script>")  # fmt: skip
+
+    now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
+    footer = f"Made with adavar {_esc(__version__)} on {now}"
+    if plotly_version:
+        footer += f"; plots by plotly.js {_esc(plotly_version)} (embedded)"
+    return (
+        '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f'<meta name="generator" content="adavar {_esc(__version__)}">\n'
+        f"<title>{_esc(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
+        f"<header><h1>{_esc(title)}</h1></header>\n<main>\n"
+        + "\n".join(sections)
+        + f"\n</main>\n<footer>{footer}.</footer>\n{scripts}\n</body>\n</html>\n"
+    )
+
+
+def _plotly_js() -> tuple[str, str]:
+    """The plotly.js bundle shipped with the ``plotly`` package, and its version."""
+    try:
+        from plotly.offline import get_plotlyjs, get_plotlyjs_version
+    except ImportError:  # pragma: no cover - depends on the environment
+        raise ImportError(
+            "the HTML report embeds plotly.js from the plotly package: pip install plotly"
+        ) from None
+    js = get_plotlyjs()
+    if "</script" in js.lower() or "<!--" in js:  # pragma: no cover - bundle check
+        raise RuntimeError("this plotly.js bundle cannot be embedded in a <script> element")
+    return js, get_plotlyjs_version()
+
+
+def write_report(path: str | os.PathLike[str], html: str) -> Path:
+    """Write a report atomically (a temporary file in the same folder, then ``os.replace``).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Destination; its folder must exist.
+    html : str
+        The document, from :func:`build_report`.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+    """
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
+            handle.write(html)
+        # mkstemp makes the file private (0600); a report is an ordinary document
+        mode = target.stat().st_mode & 0o777 if target.exists() else 0o644
+        os.chmod(tmp, mode)
+        os.replace(tmp, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+    return target
