@@ -36,6 +36,7 @@ import sys
 import time
 import traceback
 from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -50,7 +51,6 @@ from adavar.io import (
     atomic_directory,
     check_output_directory,
     check_surface_format,
-    read_text,
     write_surface,
 )
 from adavar.noise_model import ALLAN_STATS, TERM_NAMES, NoiseFit, fit_noise
@@ -259,9 +259,42 @@ def _terms(text: str) -> tuple[str, ...]:
 # --------------------------------------------------------------------------------------
 
 
-def _add_input_arguments(cmd: argparse.ArgumentParser) -> None:
-    """FILE, --column, --rate/--tau0 and --units: how every analysis command reads a record."""
-    cmd.add_argument("file", metavar="FILE", help="text file, one sample per row")
+def _add_input_arguments(cmd: argparse.ArgumentParser, *, optional_file: bool = False) -> None:
+    """FILE, --column, --rate/--tau0, --units and the reader's options of every command."""
+    cmd.add_argument(
+        "file", metavar="FILE", nargs="?" if optional_file else None,
+        help="the record: CSV/TSV/whitespace text (with or without header, a time column "
+        "in s or ISO 8601, or a declared --rate), .npy/.npz, HDF5 (--dataset), Parquet, a "
+        "ROS 1 .bag or ROS 2 bag folder (sensor_msgs/Imu: gx gy gz ax ay az), Stable32 "
+        ".phd/.frd",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--time-column", metavar="NAME",
+        help="column of time stamps (default: one named time, t, timestamp, ...; "
+        "'header' or 'bag' for ROS bags)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--time-format", default="auto", choices=("auto", "s", "ms", "us", "ns", "iso", "mjd"),
+        help="unit or format of the time column (default: auto)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--gaps", default="error", choices=("error", "interpolate"),
+        help="a gap in the time stamps is an error (default) or is filled by linear "
+        "interpolation",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--nan", default="error", choices=("error", "drop", "interpolate"),
+        help="a NaN/Inf sample is an error (default), its row is dropped, or it is "
+        "interpolated",
+    )  # fmt: skip
+    cmd.add_argument("--dataset", metavar="PATH", help="dataset of an HDF5 file")
+    cmd.add_argument("--topic", metavar="TOPIC", help="IMU topic of a ROS bag")
+    cmd.add_argument(
+        "--preprocess", metavar="STEPS",
+        help="comma-separated steps applied in order: detrend:ORDER, mean, "
+        "decimate:K[:average], select:START:STOP (seconds); e.g. detrend:3,decimate:100 "
+        "(the paper's real-data steps)",
+    )  # fmt: skip
     cmd.add_argument(
         "--column", metavar="NAME",
         help="header name or 0-based index of the column (needed if there are several)",
@@ -552,6 +585,53 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cmp_.set_defaults(handler=_cmd_compare)
 
+    rep = sub.add_parser(
+        "report",
+        help="one self-contained interactive HTML report of a record",
+        description="Analyse one column of a record and write ONE self-contained HTML file "
+        "(interactive plots, no network): the overlapping Allan deviation with confidence "
+        "bars and the fitted noise terms, the coefficient table with uncertainties, and with "
+        "--window or --adaptive the rotatable DAVAR surface, the coefficients over time and "
+        "(A-DAVAR) the controller's kurtosis, S, flags and window length; plus every "
+        "parameter and preprocessing step used.",
+    )
+    _add_input_arguments(rep)
+    rep.add_argument(
+        "-o", "--output", metavar="FILE.html", required=True,
+        help="the report to write (atomically; an existing file needs --force)",
+    )  # fmt: skip
+    rep.add_argument(
+        "--data-type", default="rate", choices=("rate", "phase"),
+        help="rate samples (default) or their integral (angle, velocity, time error)",
+    )  # fmt: skip
+    rep.add_argument(
+        "--window", metavar="L", type=_window_length,
+        help="also a fixed-window DAVAR of L samples (surface and coefficients over time)",
+    )  # fmt: skip
+    rep.add_argument(
+        "--adaptive", action="store_true",
+        help="also the adaptive-window DAVAR (A-DAVAR, the controller settings below)",
+    )  # fmt: skip
+    _add_controller_arguments(rep)
+    rep.add_argument(
+        "--taus", default="octave", type=_taus, metavar="SPEC",
+        help="taus of the DAVAR surface: octave (default), all, decade, log or seconds",
+    )  # fmt: skip
+    rep.add_argument(
+        "--step", metavar="S", type=_positive_int, default=1,
+        help="DAVAR centres every S samples (default: 1)",
+    )  # fmt: skip
+    rep.add_argument(
+        "--terms", type=_terms, metavar="LIST",
+        help="terms of the noise fits (names or Q,N,B,K,R; default: all five)",
+    )  # fmt: skip
+    rep.add_argument("--title", help="title of the report (default: the file and column)")
+    rep.add_argument("--json", action="store_true", help="print one JSON object")
+    rep.add_argument("--force", action="store_true", help="replace an existing --output")
+    rep.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                     help=argparse.SUPPRESS)
+    rep.set_defaults(handler=_cmd_report)
+
     demo = sub.add_parser(
         "demo",
         help="NIST SP 1065 check values, a simulated MEMS gyro and the paper's scenario 1",
@@ -781,26 +861,66 @@ def _output_error(out: str | os.PathLike[str], exc: OSError) -> AdavarInputError
 # --------------------------------------------------------------------------------------
 
 
-def _require_units_and_rate(args: argparse.Namespace) -> tuple[str, float]:
-    """The declared unit and tau0 (seconds); a :class:`UsageError` if either is missing."""
-    if args.units is None or not args.units.strip():
+def _load(args: argparse.Namespace) -> tuple[np.ndarray, dict[str, Any], str, float]:
+    """Read FILE's column, preprocess it, and settle its unit and tau0 (seconds).
+
+    The rate comes from --rate/--tau0 or from the file's time stamps (both: they must
+    agree); the unit from --units or from the format (ROS bags declare rad/s and m/s^2).
+    """
+    from adavar.preprocess import preprocess
+    from adavar.readers import read_record
+
+    if args.rate is not None and args.tau0 is not None:
+        raise UsageError("give exactly one of --rate HZ or --tau0 SECONDS (both given)")
+    declared = args.rate if args.rate is not None else (
+        1.0 / args.tau0 if args.tau0 is not None else None
+    )  # fmt: skip
+    option = partial(getattr, args)
+    record = read_record(
+        args.file, columns=args.column, rate=declared,
+        time_column=option("time_column", None), time_format=option("time_format", "auto"),
+        gaps=option("gaps", "error"), nan=option("nan", "error"),
+        dataset=option("dataset", None), topic=option("topic", None),
+    )  # fmt: skip
+    if len(record.names) != 1:
+        raise UsageError(
+            f"{args.file} has {len(record.names)} channels ({', '.join(record.names)}): "
+            "choose one with --column"
+        )
+    name = record.names[0]
+    units = args.units.strip() if args.units and args.units.strip() else None
+    if units is None:
+        units = (record.meta.get("units") or {}).get(name)
+    if not units:
         raise UsageError(
             "declare the unit of the samples with --units (e.g. --units deg/s); adavar never "
             "guesses units"
         )
-    if (args.rate is None) == (args.tau0 is None):
-        which = "both" if args.rate is not None else "neither"
-        raise UsageError(
-            f"give exactly one of --rate HZ or --tau0 SECONDS ({which} given); adavar never "
-            "guesses the sampling rate"
-        )
-    return args.units.strip(), args.tau0 if args.tau0 is not None else 1.0 / args.rate
+    samples = np.asarray(record.channel(name), dtype=np.float64)
+    rate = float(record.rate)
+    steps: list[dict[str, Any]] = []
+    if getattr(args, "preprocess", None):
+        samples, rate, steps = preprocess(samples, rate=rate, steps=args.preprocess)
+    if args.tau0 is not None and not steps:
+        tau0 = float(args.tau0)
+    else:
+        tau0 = 1.0 / rate
+    if args.rate is not None and not steps:
+        args_rate = float(args.rate)
+    else:
+        args_rate = rate
+    args.rate, args.tau0 = (args_rate, None) if args.tau0 is None or steps else (None, tau0)
+    meta = {
+        "path": str(args.file), "column": name, "kind": record.kind,
+        "rate_from": "declared" if declared is not None else "time stamps",
+        "reader": record.meta, "preprocessing": steps,
+    }  # fmt: skip
+    return samples, meta, units, tau0
 
 
 def _cmd_avar(args: argparse.Namespace) -> int:
     from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
 
-    units, tau0 = _require_units_and_rate(args)
     do_fit = args.fit or args.terms is not None
     if do_fit and args.stat not in ALLAN_STATS:
         raise UsageError(
@@ -811,7 +931,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         check_output_directory(args.out, replace=args.force)
         _guard_replacement(args.out, [Path(args.file)])
 
-    samples, meta = read_text(args.file, column=args.column)
+    samples, meta, units, tau0 = _load(args)
     rate_u = rate_unit(units, args.data_type)
     result = deviation(
         samples,
@@ -1083,7 +1203,6 @@ def _schedule_of(result: Any) -> Any:
 def _cmd_davar(args: argparse.Namespace) -> int:
     from adavar.plots import rate_unit
 
-    units, tau0 = _require_units_and_rate(args)
     if args.format is not None and args.out is None:
         raise UsageError("--format chooses the surface file of --out: give --out DIR as well")
     if args.confidence is None and args.terms is not None:
@@ -1099,7 +1218,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     adaptive = args.command == "adaptive"
     if adaptive and args.method == "oracle" and not args.change_times:
         raise UsageError("--method oracle needs --change-times T,... (seconds)")
-    samples, meta = read_text(args.file, column=args.column)
+    samples, meta, units, tau0 = _load(args)
     rate_u = rate_unit(units, args.data_type)
     common = dict(
         # the rate as given: times are centre / rate, without 0.1-step rounding noise
@@ -1614,7 +1733,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             raise UsageError("--seeds repeats a simulated --scenario; a data FILE is one record")
         if args.variance_reading:
             raise UsageError("--variance-reading chooses a --scenario's disturbance")
-        units, tau0 = _require_units_and_rate(args)
+        if args.file is None:
+            raise UsageError("give a data FILE (with --rate and --units) or --scenario 1|2")
     if args.out is not None:
         check_output_directory(args.out, replace=args.force)
         _guard_replacement(args.out, [Path(args.file)] if args.file is not None else [])
@@ -1639,7 +1759,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         }  # fmt: skip
         description = None
     else:
-        samples, meta = read_text(args.file, column=args.column)
+        samples, meta, units, tau0 = _load(args)
         data = samples
         rate = args.rate if args.rate is not None else 1.0 / tau0
         changes = args.change_times
@@ -1760,6 +1880,113 @@ def _check_demo_out(out: str, force: bool) -> None:
     _guard_replacement(out, [])
 
 
+def _cmd_report(args: argparse.Namespace) -> int:
+    from adavar.report import build_report, write_report
+
+    output = Path(args.output)
+    if output.suffix.lower() not in (".html", ".htm"):
+        raise UsageError(f"--output {args.output!r}: the report is HTML, name it *.html")
+    if output.exists() and not args.force:
+        raise UsageError(f"{args.output} exists: use --force to replace it")
+    if output.exists() and output.is_dir():
+        raise UsageError(f"{args.output} is a folder: give a file name")
+    if not output.parent.exists():
+        raise UsageError(f"folder {str(output.parent)!r} does not exist: create it first")
+    terms = args.terms or TERM_NAMES
+    samples, meta, units, tau0 = _load(args)
+    from adavar.plots import rate_unit
+
+    rate_u = rate_unit(units, args.data_type)
+    rate_kw = dict(
+        rate=args.rate if args.rate is not None else 1.0,
+        tau0=None if args.rate is not None else tau0,
+    )  # fmt: skip
+    result = deviation(samples, data_type=args.data_type, units=rate_u, **rate_kw)
+    try:
+        fit = fit_noise(result, terms=terms)
+    except ValueError as exc:
+        raise AdavarInputError(str(exc)) from None
+    surface = adaptive = coefficients = None
+    common = dict(data_type=args.data_type, taus=args.taus, step=args.step, units=rate_u,
+                  **rate_kw)  # fmt: skip
+    if args.adaptive:
+        adaptive = adaptive_davar(samples, **_controller_settings(args), **common)
+        surface = adaptive
+    elif args.window is not None:
+        surface = davar(samples, window=args.window, **common)
+    if surface is not None:
+        try:
+            coefficients = fit_noise(surface, terms=terms)
+        except ValueError as exc:
+            raise AdavarInputError(str(exc)) from None
+    parameters: dict[str, Any] = {
+        "statistic": "oadev", "data type": args.data_type, "units": units,
+        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
+    }  # fmt: skip
+    if surface is not None:
+        parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
+        if adaptive is not None:
+            parameters.update({f"controller {k}": v for k, v in adaptive.parameters.items()
+                               if v is not None})  # fmt: skip
+        else:
+            parameters["DAVAR window [samples]"] = args.window
+    steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
+    title = args.title or f"{Path(meta['path']).name}, column {meta['column']}"
+    html = build_report(
+        title=title,
+        source={"file": meta["path"], "column": meta["column"], "format": meta["kind"],
+                "samples": int(samples.size)},
+        deviation=result, fit=fit, surface=surface, coefficients=coefficients,
+        adaptive=adaptive, parameters=parameters, preprocessing=steps, units=rate_u,
+    )  # fmt: skip
+    try:
+        write_report(output, html)
+    except OSError as exc:
+        raise _output_error(args.output, exc) from None
+    payload = {
+        "adavar_version": __version__,
+        "report": str(output),
+        "bytes": len(html.encode("utf-8")),
+        "input": {"file": meta["path"], "column": meta["column"], "rate": 1.0 / tau0,
+                  "units": units, "n_samples": int(samples.size), "preprocessing": steps},
+        "fit": _fit_json(fit),
+        "surface": None if surface is None else {
+            "windows": int(np.shape(surface.avar)[0]), "taus": int(np.shape(surface.avar)[1]),
+            "method": getattr(surface, "method", "fixed"),
+        },
+    }  # fmt: skip
+    if args.json:
+        print(_dumps(payload))
+        return EXIT_OK
+    print(f"wrote {output} ({payload['bytes'] / 1e6:.1f} MB): {title}")
+    print("\n".join(_fit_lines(fit, "  ")))
+    return EXIT_OK
+
+
+def _demo_report(demo: Any) -> str:
+    """The demo's HTML report: the simulated gyro, and the paper's scenario 1 with A-DAVAR."""
+    from adavar.report import build_report
+
+    gyro = demo.gyro
+    paper = demo.paper
+    adaptive = coefficients = comparison = None
+    if paper is not None:
+        comparison = paper.comparison
+        adaptive = adaptive_davar(comparison.data, rate=comparison.rate, taus="octave")
+        coefficients = fit_noise(adaptive)
+    return build_report(
+        title="adavar demo: a simulated MEMS gyro and the A-DAVAR paper's scenario 1",
+        source={"gyro": f"simulated, {gyro.n_samples} samples at {gyro.rate:g} Hz in "
+                f"{gyro.units}, seed {gyro.seed}",
+                "scenario": None if comparison is None else comparison.description},
+        deviation=gyro.result, fit=gyro.fit, surface=adaptive, coefficients=coefficients,
+        adaptive=adaptive, comparison=comparison,
+        parameters={"gyro statistic": "oadev, octave taus",
+                    "A-DAVAR": "Lmax 600, Lmin 400, K1 2.5, K2 3.3, S2 0.07, l 100"},
+        units=gyro.units,
+    )  # fmt: skip
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     from adavar.demo import GYRO_BIAS, run_demo
     from adavar.plots import deviation_figure, save_figure
@@ -1782,6 +2009,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                   _compare_tables(paper.comparison, paper.study, paper.thresholds).items()}
         figures = _compare_figures(paper.comparison, paper.kurtosis, paper.thresholds)
         files += [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg"))]
+    files.append("report.html")
+    html = _demo_report(demo)
     payload = _demo_json(demo, str(args.out), files)
     text = _dumps(payload)
     try:
@@ -1792,6 +2021,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             for stem, paper_fig in figures.items():
                 save_figure(paper_fig, tmp / stem)
             (tmp / "demo.json").write_text(text + "\n", encoding="utf-8")
+            (tmp / "report.html").write_text(html, encoding="utf-8")
             (tmp / DEMO_MARKER).write_text(
                 "written by adavar demo; the next run replaces this folder\n", encoding="utf-8"
             )
