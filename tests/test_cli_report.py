@@ -80,3 +80,76 @@ def test_adaptive_command_writes_the_controller_panels(capsys, step_csv, tmp_pat
     code, _, err = run(capsys, ["adaptive", str(step_csv), "--units", "deg/s", "--method",
                                 "oracle"])  # fmt: skip
     assert code == 2 and "--change-times" in err
+
+
+def test_kalibr_yaml_from_a_ros2_bag(capsys, tmp_path):
+    """A static 6-axis ROS 2 bag in, Kalibr's imu.yaml out, with the fitted densities."""
+    pytest.importorskip("rosbags")
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_HUMBLE)
+    imu_t = store.types["sensor_msgs/msg/Imu"]
+    header_t = store.types["std_msgs/msg/Header"]
+    quat_t = store.types["geometry_msgs/msg/Quaternion"]
+    vec_t = store.types["geometry_msgs/msg/Vector3"]
+    time_t = store.types["builtin_interfaces/msg/Time"]
+    rate, n = 100.0, 8000
+    gyro_n, accel_n = 2e-3, 4e-2  # rad/sqrt(s), m/s/sqrt(s): white noise densities
+    rng = np.random.default_rng(4)
+    g = rng.standard_normal((n, 3)) * gyro_n * np.sqrt(rate)
+    a = rng.standard_normal((n, 3)) * accel_n * np.sqrt(rate) + [0.0, 0.0, 9.81]
+    bag = tmp_path / "static"
+    cov = np.zeros(9)
+    with Writer(bag, version=9) as writer:
+        conn = writer.add_connection("/imu0", "sensor_msgs/msg/Imu", typestore=store)
+        for i in range(n):
+            ns = 1_700_000_000 * 10**9 + round(i * 1e9 / rate)
+            msg = imu_t(
+                header=header_t(stamp=time_t(sec=ns // 10**9, nanosec=ns % 10**9),
+                                frame_id="imu"),
+                orientation=quat_t(x=0.0, y=0.0, z=0.0, w=1.0), orientation_covariance=cov,
+                angular_velocity=vec_t(x=g[i, 0], y=g[i, 1], z=g[i, 2]),
+                angular_velocity_covariance=cov,
+                linear_acceleration=vec_t(x=a[i, 0], y=a[i, 1], z=a[i, 2]),
+                linear_acceleration_covariance=cov,
+            )  # fmt: skip
+            writer.write(conn, ns, store.serialize_cdr(msg, "sensor_msgs/msg/Imu"))
+    out = tmp_path / "imu.yaml"
+    # white noise only: the random walks are pinned at 0, which Kalibr cannot take
+    code, _, err = run(capsys, ["kalibr", str(bag), "-o", str(out)])
+    assert code == 2 and "--pinned bound" in err and not out.exists()
+    code, stdout, err = run(capsys, ["kalibr", str(bag), "-o", str(out), "--pinned", "bound",
+                                     "--json"])  # fmt: skip
+    assert code == 0, err
+    values = json.loads(stdout)["kalibr"]
+    text = out.read_text(encoding="utf-8")
+    fields = {
+        key: value.split("#")[0].strip()
+        for key, value in (
+            line.split(":", 1) for line in text.splitlines() if line and line[0] != "#"
+        )
+    }
+    density = float(fields["gyroscope_noise_density"])
+    assert density == pytest.approx(gyro_n, rel=0.08)  # the largest of three axes
+    assert float(fields["accelerometer_noise_density"]) == pytest.approx(accel_n, rel=0.08)
+    assert float(fields["update_rate"]) == pytest.approx(rate)
+    assert fields["rostopic"].strip() == "/imu0"
+    assert values  # the per-axis values are reported too
+    code, _, err = run(capsys, ["kalibr", str(bag), "-o", str(out)])
+    assert code == 2 and "--force" in err
+
+
+def test_simulate_then_analyse(capsys, tmp_path):
+    out = tmp_path / "gyro.csv"
+    code, _, err = run(capsys, ["simulate", "-o", str(out), "--arw", "0.01", "--n", "50000"])
+    assert code == 0, err
+    code, stdout, err = run(capsys, ["avar", str(out), "--units", "deg/s", "--fit",
+                                     "--terms", "N", "--json"])  # fmt: skip
+    assert code == 0, err
+    payload = json.loads(stdout)
+    assert payload["input"]["rate"] == pytest.approx(100.0)
+    n_fit = payload["fit"]["angle_random_walk"]["value"]
+    assert n_fit == pytest.approx(0.01, rel=0.05)
+    code, _, err = run(capsys, ["simulate", "-o", str(tmp_path / "x.csv")])
+    assert code == 2 and "--arw" in err

@@ -632,6 +632,82 @@ def build_parser() -> argparse.ArgumentParser:
                      help=argparse.SUPPRESS)
     rep.set_defaults(handler=_cmd_report)
 
+    kal = sub.add_parser(
+        "kalibr",
+        help="Kalibr imu.yaml (noise densities and random walks) from a static 6-axis log",
+        description="Fit the noise terms of the three gyro and three accelerometer axes of "
+        "a static IMU recording (a ROS bag with sensor_msgs/Imu, or any file with six "
+        "columns) and write Kalibr's imu.yaml: gyroscope/accelerometer noise density (N) "
+        "and random walk (K) in Kalibr's SI units, the axes combined conservatively (the "
+        "largest), with every per-axis value and conversion in the file's comments.",
+    )
+    kal.add_argument(
+        "file", metavar="FILE",
+        help="ROS 1 .bag / ROS 2 bag folder (sensor_msgs/Imu) or a file with 6 columns",
+    )  # fmt: skip
+    kal.add_argument("--gyro", type=_names, default=["gx", "gy", "gz"], metavar="X,Y,Z",
+                     help="gyro columns (default: gx,gy,gz, the names of a ROS bag)")
+    kal.add_argument("--accel", type=_names, default=["ax", "ay", "az"], metavar="X,Y,Z",
+                     help="accelerometer columns (default: ax,ay,az)")
+    kal.add_argument("--gyro-units", metavar="UNIT",
+                     help="unit of the gyro samples (default: the bag's rad/s; required "
+                     "for other files)")  # fmt: skip
+    kal.add_argument("--accel-units", metavar="UNIT",
+                     help="unit of the accelerometer samples (default: the bag's m/s^2)")
+    kal.add_argument("--rate", metavar="HZ", type=_positive_float("Hz"),
+                     help="sample rate, if the file has no time stamps")
+    kal.add_argument("--time-column", metavar="NAME", help="column of time stamps")
+    kal.add_argument("--topic", metavar="TOPIC", help="IMU topic of a ROS bag")
+    kal.add_argument("--gaps", default="error", choices=("error", "interpolate"),
+                     help="a gap in the time stamps is an error (default) or interpolated")
+    kal.add_argument("--combine", default="max", choices=("max", "mean"),
+                     help="how the three axes are combined (default: max, conservative)")
+    kal.add_argument(
+        "--pinned", default="error", choices=("error", "bound"),
+        help="an axis whose N or K the fit pins at 0 (e.g. K of a short record) is an error "
+        "(default) or contributes its 1-sigma upper bound",
+    )  # fmt: skip
+    kal.add_argument("--inflate", type=_positive_float("a factor"), default=1.0,
+                     metavar="F", help="multiply all four values (default: 1, as fitted)")
+    kal.add_argument("-o", "--output", metavar="imu.yaml", required=True,
+                     help="the file to write (atomically; existing needs --force)")
+    kal.add_argument("--json", action="store_true", help="print one JSON object")
+    kal.add_argument("--force", action="store_true", help="replace an existing --output")
+    kal.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                     help=argparse.SUPPRESS)
+    kal.set_defaults(handler=_cmd_kalibr)
+
+    sim = sub.add_parser(
+        "simulate",
+        help="write a simulated record (a noisy sensor or the paper's scenarios) to CSV",
+        description="Simulate rate samples with known noise terms (seeded), or the A-DAVAR "
+        "paper's scenario 1 or 2, and write them as a CSV with a time column, ready for the "
+        "other commands.",
+    )
+    sim.add_argument("-o", "--output", metavar="FILE.csv", required=True,
+                     help="the CSV to write (atomically; existing needs --force)")
+    sim.add_argument("--scenario", type=int, choices=(1, 2),
+                     help="the paper's scenario 1 or 2 (6000 s at 1 Hz, unit white noise)")
+    sim.add_argument("--n", type=_positive_int, default=100_000, metavar="N",
+                     help="number of samples of a simulated sensor (default: 100000)")
+    sim.add_argument("--rate", type=_positive_float("Hz"), default=100.0, metavar="HZ",
+                     help="sample rate of a simulated sensor (default: 100)")
+    for flag, name in (("--quantization", "Q, unit*s"), ("--arw", "N, unit*sqrt(s)"),
+                       ("--bias-instability", "B, unit"), ("--rrw", "K, unit/sqrt(s)"),
+                       ("--rate-ramp", "R, unit/s")):  # fmt: skip
+        sim.add_argument(flag, type=_finite_float, default=0.0, metavar="VALUE",
+                         help=f"coefficient {name} (default: 0)")
+    sim.add_argument("--bias", type=_finite_float, default=0.0, metavar="VALUE",
+                     help="constant bias added to every sample (default: 0)")
+    sim.add_argument("--units", default="deg/s", metavar="UNIT",
+                     help="unit written in the header (default: deg/s)")
+    sim.add_argument("--seed", type=_seed, default=2018, metavar="N", help="seed (default: 2018)")
+    sim.add_argument("--json", action="store_true", help="print one JSON object")
+    sim.add_argument("--force", action="store_true", help="replace an existing --output")
+    sim.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                     help=argparse.SUPPRESS)
+    sim.set_defaults(handler=_cmd_simulate)
+
     demo = sub.add_parser(
         "demo",
         help="NIST SP 1065 check values, a simulated MEMS gyro and the paper's scenario 1",
@@ -1880,18 +1956,114 @@ def _check_demo_out(out: str, force: bool) -> None:
     _guard_replacement(out, [])
 
 
+def _check_output_file(path: str, force: bool, suffixes: tuple[str, ...]) -> Path:
+    """A file the command may write: right suffix, parent exists, not replaced silently."""
+    output = Path(path)
+    if suffixes and output.suffix.lower() not in suffixes:
+        raise UsageError(f"--output {path!r}: name it *{suffixes[0]}")
+    if output.is_dir():
+        raise UsageError(f"{path} is a folder: give a file name")
+    if output.exists() and not force:
+        raise UsageError(f"{path} exists: use --force to replace it")
+    if not output.parent.exists():
+        raise UsageError(f"folder {str(output.parent)!r} does not exist: create it first")
+    return output
+
+
+def _cmd_kalibr(args: argparse.Namespace) -> int:
+    from adavar.export import kalibr_imu_yaml, kalibr_values, write_text
+    from adavar.readers import read_record
+
+    output = _check_output_file(args.output, args.force, (".yaml", ".yml"))
+    if len(args.gyro) != 3 or len(args.accel) != 3:
+        raise UsageError("--gyro and --accel take three columns each (x,y,z)")
+    record = read_record(
+        args.file, columns=[*args.gyro, *args.accel], rate=args.rate,
+        time_column=args.time_column, topic=args.topic, gaps=args.gaps,
+    )  # fmt: skip
+    declared = record.meta.get("units") or {}
+    gyro_units = args.gyro_units or declared.get(args.gyro[0])
+    accel_units = args.accel_units or declared.get(args.accel[0])
+    if not gyro_units or not accel_units:
+        raise UsageError(
+            "declare the units with --gyro-units (e.g. rad/s, deg/s) and --accel-units "
+            "(e.g. m/s^2, g); adavar never guesses units"
+        )
+    fits = {}
+    for name, units in [*((g, gyro_units) for g in args.gyro),
+                        *((a, accel_units) for a in args.accel)]:  # fmt: skip
+        result = deviation(record.channel(name), rate=record.rate, units=units)
+        try:
+            fits[name] = fit_noise(result)
+        except ValueError as exc:
+            raise AdavarInputError(f"column {name!r}: {exc}") from None
+    kwargs = dict(
+        gyro_fits=[fits[g] for g in args.gyro], accel_fits=[fits[a] for a in args.accel],
+        rate=record.rate, topic=args.topic or "/imu0", gyro_units=gyro_units,
+        accel_units=accel_units, combine=args.combine, inflate=args.inflate,
+        pinned=args.pinned,
+    )  # fmt: skip
+    try:
+        text = kalibr_imu_yaml(**kwargs)
+        values = kalibr_values(**{k: v for k, v in kwargs.items() if k not in ("rate", "topic")})
+    except ValueError as exc:  # the library names its keyword; here it is a flag
+        message = str(exc).replace("pinned='bound'", "--pinned bound")
+        raise AdavarInputError(message) from None
+    try:
+        write_text(output, text)
+    except OSError as exc:
+        raise _output_error(args.output, exc) from None
+    if args.json:
+        print(_dumps({"adavar_version": __version__, "output": str(output),
+                      "rate": record.rate, "n_samples": record.n_samples, "kalibr": values}))
+        return EXIT_OK
+    print(f"{args.file}: {record.n_samples} samples at {record.rate:g} Hz; wrote {output}")
+    print(text)
+    return EXIT_OK
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from adavar import simulate
+    from adavar.export import write_text
+
+    output = _check_output_file(args.output, args.force, (".csv",))
+    if args.scenario is not None:
+        sc = simulate.paper_scenario(args.scenario, seed=args.seed)
+        x, rate, what = np.asarray(sc.data), float(sc.rate), sc.description
+    else:
+        terms = {"quantization": args.quantization, "angle_random_walk": args.arw,
+                 "bias_instability": args.bias_instability,
+                 "rate_random_walk": args.rrw, "rate_ramp": args.rate_ramp}  # fmt: skip
+        if not any(v > 0 for v in terms.values()):
+            raise UsageError(
+                "give at least one noise coefficient (--arw, --bias-instability, --rrw, "
+                "--quantization, --rate-ramp) or --scenario 1|2"
+            )
+        if any(v < 0 for v in terms.values()):
+            raise UsageError("noise coefficients must not be negative")
+        x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, **terms) + args.bias
+        rate = float(args.rate)
+        what = ", ".join(f"{k}={v:g}" for k, v in terms.items() if v > 0)
+    t = np.arange(x.size) / rate
+    body = "\n".join(f"{ti!r},{xi!r}" for ti, xi in zip(t.tolist(), x.tolist(), strict=True))
+    header = (f"# adavar {__version__} simulate, seed {args.seed}: {what}; "
+              f"rate {rate:g} Hz, samples in {args.units}\ntime,x\n")  # fmt: skip
+    try:
+        write_text(output, header + body + "\n")
+    except OSError as exc:
+        raise _output_error(args.output, exc) from None
+    if args.json:
+        print(_dumps({"output": str(output), "n_samples": int(x.size), "rate": rate,
+                      "units": args.units, "seed": args.seed, "what": what}))
+    else:
+        print(f"wrote {output}: {x.size} samples at {rate:g} Hz ({what})")
+    return EXIT_OK
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
     from adavar.report import build_report, write_report
 
-    output = Path(args.output)
-    if output.suffix.lower() not in (".html", ".htm"):
-        raise UsageError(f"--output {args.output!r}: the report is HTML, name it *.html")
-    if output.exists() and not args.force:
-        raise UsageError(f"{args.output} exists: use --force to replace it")
-    if output.exists() and output.is_dir():
-        raise UsageError(f"{args.output} is a folder: give a file name")
-    if not output.parent.exists():
-        raise UsageError(f"folder {str(output.parent)!r} does not exist: create it first")
+    output = _check_output_file(args.output, args.force, (".html", ".htm"))
     terms = args.terms or TERM_NAMES
     samples, meta, units, tau0 = _load(args)
     from adavar.plots import rate_unit
