@@ -153,3 +153,26 @@ def test_simulate_then_analyse(capsys, tmp_path):
     assert n_fit == pytest.approx(0.01, rel=0.05)
     code, _, err = run(capsys, ["simulate", "-o", str(tmp_path / "x.csv")])
     assert code == 2 and "--arw" in err
+
+
+def test_config_file_sets_options_and_flags_override(capsys, step_csv, tmp_path):
+    config = tmp_path / "run.toml"
+    config.write_text('units = "deg/s"\n[davar]\nwindow = 300\ntaus = "octave"\nstep = 10\n'
+                      "json = true\n")  # fmt: skip
+    code, out, err = run(capsys, ["davar", str(step_csv), "--config", str(config)])
+    assert code == 0, err
+    payload = json.loads(out)
+    assert payload["parameters"]["window"] == 300 and payload["parameters"]["step"] == 10
+    code, out, err = run(capsys, ["davar", str(step_csv), "--config", str(config),
+                                  "--window", "200"])  # fmt: skip
+    assert code == 0 and json.loads(out)["parameters"]["window"] == 200
+    bad = tmp_path / "bad.toml"
+    bad.write_text("bogus = 1\n")
+    code, _, err = run(capsys, ["avar", str(step_csv), "--config", str(bad)])
+    assert code == 2 and "'bogus' is not an option" in err
+    code, _, err = run(capsys, ["avar", str(step_csv), "--config", str(tmp_path / "no.toml")])
+    assert code == 2 and "no such file" in err
+    broken = tmp_path / "broken.toml"
+    broken.write_text("window = \n")
+    code, _, err = run(capsys, ["davar", str(step_csv), "--config", str(broken)])
+    assert code == 2 and "TOML" in err and len(err.strip().splitlines()) == 1

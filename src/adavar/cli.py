@@ -732,6 +732,12 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                       help=argparse.SUPPRESS)
     demo.set_defaults(handler=_cmd_demo)
+    for cmd in sub.choices.values():  # read by _with_config before parsing; listed for --help
+        cmd.add_argument(
+            "--config", metavar="FILE.toml",
+            help="read options from a TOML file (top level or a [command] table, by long "
+            "option name); flags on the command line override it",
+        )  # fmt: skip
     return parser
 
 
@@ -2250,6 +2256,81 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
+def _with_config(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
+    """``argv`` with the settings of ``--config FILE.toml`` placed before the user's flags.
+
+    The TOML file sets any option of the command by its long name (``window = 600``,
+    ``taus = "octave"``, ``fit = true``, ``column = ["gx", "gy"]``), at its top level or
+    in a table named after the command (``[davar]``, which wins). Flags given on the
+    command line come later and so override the file. The data FILE stays on the command
+    line.
+    """
+    if "--config" not in argv and not any(a.startswith("--config=") for a in argv):
+        return argv
+    import tomllib
+
+    rest: list[str] = []
+    path = None
+    it = iter(argv)
+    for token in it:
+        if token == "--config":
+            path = next(it, None)
+            if path is None:
+                raise UsageError("--config needs a FILE.toml")
+        elif token.startswith("--config="):
+            path = token.split("=", 1)[1]
+        else:
+            rest.append(token)
+    if not rest or rest[0].startswith("-"):
+        raise UsageError("--config belongs after a command, e.g. adavar davar --config run.toml")
+    command = rest[0]
+    try:
+        with open(path, "rb") as fh:
+            table = tomllib.load(fh)
+    except FileNotFoundError:
+        raise UsageError(f"--config {path}: no such file") from None
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise UsageError(f"--config {path}: not a readable TOML file ({exc})") from None
+    settings = {k: v for k, v in table.items() if not isinstance(v, dict)}
+    section = table.get(command, {})
+    if not isinstance(section, dict):
+        raise UsageError(f"--config {path}: [{command}] must be a table")
+    settings.update(section)
+    sub = next(
+        (a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None
+    )  # fmt: skip
+    cmd_parser = None if sub is None else sub.choices.get(command)
+    if cmd_parser is None:
+        return rest  # argparse reports the unknown command
+    options = {
+        opt[2:]: action
+        for action in cmd_parser._actions
+        for opt in action.option_strings
+        if opt.startswith("--")
+    }
+    tokens: list[str] = []
+    for key, value in settings.items():
+        name = str(key).replace("_", "-")
+        action = options.get(name)
+        if action is None or name in ("config", "help", "debug"):
+            raise UsageError(
+                f"--config {path}: {key!r} is not an option of 'adavar {command}' (see "
+                f"'adavar {command} --help')"
+            )
+        if isinstance(action, argparse._StoreTrueAction):
+            if not isinstance(value, bool):
+                raise UsageError(f"--config {path}: {key} takes true or false")
+            if value:
+                tokens.append(f"--{name}")
+            continue
+        if isinstance(value, list):
+            value = ",".join(str(v) for v in value)
+        elif isinstance(value, bool):
+            raise UsageError(f"--config {path}: {key} takes a value, not true/false")
+        tokens += [f"--{name}", str(value)]
+    return [command, *tokens, *rest[1:]]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``adavar`` command line.
 
@@ -2266,11 +2347,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv or os.environ.get("ADAVAR_DEBUG", "").strip() not in ("", "0")
     try:
-        args = build_parser().parse_args(argv)
+        parser = build_parser()
+        argv = _with_config(parser, argv)
+        args = parser.parse_args(argv)
         if args.command is None:
             raise UsageError(
                 "choose a command: avar (deviation of a data file), davar (dynamic Allan "
-                "variance of a data file), compare (fixed and adaptive windows side by side) "
+                "variance of a data file), adaptive (A-DAVAR), compare (fixed and adaptive "
+                "windows side by side), report (HTML report), kalibr (imu.yaml), simulate "
                 "or demo (see 'adavar --help')"
             )
         return int(args.handler(args))
