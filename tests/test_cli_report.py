@@ -176,3 +176,15 @@ def test_config_file_sets_options_and_flags_override(capsys, step_csv, tmp_path)
     broken.write_text("window = \n")
     code, _, err = run(capsys, ["davar", str(step_csv), "--config", str(broken)])
     assert code == 2 and "TOML" in err and len(err.strip().splitlines()) == 1
+
+
+def test_progress_bar_only_on_a_terminal(capsys, monkeypatch):
+    bar = cli._ProgressBar("work")
+    bar(1, 4)
+    assert capsys.readouterr().err == ""  # pytest's stderr is not a terminal
+    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
+    bar = cli._ProgressBar("work")
+    bar(1, 4)
+    bar.close()
+    err = capsys.readouterr().err
+    assert "work [" in err and "1/4" in err and "\n" not in err

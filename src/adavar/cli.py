@@ -1793,6 +1793,29 @@ def _crossings_json(thr: Any) -> Any:
     }  # fmt: skip
 
 
+class _ProgressBar:
+    """A one-line progress bar on stderr, only when stderr is a terminal."""
+
+    def __init__(self, label: str) -> None:
+        self.label = label
+        self.enabled = sys.stderr.isatty()
+        self.start = time.perf_counter()
+
+    def __call__(self, done: int, total: int) -> None:
+        if not self.enabled or total <= 0:
+            return
+        width = 30
+        filled = int(width * done / total)
+        elapsed = time.perf_counter() - self.start
+        bar = "#" * filled + "-" * (width - filled)
+        print(f"\r{self.label} [{bar}] {done}/{total} {elapsed:.0f} s", end="",
+              file=sys.stderr, flush=True)  # fmt: skip
+
+    def close(self) -> None:
+        if self.enabled:
+            print("\r" + " " * 79 + "\r", end="", file=sys.stderr, flush=True)
+
+
 def _cmd_compare(args: argparse.Namespace) -> int:
     from adavar import simulate
     from adavar.compare import compare, compare_seeds, kurtosis_study, threshold_study
@@ -1861,11 +1884,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                               thresholds=fig8, rate=comp.rate)  # fmt: skip
     study = None
     if args.seeds > 1:
-        study = compare_seeds(
-            args.scenario, range(args.seed, args.seed + args.seeds),
-            variance_reading=args.variance_reading, methods=args.methods,
-            taus=args.taus or "octave", terms=terms, crossing_thresholds=fig8, **controller,
-        )  # fmt: skip
+        bar = _ProgressBar(f"scenario {args.scenario}, {args.seeds} realisations")
+        try:
+            study = compare_seeds(
+                args.scenario, range(args.seed, args.seed + args.seeds),
+                variance_reading=args.variance_reading, methods=args.methods,
+                taus=args.taus or "octave", terms=terms, crossing_thresholds=fig8,
+                progress=bar, **controller,
+            )  # fmt: skip
+        finally:
+            bar.close()
     kurt = None
     if args.out is not None:
         windows = tuple(w for w in (11, 201, 601) if w <= comp.data.size)

@@ -77,7 +77,7 @@ import contextlib
 import itertools
 import math
 import time as _time
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -1452,6 +1452,7 @@ def compare_seeds(
     combine: str = "or",
     thresholds: str = "paper",
     false_alarm: float = 0.01,
+    progress: Callable[[int, int], None] | None = None,
 ) -> SeedStudy:
     """:func:`compare` on many realisations of a paper scenario, and the Fig. 8 crossings.
 
@@ -1485,6 +1486,10 @@ def compare_seeds(
     lmax, lmin, k1, k2, s1, s2, l, dl0, dl1, s_test, combine, thresholds, false_alarm
         Controller settings, as in :func:`compare`.
 
+    progress : callable, optional
+        Called as ``progress(done, total)`` before each realisation (the command line draws
+        a progress bar with it).
+
     Returns
     -------
     SeedStudy
@@ -1512,7 +1517,9 @@ def compare_seeds(
     labels: dict[str, str] = {}
     changes: tuple[float, ...] = ()
     intervals: tuple[tuple[float, float], ...] = ()
-    for seed in seed_list:
+    for done, seed in enumerate(seed_list):
+        if progress is not None:
+            progress(done, len(seed_list))
         sc = paper_scenario(scenario, seed=seed, variance_reading=variance_reading)
         comp = _compare(
             sc, methods=methods, rate=None, change_times=None, truth=None, intervals=None,
