@@ -202,7 +202,6 @@ def nan_csv(tmp_path):
           "1e6,1e7"], ["no requested tau"]),
         (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s", "--taus",
           "soon"], ["--taus"]),
-        (["avar", "{csv}", "--rate", "10", "--units", "deg/s"], ["--column", "2 channels"]),
         (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s",
           "--stat", "mdev", "--fit"], ["--fit needs an Allan statistic"]),
         (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s",
@@ -347,3 +346,19 @@ def test_rate_from_the_time_column_or_declared(capsys, white_csv, tmp_path):
     bare.write_text("\n".join(str(v) for v in range(100)) + "\n")
     code, out, err = run(capsys, ["avar", str(bare), "--units", "deg/s"])
     assert_one_line_error(code, out, err, "--rate")
+
+
+@pytest.mark.filterwarnings("ignore:Data has no positive values")  # the constant temp column
+def test_several_channels_at_once(capsys, white_csv, tmp_path):
+    """--column a,b (or no --column: every numeric column but time) analyses each channel."""
+    out = tmp_path / "out"
+    code, stdout, err = run(capsys, ["avar", str(white_csv), "--column", "gyro_x,temp",
+                                     "--units", "deg/s", "--json", "--out", str(out)])
+    assert code == 0, err
+    payload = json.loads(stdout)
+    assert payload["input"]["columns"] == ["gyro_x", "temp"]
+    assert set(payload["channels"]) == {"gyro_x", "temp"}
+    assert payload["channels"]["gyro_x"]["input"]["column"] == "gyro_x"
+    assert (out / "gyro_x_deviation.csv").exists() and (out / "temp_deviation.png").exists()
+    code, stdout, _ = run(capsys, ["avar", str(white_csv), "--units", "deg/s"])
+    assert code == 0 and "column 'gyro_x'" in stdout and "column 'temp'" in stdout

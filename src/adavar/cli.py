@@ -943,8 +943,13 @@ def _output_error(out: str | os.PathLike[str], exc: OSError) -> AdavarInputError
 # --------------------------------------------------------------------------------------
 
 
-def _load(args: argparse.Namespace) -> tuple[np.ndarray, dict[str, Any], str, float]:
+def _load(
+    args: argparse.Namespace, *, several: bool = False
+) -> tuple[Any, dict[str, Any], Any, float]:
     """Read FILE's column, preprocess it, and settle its unit and tau0 (seconds).
+
+    With ``several``, every selected channel (``--column gx,gy,gz``, or all numeric
+    columns) is returned: a dict name -> samples, and a dict name -> unit.
 
     The rate comes from --rate/--tau0 or from the file's time stamps (both: they must
     agree); the unit from --units or from the format (ROS bags declare rad/s and m/s^2).
@@ -964,25 +969,31 @@ def _load(args: argparse.Namespace) -> tuple[np.ndarray, dict[str, Any], str, fl
         gaps=option("gaps", "error"), nan=option("nan", "error"),
         dataset=option("dataset", None), topic=option("topic", None),
     )  # fmt: skip
-    if len(record.names) != 1:
+    if len(record.names) != 1 and not several:
         raise UsageError(
             f"{args.file} has {len(record.names)} channels ({', '.join(record.names)}): "
             "choose one with --column"
         )
-    name = record.names[0]
-    units = args.units.strip() if args.units and args.units.strip() else None
-    if units is None:
-        units = (record.meta.get("units") or {}).get(name)
-    if not units:
+    declared_units = record.meta.get("units") or {}
+    given = args.units.strip() if args.units and args.units.strip() else None
+    units_of = {name: given or declared_units.get(name) for name in record.names}
+    if not all(units_of.values()):
         raise UsageError(
             "declare the unit of the samples with --units (e.g. --units deg/s); adavar never "
             "guesses units"
         )
-    samples = np.asarray(record.channel(name), dtype=np.float64)
     rate = float(record.rate)
     steps: list[dict[str, Any]] = []
-    if getattr(args, "preprocess", None):
-        samples, rate, steps = preprocess(samples, rate=rate, steps=args.preprocess)
+    channels: dict[str, np.ndarray] = {}
+    for name in record.names:
+        x = np.asarray(record.channel(name), dtype=np.float64)
+        if getattr(args, "preprocess", None):
+            x, new_rate, steps = preprocess(x, rate=float(record.rate), steps=args.preprocess)
+            rate = float(new_rate)
+        channels[name] = x
+    name = record.names[0]
+    samples = channels[name]
+    units = units_of[name]
     if args.tau0 is not None and not steps:
         tau0 = float(args.tau0)
     else:
@@ -995,14 +1006,14 @@ def _load(args: argparse.Namespace) -> tuple[np.ndarray, dict[str, Any], str, fl
     meta = {
         "path": str(args.file), "column": name, "kind": record.kind,
         "rate_from": "declared" if declared is not None else "time stamps",
-        "reader": record.meta, "preprocessing": steps,
+        "reader": record.meta, "preprocessing": steps, "columns": list(record.names),
     }  # fmt: skip
+    if several:
+        return channels, meta, units_of, tau0
     return samples, meta, units, tau0
 
 
 def _cmd_avar(args: argparse.Namespace) -> int:
-    from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
-
     do_fit = args.fit or args.terms is not None
     if do_fit and args.stat not in ALLAN_STATS:
         raise UsageError(
@@ -1013,7 +1024,73 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         check_output_directory(args.out, replace=args.force)
         _guard_replacement(args.out, [Path(args.file)])
 
-    samples, meta, units, tau0 = _load(args)
+    channels, meta, units_of, tau0 = _load(args, several=True)
+    runs = []
+    for name, samples in channels.items():
+        meta_c = {**meta, "column": name}
+        runs.append(_avar_channel(args, samples, meta_c, units_of[name], tau0, do_fit))
+    several = len(runs) > 1
+    if several:
+        payload: dict[str, Any] = {
+            "adavar_version": __version__,
+            "input": {"file": meta["path"], "columns": list(channels), "rate": 1.0 / tau0,
+                      "tau0": tau0, "data_type": args.data_type},
+            "channels": {run["name"]: run["payload"] for run in runs},
+        }  # fmt: skip
+    else:
+        payload = runs[0]["payload"]
+    if meta["preprocessing"]:
+        payload.setdefault("input", {})["preprocessing"] = [
+            step.get("spec", str(step)) for step in meta["preprocessing"]
+        ]
+    text = _dumps(payload)
+
+    written: list[str] = []
+    if args.out is not None:
+        from adavar.plots import deviation_figure, save_figure
+
+        try:
+            with atomic_directory(args.out, replace=args.force) as tmp:
+                for run in runs:
+                    prefix = f"{_safe_name(run['name'])}_" if several else ""
+                    _write_csv(tmp / f"{prefix}deviation.csv", run["result"], run["comment"])
+                    fig = deviation_figure(run["result"], run["fit"], title=run["title"])
+                    save_figure(fig, tmp / f"{prefix}deviation")
+                    written += [f"{prefix}deviation.csv", f"{prefix}deviation.png",
+                                f"{prefix}deviation.svg"]  # fmt: skip
+                (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
+                written.append("result.json")
+        except OSError as exc:
+            raise _output_error(args.out, exc) from None
+
+    if args.json:
+        print(text)
+        if written:
+            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
+        return EXIT_OK
+    for k, run in enumerate(runs):
+        if k:
+            print()
+        print("\n".join(run["lines"]))
+    if written:
+        print()
+        print(f"wrote {args.out}/ ({', '.join(written)})")
+    return EXIT_OK
+
+
+def _safe_name(name: str) -> str:
+    """A channel name usable in a file name."""
+    cleaned = "".join(c if c.isalnum() or c in "-_." else "_" for c in name).strip("._")
+    return cleaned or "channel"
+
+
+def _avar_channel(
+    args: argparse.Namespace, samples: np.ndarray, meta: dict[str, Any], units: str,
+    tau0: float, do_fit: bool,
+) -> dict[str, Any]:  # fmt: skip
+    """The deviation (and fit) of one channel: results, JSON payload and printed lines."""
+    from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
+
     rate_u = rate_unit(units, args.data_type)
     result = deviation(
         samples,
@@ -1030,8 +1107,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         try:
             fit = fit_noise(result, terms=args.terms or TERM_NAMES)
         except ValueError as exc:
-            raise AdavarInputError(str(exc)) from None
-
+            raise AdavarInputError(f"column {meta['column']!r}: {exc}") from None
     payload: dict[str, Any] = {
         "adavar_version": __version__,
         "input": {
@@ -1048,54 +1124,27 @@ def _cmd_avar(args: argparse.Namespace) -> int:
     }
     if fit is not None:
         payload["fit"] = _fit_json(fit)
-    text = _dumps(payload)
-
-    written: list[str] = []
-    if args.out is not None:
-        from adavar.plots import deviation_figure, save_figure
-
-        title = f"{Path(meta['path']).name}, column {meta['column']}"
-        fig = deviation_figure(result, fit, title=title)
-        try:
-            with atomic_directory(args.out, replace=args.force) as tmp:
-                _write_csv(
-                    tmp / "deviation.csv", result,
-                    f"adavar {__version__}: {args.stat} of {meta['path']} column "
-                    f"{meta['column']!r}; {args.data_type} data, tau0 = {tau0:g} s, "
-                    f"deviation in {deviation_unit(args.stat, rate_u) or 'data units'}",
-                )  # fmt: skip
-                (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
-                save_figure(fig, tmp / "deviation")
-        except OSError as exc:
-            raise _output_error(args.out, exc) from None
-        written = ["deviation.csv", "result.json", "deviation.png", "deviation.svg"]
-
-    if args.json:
-        print(text)
-        if written:
-            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
-        return EXIT_OK
-
     dev_u = deviation_unit(args.stat, rate_u)
-    print(
+    lines = [
         f"{meta['path']}, column {meta['column']!r}: {result.n_samples} samples, "
-        f"{args.data_type} data in {units}, tau0 = {tau0:g} s ({1.0 / tau0:g} Hz)"
-    )
-    print(
+        f"{args.data_type} data in {units}, tau0 = {tau0:g} s ({1.0 / tau0:g} Hz)",
         f"{STAT_NAMES[args.stat]} ({args.stat.upper()})"
         + (f" [{dev_u}]" if dev_u else "")
-        + f", {100 * result.confidence:.1f} % confidence intervals"
-    )
-    print(_deviation_table(result))
-    for note in result.notes:
-        print(f"note: {note}")
+        + f", {100 * result.confidence:.1f} % confidence intervals",
+        _deviation_table(result),
+    ]
+    lines += [f"note: {note}" for note in result.notes]
+    if samples.size and np.ptp(samples) == 0:
+        lines.append(f"note: column {meta['column']!r} is constant: its deviation is 0")
     if fit is not None:
-        print()
-        print("\n".join(_fit_lines(fit)))
-    if written:
-        print()
-        print(f"wrote {args.out}/ ({', '.join(written)})")
-    return EXIT_OK
+        lines += ["", *_fit_lines(fit)]
+    return {
+        "name": meta["column"], "result": result, "fit": fit, "payload": payload,
+        "lines": lines, "title": f"{Path(meta['path']).name}, column {meta['column']}",
+        "comment": f"adavar {__version__}: {args.stat} of {meta['path']} column "
+        f"{meta['column']!r}; {args.data_type} data, tau0 = {tau0:g} s, deviation in "
+        f"{dev_u or 'data units'}",
+    }  # fmt: skip
 
 
 def _series_stats(values: Any, times: np.ndarray) -> dict[str, Any]:
