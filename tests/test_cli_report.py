@@ -188,3 +188,23 @@ def test_progress_bar_only_on_a_terminal(capsys, monkeypatch):
     bar.close()
     err = capsys.readouterr().err
     assert "work [" in err and "1/4" in err and "\n" not in err
+
+
+def test_gaps_split_analyses_each_piece(capsys, tmp_path):
+    x = np.random.default_rng(0).standard_normal(3000)
+    t = np.arange(3000) / 10.0
+    t[1500:] += 20.0  # a 20 s gap after 150 s
+    path = tmp_path / "gap.csv"
+    path.write_text("time,gx\n" + "\n".join(f"{a!r},{b!r}" for a, b in
+                                             zip(t.tolist(), x.tolist(), strict=True)) + "\n")
+    code, _, err = run(capsys, ["avar", str(path), "--units", "deg/s"])
+    assert code == 2 and "gap of 20.1 s" in err and "--gaps split" in err
+    code, out, err = run(capsys, ["avar", str(path), "--units", "deg/s", "--gaps", "split",
+                                  "--json"])  # fmt: skip
+    assert code == 0, err
+    payload = json.loads(out)
+    assert list(payload["channels"]) == ["gx piece 1", "gx piece 2"]
+    assert payload["channels"]["gx piece 2"]["input"]["n_samples"] == 1500
+    code, _, err = run(capsys, ["davar", str(path), "--units", "deg/s", "--gaps", "split",
+                                "--window", "100"])  # fmt: skip
+    assert code == 2 and "--gaps interpolate" in err

@@ -278,9 +278,9 @@ def _add_input_arguments(cmd: argparse.ArgumentParser, *, optional_file: bool = 
         help="unit or format of the time column (default: auto)",
     )  # fmt: skip
     cmd.add_argument(
-        "--gaps", default="error", choices=("error", "interpolate"),
-        help="a gap in the time stamps is an error (default) or is filled by linear "
-        "interpolation",
+        "--gaps", default="error", choices=("error", "split", "interpolate"),
+        help="a gap in the time stamps is an error (default), splits the record into "
+        "gap-free pieces analysed one by one (avar), or is filled by linear interpolation",
     )  # fmt: skip
     cmd.add_argument(
         "--nan", default="error", choices=("error", "drop", "interpolate"),
@@ -985,13 +985,24 @@ def _load(
     rate = float(record.rate)
     steps: list[dict[str, Any]] = []
     channels: dict[str, np.ndarray] = {}
+    split = record.segments is not None and len(record.segments) > 1
+    if split and not several:
+        raise UsageError(
+            f"{args.file} has {len(record.segments)} gap-free pieces: --gaps split is for "
+            "adavar avar; here use --gaps interpolate, or give a file with one piece"
+        )
     for name in record.names:
-        x = np.asarray(record.channel(name), dtype=np.float64)
-        if getattr(args, "preprocess", None):
-            x, new_rate, steps = preprocess(x, rate=float(record.rate), steps=args.preprocess)
-            rate = float(new_rate)
-        channels[name] = x
-    name = record.names[0]
+        pieces = record.pieces(name) if split else [record.channel(name)]
+        for k, piece in enumerate(pieces):
+            x = np.asarray(piece, dtype=np.float64)
+            if getattr(args, "preprocess", None):
+                x, new_rate, steps = preprocess(x, rate=float(record.rate),
+                                                steps=args.preprocess)  # fmt: skip
+                rate = float(new_rate)
+            key = f"{name} piece {k + 1}" if split else name
+            channels[key] = x
+            units_of[key] = units_of[name]
+    name = next(iter(channels))
     samples = channels[name]
     units = units_of[name]
     if args.tau0 is not None and not steps:
@@ -1007,6 +1018,10 @@ def _load(
         "path": str(args.file), "column": name, "kind": record.kind,
         "rate_from": "declared" if declared is not None else "time stamps",
         "reader": record.meta, "preprocessing": steps, "columns": list(record.names),
+        "pieces": None if not split else [
+            [float(record.time[sl.start]), float(record.time[sl.stop - 1])]
+            for sl in record.segments
+        ],
     }  # fmt: skip
     if several:
         return channels, meta, units_of, tau0
