@@ -1441,6 +1441,10 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         "fit": None if fit is None else _davar_fit_json(fit, np.asarray(result.time)),
         "out": None if args.out is None else {"dir": args.out, "format": fmt, "files": written},
     }
+    if meta["preprocessing"]:
+        payload["input"]["preprocessing"] = [
+            step.get("spec", str(step)) for step in meta["preprocessing"]
+        ]
     if adaptive:
         payload["parameters"]["controller"] = result.parameters
         payload["window"] = {
