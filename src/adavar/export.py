@@ -14,7 +14,6 @@ one-line message that names the problem and the way out.
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import json
@@ -22,7 +21,6 @@ import math
 import numbers
 import os
 import re
-import secrets
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -30,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from adavar.errors import AdavarInputError
+from adavar.io import atomic_file
 from adavar.units import (
     TERM_TIME_POWER,
     conventional_units,
@@ -96,31 +95,9 @@ def _fail(message: str) -> AdavarInputError:
 
 
 def _atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> Path:
-    target = Path(path)
-    if not target.parent.is_dir():
-        raise _fail(
-            f"the folder of {target} does not exist: create it first or choose another path"
-        )
-    if target.is_dir():
-        raise _fail(f"{target} is a folder: give the path of the file to write")
-    # not mkstemp: its 0600 mode would stick to the final file; "x" honours the umask
-    tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
-    try:
-        with open(tmp, "xb") as handle:
-            handle.write(data)
-            handle.flush()
-            with contextlib.suppress(OSError):  # data on disk before the name points at it
-                os.fsync(handle.fileno())
-        os.replace(tmp, target)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise _fail(f"cannot write {target}: {exc.strerror or exc}") from None
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    return target
+    with atomic_file(path) as handle:
+        handle.write(data)
+    return Path(path)
 
 
 def write_text(path: str | os.PathLike[str], text: str) -> Path:

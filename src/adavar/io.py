@@ -21,7 +21,7 @@ import secrets
 import shutil
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, BinaryIO
 
 import numpy as np
 
@@ -636,6 +636,49 @@ def _write_parquet(handle: Any, result: DavarResult) -> None:
     pq.write_table(table, handle)
 
 
+@contextlib.contextmanager
+def atomic_file(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
+    """Write ``path`` all or nothing: a binary handle on a temporary sibling, renamed at the end.
+
+    The temporary file sits in the destination folder (so ``os.replace`` is atomic), is
+    created with ``open(..., "x")`` (the umask's permissions, not mkstemp's private 0600), is
+    synced before the rename, and is removed if anything fails, so an interrupted or
+    failed write leaves neither a half-written file nor a temporary behind.
+
+    Raises
+    ------
+    AdavarInputError
+        The folder does not exist, ``path`` is a folder, or the file cannot be written.
+    """
+    target = Path(path)
+    if not target.parent.is_dir():
+        raise _fail(
+            f"the folder of {target} does not exist: create it first or choose another path"
+        )
+    if target.is_dir():
+        raise _fail(f"{target} is a folder: give the path of the file to write")
+    tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
+    try:
+        with open(tmp, "xb") as handle:
+            yield handle
+        # data on disk before the name points at it (the writer may have closed the handle)
+        with contextlib.suppress(OSError):
+            fd = os.open(tmp, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+        os.replace(tmp, target)
+    except OSError as exc:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise _fail(f"cannot write {target}: {exc.strerror or exc}") from None
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
 def write_surface(
     path: str | os.PathLike[str], result: DavarResult, *, fmt: str | None = None
 ) -> Path:
@@ -687,33 +730,9 @@ def write_surface(
     """
     target = Path(path)
     kind = _surface_format(target, fmt)
-    if not target.parent.is_dir():
-        raise _fail(
-            f"the folder of {target} does not exist: create it first or choose another path"
-        )
-    if target.is_dir():
-        raise _fail(f"{target} is a folder: give the path of the file to write")
-    # not mkstemp: its 0600 mode would stick to the final file; "x" honours the umask
-    tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
-    try:
-        with open(tmp, "xb") as handle:
-            if kind == "nc":
-                _write_netcdf(handle, result)
-            else:
-                _write_parquet(handle, result)
-        with contextlib.suppress(OSError):  # data on disk before the name points at it
-            fd = os.open(tmp, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-        os.replace(tmp, target)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise _fail(f"cannot write {target}: {exc.strerror or exc}") from None
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with atomic_file(target) as handle:
+        if kind == "nc":
+            _write_netcdf(handle, result)
+        else:
+            _write_parquet(handle, result)
     return target

@@ -27,13 +27,13 @@ import html as _html
 import json
 import math
 import os
-import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from adavar.io import atomic_file
 from adavar.noise_model import TERM_NAMES
 from adavar.plots import (
     STAT_NAMES,
@@ -879,17 +879,9 @@ def write_report(path: str | os.PathLike[str], html: str) -> Path:
     pathlib.Path
         The path written.
     """
+    if not isinstance(html, str):
+        raise TypeError(f"html must be a str, got {type(html).__name__}")
     target = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
-            handle.write(html)
-        # mkstemp makes the file private (0600); a report is an ordinary document
-        mode = target.stat().st_mode & 0o777 if target.exists() else 0o644
-        os.chmod(tmp, mode)
-        os.replace(tmp, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    with atomic_file(target) as handle:
+        handle.write(html.encode("utf-8"))
     return target
