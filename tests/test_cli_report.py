@@ -208,3 +208,28 @@ def test_gaps_split_analyses_each_piece(capsys, tmp_path):
     code, _, err = run(capsys, ["davar", str(path), "--units", "deg/s", "--gaps", "split",
                                 "--window", "100"])  # fmt: skip
     assert code == 2 and "--gaps interpolate" in err
+
+
+def test_noise_type_and_t0_flags(capsys, step_csv):
+    code, out, err = run(capsys, ["davar", str(step_csv), "--units", "deg/s", "--window",
+                                  "300", "--taus", "octave", "--noise-type", "-1", "--t0",
+                                  "100", "--json"])  # fmt: skip
+    assert code == 0, err
+    payload = json.loads(out)
+    assert set(payload["alpha"]) == {-1}
+    assert payload["time"]["first"] == pytest.approx(100.0)
+    code, _, err = run(capsys, ["davar", str(step_csv), "--units", "deg/s", "--window",
+                                "300", "--noise-type", "5"])  # fmt: skip
+    assert code == 2 and "--noise-type" in err
+
+
+def test_status_line_only_on_a_terminal(capsys, monkeypatch):
+    status = cli._Status()
+    status("reading")
+    assert capsys.readouterr().err == ""
+    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
+    status = cli._Status()
+    status("reading")
+    status.close()
+    err = capsys.readouterr().err
+    assert "reading ..." in err and "\n" not in err

@@ -356,8 +356,33 @@ def _add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
                       "0.01)")  # fmt: skip
 
 
+def _noise_type(text: str) -> str | int:
+    value = text.strip().lower()
+    if value == "record":
+        return "record"
+    try:
+        alpha = int(value)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: use 'record' or an integer alpha from -2 to 2"
+        ) from None
+    if not -2 <= alpha <= 2:
+        raise argparse.ArgumentTypeError(f"{text!r}: alpha must lie in -2 .. 2")
+    return alpha
+
+
 def _add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
     """Options of a DAVAR surface: centres, taus, edges, data type, bounds, fit, file format."""
+    cmd.add_argument(
+        "--noise-type", type=_noise_type, default="record", metavar="ALPHA",
+        help="noise exponent behind the per-cell EDF: record (default: identified per tau on "
+        "the whole record) or an integer alpha (0 white rate noise/ARW, -1 bias instability, "
+        "-2 rate random walk, 1/2 flicker/white PM)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--t0", type=_finite_float, default=0.0, metavar="SECONDS",
+        help="time of the first sample (default: 0); window times are t0 + centre / rate",
+    )  # fmt: skip
     cmd.add_argument(
         "--step", metavar="S", type=_positive_int, default=1,
         help="centre a window on every S-th sample only (default: 1, every sample)",
@@ -1364,8 +1389,12 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     adaptive = args.command == "adaptive"
     if adaptive and args.method == "oracle" and not args.change_times:
         raise UsageError("--method oracle needs --change-times T,... (seconds)")
+    status = _Status()
+    status(f"reading {args.file}")
     samples, meta, units, tau0 = _load(args)
     rate_u = rate_unit(units, args.data_type)
+    status(f"computing the {'adaptive ' if adaptive else ''}DAVAR surface of {samples.size} "
+           "samples")  # fmt: skip
     common = dict(
         # the rate as given: times are centre / rate, without 0.1-step rounding noise
         rate=args.rate if args.rate is not None else 1.0,
@@ -1376,6 +1405,8 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         step=args.step,
         confidence=args.confidence,
         points_per_decade=args.points_per_decade,
+        noise_type=args.noise_type,
+        t0=args.t0,
         units=rate_u,
     )
     if adaptive:
@@ -1387,10 +1418,12 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         result = davar(samples, window=args.window, **common)
     fit = None
     if args.confidence is not None:
+        status("fitting the noise terms of every window")
         try:
             fit = fit_noise(result, terms=args.terms or TERM_NAMES)
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
+    status.close()
 
     written: list[str] = []
     if args.out is not None:
@@ -1859,6 +1892,28 @@ def _crossings_json(thr: Any) -> Any:
             for th in thr.thresholds for j, change in enumerate(thr.change_times)
         ],
     }  # fmt: skip
+
+
+class _Status:
+    """What the command is doing, on one line of stderr, only when stderr is a terminal.
+
+    For steps that cannot report a fraction (reading a file, computing a surface); with
+    the elapsed time of the previous step, so a slow step shows itself.
+    """
+
+    def __init__(self) -> None:
+        self.enabled = sys.stderr.isatty()
+        self.start = time.perf_counter()
+
+    def __call__(self, what: str) -> None:
+        if self.enabled:
+            elapsed = time.perf_counter() - self.start
+            print(f"\r{what} ... ({elapsed:.1f} s)".ljust(79)[:79], end="", file=sys.stderr,
+                  flush=True)  # fmt: skip
+
+    def close(self) -> None:
+        if self.enabled:
+            print("\r" + " " * 79 + "\r", end="", file=sys.stderr, flush=True)
 
 
 class _ProgressBar:
@@ -2427,6 +2482,12 @@ def _with_config(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
     return [command, *tokens, *rest[1:]]
 
 
+def _clear_status_line() -> None:
+    """Erase a status or progress line a failed command left on the terminal."""
+    if sys.stderr.isatty():
+        print("\r" + " " * 79 + "\r", end="", file=sys.stderr, flush=True)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the ``adavar`` command line.
 
@@ -2458,6 +2519,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         code = exc.code
         return code if isinstance(code, int) else (EXIT_OK if code is None else EXIT_USAGE)
     except (UsageError, AdavarInputError) as exc:
+        _clear_status_line()
         print(f"adavar: error: {_one_line(str(exc))}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
@@ -2471,6 +2533,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             pass
         return EXIT_INTERNAL
     except Exception as exc:
+        _clear_status_line()
         if debug:
             traceback.print_exc()
         hint = "" if debug else " (rerun with --debug or ADAVAR_DEBUG=1 for the traceback)"
