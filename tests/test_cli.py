@@ -14,8 +14,9 @@ import pytest
 
 import adavar
 from adavar import cli, simulate
-from adavar.cli import main
 from adavar.io import read_text
+
+from .cli_helpers import assert_one_line_error, run
 
 RATE = 10.0
 STD = 0.5
@@ -39,21 +40,6 @@ def avar_args(path, *extra):
             *extra]  # fmt: skip
 
 
-def run(capsys, argv):
-    code = main(argv)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def assert_one_line_error(code, out, err, *fragments):
-    assert code == 2
-    assert out == ""
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("adavar: error: ")
-    assert "Traceback" not in err
-    for fragment in fragments:
-        assert fragment in lines[0]
 
 
 # --------------------------------------------------------------------------------------

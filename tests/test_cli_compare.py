@@ -6,29 +6,15 @@ import json
 
 import pytest
 
-from adavar.cli import main
 from adavar.io import read_text
 from adavar.simulate import paper_scenario
+
+from .cli_helpers import assert_one_line_error, run
 
 FIGURES = ["fig06_kurtosis_windows", "fig07_contribution", "fig08_thresholds",
            "fig10_controller", "fig11_adavar_surface", "fig12_arw"]  # fmt: skip
 
 
-def run(capsys, argv):
-    code = main(argv)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def assert_one_line_error(code, out, err, *fragments):
-    assert code == 2
-    assert out == ""
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("adavar: error: ")
-    assert "Traceback" not in err
-    for fragment in fragments:
-        assert fragment in lines[0], lines[0]
 
 
 @pytest.fixture(scope="module")

@@ -17,8 +17,9 @@ from scipy.io import netcdf_file
 
 import adavar
 from adavar import cli, simulate
-from adavar.cli import main
 from adavar.io import read_text
+
+from .cli_helpers import assert_one_line_error, run
 
 RATE = 10.0
 STD = 0.5
@@ -56,21 +57,6 @@ def davar_args(path, *extra, window=WINDOW):
             "--window", str(window), *extra]  # fmt: skip
 
 
-def run(capsys, argv):
-    code = main(argv)
-    out, err = capsys.readouterr()
-    return code, out, err
-
-
-def assert_one_line_error(code, out, err, *fragments):
-    assert code == 2
-    assert out == ""
-    lines = err.strip().splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("adavar: error: ")
-    assert "Traceback" not in err
-    for fragment in fragments:
-        assert fragment in lines[0]
 
 
 # --------------------------------------------------------------------------------------

@@ -9,11 +9,7 @@ import pytest
 
 from adavar import cli
 
-
-def run(capsys, argv):
-    code = cli.main(argv)
-    captured = capsys.readouterr()
-    return code, captured.out, captured.err
+from .cli_helpers import run
 
 
 @pytest.fixture(scope="module")
