@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+from adavar import stream
 from adavar.errors import AdavarInputError
 from adavar.readers import Record, read_record
 
@@ -545,3 +546,90 @@ def test_record_channel_errors(tmp_path):
         rec.channel()
     with pytest.raises(AdavarInputError, match="unknown channel 'c'"):
         rec.channel("c")
+
+
+# --------------------------------------------------------------------------------------
+# records larger than memory: lazy columns and memory maps
+
+
+def test_npy_columns_stay_memory_mapped_in_their_dtype(tmp_path):
+    y = np.random.default_rng(3).standard_normal((4000, 3)).astype(np.float32)
+    np.save(tmp_path / "imu.npy", y)
+    rec = read_record(tmp_path / "imu.npy", rate=100.0)
+    for j, name in enumerate(rec.names):
+        col = rec.channel(name)
+        assert isinstance(col, np.memmap) and col.dtype == np.float32
+        source = stream.memmap_source(col)
+        assert source is not None
+        np.testing.assert_array_equal(source.read(17, 3999), y[17:3999, j].astype(float))
+
+
+def test_npy_nan_is_found_without_loading_the_file(tmp_path):
+    y = np.random.default_rng(3).standard_normal(5000)
+    y[4321] = np.nan
+    np.save(tmp_path / "x.npy", y)
+    with pytest.raises(AdavarInputError, match="4321"):
+        read_record(tmp_path / "x.npy", rate=1.0)
+
+
+@pytest.mark.parametrize("columns", [None, "2", "0,2"])
+def test_lazy_hdf5_columns_read_piece_by_piece(tmp_path, columns):
+    h5py = pytest.importorskip("h5py")
+    y = np.random.default_rng(4).standard_normal((3001, 3))
+    with h5py.File(tmp_path / "a.h5", "w") as f:
+        f["imu/gyro"] = y
+    rec = read_record(tmp_path / "a.h5", rate=10.0, lazy=True, columns=columns)
+    assert rec.meta["lazy"] is True
+    for name in rec.names:
+        col = rec.channel(name)
+        assert isinstance(col, stream.HDF5Source) and len(col) == 3001
+        np.testing.assert_array_equal(col.read(5, 2999), y[5:2999, int(name)])
+        np.testing.assert_array_equal(np.asarray(col), y[:, int(name)])
+
+
+def test_lazy_parquet_across_row_groups(tmp_path):
+    pa = pytest.importorskip("pyarrow")
+    pq = pytest.importorskip("pyarrow.parquet")
+    y = np.random.default_rng(5).standard_normal((5000, 2))
+    pq.write_table(pa.table({"gx": y[:, 0], "gy": y[:, 1]}), tmp_path / "a.parquet",
+                   row_group_size=700)  # fmt: skip
+    rec = read_record(tmp_path / "a.parquet", rate=100.0, lazy=True)
+    col = rec.channel("gy")
+    assert isinstance(col, stream.ParquetSource)
+    for a, b in [(0, 5000), (650, 2150), (699, 701), (4999, 5000)]:
+        np.testing.assert_array_equal(col.read(a, b), y[a:b, 1])
+
+
+def test_lazy_parquet_refuses_a_time_column(tmp_path):
+    pa = pytest.importorskip("pyarrow")
+    pq = pytest.importorskip("pyarrow.parquet")
+    pq.write_table(pa.table({"time": np.arange(100) / 10, "gx": np.ones(100)}),
+                   tmp_path / "t.parquet")  # fmt: skip
+    with pytest.raises(AdavarInputError, match="time column needs every time stamp"):
+        read_record(tmp_path / "t.parquet", lazy=True)
+    assert read_record(tmp_path / "t.parquet").rate == pytest.approx(10.0)
+
+
+def test_lazy_is_automatic_above_the_size_limit(tmp_path, monkeypatch):
+    h5py = pytest.importorskip("h5py")
+    from adavar import readers
+
+    with h5py.File(tmp_path / "a.h5", "w") as f:
+        f["x"] = np.arange(1000.0)
+    assert isinstance(read_record(tmp_path / "a.h5", rate=1.0).channel(), np.ndarray)
+    monkeypatch.setattr(readers, "LAZY_BYTES", 4000)
+    assert isinstance(read_record(tmp_path / "a.h5", rate=1.0).channel(), stream.HDF5Source)
+    # other NaN policies need the whole record: read into memory
+    got = read_record(tmp_path / "a.h5", rate=1.0, nan="drop").channel()
+    assert isinstance(got, np.ndarray)
+
+
+def test_lazy_nan_is_reported_with_its_sample_when_read(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    x = np.arange(1000.0)
+    x[777] = np.inf
+    with h5py.File(tmp_path / "a.h5", "w") as f:
+        f["x"] = x
+    col = read_record(tmp_path / "a.h5", rate=1.0, lazy=True).channel()
+    with pytest.raises(AdavarInputError, match=r"sample 777 .* inf"):
+        col.read(0, 1000)

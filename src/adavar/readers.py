@@ -46,6 +46,13 @@ from typing import Any
 import numpy as np
 
 from adavar.errors import AdavarInputError
+from adavar.stream import (
+    DEFAULT_CHUNK,
+    ChunkedSource,
+    HDF5Source,
+    ParquetSource,
+    memmap_source,
+)
 
 __all__ = [
     "GAP_POLICIES",
@@ -132,8 +139,10 @@ class Record:
     Attributes
     ----------
     channels : dict of str to ndarray
-        Samples per channel (float64, all the same length, in file order). Arrays read
-        from ``.npy``/uncompressed ``.npz`` files may be read-only memory-mapped views.
+        Samples per channel (all the same length, in file order): float64, except columns
+        of ``.npy``/uncompressed ``.npz`` files, which stay read-only memory-mapped views
+        in the file's dtype (the analyses read them piece by piece; ``np.asarray(...,
+        dtype=float)`` loads one).
     rate : float
         Sampling rate (Hz).
     time : ndarray or None
@@ -466,7 +475,7 @@ def _channels_from_table(
             )
     if len(set(chosen)) != len(chosen):
         raise _fail(f"a column is named twice in --column ({', '.join(chosen)}): name each once")
-    channels = {n: np.asarray(tab.get(n), dtype=np.float64) for n in chosen}
+    channels = {n: _as_channel(tab.get(n)) for n in chosen}
     info: dict[str, Any] = {"columns": list(tab.names), "channels": list(chosen)}
     if tab.units:
         info["units"] = {n: tab.units[n] for n in chosen if n in tab.units}
@@ -678,6 +687,52 @@ def _numeric_kind(dtype: np.dtype) -> str:
     if dtype.kind in "iuf":
         return "num"
     return "text"
+
+
+#: auto ``lazy``: read a file column piece by piece from this size (bytes) or a quarter
+#: of the available memory, whichever is smaller
+LAZY_BYTES = 1 << 30
+
+
+def _available_memory() -> int | None:
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:  # pragma: no cover - not Linux
+        return None
+    return None  # pragma: no cover
+
+
+def _lazy_wanted(opts: dict[str, Any], nbytes: int) -> bool:
+    lazy = opts.get("lazy")
+    if lazy is not None:
+        return bool(lazy)
+    if opts.get("nan", "error") != "error" or opts.get("time_column") is not None:
+        return False
+    free = _available_memory()
+    limit = LAZY_BYTES if free is None else min(LAZY_BYTES, free // 4)
+    return nbytes > limit
+
+
+def _lazy_refused(src: str, why: str) -> AdavarInputError:
+    return _fail(f"{src} cannot be read piece by piece ({why}): leave out lazy=True / --lazy")
+
+
+def _as_channel(values: Any) -> np.ndarray:
+    """float64 samples; a memory-mapped file column stays mapped, in the file's own dtype,
+    so that a record larger than memory is never read whole (the analyses stream it)."""
+    if isinstance(values, ChunkedSource):
+        return values  # type: ignore[return-value]
+    if (
+        isinstance(values, np.memmap)
+        and values.ndim == 1
+        and values.dtype.kind in "fiu"
+        and memmap_source(values) is not None
+    ):
+        return values
+    return np.asarray(values, dtype=np.float64)
 
 
 def _array_table(arr: np.ndarray, src: str, label: str) -> _Table:
@@ -903,6 +958,16 @@ def _read_hdf5(path: Path, src: str, opts: dict[str, Any]) -> _Raw:
             tab.units = {k: _attr_text(v.attrs.get("units")) for k, v in members.items()
                          if v.attrs.get("units") is not None}  # fmt: skip
             where = obj.name
+        elif _lazy_wanted(opts, obj.size * obj.dtype.itemsize) and _lazy_hdf5_ok(obj, opts, src):
+            dname, flat = obj.name, obj.ndim == 1
+            names = [dname.rsplit("/", 1)[-1]] if flat else [str(j) for j in range(obj.shape[1])]
+            tab = _Table(
+                names, dict.fromkeys(names, "num"),
+                lambda n: HDF5Source(path, dname, None if flat else int(n)), int(obj.shape[0]),
+            )  # fmt: skip
+            if obj.attrs.get("units") is not None and len(names) == 1:
+                tab.units = {names[0]: _attr_text(obj.attrs["units"])}
+            where = obj.name
         else:
             try:
                 arr = obj[()]
@@ -922,6 +987,20 @@ def _read_hdf5(path: Path, src: str, opts: dict[str, Any]) -> _Raw:
     return _Raw(channels, rel, t0, None, "sample", info)
 
 
+def _lazy_hdf5_ok(obj: Any, opts: dict[str, Any], src: str) -> bool:
+    """A plain numeric 1-D/2-D dataset, no time column: readable piece by piece."""
+    why = None
+    if obj.dtype.names or _numeric_kind(obj.dtype) != "num":
+        why = "a compound or date-time dataset"
+    elif obj.ndim not in (1, 2):
+        why = f"shape {obj.shape}"
+    elif opts.get("time_column") is not None:
+        why = "a time column needs every time stamp in memory"
+    if why is not None and opts.get("lazy"):
+        raise _lazy_refused(src, why)
+    return why is None
+
+
 def _attr_text(value: Any) -> str:
     if isinstance(value, bytes):
         return value.decode("utf-8", "replace")
@@ -935,9 +1014,44 @@ def _attr_text(value: Any) -> str:
 # --------------------------------------------------------------------------------------
 
 
+def _lazy_parquet(path: Path, src: str, opts: dict[str, Any], pa: Any, pq: Any) -> _Raw | None:
+    """The numeric columns as :class:`ParquetSource` pieces, when reading lazily applies."""
+    try:
+        meta = pq.ParquetFile(path).metadata
+        schema = pq.ParquetFile(path).schema_arrow
+    except (OSError, pa.ArrowException, ValueError):
+        return None  # the full read below reports it
+    numeric = {
+        name: pa.types.is_integer(typ) or pa.types.is_floating(typ)
+        for name, typ in zip(schema.names, schema.types, strict=True)
+    }
+    width = sum(8 for v in numeric.values() if v) or 8
+    if not _lazy_wanted(opts, int(meta.num_rows) * width):
+        return None
+    kinds = {n: ("num" if ok else "text") for n, ok in numeric.items()}
+    tab = _Table(list(schema.names), kinds, lambda n: ParquetSource(path, n), int(meta.num_rows))
+    timed = [
+        n for n, typ in zip(schema.names, schema.types, strict=True)
+        if _time_name_unit(n)[0] or pa.types.is_timestamp(typ) or pa.types.is_date(typ)
+        or pa.types.is_string(typ) or pa.types.is_large_string(typ)
+    ]  # fmt: skip
+    if timed or opts.get("time_column") is not None:
+        if opts.get("lazy"):
+            raise _lazy_refused(src, "a time column needs every time stamp in memory")
+        return None
+    channels, rel, t0, info = _channels_from_table(
+        tab, columns=opts["columns"], time_column=None, time_format=opts["time_format"],
+        src=src,
+    )  # fmt: skip
+    return _Raw(channels, rel, t0, None, "sample", info)
+
+
 def _read_parquet(path: Path, src: str, opts: dict[str, Any]) -> _Raw:
     pa = _require("pyarrow", "Parquet")
     pq = _require("pyarrow.parquet", "Parquet")
+    lazy = _lazy_parquet(path, src, opts, pa, pq)
+    if lazy is not None:
+        return lazy
     try:
         table = pq.read_table(path)
     except (OSError, pa.ArrowException, ValueError) as exc:
@@ -1086,7 +1200,29 @@ def _fmt_t(value: float) -> str:
     return f"{value:.6g} s"
 
 
+def _all_finite_by_file(raw: _Raw) -> bool:
+    """Whether every channel is a file memory map with only finite samples, checked piece by
+    piece with file reads: a large ``.npy`` is scanned without its pages piling up in the
+    process's resident memory (and without an N-sample mask)."""
+    if raw.time is not None or not raw.channels:
+        return False
+    sources = [memmap_source(v) for v in raw.channels.values()]
+    if any(s is None for s in sources):
+        return False
+    for source in sources:
+        for start in range(0, source.size, DEFAULT_CHUNK):
+            piece = source._read_raw(start, min(source.size, start + DEFAULT_CHUNK))
+            if not np.isfinite(piece).all():
+                return False
+    return True
+
+
 def _handle_nan(raw: _Raw, policy: str, src: str, meta: dict[str, Any]) -> _Raw:
+    if all(isinstance(v, ChunkedSource) for v in raw.channels.values()):
+        meta["lazy"] = True  # each piece is checked as it is read (the error names the sample)
+        return raw
+    if _all_finite_by_file(raw):
+        return raw
     names = list(raw.channels)
     n = len(raw.channels[names[0]])
     bad_t = None if raw.time is None else ~np.isfinite(raw.time)
@@ -1344,6 +1480,7 @@ def read_record(
     dataset: str | None = None,
     topic: str | None = None,
     gap_tolerance: float = 0.5,
+    lazy: bool | None = None,
 ) -> Record:
     """Read the channels of a record, with its sampling rate and time base.
 
@@ -1404,6 +1541,15 @@ def read_record(
         ROS bags only: the ``sensor_msgs/msg/Imu`` topic, needed when there are several.
     gap_tolerance : float
         Relative tolerance on the sampling interval, in (0, 1).
+    lazy : bool, optional
+        HDF5 datasets and Parquet columns: ``True`` returns each channel as a
+        :class:`adavar.stream.ChunkedSource` that is read piece by piece (by the
+        out-of-core analyses; ``np.asarray`` loads it whole), ``False`` reads it into
+        memory. By default (None) lazily when the numeric data exceed 1 GiB or a quarter
+        of the available memory and there is no time column and ``nan="error"`` (NaN/Inf
+        are then reported, with their sample, when the analysis reads them). A time column
+        needs every stamp in memory, so ``lazy=True`` with one is an error. ``.npy`` and
+        uncompressed ``.npz`` columns are always memory-mapped and read piece by piece.
 
     Returns
     -------
@@ -1462,6 +1608,8 @@ def read_record(
         "time_format": fmt,
         "dataset": dataset,
         "topic": topic,
+        "lazy": lazy,
+        "nan": nan,
     }
     meta: dict[str, Any] = {
         "path": src,
