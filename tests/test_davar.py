@@ -638,7 +638,6 @@ BAD = {
     "window array with nan": dict(window=np.r_[np.full(49, 10.0), np.nan]),
     "window array of strings": dict(window=np.full(50, "10")),
     "window bool": dict(window=True),
-    "per-centre window with valid edges": dict(window=np.full(25, 10), step=2, edges="valid"),
     "step 0": dict(window=10, step=0),
     "step -1": dict(window=10, step=-1),
     "step float": dict(window=10, step=2.0),

@@ -324,25 +324,65 @@ def chromium_command(browser: str, page: Path, profile: Path) -> list[str]:
     ]  # fmt: skip
 
 
-@pytest.mark.skipif(
-    _browser() is None,
-    reason="no chromium / chromium-browser / google-chrome on PATH "
-    "(Debian: apt-get install -y chromium)",
-)
-def test_report_renders_in_chromium(report: str, tmp_path: Path) -> None:
+#: Problem starting each browser (None: it starts), checked once per test session.
+_START_PROBLEMS: dict[str, str | None] = {}
+
+
+def _start_problem(browser: str, folder: Path) -> str | None:
+    """Why ``browser`` cannot render a trivial page headless, or None if it can."""
+    if browser not in _START_PROBLEMS:
+        page = folder / "start.html"
+        page.write_text('<!DOCTYPE html><p id="adavar-start">ok</p>\n', encoding="utf-8")
+        try:
+            run = subprocess.run(
+                chromium_command(browser, page, folder / "start-profile"),
+                capture_output=True, text=True, timeout=60, check=False,
+                env={**os.environ, "HOME": str(folder)},
+            )  # fmt: skip
+        except (OSError, subprocess.TimeoutExpired) as exc:
+            problem: str | None = f"{type(exc).__name__}: {exc}"
+        else:
+            problem = None
+            if run.returncode != 0 or 'id="adavar-start"' not in run.stdout:
+                problem = f"exit code {run.returncode}: {run.stderr.strip()[-500:]}"
+        _START_PROBLEMS[browser] = problem
+    return _START_PROBLEMS[browser]
+
+
+def chromium_or_skip(folder: Path) -> str:
+    """A headless Chromium that starts, else skip; with ``ADAVAR_REQUIRE_CHROMIUM=1`` (set by
+    ``.ci/run`` once it has installed one) fail instead, so CI proves the report renders."""
+    required = os.environ.get("ADAVAR_REQUIRE_CHROMIUM", "").strip() not in ("", "0")
+    folder.mkdir(parents=True, exist_ok=True)
     browser = _browser()
-    assert browser is not None
-    page = tmp_path / "report.html"
-    head = report.index("<head>") + len("<head>")
-    write_report(page, report[:head] + _PROBE + report[head:])
+    if browser is None:
+        reason = ("no chromium / chromium-browser / google-chrome on PATH (Debian: apt-get "
+                  "install -y chromium)")  # fmt: skip
+    else:
+        problem = _start_problem(browser, folder)
+        if problem is None:
+            return browser
+        reason = f"{browser} does not start headless: {problem}"
+    if required:
+        pytest.fail(f"ADAVAR_REQUIRE_CHROMIUM=1, but {reason}", pytrace=False)
+    pytest.skip(reason)
+
+
+def render_in_chromium(document: str, folder: Path, n_plots: int) -> str:
+    """The DOM of ``document`` after headless Chromium ran it, checked: all ``n_plots``
+    plots drawn, nothing logged to the console as an error or warning, nothing fetched."""
+    browser = chromium_or_skip(folder)
+    page = folder / "report.html"
+    head = document.index("<head>") + len("<head>")
+    write_report(page, document[:head] + _PROBE + document[head:])
     run = subprocess.run(
-        chromium_command(browser, page, tmp_path / "profile"),
+        chromium_command(browser, page, folder / "profile"),
         capture_output=True, text=True, timeout=120, check=False,
-        env={**os.environ, "HOME": str(tmp_path)},
+        env={**os.environ, "HOME": str(folder)},
     )  # fmt: skip
     dom = run.stdout
     assert run.returncode == 0, run.stderr[-3000:]
-    assert 'data-adavar-rendered="5"' in dom, run.stderr[-3000:]
+    assert f'data-adavar-rendered="{n_plots}"' in dom, run.stderr[-3000:]
 
     probe = re.search(r'data-probe-log="([^"]*)"', dom)
     assert probe is not None
@@ -350,6 +390,34 @@ def test_report_renders_in_chromium(report: str, tmp_path: Path) -> None:
     console = [line for line in run.stderr.splitlines() if "CONSOLE" in line]
     bad = [line for line in console if "Uncaught" in line or "ERROR:CONSOLE" in line]
     assert not bad, "\n".join(bad)
+    return dom
+
+
+def test_missing_chromium_skips_or_fails_when_required(monkeypatch, tmp_path: Path) -> None:
+    monkeypatch.setattr(f"{__name__}._browser", lambda: None)
+    monkeypatch.delenv("ADAVAR_REQUIRE_CHROMIUM", raising=False)
+    with pytest.raises(pytest.skip.Exception, match="no chromium"):
+        chromium_or_skip(tmp_path)
+    monkeypatch.setenv("ADAVAR_REQUIRE_CHROMIUM", "0")
+    with pytest.raises(pytest.skip.Exception):
+        chromium_or_skip(tmp_path)
+    monkeypatch.setenv("ADAVAR_REQUIRE_CHROMIUM", "1")
+    with pytest.raises(pytest.fail.Exception, match="ADAVAR_REQUIRE_CHROMIUM=1, but no chromium"):
+        chromium_or_skip(tmp_path)
+    # a browser that is there but does not start (a broken wrapper script)
+    broken = tmp_path / "chromium"
+    broken.write_text("#!/bin/sh\necho 'cannot open display' >&2\nexit 1\n")
+    broken.chmod(0o755)
+    monkeypatch.setattr(f"{__name__}._browser", lambda: str(broken))
+    with pytest.raises(pytest.fail.Exception, match=r"does not start headless.*cannot open"):
+        chromium_or_skip(tmp_path)
+    monkeypatch.delenv("ADAVAR_REQUIRE_CHROMIUM")
+    with pytest.raises(pytest.skip.Exception, match="does not start headless"):
+        chromium_or_skip(tmp_path)
+
+
+def test_report_renders_in_chromium(report: str, tmp_path: Path) -> None:
+    dom = render_in_chromium(report, tmp_path, len(PLOT_IDS))
 
     # every plot div holds plotly's drawing: SVG for 2-D plots, a WebGL scene for the surface
     for plot in PLOT_IDS:

@@ -214,7 +214,6 @@ def test_property_schedule(case):
         (2, {}),
         (31, {}),
         (np.full(29, 5), {}),
-        (np.full(15, 5), {"step": 2, "edges": "valid"}),
         (np.full(30, 5.5), {}),
         (np.r_[np.full(29, 5), 1], {}),
         (np.full((2, 15), 5), {}),

@@ -18,6 +18,12 @@ power sums ``sum (x - a)**k``, ``k = 1..4``, are kept in double-double precision
 anchor ``a`` that is moved to the window's mean every :data:`REANCHOR` steps (the sums are
 then recomputed), so offsets of 1e6 standard deviations, drifts and bursts cost no digits.
 
+Out of core (a memory map, a dask array, a :class:`adavar.stream.ChunkedSource`, or
+``chunk_size=``) the pass reads the record piece by piece. Pieces start at multiples of
+REANCHOR, where the sums restart anyway, and each starts from the length the previous one
+ended with, so the schedule is the in-memory one bit for bit; only the centres that are
+multiples of ``step`` are kept.
+
 Methods: ``"adaptive"`` (A-DAVAR, ``f = f1 or f2``), ``"kurtosis"`` (DAVAR-K, the
 kurtosis-only controller of Wang/Zhu, ``f = f1``), ``"oracle"`` (the ideal schedule for known
 change times), ``"fixed"`` (DAVAR-L with ``L = lmax``, its kurtosis and S recorded along).
@@ -34,12 +40,14 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
+from adavar import stream
 from adavar._jit import get_num_threads, jit, parallel_jit, prange
 from adavar.davar import davar
 from adavar.differences import _two_sum
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.statistics import _DATA_TYPE_ALIASES, as_samples, resolve_tau0
+from adavar.stream import ChunkedSource
 
 __all__ = [
     "METHODS",
@@ -273,9 +281,13 @@ def _run(
 @parallel_jit
 def _controller(
     x, offset, n, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and,
-    adapt, given, window, kurt, scoef, f1, f2, f, n_segments, warm_up,
+    adapt, given, window, kurt, scoef, f1, f2, f, n_segments, warm_up, start_length,
 ):  # fmt: skip  # pragma: no cover - compiled
     """The controller over centres ``0..n-1``: sequential result, segments in parallel.
+
+    The first centre starts from ``start_length`` (``lmax`` for a whole record; the length
+    carried over from the previous piece out of core). Returns the length after the last
+    update, which is where the next piece starts.
 
     The record is cut into ``n_segments`` pieces whose bounds are multiples of
     :data:`REANCHOR`. Each piece but the first is run speculatively from ``lmax``,
@@ -299,11 +311,12 @@ def _controller(
         if s1_ <= s0:
             continue
         p0 = 0 if k == 0 else max(0, (s0 - warm_up) // REANCHOR * REANCHOR)
-        L0 = lmax if adapt else given[p0]
+        L0 = given[p0] if not adapt else (start_length if k == 0 else lmax)
         start_state[k], end_state[k] = _run(
             x, offset, p0, s1_, s0, L0, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test,
             use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
         )  # fmt: skip
+    last = start_length
     if adapt:
         last = -1
         for k in range(n_segments):
@@ -317,6 +330,7 @@ def _controller(
                     s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
                 )  # fmt: skip
             last = end_state[k]
+    return last
 
 
 # ---------------------------------------------------------------------------------------
@@ -464,6 +478,11 @@ def _fixed_thresholds(lmax: int, k1: float, k2: float, s2: float) -> Thresholds:
 class Schedule:
     """A per-centre window schedule and the controller's decisions.
 
+    The controller visits every centre; the schedule keeps all of them (``step = 1``) or
+    only the centres that are multiples of ``step`` (``adaptive_schedule(..., step=k)``, the
+    centres :func:`adavar.davar` computes with that step), which is what the out-of-core
+    path returns: ``N / step`` rows instead of ``N``.
+
     Attributes
     ----------
     window : ndarray of int64, shape (N,)
@@ -482,6 +501,8 @@ class Schedule:
     thresholds : Thresholds
     parameters : dict
         Every setting used, for reports.
+    step : int
+        The rows are the centres that are multiples of ``step`` (1: every centre).
     """
 
     window: np.ndarray
@@ -494,6 +515,7 @@ class Schedule:
     method: str
     thresholds: Thresholds
     parameters: dict[str, Any] = field(default_factory=dict)
+    step: int = 1
 
 
 def oracle_schedule(
@@ -521,8 +543,14 @@ def oracle_schedule(
     -------
     ndarray of int64, shape (n_samples,)
     """
-    p = np.arange(n_samples, dtype=np.int64)
-    out = np.full(n_samples, lmax, dtype=np.int64)
+    return _oracle_lengths(np.arange(n_samples, dtype=np.int64), change_samples, lmax, lmin)
+
+
+def _oracle_lengths(
+    p: np.ndarray, change_samples: Sequence[int], lmax: int, lmin: int
+) -> np.ndarray:
+    """:func:`oracle_schedule` at the centres ``p`` only (a piece of a long record)."""
+    out = np.full(p.size, lmax, dtype=np.int64)
     odd = lmax % 2
     for x in change_samples:
         x = int(x)
@@ -538,6 +566,12 @@ def _segments(n: int) -> int:
     return int(min(4 * get_num_threads(), n // (4 * WARM_UP)))
 
 
+def _outputs(m: int) -> tuple[np.ndarray, ...]:
+    """The controller's output arrays for ``m`` centres: window, kurtosis, S, f1, f2, f."""
+    flags = tuple(np.empty(m, dtype=np.bool_) for _ in range(3))
+    return (np.empty(m, dtype=np.int64), np.empty(m), np.empty(m), *flags)
+
+
 def _check_int(name: str, value: Any, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise AdavarInputError(f"{name} must be an integer >= {minimum}, got {value!r}")
@@ -545,7 +579,7 @@ def _check_int(name: str, value: Any, minimum: int) -> int:
 
 
 def adaptive_schedule(
-    data: Sequence[float] | np.ndarray,
+    data: Sequence[float] | np.ndarray | ChunkedSource,
     *,
     method: str = "adaptive",
     lmax: int = 600,
@@ -565,15 +599,37 @@ def adaptive_schedule(
     false_alarm: float = 0.01,
     rate: float = 1.0,
     tau0: float | None = None,
+    step: int = 1,
+    chunk_size: int | None = None,
 ) -> Schedule:
     """The window schedule of A-DAVAR, DAVAR-K, the oracle or a fixed window.
 
     Parameters are those of :func:`adaptive_davar` (which calls this and then
-    :func:`adavar.davar` on the schedule).
+    :func:`adavar.davar` on the schedule), and:
+
+    Parameters
+    ----------
+    data : array_like, ChunkedSource, numpy.memmap or dask.array.Array
+        The rate record. A source, a memory map of a file or a dask array is streamed
+        (see ``chunk_size``).
+    step : int
+        Keep the controller's outputs at the centres that are multiples of ``step`` only
+        (the centres of ``davar(..., step=step)``); the controller still visits every centre.
+    chunk_size : int, optional
+        Run out of core: the mirror-extended record is read about ``chunk_size`` centres at a
+        time (rounded up to a multiple of :data:`REANCHOR`, plus ``lmax // 2 + 1`` samples
+        each side) and the controller carries its window length from piece to piece.
+        Default: in memory for an array, :data:`adavar.stream.DEFAULT_CHUNK` for a chunked
+        input. The result is identical to the in-memory one (the running sums restart at
+        every multiple of REANCHOR, so a piece that starts there from the carried length
+        repeats the sequential pass bit for bit). Held in memory: one piece and its
+        per-centre outputs (about 40 bytes per centre of the piece) plus the ``N / step``
+        kept rows.
 
     Returns
     -------
     Schedule
+        One row per centre (``step = 1``) or per kept centre.
     """
     if method not in METHODS:
         raise AdavarInputError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
@@ -590,6 +646,11 @@ def adaptive_schedule(
     seg = _check_int("l", l, 1)
     dl0 = _check_int("dl0", dl0, 0)
     dl1 = _check_int("dl1", dl1, 0)
+    step = _check_int("step", step, 1)
+    chunked = chunk_size is not None or stream.is_chunked(data)
+    chunk = stream.DEFAULT_CHUNK
+    if chunk_size is not None:
+        chunk = _check_int("chunk_size", chunk_size, 1)
     if lmin > lmax:
         raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
     if (lmax - lmin) % 2 or dl0 % 2 or dl1 % 2:
@@ -608,52 +669,85 @@ def adaptive_schedule(
     if float(k1) > float(k2):
         raise AdavarInputError(f"k1 ({k1}) must not exceed k2 ({k2})")
     dt = resolve_tau0(rate, tau0)
-    x = as_samples(data, min_length=lmax)
-    n = x.size
+    if chunked:
+        source = stream.as_source(data)
+        n = source.size
+        if n < lmax:
+            raise AdavarInputError(f"the record has {n} samples; at least {lmax} are needed")
+    else:
+        x = as_samples(data, min_length=lmax)
+        n = x.size
 
     if thresholds == "calibrated":
         th = calibrated_thresholds(lmin, lmax, seg, false_alarm=float(false_alarm))
     else:
         th = _fixed_thresholds(lmax, k1, k2, s2)
 
+    changes = None
     if method == "oracle":
         if change_times is None or len(change_times) == 0:
             raise AdavarInputError("method='oracle' needs change_times (seconds)")
         changes = np.round(np.asarray(change_times, dtype=float) / dt).astype(np.int64)
-        given = oracle_schedule(n, changes, lmax=lmax, lmin=lmin)
-    elif method == "fixed":
-        given = np.full(n, lmax, dtype=np.int64)
-    else:
-        given = np.zeros(1, dtype=np.int64)
 
-    if edges == "valid":
-        first, last = (lmax - 1) // 2, n - 1 - lmax // 2
-        if last < first:  # pragma: no cover - lmax <= n is checked by as_samples
-            raise AdavarInputError("no window of lmax samples fits in the record")
-        centres = np.arange(first, last + 1)
-        ext, offset = x, first  # the controller's centre q is sample first + q
-        n_c = centres.size
-        if method in ("oracle", "fixed"):
-            given = given[first : last + 1]
-    else:
-        pad = lmax // 2 + 1
-        ext = np.pad(x, pad, mode="symmetric")
-        offset = pad
-        centres = np.arange(n)
-        n_c = n
+    # the controller's centre q is sample first + q; "valid": those whose lmax window fits
+    first = (lmax - 1) // 2 if edges == "valid" else 0
+    n_c = n - lmax + 1 if edges == "valid" else n
+    pad = lmax // 2 + 1  # mirror: centre q at ext[q + pad]
 
-    window = np.empty(n_c, dtype=np.int64)
-    kurt = np.empty(n_c)
-    scoef = np.empty(n_c)
-    f1 = np.empty(n_c, dtype=np.bool_)
-    f2 = np.empty(n_c, dtype=np.bool_)
-    f = np.empty(n_c, dtype=np.bool_)
-    _controller(
-        ext, offset, n_c, lmax, lmin, th.k1, th.k2, float(s1), th.s2, seg, dl0, dl1,
-        _S_TEST_CODE[s_test], method != "kurtosis", combine == "and",
-        method in ("adaptive", "kurtosis"), given, window, kurt, scoef, f1, f2, f,
-        _segments(n_c), WARM_UP,
-    )  # fmt: skip
+    def given(q0: int, q1: int) -> np.ndarray:
+        """Lengths of centres q0 .. q1 - 1 for the oracle and fixed methods."""
+        if method == "oracle":
+            return _oracle_lengths(np.arange(first + q0, first + q1), changes, lmax, lmin)
+        if method == "fixed":
+            return np.full(q1 - q0, lmax, dtype=np.int64)
+        return np.zeros(1, dtype=np.int64)
+
+    def run(ext: np.ndarray, offset: int, q0: int, q1: int, start_length: int) -> tuple:
+        m = q1 - q0
+        out = _outputs(m)
+        end = _controller(
+            ext, offset, m, lmax, lmin, th.k1, th.k2, float(s1), th.s2, seg, dl0, dl1,
+            _S_TEST_CODE[s_test], method != "kurtosis", combine == "and",
+            method in ("adaptive", "kurtosis"), given(q0, q1), *out, _segments(m), WARM_UP,
+            start_length,
+        )  # fmt: skip
+        return out, int(end)
+
+    # kept rows: the centres that are multiples of step
+    c0 = -(-first // step) * step
+    centres = np.arange(c0, first + n_c, step, dtype=np.int64)
+    if not chunked:
+        ext = x if edges == "valid" else np.pad(x, pad, mode="symmetric")
+        out, _ = run(ext, first if edges == "valid" else pad, 0, n_c, lmax)
+        if step > 1:  # copies: the full per-centre arrays are released
+            out = tuple(a[c0 - first :: step].copy() for a in out)
+    else:
+        out = _outputs(centres.size)
+        # pieces start at multiples of REANCHOR, where the running sums restart anyway
+        piece = -(-chunk // REANCHOR) * REANCHOR
+        length = lmax
+        kept = 0
+        for q0 in range(0, n_c, piece):
+            q1 = min(n_c, q0 + piece)
+            if edges == "valid":  # windows of centres q0 .. q1-1 span x[q0 : q1 + lmax - 1]
+                ext = source.read(q0, q1 + lmax - 1)
+                offset = first
+            else:
+                ext = stream.read_extended(source, q0, q1 + 2 * pad, pad)
+                offset = pad
+            part, length = run(ext, offset, q0, q1, length)
+            del ext
+            rows = slice((-(first + q0)) % step, None, step)
+            count = len(range(q1 - q0)[rows])
+            for dst, src in zip(out, part, strict=True):
+                dst[kept : kept + count] = src[rows]
+            kept += count
+            del part
+        if kept != centres.size:  # pragma: no cover - internal consistency
+            raise AssertionError("internal: kept rows do not match the centres")
+    if step == 1:
+        centres = np.arange(first, first + n_c, dtype=np.int64)
+    window, kurt, scoef, f1, f2, f = out
     parameters = dict(
         method=method, lmax=lmax, lmin=lmin, k1=float(k1), k2=float(k2), s1=float(s1),
         s2=float(s2), l=seg, dl0=dl0, dl1=dl1, s_test=s_test, combine=combine, edges=edges,
@@ -662,7 +756,7 @@ def adaptive_schedule(
     )  # fmt: skip
     return Schedule(
         window=window, kurtosis=kurt, s=scoef, f1=f1, f2=f2, f=f, centre=centres,
-        method=method, thresholds=th, parameters=parameters,
+        method=method, thresholds=th, parameters=parameters, step=step,
     )  # fmt: skip
 
 
@@ -699,7 +793,7 @@ class AdaptiveResult(DavarResult):
 
 
 def adaptive_davar(
-    data: Sequence[float] | np.ndarray,
+    data: Sequence[float] | np.ndarray | ChunkedSource,
     *,
     rate: float = 1.0,
     method: str = "adaptive",
@@ -727,13 +821,16 @@ def adaptive_davar(
     points_per_decade: int = 10,
     noise_type: str | int | Sequence[int] = "record",
     units: str | None = None,
+    chunk_size: int | None = None,
 ) -> AdaptiveResult:
     """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
 
     Parameters
     ----------
-    data : array_like
-        The record (rate samples, or phase with ``data_type="phase"``).
+    data : array_like, ChunkedSource, numpy.memmap or dask.array.Array
+        The record (rate samples, or phase with ``data_type="phase"``). A source
+        (:mod:`adavar.stream`), a memory map of a ``.npy`` file (``np.load(path,
+        mmap_mode="r")``) or a dask array is processed out of core.
     rate : float
         Sample rate in Hz (or give ``tau0``).
     method : {"adaptive", "kurtosis", "oracle", "fixed"}
@@ -767,6 +864,14 @@ def adaptive_davar(
         ``false_alarm`` on stationary Gaussian noise (:func:`calibrated_thresholds`).
     false_alarm : float
         Target of ``thresholds="calibrated"``.
+    chunk_size : int, optional
+        Process the record out of core, about ``chunk_size`` samples at a time (default
+        :data:`adavar.stream.DEFAULT_CHUNK` for a chunked input; give it to stream an
+        in-memory array). The controller carries its window length from piece to piece
+        (:func:`adaptive_schedule`) and keeps only the ``step``-th centres' lengths, which go
+        to ``davar(..., chunk_size=chunk_size)``; the result equals the in-memory one (same
+        schedule, surface to rounding). Held in memory: a piece and its overlap, and the
+        ``N / step`` rows of the result; never a per-sample array.
 
     Returns
     -------
@@ -781,36 +886,62 @@ def adaptive_davar(
     dtype = _DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
-    x = as_samples(data, min_length=4 if dtype == "phase" else 3)
-    u = x if dtype == "rate" else np.diff(x)
-    sched = adaptive_schedule(
-        u, method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0,
+    controller = dict(
+        method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0,
         dl1=dl1, s_test=s_test, combine=combine, edges=edges, change_times=change_times,
         thresholds=thresholds, false_alarm=false_alarm, rate=rate, tau0=tau0,
+    )  # fmt: skip
+    surface_options = dict(
+        rate=rate, data_type=dtype, taus=taus, edges=edges, confidence=confidence, tau0=tau0,
+        t0=t0, points_per_decade=points_per_decade, noise_type=noise_type, units=units,
     )  # fmt: skip
     step = int(step) if isinstance(step, (int, np.integer)) and not isinstance(step, bool) else 0
     if step < 1:
         raise AdavarInputError("step must be a positive integer")
-    if edges == "valid":
-        # the schedule covers the centres where an lmax window fits; others are not computed
-        full = np.full(u.size, lmax, dtype=np.int64)
-        full[sched.centre] = sched.window
-        window = full
+    min_length = 4 if dtype == "phase" else 3
+    if chunk_size is not None or stream.is_chunked(data):
+        source = stream.as_source(data)
+        if source.size < min_length:
+            raise AdavarInputError(
+                f"the record has {source.size} samples; at least {min_length} are needed"
+            )
+        u = source if dtype == "rate" else stream.DifferencedSource(source)
+        # the step-th centres only: O(N / step) memory, the schedule davar computes
+        sched = adaptive_schedule(u, **controller, step=step, chunk_size=chunk_size)
+        if edges == "valid":
+            # one length per candidate centre 0, step, ...; lmax does not fit outside the
+            # controller's centres, so davar keeps exactly the schedule's rows
+            window = np.full(-(-u.size // step), lmax, dtype=np.int64)
+            window[sched.centre // step] = sched.window
+        else:
+            window = sched.window
+            window.flags.writeable = False  # shared with the surface, not copied
+        surface = davar(source, window=window, step=step, chunk_size=chunk_size, **surface_options)
+        rows = slice(None)
+        if not np.array_equal(sched.centre, surface.centre):  # pragma: no cover
+            raise AssertionError("internal: surface centres differ from the schedule's")
     else:
-        window = sched.window
-        window.flags.writeable = False  # shared with the surface, not copied
-    surface = davar(
-        x, window=window, rate=rate, data_type=dtype, taus=taus, edges=edges, step=step,
-        confidence=confidence, tau0=tau0, t0=t0, points_per_decade=points_per_decade,
-        noise_type=noise_type, units=units,
-    )  # fmt: skip
-    # the surface's centres are every step-th of the schedule's: slices, no copies
-    first = int(surface.centre[0] - sched.centre[0])
-    rows = slice(first, first + step * (surface.centre.size - 1) + 1, step)
-    if not np.array_equal(sched.centre[rows], surface.centre):  # pragma: no cover
-        raise AssertionError("internal: surface centres outside the schedule")
-    fields = {name: getattr(surface, name) for name in surface.__dataclass_fields__
-              if name != "_cache"}
+        x = as_samples(data, min_length=min_length)
+        u = x if dtype == "rate" else np.diff(x)
+        sched = adaptive_schedule(u, **controller)
+        if edges == "valid":
+            # the schedule covers the centres where an lmax window fits; others are not
+            # computed
+            full = np.full(u.size, lmax, dtype=np.int64)
+            full[sched.centre] = sched.window
+            window = full
+        else:
+            window = sched.window
+            window.flags.writeable = False  # shared with the surface, not copied
+        surface = davar(x, window=window, step=step, **surface_options)
+        # the surface's centres are every step-th of the schedule's: slices, no copies
+        first = int(surface.centre[0] - sched.centre[0])
+        rows = slice(first, first + step * (surface.centre.size - 1) + 1, step)
+        if not np.array_equal(sched.centre[rows], surface.centre):  # pragma: no cover
+            raise AssertionError("internal: surface centres outside the schedule")
+    fields = {
+        name: getattr(surface, name) for name in surface.__dataclass_fields__ if name != "_cache"
+    }
     return AdaptiveResult(
         **fields,
         kurtosis=sched.kurtosis[rows], s=sched.s[rows], f1=sched.f1[rows],

@@ -100,9 +100,7 @@ def _as_lengths(window: Any, n_samples: int) -> np.ndarray | int:
                 return _as_lengths(int(value), n_samples)
             if isinstance(value, int) and not isinstance(value, bool):
                 return _as_lengths(value, n_samples)
-            raise AdavarInputError(
-                f"window must be a whole number of samples, got {window!r}"
-            )
+            raise AdavarInputError(f"window must be a whole number of samples, got {window!r}")
         if arr.ndim != 1 or arr.size == 0:
             raise AdavarInputError(
                 f"window must be an int or a 1-D array of ints, got shape {arr.shape}"
@@ -141,8 +139,10 @@ def window_schedule(
         Length of the record (rate samples).
     window : int or array_like of int
         A fixed length (DAVAR-L), or one length per sample of the record (``n_samples``
-        values, e.g. an adaptive schedule), or one per computed centre
-        (``ceil(n_samples / step)`` values, ``edges="mirror"`` only).
+        values, e.g. an adaptive schedule), or one per candidate centre
+        (``ceil(n_samples / step)`` values, for samples ``0, step, 2 step, ...``). With
+        ``edges="valid"`` the candidates whose window fits in the record are kept, whichever
+        form the lengths come in.
     edges : {"mirror", "valid"}
         ``"mirror"``: every ``step``-th sample is a centre and the record is extended by
         time reversal at both ends; ``"valid"``: only centres whose whole window lies in
@@ -170,13 +170,12 @@ def window_schedule(
         length = None
     elif lengths.size == n_samples:
         length = lengths if step == 1 else lengths[candidates]
-    elif lengths.size == candidates.size and edges == "mirror":
+    elif lengths.size == candidates.size:
         length = lengths
     else:
         per_centre = f" or {candidates.size} (one per centre)" if step > 1 else ""
         raise AdavarInputError(
-            f"window array has {lengths.size} values; give {n_samples} (one per sample)"
-            f"{per_centre}"
+            f"window array has {lengths.size} values; give {n_samples} (one per sample){per_centre}"
         )
     if isinstance(lengths, int):
         # one length: the starts follow the centres, no per-centre arithmetic needed
