@@ -15,6 +15,8 @@ import numpy as np
 
 from adavar import differences as diff
 from adavar import edf as edf_mod
+from adavar import stream
+from adavar import stream_statistics as sstat
 from adavar.errors import AdavarInputError
 from adavar.results import DeviationResult
 from adavar.taus import averaging_factors
@@ -63,9 +65,7 @@ def as_samples(data: object, *, min_length: int = 3) -> np.ndarray:
                 f"data must be one channel (1-D); got shape {np.shape(data)}: pass one column"
             )
     if x.size < min_length:
-        raise AdavarInputError(
-            f"the record has {x.size} samples; at least {min_length} are needed"
-        )
+        raise AdavarInputError(f"the record has {x.size} samples; at least {min_length} are needed")
     x = np.asarray(x, dtype=np.float64)
     finite = np.isfinite(x)
     if not finite.all():
@@ -120,8 +120,34 @@ def _noise_types(phase: diff.AnchoredPhase, ms: np.ndarray, dmax: int):
     return alpha.astype(np.int64), notes
 
 
+def _chunk_size(value: object) -> int:
+    try:
+        chunk = int(value)  # type: ignore[call-overload]
+    except (TypeError, ValueError):
+        chunk = 0
+    if isinstance(value, bool) or chunk < 1 or chunk != value:
+        raise AdavarInputError(
+            f"chunk_size must be a positive whole number of samples, got {value!r}"
+        )
+    return chunk
+
+
+def _chunked_samples(data: object, min_length: int) -> stream.ChunkedSource:
+    """The record as a :class:`~adavar.stream.ChunkedSource`, validated like :func:`as_samples`."""
+    source = stream.as_source(data)
+    if isinstance(source, stream.ArraySource) and source.array.ndim != 1:
+        raise AdavarInputError(
+            f"data must be one channel (1-D); got shape {np.shape(data)}: pass one column"
+        )
+    if source.size < min_length:
+        raise AdavarInputError(
+            f"the record has {source.size} samples; at least {min_length} are needed"
+        )
+    return source
+
+
 def deviation(
-    data: Sequence[float] | np.ndarray,
+    data: Sequence[float] | np.ndarray | stream.ChunkedSource,
     *,
     stat: str = "oadev",
     rate: float = 1.0,
@@ -131,13 +157,16 @@ def deviation(
     tau0: float | None = None,
     points_per_decade: int = 10,
     units: str | None = None,
+    chunk_size: int | None = None,
 ) -> DeviationResult:
     """Allan-family deviation of a whole record, with a confidence interval at every tau.
 
     Parameters
     ----------
-    data : array_like
-        The record, one sample per ``tau0``.
+    data : array_like, ChunkedSource, dask.array.Array or numpy.memmap
+        The record, one sample per ``tau0``. A :class:`~adavar.stream.ChunkedSource`, a
+        ``dask.array`` or a memory map of a ``.npy`` file (``np.load(path, mmap_mode="r")``)
+        is read piece by piece and never held whole (see Notes).
     stat : {"oadev", "adev", "mdev", "tdev", "hdev", "ohdev", "totdev"}
         ``adev`` non-overlapping Allan deviation (the paper's Eq. 1), ``oadev`` overlapping
         Allan, ``mdev`` modified Allan, ``tdev`` time deviation (``tau * mdev / sqrt(3)``,
@@ -165,6 +194,10 @@ def deviation(
     units : str, optional
         Declared unit of the samples (e.g. ``"deg/s"``), carried to the fit's unit
         conversions. Never guessed.
+    chunk_size : int, optional
+        Samples per read for the out-of-core computation. Giving it forces that path even
+        for an in-memory array; for chunked ``data`` the default is
+        :data:`adavar.stream.DEFAULT_CHUNK`.
 
     Returns
     -------
@@ -178,6 +211,19 @@ def deviation(
     offset is removed exactly (all statistics here are blind to it), so a bias of 1e6
     standard deviations or a drift costs no digits. For rate input ``tau0`` cancels from
     the variance; for phase input it sets the units (phase/second).
+
+    Out of core (chunked ``data`` or ``chunk_size`` given): the same anchored form is built
+    by :mod:`adavar.stream_statistics` in one pass, keeping only its double-double anchors
+    (16 bytes per 1024 samples); the local sums are recomputed over windows that slide
+    along the record, so every difference is the one the in-memory path computes and the
+    result equals it (a few ulps; every field: ``n``, ``m``, ``edf``, ``alpha``, ``notes``)
+    for any chunk size. Working memory is a few ``chunk_size`` samples. Cost: the short
+    averaging factors take one sweep over the record; each ``m`` beyond about
+    ``chunk_size / 2`` reads the record about twice (three times for the Hadamard
+    statistics) in streams side by side, so ``taus="all"`` on a long record is slow here
+    as it is in memory. ``totdev`` reads the reflected record (three times the length).
+    Noise identification streams the record as well
+    (:func:`adavar.stream.noise_types`).
     """
     if stat not in STATISTICS:
         raise AdavarInputError(f"unknown stat {stat!r}: use one of {', '.join(STATISTICS)}")
@@ -187,36 +233,61 @@ def deviation(
     if confidence is not None and not (0.0 < float(confidence) < 1.0):
         raise AdavarInputError(f"confidence must lie strictly between 0 and 1, got {confidence}")
     step = resolve_tau0(rate, tau0)
-    x = as_samples(data, min_length=4 if dtype == "phase" else 3)
+    min_length = 4 if dtype == "phase" else 3
 
-    u = x if dtype == "rate" else np.diff(x)
+    chunked = chunk_size is not None or stream.is_chunked(data)
+    if chunked:
+        chunk = stream.DEFAULT_CHUNK if chunk_size is None else _chunk_size(chunk_size)
+        source = _chunked_samples(data, min_length)
+        increments = source if dtype == "rate" else stream.DifferencedSource(source)
+        n_samples, n_points = source.size, increments.size + 1
+    else:
+        x = as_samples(data, min_length=min_length)
+        u = x if dtype == "rate" else np.diff(x)
+        n_samples, n_points = x.size, u.size + 1
+
     scale = 1.0 if dtype == "rate" else 1.0 / step**2
-    n_points = u.size + 1
-    ms, notes = averaging_factors(taus, _m_max(stat, n_points), step,
-                                  points_per_decade=points_per_decade)
-    phase = diff.anchored_phase(u, cluster_stats=confidence is not None)
+    ms, notes = averaging_factors(
+        taus, _m_max(stat, n_points), step, points_per_decade=points_per_decade
+    )
+    if not chunked:
+        phase = diff.anchored_phase(u, cluster_stats=confidence is not None)
+        kernels = diff
+    elif stat != "totdev":
+        phase = sstat.streamed_phase(increments, chunk)
+        kernels = sstat
     m2 = ms.astype(np.float64) ** 2
 
     if stat == "oadev":
         n = n_points - 2 * ms
-        var = diff.overlapping_sums(phase, ms, 2) / (2.0 * m2 * n)
+        var = kernels.overlapping_sums(phase, ms, 2) / (2.0 * m2 * n)
     elif stat == "adev":
-        sums, n = diff.strided_sums(phase, ms, 2)
+        sums, n = kernels.strided_sums(phase, ms, 2)
         var = sums / (2.0 * m2 * n)
     elif stat in ("mdev", "tdev"):
-        sums, n = diff.modified_sums(phase, ms)
+        sums, n = kernels.modified_sums(phase, ms)
         var = sums / (2.0 * m2 * m2 * n)
     elif stat == "hdev":
-        sums, n = diff.strided_sums(phase, ms, 3)
+        sums, n = kernels.strided_sums(phase, ms, 3)
         var = sums / (6.0 * m2 * n)
     elif stat == "ohdev":
         n = n_points - 3 * ms
-        var = diff.overlapping_sums(phase, ms, 3) / (6.0 * m2 * n)
+        var = kernels.overlapping_sums(phase, ms, 3) / (6.0 * m2 * n)
     else:  # totdev: reflect the record at both ends (SP 1065), i.e. time-reverse the rate
         pad = n_points - 2
-        extended = diff.anchored_phase(np.pad(u, pad, mode="symmetric"), shift=phase.shift)
         n = np.full(ms.size, n_points - 2, dtype=np.int64)
-        sums = diff.overlapping_sums(extended, ms, 2, starts=pad + 1 - ms, counts=n)
+        starts = pad + 1 - ms
+        if chunked:
+            # the reflected record is read through index arithmetic, never built
+            extended = sstat.streamed_phase(
+                sstat.ReflectedSource(increments, pad),
+                chunk,
+                shift=sstat.initial_shift(increments),
+            )
+            sums = sstat.overlapping_sums(extended, ms, 2, starts=starts, counts=n)
+        else:
+            extended = diff.anchored_phase(np.pad(u, pad, mode="symmetric"), shift=phase.shift)
+            sums = diff.overlapping_sums(extended, ms, 2, starts=starts, counts=n)
         var = sums / (2.0 * m2 * n)
     var = var * scale
     tau = ms * step
@@ -229,7 +300,10 @@ def deviation(
         edf_values, low, high = nan, nan.copy(), nan.copy()
     else:
         dmax = 3 if stat in ("hdev", "ohdev") else 2
-        alpha, id_notes = _noise_types(phase, ms, dmax)
+        if chunked:
+            alpha, id_notes = stream.noise_types(increments, ms, dmax, chunk_size=chunk)
+        else:
+            alpha, id_notes = _noise_types(phase, ms, dmax)
         notes = notes + id_notes
         edf_values = np.array(
             [edf_mod.edf(stat, int(a), int(m), n_points) for a, m in zip(alpha, ms, strict=True)]
@@ -250,7 +324,7 @@ def deviation(
         data_type=dtype,
         tau0=step,
         confidence=float("nan") if confidence is None else float(confidence),
-        n_samples=int(x.size),
+        n_samples=int(n_samples),
         units=units,
         notes=notes,
     )

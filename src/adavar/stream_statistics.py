@@ -1,0 +1,594 @@
+"""Whole-record Allan-family sums of a record read piece by piece (out of core).
+
+The twin of the sum kernels of :mod:`adavar.differences` for a
+:class:`~adavar.stream.ChunkedSource`. The integrated signal is the same anchored form
+(double-double anchors ``H[b]`` every ``BLOCK`` samples, a compensated local sum ``r`` inside
+each block, the same shift), but only the anchors (16 bytes per 1024 samples) are kept for
+the whole record: the local part is recomputed on demand over windows that slide along the
+record. Every difference is computed from the same ``H`` and ``r`` values as in memory, so
+the sums agree with :mod:`adavar.differences` to a few ulps whatever the chunk size.
+
+Passes over the record (``C`` the chunk size, ``K`` the difference order, ``N`` the length):
+
+* one to build the anchors (:func:`streamed_phase`);
+* overlapping differences: one sweep for every ``m`` with ``K m <= C`` (windows of
+  ``C + K m`` samples whose overlap is carried, not re-read), then per longer ``m`` ``K``
+  streams side by side, ``K (N - K m)`` samples read;
+* non-overlapping (strided) differences: one sweep for ``m <= C``, then one short read (at
+  most a block) per point ``q m`` for longer ``m``;
+* modified sums: as overlapping, with windows of ``C + 3 m`` and four streams for long ``m``.
+
+Working memory is a few ``C`` samples plus the anchors; every window read starts at most one
+block (1023 samples) before the samples it needs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from adavar import differences as diff
+from adavar._jit import jit, parallel_jit, prange
+from adavar.stream import DEFAULT_CHUNK, ChunkedSource, read_extended
+
+__all__ = [
+    "ReflectedSource",
+    "StreamedPhase",
+    "initial_shift",
+    "modified_sums",
+    "overlapping_sums",
+    "streamed_phase",
+    "strided_sums",
+]
+
+BLOCK = diff.BLOCK
+SHIFT = diff.SHIFT
+_MASK = BLOCK - 1
+_SUPERBLOCK = 1 << 14  # terms per parallel work item, as in differences
+_PARALLEL_MIN = 4 * _SUPERBLOCK  # shorter runs are not worth waking the thread pool
+
+_two_sum = diff._two_sum
+_dd_add = diff._dd_add
+_anchor_combo = diff._anchor_combo
+_segment_end = diff._segment_end
+
+
+# ---------------------------------------------------------------------------------------
+# the anchored phase, piece by piece (exact rounding: no fast-math here)
+
+
+@jit
+def _block_totals(u, u_first, shift, s, c, tot_h, tot_l):  # pragma: no cover - compiled
+    """Continue the compensated sum of ``u - shift`` (``u[0]`` is increment ``u_first``).
+
+    Restarts at every block start, and stores each finished block's total as double-double,
+    exactly as :func:`adavar.differences.anchored_phase` does. Returns the running state.
+    """
+    for q in range(u.size):
+        i = u_first + q
+        if i & _MASK == 0:
+            s = 0.0
+            c = 0.0
+        s, e = _two_sum(s, u[q] - shift)
+        c += e
+        if (i + 1) & _MASK == 0:
+            h = s + c
+            tot_h[i >> SHIFT] = h
+            tot_l[i >> SHIFT] = c - (h - s)
+    return s, c
+
+
+@jit
+def _anchors(tot_h, tot_l, hh, hl):  # pragma: no cover - compiled
+    ah = 0.0
+    al = 0.0
+    for b in range(hh.size):
+        hh[b] = ah
+        hl[b] = al
+        ah, al = _dd_add(ah, al, tot_h[b], tot_l[b])
+
+
+@jit
+def _advance(u, u_first, p, q, shift, s, c, out, out_first):  # pragma: no cover - compiled
+    """Local phase ``r[j]`` for ``j = p .. q - 1`` into ``out[j - out_first]`` (``j >= out_first``).
+
+    ``(s, c)`` is the compensated state at ``j = p - 1``; ``u[0]`` is increment ``u_first``.
+    Returns the state at ``q - 1``.
+    """
+    for j in range(p, q):
+        if j & _MASK == 0:
+            s = 0.0
+            c = 0.0
+            v = 0.0
+        else:
+            s, e = _two_sum(s, u[j - 1 - u_first] - shift)
+            c += e
+            v = s + c
+        if j >= out_first:
+            out[j - out_first] = v
+    return s, c
+
+
+@parallel_jit
+def _advance_blocks(u, u_first, p, q, shift, s, c, out, out_first):  # pragma: no cover
+    """:func:`_advance` with the whole blocks in parallel (each restarts at its start)."""
+    head = min(q, ((p + _MASK) >> SHIFT) << SHIFT)
+    s, c = _advance(u, u_first, p, head, shift, s, c, out, out_first)
+    nb = (q - head + _MASK) >> SHIFT
+    fs = np.empty(nb)
+    fc = np.empty(nb)
+    for k in prange(nb):
+        j0 = head + (k << SHIFT)
+        fs[k], fc[k] = _advance(u, u_first, j0, min(j0 + BLOCK, q), shift, 0.0, 0.0, out, out_first)
+    if nb > 0:
+        s = fs[nb - 1]
+        c = fc[nb - 1]
+    return s, c
+
+
+class StreamedPhase:
+    """The anchored integrated signal of a chunked record (see :class:`diff.AnchoredPhase`).
+
+    Parameters
+    ----------
+    source : ChunkedSource
+        The increments ``u`` (rate samples, or first differences of phase).
+    shift : float
+        Constant removed from every increment before summing.
+    hh, hl : ndarray
+        Anchors ``H[b] = S[b * BLOCK]`` as double-double.
+    chunk_size : int
+        Samples per piece.
+    """
+
+    __slots__ = ("chunk_size", "hh", "hl", "shift", "source")
+
+    def __init__(
+        self,
+        source: ChunkedSource,
+        shift: float,
+        hh: np.ndarray,
+        hl: np.ndarray,
+        chunk_size: int,
+    ) -> None:
+        self.source = source
+        self.shift = shift
+        self.hh = hh
+        self.hl = hl
+        self.chunk_size = chunk_size
+
+    @property
+    def n_points(self) -> int:
+        """Number of points of the integrated signal (increments + 1)."""
+        return int(self.source.size) + 1
+
+
+def initial_shift(source: ChunkedSource) -> float:
+    """The shift :func:`adavar.differences.anchored_phase` would choose: median of block 0."""
+    n = source.size
+    return float(np.median(source.read(0, min(n, BLOCK)))) if n else 0.0
+
+
+def streamed_phase(
+    source: ChunkedSource, chunk_size: int = DEFAULT_CHUNK, shift: float | None = None
+) -> StreamedPhase:
+    """Anchor the integral of ``source`` in one pass of ``chunk_size`` pieces.
+
+    Parameters
+    ----------
+    source : ChunkedSource
+        The increments.
+    chunk_size : int
+        Samples per read.
+    shift : float, optional
+        As in :func:`adavar.differences.anchored_phase`; default the median of block 0.
+    """
+    chunk = max(1, int(chunk_size))
+    if shift is None:
+        shift = initial_shift(source)
+    n = int(source.size)
+    nb = (n + BLOCK) >> SHIFT  # blocks of the n + 1 phase points
+    tot_h = np.zeros(nb)
+    tot_l = np.zeros(nb)
+    s = c = 0.0
+    for start in range(0, n, chunk):
+        u = source.read(start, min(n, start + chunk))
+        s, c = _block_totals(u, start, float(shift), s, c, tot_h, tot_l)
+    hh = np.empty(nb)
+    hl = np.empty(nb)
+    _anchors(tot_h, tot_l, hh, hl)
+    return StreamedPhase(source, float(shift), hh, hl, chunk)
+
+
+class _Window:
+    """Local phase ``r[lo:hi]`` over ranges that slide forward; the overlap is kept, not re-read."""
+
+    __slots__ = ("buf", "c", "lo", "p", "phase", "s")
+
+    def __init__(self, phase: StreamedPhase) -> None:
+        self.phase = phase
+        self.buf = np.empty(0)
+        self.lo = 0  # buf[k] holds r[lo + k] for lo + k < p
+        self.p = -1  # next point to compute; -1: nothing yet
+        self.s = 0.0  # compensated state at p - 1
+        self.c = 0.0
+
+    def get(self, lo: int, hi: int) -> np.ndarray:
+        """``r[lo:hi]`` as a view (valid until the next call)."""
+        keep = 0
+        if self.p < 0 or lo < self.lo or lo > self.p:
+            # start afresh at the block start: r restarts there
+            self.p = lo & ~_MASK
+            self.s = self.c = 0.0
+        else:
+            keep = self.p - lo
+            if lo > self.lo and keep > 0:
+                self.buf[:keep] = self.buf[lo - self.lo : self.p - self.lo]
+        self.lo = lo
+        if hi - lo > self.buf.size:
+            grown = np.empty(hi - lo)
+            grown[:keep] = self.buf[:keep]
+            self.buf = grown
+        if hi > self.p:
+            ph = self.phase
+            # r[p] needs increment p - 1, except at a block start
+            u_first = self.p if self.p & _MASK == 0 else self.p - 1
+            u = ph.source.read(u_first, hi - 1) if hi - 1 > u_first else np.empty(0)
+            kernel = _advance_blocks if hi - self.p >= _PARALLEL_MIN else _advance
+            self.s, self.c = kernel(u, u_first, self.p, hi, ph.shift, self.s, self.c, self.buf, lo)
+            self.p = hi
+        return self.buf[: hi - lo]
+
+
+# ---------------------------------------------------------------------------------------
+# overlapping differences: x_k[q] = r[lo + q + k m], k = 0..order
+
+
+@jit(fastmath=True)
+def _run_sq2(x0, x1, x2, c, a, b):  # pragma: no cover - compiled
+    y0 = x0[a:b]
+    y1 = x1[a:b]
+    y2 = x2[a:b]
+    acc = 0.0
+    for k in range(b - a):
+        v = c + ((y0[k] + y2[k]) - 2.0 * y1[k])
+        acc += v * v
+    return acc
+
+
+@jit(fastmath=True)
+def _run_sq3(x0, x1, x2, x3, c, a, b):  # pragma: no cover - compiled
+    y0 = x0[a:b]
+    y1 = x1[a:b]
+    y2 = x2[a:b]
+    y3 = x3[a:b]
+    acc = 0.0
+    for k in range(b - a):
+        v = c + ((y3[k] - y0[k]) + 3.0 * (y1[k] - y2[k]))
+        acc += v * v
+    return acc
+
+
+@jit(fastmath=True)
+def _run_fill2(x0, x1, x2, c, a, b, out):  # pragma: no cover - compiled
+    y0 = x0[a:b]
+    y1 = x1[a:b]
+    y2 = x2[a:b]
+    o = out[a:b]
+    for k in range(b - a):
+        o[k] = c + ((y0[k] + y2[k]) - 2.0 * y1[k])
+
+
+@jit
+def _sq_range(x0, x1, x2, x3, lo, hi, q0, q1, m, hh, hl, coefs):  # pragma: no cover - compiled
+    """Sum of squared differences at ``i = lo + q0 .. lo + q1 - 1``."""
+    acc = 0.0
+    i = lo + q0
+    end = lo + q1
+    while i < end:
+        e = _segment_end(i, end, m, coefs.size)
+        c = _anchor_combo(hh, hl, i, m, coefs)
+        if coefs.size == 3:
+            acc += _run_sq2(x0, x1, x2, c, i - lo, e - lo)
+        else:
+            acc += _run_sq3(x0, x1, x2, x3, c, i - lo, e - lo)
+        i = e
+    return acc
+
+
+@jit
+def _sq_sum(x0, x1, x2, x3, lo, hi, m, hh, hl, coefs):  # pragma: no cover - compiled
+    return _sq_range(x0, x1, x2, x3, lo, hi, 0, hi - lo, m, hh, hl, coefs)
+
+
+@parallel_jit
+def _sq_sum_parallel(x0, x1, x2, x3, lo, hi, m, hh, hl, coefs):  # pragma: no cover - compiled
+    n = hi - lo
+    nsb = (n + _SUPERBLOCK - 1) // _SUPERBLOCK
+    partial = np.zeros(nsb)
+    for sb in prange(nsb):
+        q0 = sb * _SUPERBLOCK
+        partial[sb] = _sq_range(
+            x0, x1, x2, x3, lo, hi, q0, min(q0 + _SUPERBLOCK, n), m, hh, hl, coefs
+        )
+    return np.sum(partial)
+
+
+@jit
+def _fill2(x0, x1, x2, lo, hi, m, hh, hl, out):  # pragma: no cover - compiled
+    """``out[i - lo] = S[i] - 2 S[i+m] + S[i+2m]`` for ``i`` in ``[lo, hi)``."""
+    coefs = diff.SECOND
+    i = lo
+    while i < hi:
+        e = _segment_end(i, hi, m, 3)
+        c = _anchor_combo(hh, hl, i, m, coefs)
+        _run_fill2(x0, x1, x2, c, i - lo, e - lo, out)
+        i = e
+
+
+def _squares(xs, lo, hi, m, phase, coefs) -> float:
+    x3 = xs[3] if len(xs) > 3 else xs[2]
+    kernel = _sq_sum_parallel if hi - lo >= _PARALLEL_MIN else _sq_sum
+    return float(kernel(xs[0], xs[1], xs[2], x3, lo, hi, m, phase.hh, phase.hl, coefs))
+
+
+def overlapping_sums(
+    phase: StreamedPhase,
+    ms: np.ndarray,
+    order: int,
+    starts: np.ndarray | None = None,
+    counts: np.ndarray | None = None,
+) -> np.ndarray:
+    """Sums of squared overlapping differences of ``order`` 2 or 3 at each ``m``.
+
+    Same contract as :func:`adavar.differences.overlapping_sums`.
+    """
+    ms = np.asarray(ms, dtype=np.int64)
+    coefs = diff.SECOND if order == 2 else diff.THIRD
+    npts = phase.n_points
+    starts = np.zeros_like(ms) if starts is None else np.asarray(starts, dtype=np.int64)
+    counts = npts - order * ms if counts is None else np.asarray(counts, dtype=np.int64)
+    if np.any(counts < 1) or np.any(starts < 0):
+        raise ValueError("internal: empty or out-of-range difference sum")
+    if np.any(starts + counts - 1 + order * ms >= npts):
+        raise ValueError("internal: difference sum runs past the data")
+    chunk = phase.chunk_size
+    sums = np.zeros(ms.size)
+    ends = starts + counts
+    small = np.flatnonzero(order * ms <= chunk)
+    if small.size:
+        # one sweep: a window of C + order * max(m) points serves every short m. It starts
+        # on a block boundary, so the in-memory kernel (fused over taus, parallel) runs on
+        # it as it is, with the anchors from that block on.
+        reach = int(order * ms[small].max())
+        window = _Window(phase)
+        first, last = int(starts[small].min()), int(ends[small].max())
+        for a in range(first, last, chunk):
+            b = min(a + chunk, last)
+            base = a & ~_MASK
+            i0 = np.maximum(a, starts[small])
+            i1 = np.minimum(b, ends[small])
+            live = i1 > i0
+            if not live.any():
+                continue
+            x = window.get(base, min(b + reach, npts))
+            if b - a >= _SUPERBLOCK:
+                blk = base >> SHIFT
+                sums[small[live]] += diff._overlapping_sums(
+                    x, phase.hh[blk:], phase.hl[blk:], ms[small][live],
+                    i0[live] - base, (i1 - i0)[live], coefs,
+                )  # fmt: skip
+                continue
+            # short pieces: tau by tau, without waking the thread pool
+            for t, lo, hi in zip(small[live], i0[live], i1[live], strict=True):
+                m = int(ms[t])
+                xs = [x[lo - base + k * m : hi - base + k * m] for k in range(order + 1)]
+                sums[t] += _squares(xs, int(lo), int(hi), m, phase, coefs)
+    piece = max(1, chunk // (order + 1))
+    for t in np.flatnonzero(order * ms > chunk):
+        # order + 1 streams side by side, one per point of the difference
+        m = int(ms[t])
+        windows = [_Window(phase) for _ in range(order + 1)]
+        for a in range(int(starts[t]), int(ends[t]), piece):
+            b = min(a + piece, int(ends[t]))
+            xs = [w.get(a + k * m, b + k * m) for k, w in enumerate(windows)]
+            sums[t] += _squares(xs, a, b, m, phase, coefs)
+    return sums
+
+
+# ---------------------------------------------------------------------------------------
+# non-overlapping differences: points q m only
+
+
+@jit
+def _strided_run(vals, q_first, q_end, m, hh, hl, coefs, acc):  # pragma: no cover - compiled
+    """Add the squared differences ``q_first .. q_end - 1``; ``vals[k] = r[(q_first + k) m]``.
+
+    Term by term as :func:`adavar.differences._strided_sums` (same order, same rounding).
+    """
+    for q in range(q_first, q_end):
+        local = 0.0
+        for k in range(coefs.size):
+            local += coefs[k] * vals[q - q_first + k]
+        v = _anchor_combo(hh, hl, q * m, m, coefs) + local
+        acc += v * v
+    return acc
+
+
+class _StridedSum:
+    """Running sum of one ``m``'s non-overlapping differences, fed points in order."""
+
+    __slots__ = ("acc", "coefs", "count", "m", "phase", "q_next", "tail")
+
+    def __init__(self, phase: StreamedPhase, m: int, count: int, coefs: np.ndarray) -> None:
+        self.phase, self.m, self.count, self.coefs = phase, m, count, coefs
+        self.acc = 0.0
+        self.q_next = 0  # next difference to add; tail holds r at q_next * m, ...
+        self.tail = np.empty(0)
+
+    def feed(self, values: np.ndarray) -> None:
+        vals = np.concatenate([self.tail, values])
+        q_end = min(self.count, self.q_next + vals.size - self.coefs.size + 1)
+        if q_end > self.q_next:
+            ph = self.phase
+            self.acc = _strided_run(
+                vals, self.q_next, q_end, self.m, ph.hh, ph.hl, self.coefs, self.acc
+            )
+        self.tail = vals[max(0, q_end - self.q_next) :]
+        self.q_next = max(self.q_next, q_end)
+
+
+def strided_sums(phase: StreamedPhase, ms: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sums of squared non-overlapping differences (stride ``m``); returns (sums, counts)."""
+    ms = np.asarray(ms, dtype=np.int64)
+    coefs = diff.SECOND if order == 2 else diff.THIRD
+    npts = phase.n_points
+    counts = (npts - 1) // ms - order + 1
+    if np.any(counts < 1):
+        raise ValueError("internal: empty difference sum")
+    chunk = phase.chunk_size
+    acc = [_StridedSum(phase, int(m), int(c), coefs) for m, c in zip(ms, counts, strict=True)]
+    last_point = ((npts - 1) // ms) * ms  # the last point each m needs
+    small = np.flatnonzero(ms <= chunk)
+    if small.size:
+        window = _Window(phase)
+        stop = int(last_point[small].max()) + 1
+        for a in range(0, stop, chunk):
+            b = min(a + chunk, stop)
+            x = window.get(a, b)
+            for t in small:
+                m = int(ms[t])
+                j0 = -(-a // m) * m
+                j1 = min(b - 1, int(last_point[t]))
+                if j0 <= j1:
+                    acc[t].feed(x[j0 - a : j1 - a + 1 : m])
+    for t in np.flatnonzero(ms > chunk):
+        # at most N / C points: a short read (within one block) for each
+        m = int(ms[t])
+        window = _Window(phase)
+        points = range(0, int(last_point[t]) + 1, m)
+        for p0 in range(0, len(points), chunk):
+            batch = points[p0 : p0 + chunk]
+            acc[t].feed(np.array([window.get(j, j + 1)[0] for j in batch]))
+    return np.array([a.acc for a in acc]), counts
+
+
+# ---------------------------------------------------------------------------------------
+# modified Allan: sliding m-term sums of second differences
+
+
+@jit
+def _accumulate(d, n, s, c):  # pragma: no cover - compiled
+    for k in range(n):
+        s, e = _two_sum(s, d[k])
+        c += e
+    return s, c
+
+
+@jit
+def _slide(enter, leave, n, s, c, acc):  # pragma: no cover - compiled
+    """The sliding step of :func:`adavar.differences._modified_sums`, for ``n`` starts."""
+    for q in range(n):
+        s, e = _two_sum(s, enter[q])
+        c += e
+        s, e = _two_sum(s, -leave[q])
+        c += e
+        v = s + c
+        acc += v * v
+    return s, c, acc
+
+
+def modified_sums(phase: StreamedPhase, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """MVAR numerators ``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2``; returns (sums, counts).
+
+    Window sum ``j`` is built from ``j - 1`` by adding ``d[j + m - 1]`` and removing
+    ``d[j - 1]`` with a compensated running total carried from piece to piece, the same
+    sequence of operations as :func:`adavar.differences.modified_sums`.
+    """
+    ms = np.asarray(ms, dtype=np.int64)
+    npts = phase.n_points
+    counts = npts - 3 * ms + 1
+    if np.any(counts < 1):
+        raise ValueError("internal: empty difference sum")
+    chunk = phase.chunk_size
+    hh, hl = phase.hh, phase.hl
+    sums = np.zeros(ms.size)
+    state = np.zeros((ms.size, 2))  # (s, c) of each running window sum
+
+    small = np.flatnonzero(3 * ms <= chunk)
+    if small.size:
+        reach = int(3 * ms[small].max())
+        enter, leave = np.empty(chunk), np.empty(chunk)
+        window = _Window(phase)
+        x = window.get(0, min(chunk + reach, npts))
+        for t in small:  # window sum j = 0
+            m = int(ms[t])
+            _fill2(x[:m], x[m : 2 * m], x[2 * m : 3 * m], 0, m, m, hh, hl, leave)
+            s, c = _accumulate(leave, m, 0.0, 0.0)
+            state[t] = s, c
+            sums[t] = (s + c) ** 2
+        last = int(counts[small].max())
+        for a in range(1, last, chunk):
+            # starts j in [a, b): d[j - 1] leaves, d[j + m - 1] enters
+            b = min(a + chunk, last)
+            x = window.get(a - 1, min(b - 1 + reach, npts))
+            for t in small:
+                m = int(ms[t])
+                bt = min(b, int(counts[t]))
+                if a >= bt:
+                    continue
+                n = bt - a
+                xs = [x[k * m : k * m + n] for k in range(4)]
+                _fill2(xs[0], xs[1], xs[2], a - 1, bt - 1, m, hh, hl, leave)
+                _fill2(xs[1], xs[2], xs[3], a + m - 1, bt + m - 1, m, hh, hl, enter)
+                s, c, sums[t] = _slide(enter, leave, n, state[t, 0], state[t, 1], sums[t])
+                state[t] = s, c
+
+    piece = max(1, chunk // 4)
+    enter, leave = np.empty(piece), np.empty(piece)
+    for t in np.flatnonzero(3 * ms > chunk):
+        m, count = int(ms[t]), int(counts[t])
+        windows = [_Window(phase) for _ in range(4)]
+        s = c = 0.0
+        for a in range(0, m, piece):  # window sum j = 0, streamed
+            b = min(a + piece, m)
+            xs = [w.get(a + k * m, b + k * m) for k, w in enumerate(windows[:3])]
+            _fill2(xs[0], xs[1], xs[2], a, b, m, hh, hl, leave)
+            s, c = _accumulate(leave, b - a, s, c)
+        acc = (s + c) ** 2
+        for a in range(1, count, piece):
+            b = min(a + piece, count)
+            xs = [w.get(a - 1 + k * m, b - 1 + k * m) for k, w in enumerate(windows)]
+            _fill2(xs[0], xs[1], xs[2], a - 1, b - 1, m, hh, hl, leave)
+            _fill2(xs[1], xs[2], xs[3], a + m - 1, b + m - 1, m, hh, hl, enter)
+            s, c, acc = _slide(enter, leave, b - a, s, c, acc)
+        sums[t] = acc
+    return sums, counts
+
+
+# ---------------------------------------------------------------------------------------
+# the reflected record of the total deviation
+
+
+class ReflectedSource(ChunkedSource):
+    """A record extended by time reversal at both ends (``numpy.pad(..., "symmetric")``).
+
+    Parameters
+    ----------
+    source : ChunkedSource
+        The record.
+    pad : int
+        Samples added at each end (at most the record's length).
+    """
+
+    def __init__(self, source: ChunkedSource, pad: int) -> None:
+        if not 0 <= pad <= source.size:
+            raise ValueError("internal: reflection longer than the record")
+        self.source = source
+        self.pad = int(pad)
+        self.size = int(source.size) + 2 * self.pad
+        self.name = source.name
+
+    def _read_raw(self, start: int, stop: int) -> np.ndarray:
+        if stop <= start:
+            return np.empty(0)
+        return read_extended(self.source, start, stop, self.pad)
