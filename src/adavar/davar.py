@@ -17,7 +17,8 @@ window. Centres far apart (``step`` larger than the window) are summed directly 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numba
 import numpy as np
@@ -26,6 +27,8 @@ from scipy.stats import chi2
 
 from adavar import differences as diff
 from adavar import edf as edf_mod
+from adavar import stream
+from adavar._jit import get_num_threads, jit
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.statistics import _DATA_TYPE_ALIASES, _noise_types, as_samples, resolve_tau0
@@ -119,16 +122,18 @@ def _check_memory(n_centres: int, n_taus: int, n_arrays: int) -> None:
 
 
 def _noise_alpha(
-    noise_type: str | int | Sequence[int], increments: np.ndarray, ms: np.ndarray
+    noise_type: str | int | Sequence[int],
+    ms: np.ndarray,
+    identify: Callable[[], tuple[np.ndarray, tuple[str, ...]]],
 ) -> tuple[np.ndarray, tuple[str, ...]]:
+    """alpha per tau: ``identify()`` on the record for ``"record"``, else the caller's."""
     if isinstance(noise_type, str):
         if noise_type != "record":
             raise AdavarInputError(
                 f"unknown noise_type {noise_type!r}: use 'record', an integer alpha "
                 "(2 white PM .. -2 random-walk FM) or one alpha per tau"
             )
-        record = diff.anchored_phase(increments, cluster_stats=True)
-        return _noise_types(record, ms, 2)
+        return identify()
     alpha = np.atleast_1d(np.asarray(noise_type))
     if not np.issubdtype(alpha.dtype, np.integer) or alpha.ndim != 1:
         raise AdavarInputError("noise_type must be 'record', an integer, or integers per tau")
@@ -150,8 +155,107 @@ def _chunk_size(n_centres: int, longest: int, step: int) -> int:
     return int(max(64, min(chunk, per_thread)))
 
 
+#: a gap this long (samples) between a group's windows and the next starts a new group
+GROUP_GAP = 1 << 16
+
+
+@jit
+def _centre_groups(centres, lengths, offset, span, gap):  # pragma: no cover - compiled
+    """Groups of consecutive centres for the out-of-core path.
+
+    A group's windows span at most ``span`` samples of the extended record together (a
+    single window may be longer), and a window that starts more than ``gap`` samples after
+    the group's end starts a new group (sparse centres are read window by window). Returns
+    ``(bounds, lo, hi)``: group ``g`` holds centres ``bounds[g] .. bounds[g+1] - 1`` and
+    reads extended samples ``lo[g] .. hi[g] - 1``.
+    """
+    nc = centres.size
+    bounds = np.empty(nc + 1, dtype=np.int64)
+    los = np.empty(nc, dtype=np.int64)
+    his = np.empty(nc, dtype=np.int64)
+    ng = 0
+    c = 0
+    while c < nc:
+        lo = centres[c] - (lengths[c] - 1) // 2 + offset
+        hi = lo + lengths[c]
+        c1 = c + 1
+        while c1 < nc:
+            a = centres[c1] - (lengths[c1] - 1) // 2 + offset
+            new_lo = min(lo, a)
+            new_hi = max(hi, a + lengths[c1])
+            if new_hi - new_lo > span or a > hi + gap:
+                break
+            lo = new_lo
+            hi = new_hi
+            c1 += 1
+        bounds[ng] = c
+        los[ng] = lo
+        his[ng] = hi
+        ng += 1
+        c = c1
+    bounds[ng] = nc
+    return bounds[: ng + 1].copy(), los[:ng].copy(), his[:ng].copy()
+
+
+def _chunked_avar(
+    source: stream.ChunkedSource, sched: Any, ms: np.ndarray, scale: float, chunk: int
+) -> np.ndarray:
+    """:func:`adavar.differences.window_avar` over groups of centres read piece by piece.
+
+    Each group's span of the mirror-extended record, widened back to the anchor block it
+    starts in, is read and integrated with the shift of the in-memory integration (the
+    median of the extended record's first block): the local sums are those of the in-memory
+    integral, bit for bit, so even a level far from the shift costs the same digits. The
+    window kernel then writes the group's rows of the output in place.
+    """
+    pad = sched.pad_before
+    n_ext = source.size + pad + sched.pad_after
+    shift = float(np.median(stream.read_extended(source, 0, min(diff.BLOCK, n_ext), pad)))
+    centre, length = sched.centre, sched.length
+    bounds, los, his = _centre_groups(centre, length, pad, int(chunk), GROUP_GAP)
+    out = np.empty((centre.size, ms.size))
+    for g in range(los.size):
+        c0, c1, hi = int(bounds[g]), int(bounds[g + 1]), int(his[g])
+        # from an anchor of the in-memory integration on: the same blocks, the same sums
+        lo = int(los[g]) // diff.BLOCK * diff.BLOCK
+        with stream.threads_for(max(hi - lo, (c1 - c0) * ms.size)):  # the group's work
+            phase = diff.anchored_phase(stream.read_extended(source, lo, hi, pad), shift=shift)
+            lengths = length[c0:c1]
+            per = _chunk_size(c1 - c0, int(lengths.max()), sched.step)
+            workers = int(min(get_num_threads(), -(-(c1 - c0) // per)))
+            # the kernel writes straight into this group's rows: no per-group output copy
+            diff._window_avar(
+                phase.r, phase.hh, phase.hl, ms, centre[c0:c1], lengths, pad - lo, per, workers,
+                float(scale), out[c0:c1], diff.SECOND,
+            )  # fmt: skip
+        del phase
+    return out
+
+
+def _chunk_option(chunk_size: Any) -> int:
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
+        raise AdavarInputError(f"chunk_size must be a positive integer, got {chunk_size!r}")
+    if chunk_size < 1:
+        raise AdavarInputError(f"chunk_size must be a positive integer, got {chunk_size!r}")
+    return int(chunk_size)
+
+
+def _open_source(data: Any, min_length: int) -> stream.ChunkedSource:
+    """The record as a chunked source, checked like :func:`adavar.statistics.as_samples`."""
+    source = stream.as_source(data)
+    if isinstance(source, stream.ArraySource) and source.array.ndim != 1:
+        raise AdavarInputError(
+            f"data must be one channel (1-D); got shape {np.shape(data)}: pass one column"
+        )
+    if source.size < min_length:
+        raise AdavarInputError(
+            f"the record has {source.size} samples; at least {min_length} are needed"
+        )
+    return source
+
+
 def davar(
-    data: Sequence[float] | np.ndarray,
+    data: Sequence[float] | np.ndarray | stream.ChunkedSource | Any,
     *,
     window: int | Sequence[int] | np.ndarray,
     rate: float = 1.0,
@@ -165,13 +269,17 @@ def davar(
     points_per_decade: int = 10,
     noise_type: str | int | Sequence[int] = "record",
     units: str | None = None,
+    chunk_size: int | None = None,
 ) -> DavarResult:
     """Dynamic Allan variance: the overlapping Allan variance of a sliding window.
 
     Parameters
     ----------
-    data : array_like
-        The record, one sample per ``tau0``.
+    data : array_like, ChunkedSource, dask.array.Array or numpy.memmap
+        The record, one sample per ``tau0``. A :class:`adavar.stream.ChunkedSource`, a 1-D
+        ``dask.array`` or a memory map of a ``.npy`` file (``numpy.load(path,
+        mmap_mode="r")``, read back with file reads, not through the map) is processed out
+        of core (see ``chunk_size``).
     window : int or array_like of int
         Window length in samples: an int for a fixed window (DAVAR-L), or one length per
         sample of the record (any schedule, e.g. the adaptive controller's), or one per
@@ -215,6 +323,21 @@ def davar(
         Declared unit of the *rate* (e.g. ``"deg/s"``; for phase input the unit of its
         derivative: angle in deg gives ``"deg/s"``), carried to the fit's unit conversions
         and the figures. Never guessed.
+    chunk_size : int, optional
+        Process out of core, reading about this many samples at a time. Default: in memory
+        for an array, :data:`adavar.stream.DEFAULT_CHUNK` (4 Mi samples) for a chunked
+        input. Consecutive centres are grouped so that their windows span about
+        ``chunk_size`` samples of the mirror-extended record (one window when a window is
+        longer; centres further apart than 65536 samples are read window by window); each
+        group's span is read, integrated with the shift of the in-memory integration and
+        handed to the same kernel. The noise identification (``noise_type="record"``)
+        reads the record twice more in pieces of ``chunk_size``
+        (:func:`adavar.stream.noise_types`). The result equals the in-memory one to
+        rounding (1e-15 relative in practice), with the same schedule, alpha and EDFs, for
+        any ``chunk_size``. Held in memory: the output (``N_centres x M`` values and the
+        per-centre centres, lengths and classes), one piece and its integral (about 4 x 8
+        bytes per sample of ``max(chunk_size, longest window)``), and for phase input one
+        more copy of the piece.
 
     Returns
     -------
@@ -232,7 +355,10 @@ def davar(
     -----
     Cost O(N_centres * M) after an O(N) integration, independent of the window length,
     parallel over chunks of centres. ``davar(x, window=L, edges="valid")`` at a centre
-    equals ``adavar.deviation(x[a:a+L], stat="oadev")`` to rounding.
+    equals ``adavar.deviation(x[a:a+L], stat="oadev")`` to rounding. Out of core the
+    record is read about three times (twice for the noise identification, once for the
+    windows: only their spans, so a sparse ``step`` reads little) and the cost is that of
+    the in-memory path plus the reads.
     """
     dtype = _DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
@@ -244,20 +370,36 @@ def davar(
     except (TypeError, ValueError):
         raise AdavarInputError(f"t0 must be a number of seconds, got {t0!r}") from None
     dt = resolve_tau0(rate, tau0)
-    x = as_samples(data, min_length=4 if dtype == "phase" else 3)
-    u = x if dtype == "rate" else np.diff(x)
+    min_length = 4 if dtype == "phase" else 3
     scale = 1.0 if dtype == "rate" else 1.0 / dt**2
+    chunked = chunk_size is not None or stream.is_chunked(data)
+    if chunked:
+        chunk = stream.DEFAULT_CHUNK if chunk_size is None else _chunk_option(chunk_size)
+        source = _open_source(data, min_length)
+        n_samples = source.size
+        increments = source if dtype == "rate" else stream.DifferencedSource(source)
+        n = increments.size
+    else:
+        x = as_samples(data, min_length=min_length)
+        u = x if dtype == "rate" else np.diff(x)
+        n_samples, n = x.size, u.size
 
-    sched = window_schedule(u.size, window, edges=edges, step=step)
+    sched = window_schedule(n, window, edges=edges, step=step)
     longest = int(sched.length.max())
     ms, notes = averaging_factors(taus, longest // 3, dt, points_per_decade=points_per_decade)
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
     _check_memory(sched.centre.size, ms.size, 1)
+
+    def identify() -> tuple[np.ndarray, tuple[str, ...]]:
+        if chunked:
+            return stream.noise_types(increments, ms, 2, chunk_size=chunk)
+        return _noise_types(diff.anchored_phase(u, cluster_stats=True), ms, 2)
 
     bounds = table = window_class = None
     if confidence is None:
         alpha = np.full(ms.size, -1, dtype=np.int64)
     else:
-        alpha, id_notes = _noise_alpha(noise_type, u, ms)
+        alpha, id_notes = _noise_alpha(noise_type, ms, identify)
         notes = notes + id_notes
         # lengths are small integers: classes by a lookup table, not a sort of N values
         present = np.bincount(sched.length) > 0
@@ -266,11 +408,14 @@ def davar(
         table = edf_table(distinct, ms, alpha)
         bounds = np.stack(_bound_factors(table, float(confidence)))
 
-    phase = diff.anchored_phase(sched.extend(u))
-    avar = diff.window_avar(
-        phase, ms, sched.centre, sched.length, offset=sched.pad_before, scale=scale,
-        chunk=_chunk_size(sched.centre.size, longest, sched.step),
-    )  # fmt: skip
+    if chunked:
+        avar = _chunked_avar(increments, sched, ms, scale, chunk)
+    else:
+        phase = diff.anchored_phase(sched.extend(u))
+        avar = diff.window_avar(
+            phase, ms, sched.centre, sched.length, offset=sched.pad_before, scale=scale,
+            chunk=_chunk_size(sched.centre.size, longest, sched.step),
+        )  # fmt: skip
     return DavarResult(
         # dividing by an integral rate rounds once: 3999 / 10 is 399.9, 3999 * 0.1 is not
         time=t0 + (sched.centre * dt if tau0 is not None else sched.centre / float(rate)),
@@ -285,7 +430,7 @@ def davar(
         edges=sched.edges,
         step=sched.step,
         confidence=float("nan") if confidence is None else float(confidence),
-        n_samples=int(x.size),
+        n_samples=int(n_samples),
         units=units,
         notes=notes,
         edf_table=table,

@@ -21,11 +21,18 @@ names its sample.
 from __future__ import annotations
 
 import os
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+import numba
 import numpy as np
 
+from adavar import differences as diff
+from adavar import edf as edf_mod
+from adavar._jit import jit
+from adavar.differences import SHIFT, _cluster_sum, _dd_add
 from adavar.errors import AdavarInputError
 
 __all__ = [
@@ -39,11 +46,16 @@ __all__ = [
     "ParquetSource",
     "as_source",
     "is_chunked",
+    "memmap_source",
+    "noise_types",
     "read_extended",
+    "threads_for",
 ]
 
 #: samples per piece by default: 32 MiB of float64, a few times that in working memory
 DEFAULT_CHUNK = 1 << 22
+#: pieces shorter than this are integrated on the calling thread only
+PARALLEL_MIN = 1 << 16
 
 
 class ChunkedSource:
@@ -88,10 +100,17 @@ class ChunkedSource:
         if not finite.all():
             first = int(np.argmin(finite))
             raise AdavarInputError(
-                f"sample {start + first} of {self.name} is {out[first]!r}: remove or "
+                f"sample {start + first} of {self.name} is {float(out[first])}: remove or "
                 "interpolate non-finite samples first"
             )
         return out
+
+    ndim = 1
+
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> np.ndarray:
+        """The whole record in memory (for code paths that need it; they say so)."""
+        out = self.read(0, self.size)
+        return out if dtype is None else out.astype(dtype, copy=False)
 
     def chunks(self, chunk_size: int = DEFAULT_CHUNK):
         """Yield ``(start, samples)`` over the whole record."""
@@ -176,13 +195,16 @@ class NpyFileSource(ChunkedSource):
         self.offset = int(offset)
 
     def _read_raw(self, start: int, stop: int) -> np.ndarray:
-        count = (stop - start) * self.stride
+        if stop == start:
+            return np.empty(0, dtype=self.dtype)
+        # from this channel's first sample to its last: no trailing row past the file's end
+        count = (stop - start - 1) * self.stride + 1
         with open(self.path, "rb") as fh:
-            fh.seek(self.offset + start * self.stride * self.dtype.itemsize)
+            fh.seek(self.offset + (start * self.stride + self.column) * self.dtype.itemsize)
             raw = np.fromfile(fh, dtype=self.dtype, count=count)
         if raw.size != count:
             raise AdavarInputError(f"{self.path.name} is shorter than its header says: re-save it")
-        return raw if self.stride == 1 else raw[self.column :: self.stride]
+        return raw if self.stride == 1 else raw[:: self.stride]
 
 
 class DaskSource(ChunkedSource):
@@ -326,15 +348,44 @@ def is_chunked(data: Any) -> bool:
 
 
 def _memmap_file(data: Any) -> NpyFileSource | None:
-    """A file source for a read-only-able memory map of a ``.npy`` file, or None."""
+    """A file source for a 1-D view of a file memory map (any offset and stride), or None.
+
+    ``np.load(..., mmap_mode="r")`` gives such maps, and a column of a 2-D one is a strided
+    view of the same map; both are read back with file reads at the view's own position.
+    """
     if not isinstance(data, np.memmap) or getattr(data, "filename", None) is None:
         return None
-    base = data
-    # np.load(mmap_mode=...) views: a 1-D map, or a column of a C-ordered 2-D map
-    if base.ndim == 1 and base.flags.c_contiguous:
-        offset = int(getattr(base, "offset", 0))
-        return NpyFileSource(base.filename, offset=offset, shape=base.shape, dtype=base.dtype)
-    return None
+    mm = getattr(data, "_mmap", None)
+    if mm is None or data.ndim != 1 or data.size == 0:
+        return None
+    itemsize = data.dtype.itemsize
+    stride = data.strides[0]
+    if stride <= 0 or stride % itemsize:
+        return None
+    try:
+        base = np.frombuffer(mm, dtype=np.uint8).__array_interface__["data"][0]
+    except (TypeError, ValueError):  # pragma: no cover - a closed or exotic map
+        return None
+    # np.memmap maps from the allocation-granularity boundary below its offset
+    import mmap
+
+    start = int(data.offset) - int(data.offset) % mmap.ALLOCATIONGRANULARITY
+    position = start + data.__array_interface__["data"][0] - base
+    src = NpyFileSource.__new__(NpyFileSource)
+    src.path = Path(data.filename)
+    src.name = src.path.name
+    src.size = int(data.size)
+    src.dtype = data.dtype
+    src.offset = int(position)
+    src.stride = stride // itemsize
+    src.column = 0
+    _check_numeric(np.empty(0, dtype=data.dtype), src.name)
+    return src
+
+
+def memmap_source(data: Any) -> NpyFileSource | None:
+    """The file behind a 1-D :class:`numpy.memmap` view, read with file reads; None otherwise."""
+    return _memmap_file(data)
 
 
 def as_source(data: Any, *, name: str = "record") -> ChunkedSource:
@@ -357,9 +408,7 @@ def as_source(data: Any, *, name: str = "record") -> ChunkedSource:
     return ArraySource(data, name=name)
 
 
-def read_extended(
-    source: ChunkedSource, start: int, stop: int, pad_before: int
-) -> np.ndarray:
+def read_extended(source: ChunkedSource, start: int, stop: int, pad_before: int) -> np.ndarray:
     """Samples ``start .. stop - 1`` of the record extended by time reversal at both ends.
 
     Index ``e`` of the extended record is sample ``e - pad_before`` of the record, mirrored
@@ -377,3 +426,396 @@ def read_extended(
     idx = np.where(idx >= n, 2 * n - 1 - idx, idx)
     first, last = int(idx.min()), int(idx.max())
     return source.read(first, last + 1)[idx - first]
+
+
+@contextmanager
+def threads_for(size: int) -> Iterator[None]:
+    """Run the parallel kernels on one thread for a piece of fewer than PARALLEL_MIN samples.
+
+    Waking the thread pool costs microseconds on an idle machine but milliseconds on a
+    busy one (a descheduled worker holds up the barrier), far more than a short piece's
+    arithmetic; out-of-core paths with many short pieces would pay it every time.
+    """
+    if size >= PARALLEL_MIN:
+        yield
+        return
+    previous = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(previous)
+
+
+# ---------------------------------------------------------------------------------------
+# noise identification out of core: the lag-1 statistics of the cluster sums, streamed
+
+#: a lag-1 series of at most this many cluster sums is collected whole in the first pass
+SMALL_SERIES = 4096
+
+
+@jit
+def _straddling_sum(r, hh, hl, j1, carry):  # pragma: no cover - compiled
+    """A cluster that began in an earlier piece and ends at ``j1``: the carry plus ``S[j1]``
+    of the piece's own anchored phase (``S[0] = 0``)."""
+    b = j1 >> SHIFT
+    zh, zl = _dd_add(carry[0], carry[1], hh[b], hl[b])
+    zh, zl = _dd_add(zh, zl, r[j1], 0.0)
+    return zh + zl
+
+
+@jit
+def _carry_to_end(r, hh, hl, p0, p1, m, k, count, carry):  # pragma: no cover - compiled
+    """The part of cluster ``k`` (open at ``p1``) summed so far, as a double-double."""
+    if k >= count or k * m >= p1:
+        carry[0] = 0.0
+        carry[1] = 0.0
+        return
+    npl = p1 - p0
+    b1 = npl >> SHIFT
+    if k * m >= p0:  # it began in this piece
+        j0 = k * m - p0
+        b0 = j0 >> SHIFT
+        dh, dl = _dd_add(hh[b1], hl[b1], -hh[b0], -hl[b0])
+        ch, cl = _dd_add(dh, dl, r[npl] - r[j0], 0.0)
+    else:
+        ch, cl = _dd_add(carry[0], carry[1], hh[b1], hl[b1])
+        ch, cl = _dd_add(ch, cl, r[npl], 0.0)
+    carry[0] = ch
+    carry[1] = cl
+
+
+@jit
+def _line_moments(zs, nz, k0, count, mom, head, tail):  # pragma: no cover - compiled
+    """First pass: sum z, sum (k - kc) z, max |z|; the first and last four values."""
+    kc = 0.5 * (count - 1)
+    s1 = 0.0
+    st = 0.0
+    zmax = mom[2]
+    for q in range(nz):
+        z = zs[q]
+        s1 += z
+        st += (k0 + q - kc) * z
+        zmax = max(zmax, abs(z))
+    mom[0] += s1
+    mom[1] += st
+    mom[2] = zmax
+    for k in range(k0, min(k0 + nz, 4)):
+        head[k] = zs[k - k0]
+    for k in range(max(k0, count - 4), k0 + nz):
+        tail[k - (count - 4)] = zs[k - k0]
+
+
+@jit
+def _lag_moments(zs, nz, k0, a, b, count, q, acc):  # pragma: no cover - compiled
+    """Second pass: per difference order 0..3 of the detrended series, sum x, sum x^2 and
+    sum x_{k-1} x_k, carrying the last values ``q`` (the sums of ``_cluster_lag1_sums``)."""
+    kc = 0.5 * (count - 1)
+    q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
+    a0 = a1 = a2 = a3 = 0.0
+    b0 = b1 = b2 = b3 = 0.0
+    c0 = c1 = c2 = c3 = 0.0
+    for i in range(nz):
+        k = k0 + i
+        x0 = zs[i] - (a + b * (k - kc))
+        x1 = x0 - q0
+        x2 = x1 - q1
+        x3 = x2 - q2
+        a0 += x0
+        b0 += x0 * x0
+        if k >= 1:
+            c0 += q0 * x0
+            a1 += x1
+            b1 += x1 * x1
+        if k >= 2:
+            c1 += q1 * x1
+            a2 += x2
+            b2 += x2 * x2
+        if k >= 3:
+            c2 += q2 * x2
+            a3 += x3
+            b3 += x3 * x3
+        if k >= 4:
+            c3 += q3 * x3
+        q0, q1, q2, q3 = x0, x1, x2, x3
+    q[0], q[1], q[2], q[3] = q0, q1, q2, q3
+    acc[0, 0] += a0
+    acc[0, 1] += b0
+    acc[0, 2] += c0
+    acc[1, 0] += a1
+    acc[1, 1] += b1
+    acc[1, 2] += c1
+    acc[2, 0] += a2
+    acc[2, 1] += b2
+    acc[2, 2] += c2
+    acc[3, 0] += a3
+    acc[3, 1] += b3
+    acc[3, 2] += c3
+
+
+#: what a pass does with an averaging factor's cluster sums
+_SKIP, _LINE, _LAG, _COLLECT = 0, 1, 2, 3
+
+
+#: cluster sums per partial moment sum (the partials keep the long sums accurate)
+_PART = 1 << 15
+
+
+@jit
+def _cluster_pass(
+    r, hh, hl, p0, p1, ms, counts, mode, carry, mom, head, tail, line, q, acc, buf, at, zs
+):  # pragma: no cover - compiled
+    """One piece of ``r, hh, hl`` (its own anchored phase), every averaging factor.
+
+    O(piece / m) per factor. ``carry[t]`` holds, as a double-double, the part of the
+    cluster open at ``p0`` that earlier pieces summed (updated to ``p1``). Serial: the
+    integration before it is parallel, and many short parallel regions here (a few per
+    factor per piece) cost more in thread wake-ups on a busy machine than they save.
+    """
+    for t in range(ms.size):
+        if mode[t] == _SKIP:
+            continue
+        count = counts[t]
+        m = ms[t]
+        # the cluster sums S[(k+1) m] - S[k m] that end in this piece (increments p0 .. p1-1)
+        k = p0 // m
+        k0 = k
+        nz = 0
+        if k < count and k * m < p0 and (k + 1) * m <= p1:
+            zs[0] = _straddling_sum(r, hh, hl, (k + 1) * m - p0, carry[t])
+            nz = 1
+            k += 1
+        full = max(0, min(count, p1 // m) - k)
+        for i in range(full):  # the clusters wholly inside the piece
+            zs[nz + i] = _cluster_sum(r, hh, hl, (k + i) * m - p0, m)
+        nz += full
+        _carry_to_end(r, hh, hl, p0, p1, m, k + full, count, carry[t])
+        if nz == 0:
+            continue
+        nch = max(1, min(64, nz // _PART))
+        if mode[t] == _LINE:
+            part = np.zeros((nch, 3))
+            for c in range(nch):
+                i0 = (nz * c) // nch
+                i1 = (nz * (c + 1)) // nch
+                _line_moments(zs[i0:i1], i1 - i0, k0 + i0, count, part[c], head[t], tail[t])
+            mom[t, 0] += np.sum(part[:, 0])
+            mom[t, 1] += np.sum(part[:, 1])
+            mom[t, 2] = max(mom[t, 2], np.max(part[:, 2]))
+        elif mode[t] == _LAG:
+            a = line[t, 0]
+            b = line[t, 1]
+            part = np.zeros((nch, 4, 3))
+            last = np.zeros((nch, 4))
+            for c in range(nch):
+                i0 = (nz * c) // nch
+                i1 = (nz * (c + 1)) // nch
+                if c == 0:
+                    last[c, :] = q[t]
+                else:  # four values ahead rebuild every difference order's previous value
+                    _lag_moments(zs[i0 - 4 : i0], 4, k0 + i0 - 4, a, b, count, last[c], part[c])
+                    part[c, :, :] = 0.0
+                _lag_moments(zs[i0:i1], i1 - i0, k0 + i0, a, b, count, last[c], part[c])
+            for d in range(4):
+                for j in range(3):
+                    acc[t, d, j] += np.sum(part[:, d, j])
+            q[t, :] = last[nch - 1]
+        else:
+            buf[at[t] + k0 : at[t] + k0 + nz] = zs[:nz]
+
+
+def _line(count: int, mom: np.ndarray) -> tuple[float, float]:
+    """Least-squares line ``a + b (k - kc)`` through the cluster sums."""
+    stt = count * (count * count - 1.0) / 12.0
+    return mom[0] / count, (mom[1] / stt if stt > 0 else 0.0)
+
+
+def _lag1_from_moments(
+    count: int, dmax: int, mom: np.ndarray, head: np.ndarray, tail: np.ndarray,
+    acc: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:  # fmt: skip
+    """``(r1, den, n, zmax)`` per difference order, as :func:`adavar.differences.cluster_lag1`."""
+    a, b = _line(count, mom)
+    kc = 0.5 * (count - 1)
+    h = head - (a + b * (np.arange(4) - kc))
+    t = tail - (a + b * (np.arange(count - 4, count) - kc))
+    first = np.array(
+        [h[0], h[1] - h[0], (h[2] - h[1]) - (h[1] - h[0]), h[3] - 3 * h[2] + 3 * h[1] - h[0]]
+    )
+    last = np.array(
+        [t[3], t[3] - t[2], (t[3] - t[2]) - (t[2] - t[1]), t[3] - 3 * t[2] + 3 * t[1] - t[0]]
+    )
+    nd = dmax + 1
+    r1 = np.full(nd, np.nan)
+    den = np.zeros(nd)
+    n = np.zeros(nd, dtype=np.int64)
+    for d in range(nd):
+        c = count - d
+        n[d] = max(c, 0)
+        if c < 2:
+            continue
+        s1, s2, s11 = acc[d]
+        mean = s1 / c
+        den[d] = s2 - c * mean * mean
+        num = s11 - mean * ((s1 - last[d]) + (s1 - first[d])) + (c - 1) * mean * mean
+        if den[d] > 0:
+            r1[d] = num / den[d]
+    return r1, den, n, float(mom[2])
+
+
+def _cluster_statistics(
+    source: ChunkedSource, ms: np.ndarray, dmax: int, chunk_size: int
+) -> tuple[list[Any], float]:
+    """Per averaging factor: ``(r1, den, n, zmax)`` of the lag-1 rule when there are at
+    least :data:`adavar.edf.MIN_POINTS_LAG1` clusters, else the cluster sums themselves
+    (relative to the shift); and the shift.
+
+    Two passes over ``source`` at most (line fit, then the lag sums), each reading it once
+    in pieces of ``chunk_size`` increments for every factor at once; series short enough
+    are collected in the first pass and need no second.
+    """
+    n = source.size
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    nt = ms.size
+    counts = n // ms
+    # the shift of the in-memory integration: the median of the first block
+    shift = float(np.median(source.read(0, min(diff.BLOCK, n)))) if n else 0.0
+    lag1 = counts >= edf_mod.MIN_POINTS_LAG1
+    mode = np.where(lag1, _LINE, _COLLECT).astype(np.int64)
+    budget = max(int(chunk_size), SMALL_SERIES)
+    held = int(counts[~lag1].sum())
+    for t in np.argsort(counts, kind="stable"):
+        if lag1[t] and counts[t] <= SMALL_SERIES and held + counts[t] <= budget:
+            mode[t] = _COLLECT
+            held += int(counts[t])
+    at = np.zeros(nt, dtype=np.int64)
+    collect = mode == _COLLECT
+    at[collect] = np.concatenate([[0], np.cumsum(counts[collect])[:-1]])
+    buf = np.empty(held)
+    carry = np.zeros((nt, 2))
+    mom = np.zeros((nt, 3))
+    head = np.zeros((nt, 4))
+    tail = np.zeros((nt, 4))
+    line = np.zeros((nt, 2))
+    q = np.zeros((nt, 4))
+    acc = np.zeros((nt, 4, 3))
+    chunk = max(1, int(chunk_size))
+    if chunk >= diff.BLOCK:  # pieces on the anchor blocks: the in-memory local sums exactly
+        chunk -= chunk % diff.BLOCK
+    zs = np.empty(min(chunk, n) + 1)
+    kept: diff.AnchoredPhase | None = None
+
+    def run_pass() -> None:
+        nonlocal kept
+        for p0 in range(0, n, chunk):
+            p1 = min(n, p0 + chunk)
+            with threads_for(p1 - p0):
+                if kept is None:
+                    phase = diff.anchored_phase(source.read(p0, p1), shift=shift)
+                else:
+                    phase = kept
+            if p1 - p0 == n:  # one piece: the second pass reuses it
+                kept = phase
+            _cluster_pass(
+                phase.r, phase.hh, phase.hl, p0, p1, ms, counts, mode, carry, mom, head,
+                tail, line, q, acc, buf, at, zs,
+            )  # fmt: skip
+
+    run_pass()
+    streamed = mode == _LINE
+    if streamed.any():
+        for t in np.flatnonzero(streamed):
+            line[t] = _line(int(counts[t]), mom[t])
+        mode[streamed] = _LAG
+        mode[~streamed] = _SKIP
+        carry[:] = 0.0
+        run_pass()
+
+    stats: list[Any] = []
+    for t in range(nt):
+        count = int(counts[t])
+        if streamed[t]:
+            stats.append(_lag1_from_moments(count, dmax, mom[t], head[t], tail[t], acc[t]))
+            continue
+        z = buf[at[t] : at[t] + count]
+        if not lag1[t]:
+            stats.append(z)
+            continue
+        _line_moments(z, count, 0, count, mom[t], head[t], tail[t])
+        a, b = _line(count, mom[t])
+        _lag_moments(z, count, 0, a, b, count, q[t], acc[t])
+        stats.append(_lag1_from_moments(count, dmax, mom[t], head[t], tail[t], acc[t]))
+    return stats, shift
+
+
+def noise_types(
+    source: ChunkedSource | Any,
+    ms: np.ndarray | Sequence[int],
+    dmax: int = 2,
+    *,
+    chunk_size: int | None = None,
+) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Power-law noise exponent per averaging factor of a record read piece by piece.
+
+    The same rule and, to rounding, the same statistics as the in-memory identification of
+    :func:`adavar.deviation` and :func:`adavar.davar` (``noise_type="record"``): per ``m``,
+    the lag-1 autocorrelation of the linearly detrended sums of ``m`` increments, differenced
+    up to ``dmax`` times (Riley & Greenhall's stopping rule), when there are at least
+    :data:`adavar.edf.MIN_POINTS_LAG1` sums; else the B1 ratio of the cluster means; a tau
+    that neither identifies takes its nearest identified neighbour's type.
+
+    Parameters
+    ----------
+    source : ChunkedSource or array_like
+        The increments (rate samples; first differences of phase).
+    ms : array_like of int
+        Averaging factors.
+    dmax : int
+        Most differences taken (2 for the Allan family, 3 for Hadamard).
+    chunk_size : int, optional
+        Increments per piece (default :data:`DEFAULT_CHUNK`).
+
+    Returns
+    -------
+    alpha : ndarray of int64
+        One per factor.
+    notes : tuple of str
+        Says so when no tau could be identified (alpha 0, white noise, is then used).
+
+    Notes
+    -----
+    Reads the record at most twice (a line fit, then the lag sums of every difference
+    order), each time once for all factors, from cluster sums that are differences of a
+    double-double running integral carried across pieces: O(N sum(1/m)) work. Held in
+    memory: one piece, its integral, and the cluster sums of the short series (at most
+    ``max(chunk_size, SMALL_SERIES)`` values beyond the B1 ones).
+    """
+    src = as_source(source)
+    ms = np.atleast_1d(np.asarray(ms, dtype=np.int64))
+    if not 0 <= int(dmax) <= 3:
+        raise ValueError("internal: dmax must lie in 0..3")
+    chunk = DEFAULT_CHUNK if chunk_size is None else max(1, int(chunk_size))
+    stats, shift = _cluster_statistics(src, ms, int(dmax), chunk)
+    alpha = np.full(ms.size, np.nan)
+    for t, (m, st) in enumerate(zip(ms, stats, strict=True)):
+        try:
+            if isinstance(st, tuple):
+                r1, den, sizes, zmax = st
+                alpha[t] = edf_mod.alpha_from_lag1(
+                    r1, den, sizes, zmax, data_type="rate", dmax=r1.size - 1
+                )[0]
+            else:
+                z = (st + shift * int(m)) / int(m)
+                alpha[t] = edf_mod.identify_noise(z, data_type="rate", dmax=int(dmax))
+        except edf_mod.NoiseIdError:
+            continue
+    notes: tuple[str, ...] = ()
+    known = np.flatnonzero(np.isfinite(alpha))
+    if known.size == 0:
+        alpha[:] = 0.0
+        notes = ("noise type could not be identified at any tau; white noise assumed for EDF",)
+    else:
+        # too few clusters at the longest taus: carry the nearest identified type over
+        nearest = known[np.abs(np.arange(ms.size)[:, None] - known[None, :]).argmin(axis=1)]
+        alpha = alpha[nearest]
+    return alpha.astype(np.int64), notes
