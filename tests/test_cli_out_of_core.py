@@ -1,0 +1,140 @@
+"""The CLI on records read piece by piece: memory-mapped .npy, lazy HDF5 and Parquet.
+
+The library's out-of-core paths are compared with the in-memory ones in
+tests/test_stream_*.py; here the commands must route file-backed records through them
+(never loading the record) and print the same numbers as for the same data in a CSV.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from adavar import stream
+
+from .cli_helpers import assert_one_line_error, run
+
+N = 30_000
+
+
+@pytest.fixture(scope="module")
+def signal():
+    rng = np.random.default_rng(11)
+    x = rng.standard_normal(N)
+    x[N // 2 :] *= 2.5  # a change, so the adaptive window moves
+    return (x + 1e3).astype(np.float32)  # float32 and an offset, as a logger writes them
+
+
+@pytest.fixture()
+def files(tmp_path, signal):
+    h5py = pytest.importorskip("h5py")
+    pa = pytest.importorskip("pyarrow")
+    pq = pytest.importorskip("pyarrow.parquet")
+    np.save(tmp_path / "x.npy", signal)
+    np.save(tmp_path / "imu.npy", np.stack([signal, -signal, 2 * signal], axis=1))
+    np.savetxt(tmp_path / "x.csv", signal.astype(np.float64), fmt="%.17g")
+    with h5py.File(tmp_path / "x.h5", "w") as f:
+        f["gyro"] = signal
+    pq.write_table(pa.table({"gx": signal}), tmp_path / "x.parquet", row_group_size=7000)
+    return tmp_path
+
+
+def _json(capsys, argv):
+    code, out, err = run(capsys, [*argv, "--json"])
+    assert code == 0, err
+    return json.loads(out)
+
+
+def _numbers(payload, key):
+    return np.array([np.nan if v is None else v for v in np.ravel(payload[key])], dtype=float)
+
+
+COMMANDS = {
+    "avar": ["avar", "--rate", "10", "--units", "deg/s", "--fit"],
+    "davar": ["davar", "--rate", "10", "--units", "deg/s", "--window", "3001", "--step",
+              "997", "--taus", "0.1,1,10,100"],
+    "adaptive": ["adaptive", "--rate", "10", "--units", "deg/s", "--step", "997",
+                 "--taus", "0.1,1,10"],
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+@pytest.mark.parametrize("source", ["x.npy", "x.h5", "x.parquet"])
+def test_file_backed_records_match_the_csv_run(capsys, files, monkeypatch, command, source):
+    # count how the analyses read: piece by piece, never the whole record at once
+    sizes = []
+    original = stream.ChunkedSource.read
+
+    def counting(self, start, stop):
+        sizes.append(stop - start)
+        return original(self, start, stop)
+
+    monkeypatch.setattr(stream.ChunkedSource, "read", counting)
+    argv = COMMANDS[command]
+    lazy = [] if source.endswith(".npy") else ["--lazy"]
+    got = _json(capsys, [argv[0], str(files / source), *argv[1:], *lazy,
+                         "--chunk-size", "4096"])  # fmt: skip
+    assert sizes and max(sizes) < N  # read in pieces
+    sizes.clear()
+    want = _json(capsys, [argv[0], str(files / "x.csv"), *argv[1:]])
+    assert not sizes  # the CSV is in memory: the in-memory path
+    if command == "avar":
+        np.testing.assert_allclose(_numbers(got, "dev"), _numbers(want, "dev"), rtol=1e-12)
+        assert got["alpha"] == want["alpha"]
+        assert _close(got["fit"], want["fit"])
+    else:
+        assert (got["shape"], got["time"], got["m"], got["alpha"]) == (
+            want["shape"], want["time"], want["m"], want["alpha"]
+        )  # fmt: skip
+        assert _close(got["fit"], want["fit"])
+
+
+def _close(a, b):
+    """Nested JSON equal up to 1e-9 relative in the numbers."""
+    if isinstance(a, dict):
+        return a.keys() == b.keys() and all(_close(a[k], b[k]) for k in a)
+    if isinstance(a, list):
+        return len(a) == len(b) and all(_close(u, v) for u, v in zip(a, b, strict=True))
+    if isinstance(a, float) and isinstance(b, float):
+        return a == pytest.approx(b, rel=1e-9, abs=1e-300)
+    return a == b
+
+
+def test_a_column_of_a_2d_npy_is_streamed(capsys, files, signal):
+    got = _json(capsys, ["avar", str(files / "imu.npy"), "--column", "2", "--rate", "10",
+                         "--units", "deg/s"])  # fmt: skip
+    want = _json(capsys, ["avar", str(files / "x.csv"), "--rate", "10", "--units", "deg/s"])
+    np.testing.assert_allclose(_numbers(got, "dev"), 2 * _numbers(want, "dev"), rtol=1e-12)
+
+
+def test_preprocessing_loads_the_record_and_still_works(capsys, files):
+    got = _json(capsys, ["avar", str(files / "x.npy"), "--rate", "10", "--units", "deg/s",
+                         "--preprocess", "detrend:1"])  # fmt: skip
+    want = _json(capsys, ["avar", str(files / "x.csv"), "--rate", "10", "--units", "deg/s",
+                          "--preprocess", "detrend:1"])  # fmt: skip
+    np.testing.assert_allclose(_numbers(got, "dev"), _numbers(want, "dev"), rtol=1e-9)
+
+
+def test_a_nan_deep_in_a_lazy_file_is_a_one_line_error(capsys, tmp_path):
+    h5py = pytest.importorskip("h5py")
+    x = np.random.default_rng(0).standard_normal(20_000)
+    x[15_321] = np.nan
+    with h5py.File(tmp_path / "bad.h5", "w") as f:
+        f["gyro"] = x
+    code, out, err = run(capsys, ["davar", str(tmp_path / "bad.h5"), "--rate", "1", "--units",
+                                  "deg/s", "--window", "601", "--lazy", "--out",
+                                  str(tmp_path / "o")])  # fmt: skip
+    assert_one_line_error(code, out, err, "sample 15321", "nan")
+    assert not (tmp_path / "o").exists()
+
+
+def test_lazy_with_a_time_column_is_refused(capsys, tmp_path):
+    pa = pytest.importorskip("pyarrow")
+    pq = pytest.importorskip("pyarrow.parquet")
+    pq.write_table(pa.table({"time": np.arange(2000) / 10, "gx": np.ones(2000)}),
+                   tmp_path / "t.parquet")  # fmt: skip
+    code, out, err = run(capsys, ["avar", str(tmp_path / "t.parquet"), "--units", "deg/s",
+                                  "--lazy"])  # fmt: skip
+    assert_one_line_error(code, out, err, "time column", "--lazy")
