@@ -357,3 +357,68 @@ def test_short_pieces_run_on_one_thread():
     assert stream.numba.get_num_threads() == before
     with stream.threads_for(stream.PARALLEL_MIN):
         assert stream.numba.get_num_threads() == before
+
+
+# --------------------------------------------------------------------------------------
+# dask input: a lazy surface
+
+
+class _CountingArray:
+    """An array that records every read (to show that nothing is read before compute)."""
+
+    def __init__(self, values):
+        self.values = values
+        self.shape, self.dtype, self.ndim = values.shape, values.dtype, 1
+        self.reads = 0
+
+    def __getitem__(self, key):
+        self.reads += 1
+        return self.values[key]
+
+
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(window=601),
+        dict(window=600, edges="valid"),
+        dict(window=2001, step=7),
+        dict(window=601, data_type="phase"),
+        dict(window=401, step=50_000),  # centres further apart than a group
+    ],
+)
+@pytest.mark.parametrize("chunk_size", [None, 5_000])
+def test_dask_input_gives_a_lazy_surface_equal_to_in_memory(kw, chunk_size):
+    da = pytest.importorskip("dask.array")
+    rng = np.random.default_rng(7)
+    x = (rng.standard_normal(120_001) * (1 + np.arange(120_001) / 4e4) + 1e6).astype(np.float32)
+    counting = _CountingArray(x)
+    d = da.from_array(counting, chunks=25_000, asarray=True)
+    before = counting.reads  # dask looks at an empty slice for the array's metadata
+    lazy = davar(d, noise_type=0, taus="octave", chunk_size=chunk_size, **kw)
+    assert counting.reads == before  # nothing read: the graph only
+    assert type(lazy.avar).__module__.startswith("dask")
+    want = davar(x, noise_type=0, taus="octave", **kw)
+    got = lazy.avar.compute()
+    np.testing.assert_array_equal(np.isnan(got), np.isnan(want.avar))
+    np.testing.assert_allclose(got, want.avar, rtol=1e-12)
+    np.testing.assert_allclose(lazy.adev_high.compute(), want.adev_high, rtol=1e-12)
+    for name in ("time", "centre", "window", "m", "alpha", "edf_table"):
+        np.testing.assert_array_equal(getattr(lazy, name), getattr(want, name))
+    if chunk_size is not None and kw.get("step", 1) == 1:
+        assert lazy.avar.numblocks[0] > 1
+
+
+def test_dask_input_lazy_xarray_and_eager_options():
+    da = pytest.importorskip("dask.array")
+    pytest.importorskip("xarray")
+    x = np.random.default_rng(8).standard_normal(30_000)
+    d = da.from_array(x, chunks=7_000)
+    ds = davar(d, window=301, taus=[1, 10], chunk_size=2_000).to_xarray()
+    assert type(ds["avar"].data).__module__.startswith("dask")
+    want = davar(x, window=301, taus=[1, 10])
+    np.testing.assert_allclose(ds["avar"].values, want.avar, rtol=1e-12)
+    eager = davar(d, window=301, taus=[1, 10], lazy=False)
+    assert isinstance(eager.avar, np.ndarray)
+    np.testing.assert_allclose(eager.avar, want.avar, rtol=1e-12)
+    with pytest.raises(AdavarInputError, match="lazy=True needs a dask array"):
+        davar(x, window=301, lazy=True)

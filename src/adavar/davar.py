@@ -232,6 +232,58 @@ def _chunked_avar(
     return out
 
 
+#: values per block of a lazy (dask) surface: 128 MiB of float64
+LAZY_BLOCK_VALUES = 1 << 24
+
+
+def _group_rows(
+    piece: np.ndarray, shift: float, ms: np.ndarray, centres: np.ndarray,
+    lengths: np.ndarray, offset: int, scale: float, step: int,
+) -> np.ndarray:  # fmt: skip
+    """One block of a lazy surface: the rows of ``centres`` from their span of the record."""
+    phase = diff.anchored_phase(np.asarray(piece, dtype=np.float64), shift=float(shift))
+    per = _chunk_size(centres.size, int(lengths.max()), step)
+    return diff.window_avar(phase, ms, centres, lengths, offset=offset, scale=scale, chunk=per)
+
+
+def _lazy_avar(array: Any, dtype: str, sched: Any, ms: np.ndarray, scale: float, chunk: int) -> Any:
+    """The surface of a dask array as a dask array: one task per group of centres.
+
+    Each task integrates its span of the mirror-extended record from the anchor block it
+    starts in, with the shift of the in-memory integration, as :func:`_chunked_avar` does;
+    nothing is read until the result is computed.
+    """
+    import dask
+    import dask.array as da
+
+    x = array.astype(np.float64)
+    u = x if dtype == "rate" else da.diff(x)
+    n = int(u.shape[0])
+    pad, after = sched.pad_before, sched.pad_after
+    parts = [u]
+    if pad:
+        parts.insert(0, u[:pad][::-1])
+    if after:
+        parts.append(u[n - after :][::-1])
+    ext = da.concatenate(parts) if len(parts) > 1 else u
+    shift = dask.delayed(np.median)(ext[: min(diff.BLOCK, int(ext.shape[0]))])
+    centre, length = sched.centre, sched.length
+    # blocks of at most LAZY_BLOCK_VALUES output values, at least one window each
+    rows = max(1, LAZY_BLOCK_VALUES // max(1, ms.size))
+    span = int(min(chunk, max(2 * int(length.max()), rows * sched.step)))
+    bounds, los, his = _centre_groups(centre, length, pad, span, GROUP_GAP)
+    blocks = []
+    for g in range(los.size):
+        c0, c1 = int(bounds[g]), int(bounds[g + 1])
+        lo = int(los[g]) // diff.BLOCK * diff.BLOCK
+        task = dask.delayed(_group_rows, pure=True)(
+            ext[lo : int(his[g])], shift, ms, centre[c0:c1], length[c0:c1], pad - lo,
+            float(scale), sched.step,
+        )  # fmt: skip
+        blocks.append(da.from_delayed(task, shape=(c1 - c0, ms.size), dtype=np.float64))
+    return da.concatenate(blocks, axis=0)
+
+
 def _chunk_option(chunk_size: Any) -> int:
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
         raise AdavarInputError(f"chunk_size must be a positive integer, got {chunk_size!r}")
@@ -270,6 +322,7 @@ def davar(
     noise_type: str | int | Sequence[int] = "record",
     units: str | None = None,
     chunk_size: int | None = None,
+    lazy: bool | None = None,
 ) -> DavarResult:
     """Dynamic Allan variance: the overlapping Allan variance of a sliding window.
 
@@ -338,6 +391,17 @@ def davar(
         per-centre centres, lengths and classes), one piece and its integral (about 4 x 8
         bytes per sample of ``max(chunk_size, longest window)``), and for phase input one
         more copy of the piece.
+    lazy : bool, optional
+        Return ``avar`` (and the bounds and ``adev`` derived from it) as a ``dask.array``
+        that is computed on demand, one task per group of centres (blocks of at most
+        :data:`LAZY_BLOCK_VALUES` values, ``chunk_size`` samples of record). Default: lazy
+        when ``data`` is a dask array, so a per-sample surface of a long record can be
+        reduced, sliced or written (``result.to_xarray().to_netcdf``) block by block. The
+        schedule, ``alpha`` and the EDF table are computed at once; the noise
+        identification (``confidence`` with ``noise_type="record"``) reads the record in
+        pieces at once, so pass an integer ``noise_type`` or ``confidence=None`` to read
+        nothing until the result is computed. ``lazy=False`` computes a dask input now
+        (out of core, as above).
 
     Returns
     -------
@@ -373,6 +437,10 @@ def davar(
     min_length = 4 if dtype == "phase" else 3
     scale = 1.0 if dtype == "rate" else 1.0 / dt**2
     chunked = chunk_size is not None or stream.is_chunked(data)
+    if lazy is None:
+        lazy = stream._is_dask(data)
+    elif lazy and not stream._is_dask(data):
+        raise AdavarInputError("lazy=True needs a dask array as data: leave lazy out")
     if chunked:
         chunk = stream.DEFAULT_CHUNK if chunk_size is None else _chunk_option(chunk_size)
         source = _open_source(data, min_length)
@@ -388,7 +456,8 @@ def davar(
     longest = int(sched.length.max())
     ms, notes = averaging_factors(taus, longest // 3, dt, points_per_decade=points_per_decade)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
-    _check_memory(sched.centre.size, ms.size, 1)
+    if not lazy:
+        _check_memory(sched.centre.size, ms.size, 1)
 
     def identify() -> tuple[np.ndarray, tuple[str, ...]]:
         if chunked:
@@ -408,7 +477,9 @@ def davar(
         table = edf_table(distinct, ms, alpha)
         bounds = np.stack(_bound_factors(table, float(confidence)))
 
-    if chunked:
+    if lazy:
+        avar = _lazy_avar(data, dtype, sched, ms, scale, chunk)
+    elif chunked:
         avar = _chunked_avar(increments, sched, ms, scale, chunk)
     else:
         phase = diff.anchored_phase(sched.extend(u))
