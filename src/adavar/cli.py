@@ -17,6 +17,11 @@ Commands
 ``adavar demo [--out DIR] [--json] [--seed N]``
     The NIST SP 1065 check values, a simulated MEMS gyroscope and the paper's scenario 1.
 
+``avar``, ``davar``, ``adaptive`` and ``report`` analyse several channels one by one with
+``--column gx,gy,gz`` (``avar``: every numeric column by default); on a terminal every
+command shows what it is doing on one status line of stderr (nothing when stderr is not a
+terminal).
+
 Exit codes: 0 success, 1 internal error (a bug: the traceback with ``--debug`` or
 ``ADAVAR_DEBUG=1``), 2 a user mistake (bad flag, unreadable file, bad data), reported as
 one line ``adavar: error: ...`` on stderr. 130 when interrupted.
@@ -42,7 +47,7 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from adavar import __version__
+from adavar import __version__, stream
 from adavar.adaptive import adaptive_davar
 from adavar.davar import davar
 from adavar.errors import AdavarInputError
@@ -196,6 +201,16 @@ def _taus(text: str) -> str | list[float]:
     return values
 
 
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"must be a fraction between 0 and 1, got {text!r}")
+    return value
+
+
 def _seed(text: str) -> int:
     try:
         value = int(text)
@@ -226,6 +241,54 @@ def _seconds_list(text: str) -> list[float]:
             f"expected comma-separated positive times in seconds (e.g. 3000,4000), got {text!r}"
         )
     return values
+
+
+def _intervals(text: str) -> list[tuple[float, float]]:
+    out = []
+    for part in text.split(","):
+        if not part.strip():
+            continue
+        try:
+            a, b = (float(v) for v in part.split(":"))
+        except ValueError:
+            a = b = math.nan
+        if not (math.isfinite(a) and math.isfinite(b) and 0 <= a < b):
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated A:B intervals in seconds with A < B (e.g. "
+                f"0:3000,3000:4000), got {part.strip()!r}"
+            )
+        out.append((a, b))
+    if not out:
+        raise argparse.ArgumentTypeError("give at least one A:B interval")
+    return out
+
+
+def _threshold_list(text: str) -> list[float]:
+    try:
+        values = [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated positive kurtosis thresholds (e.g. 3.3,4), got {text!r}"
+        )
+    return values
+
+
+def _number_tuple(flag: str, least: int, most: int) -> Callable[[str], tuple[float, ...]]:
+    def parse(text: str) -> tuple[float, ...]:
+        try:
+            values = tuple(float(part) for part in text.split(","))
+        except ValueError:
+            values = ()
+        if not least <= len(values) <= most or not all(math.isfinite(v) for v in values):
+            raise argparse.ArgumentTypeError(
+                f"{flag} takes {least}{'' if least == most else f' or {most}'} comma-separated "
+                f"numbers, got {text!r}"
+            )
+        return values
+
+    return parse
 
 
 def _names(text: str) -> list[str]:
@@ -259,8 +322,11 @@ def _terms(text: str) -> tuple[str, ...]:
 # --------------------------------------------------------------------------------------
 
 
-def _add_input_arguments(cmd: argparse.ArgumentParser, *, optional_file: bool = False) -> None:
-    """FILE, --column, --rate/--tau0, --units and the reader's options of every command."""
+def _add_input_arguments(
+    cmd: argparse.ArgumentParser, *, optional_file: bool = False, several: bool = True
+) -> None:
+    """FILE, --column, --rate/--tau0, --units and the reader's options of every command
+    (``several``: the command analyses several channels one by one)."""
     cmd.add_argument(
         "file", metavar="FILE", nargs="?" if optional_file else None,
         help="the record: CSV/TSV/whitespace text (with or without header, a time column "
@@ -283,6 +349,11 @@ def _add_input_arguments(cmd: argparse.ArgumentParser, *, optional_file: bool = 
         "gap-free pieces analysed one by one (avar), or is filled by linear interpolation",
     )  # fmt: skip
     cmd.add_argument(
+        "--gap-tolerance", type=_fraction, default=0.5, metavar="F",
+        help="an interval longer than (1 + F) or shorter than (1 - F) times the median is a "
+        "gap or non-uniform sampling (default: 0.5)",
+    )  # fmt: skip
+    cmd.add_argument(
         "--nan", default="error", choices=("error", "drop", "interpolate"),
         help="a NaN/Inf sample is an error (default), its row is dropped, or it is "
         "interpolated",
@@ -290,14 +361,22 @@ def _add_input_arguments(cmd: argparse.ArgumentParser, *, optional_file: bool = 
     cmd.add_argument("--dataset", metavar="PATH", help="dataset of an HDF5 file")
     cmd.add_argument("--topic", metavar="TOPIC", help="IMU topic of a ROS bag")
     cmd.add_argument(
+        "--lazy", action=argparse.BooleanOptionalAction, default=None,
+        help="HDF5/Parquet: read the channels piece by piece (--lazy) or into memory "
+        "(--no-lazy); default: piece by piece beyond 1 GiB or a quarter of the free memory",
+    )  # fmt: skip
+    cmd.add_argument(
         "--preprocess", metavar="STEPS",
         help="comma-separated steps applied in order: detrend:ORDER, mean, "
         "decimate:K[:average], select:START:STOP (seconds); e.g. detrend:3,decimate:100 "
         "(the paper's real-data steps)",
     )  # fmt: skip
     cmd.add_argument(
-        "--column", metavar="NAME",
-        help="header name or 0-based index of the column (needed if there are several)",
+        "--column", metavar="NAME[,NAME...]" if several else "NAME",
+        help="header name or 0-based index of the channel; several, comma-separated (e.g. "
+        "gx,gy,gz), are analysed one by one (default: every numeric column but the time)"
+        if several
+        else "header name or 0-based index of the column (needed if there are several)",
     )  # fmt: skip
     cmd.add_argument(
         "--rate", metavar="HZ", type=_positive_float("Hz"),
@@ -356,19 +435,44 @@ def _add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
                       "0.01)")  # fmt: skip
 
 
-def _noise_type(text: str) -> str | int:
+def _noise_type(text: str) -> str | int | list[int]:
     value = text.strip().lower()
     if value == "record":
         return "record"
     try:
-        alpha = int(value)
+        alphas = [int(part) for part in value.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"{text!r}: use 'record' or an integer alpha from -2 to 2"
+            f"{text!r}: use 'record', an integer alpha from -2 to 2, or one per tau "
+            "(comma-separated)"
         ) from None
-    if not -2 <= alpha <= 2:
+    if not all(-2 <= alpha <= 2 for alpha in alphas):
         raise argparse.ArgumentTypeError(f"{text!r}: alpha must lie in -2 .. 2")
-    return alpha
+    return alphas[0] if len(alphas) == 1 else alphas
+
+
+def _add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The noise fit's weighting options (:func:`adavar.fit_noise`)."""
+    cmd.add_argument(
+        "--n-reweight", type=_seed, default=3, metavar="N",
+        help="reweighting passes of the noise fit after the first, with the model's "
+        "variance in the weights (default: 3; 0: weights of the measured variance)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--spacing", default="octave", choices=("octave", "independent"),
+        help="weights of densely spaced taus in the noise fit: octave (default: scaled by "
+        "their spacing in octaves, so a dense grid does not count the same information "
+        "many times) or independent (as they are)",
+    )  # fmt: skip
+
+
+def _add_chunk_argument(cmd: argparse.ArgumentParser) -> None:
+    """--chunk-size: how many samples are read at a time (the out-of-core path)."""
+    cmd.add_argument(
+        "--chunk-size", type=_positive_int, metavar="N",
+        help="read and process the record N samples at a time, for records larger than "
+        "memory (default: all at once)",
+    )  # fmt: skip
 
 
 def _add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
@@ -376,8 +480,8 @@ def _add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
     cmd.add_argument(
         "--noise-type", type=_noise_type, default="record", metavar="ALPHA",
         help="noise exponent behind the per-cell EDF: record (default: identified per tau on "
-        "the whole record) or an integer alpha (0 white rate noise/ARW, -1 bias instability, "
-        "-2 rate random walk, 1/2 flicker/white PM)",
+        "the whole record), an integer alpha (0 white rate noise/ARW, -1 bias instability, "
+        "-2 rate random walk, 1/2 flicker/white PM), or one per tau, comma-separated",
     )  # fmt: skip
     cmd.add_argument(
         "--t0", type=_finite_float, default=0.0, metavar="SECONDS",
@@ -421,6 +525,8 @@ def _add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
         help="file format of the surface in --out: nc (NetCDF, default) or parquet (needs "
         "pyarrow)",
     )  # fmt: skip
+    _add_fit_arguments(cmd)
+    _add_chunk_argument(cmd)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -478,6 +584,8 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated terms of the fit (names or Q,N,B,K,R; default: all five); "
         "implies --fit",
     )  # fmt: skip
+    _add_fit_arguments(avar)
+    _add_chunk_argument(avar)
     avar.add_argument("--json", action="store_true", help="print one JSON object")
     _add_output_arguments(
         avar,
@@ -554,18 +662,7 @@ def build_parser() -> argparse.ArgumentParser:
         "tracking metrics and the kurtosis threshold crossings (the paper's Fig. 8). Give a "
         "data FILE (with --rate and --units, and --change-times for the nodes) or --scenario.",
     )
-    cmp_.add_argument("file", metavar="FILE", nargs="?",
-                      help="text file, one sample per row (or use --scenario)")  # fmt: skip
-    cmp_.add_argument(
-        "--column", metavar="NAME",
-        help="header name or 0-based index of the column (needed if there are several)",
-    )  # fmt: skip
-    cmp_.add_argument("--rate", metavar="HZ", type=_positive_float("Hz"),
-                      help="sample rate of FILE in Hz (or --tau0)")  # fmt: skip
-    cmp_.add_argument("--tau0", metavar="SECONDS", type=_positive_float("seconds"),
-                      help="sample interval of FILE in seconds, instead of --rate")  # fmt: skip
-    cmp_.add_argument("--units", metavar="UNIT",
-                      help="unit of the rate samples of FILE, e.g. deg/s or deg/h")  # fmt: skip
+    _add_input_arguments(cmp_, optional_file=True, several=False)
     cmp_.add_argument(
         "--scenario", type=int, choices=(1, 2),
         help="simulate the paper's scenario 1 (disturbance at 3000-4000 s) or 2 (1000-2000 s "
@@ -602,6 +699,38 @@ def build_parser() -> argparse.ArgumentParser:
         "--terms", type=_terms, metavar="LIST",
         help="terms of the noise fit of every window (default: all five, the paper's)",
     )  # fmt: skip
+    cmp_.add_argument(
+        "--confidence", default=0.683, type=_confidence, metavar="P",
+        help="level of the per-cell bounds whose EDF weights the fits (default: 0.683)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--noise-type", type=_noise_type, default="record", metavar="ALPHA",
+        help="noise exponent behind the per-cell EDF: record (default), an integer alpha "
+        "from -2 to 2, or one per tau (comma-separated)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--points-per-decade", default=10, type=_positive_int, metavar="K",
+        help="density of --taus log (default: 10)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--intervals", type=_intervals, metavar="A:B,...",
+        help="ARW(A~B) interval means, seconds (default: the scenario's, the paper's; for a "
+        "FILE the stretches between --change-times)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--truth-column", metavar="NAME",
+        help="column of FILE holding the true N of every sample, for the ground-truth "
+        "metrics",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--crossing-window", type=_window_length, metavar="L",
+        help="fixed window of the kurtosis-crossing study, the paper's Fig. 8 (default: "
+        "--lmax)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--crossing-thresholds", type=_threshold_list, metavar="K,...",
+        help="its K2 thresholds (default: 3.3,3.45,4 and --k2)",
+    )  # fmt: skip
     cmp_.add_argument("--json", action="store_true", help="print one JSON object")
     _add_output_arguments(
         cmp_,
@@ -613,7 +742,8 @@ def build_parser() -> argparse.ArgumentParser:
     rep = sub.add_parser(
         "report",
         help="one self-contained interactive HTML report of a record",
-        description="Analyse one column of a record and write ONE self-contained HTML file "
+        description="Analyse one column of a record (or several, --column a,b: a section "
+        "each) and write ONE self-contained HTML file "
         "(interactive plots, no network): the overlapping Allan deviation with confidence "
         "bars and the fitted noise terms, the coefficient table with uncertainties, and with "
         "--window or --adaptive the rotatable DAVAR surface, the coefficients over time and "
@@ -650,12 +780,57 @@ def build_parser() -> argparse.ArgumentParser:
         "--terms", type=_terms, metavar="LIST",
         help="terms of the noise fits (names or Q,N,B,K,R; default: all five)",
     )  # fmt: skip
+    _add_fit_arguments(rep)
     rep.add_argument("--title", help="title of the report (default: the file and column)")
     rep.add_argument("--json", action="store_true", help="print one JSON object")
     rep.add_argument("--force", action="store_true", help="replace an existing --output")
     rep.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                      help=argparse.SUPPRESS)
     rep.set_defaults(handler=_cmd_report)
+
+    bat = sub.add_parser(
+        "batch",
+        help="many logs at once, one task per file, on a dask cluster or in this process",
+        description="Analyse every file as 'adavar report FILE' does (same options, same "
+        "numbers), one task per file: in this process one by one (default), on a local "
+        "cluster of --workers N processes, or on the workers of a running 'dask scheduler' "
+        "(--scheduler). Each file gets OUT/<name>/ with report.html, result.json (fit with "
+        "uncertainties, events, parameters, preprocessing) and deviation.csv, written "
+        "atomically; OUT/summary.csv and summary.parquet hold one row per file. A bad file "
+        "is an error row and does not stop the batch; a rerun skips the files done (same "
+        "size, modification time and options). Exit code 0: every file ok; 2: some file "
+        "(or the command line) has a user error; 1: an internal error.",
+    )
+    bat.add_argument(
+        "inputs", metavar="GLOB|FILE", nargs="*",
+        help="files or quoted glob patterns ('logs/*.csv', 'data/**/*.npy')",
+    )  # fmt: skip
+    bat.add_argument("--files-from", metavar="LIST.txt",
+                     help="also the files listed in this text file, one path per line "
+                     "(relative to its folder; # comments)")  # fmt: skip
+    # the analysis options are those of adavar report (the same objects: they cannot drift)
+    for action in rep._actions:
+        if action.dest not in ("help", "file", "output", "json", "force", "title", "debug",
+                               "config"):  # fmt: skip
+            bat._add_action(action)
+    bat.add_argument("--out", metavar="DIR", required=True,
+                     help="output folder (created; an earlier batch's folder is reused and "
+                     "its finished files skipped)")  # fmt: skip
+    bat.add_argument("--scheduler", metavar="ADDRESS",
+                     help="address of a running dask scheduler (tcp://HOST:8786) or its "
+                     "--scheduler-file JSON; its workers must see the files and --out")  # fmt: skip
+    bat.add_argument("--workers", metavar="N", type=_positive_int,
+                     help="start a local cluster of N single-threaded worker processes "
+                     "(default: no cluster, the files one by one in this process)")  # fmt: skip
+    bat.add_argument("--timeout", metavar="SECONDS", type=_positive_float("seconds"),
+                     default=10.0, help="wait this long for the scheduler and its first "
+                     "worker (default: 10)")  # fmt: skip
+    bat.add_argument("--force", action="store_true",
+                     help="recompute the files an earlier run of this --out finished")  # fmt: skip
+    bat.add_argument("--json", action="store_true", help="print one JSON object")
+    bat.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                     help=argparse.SUPPRESS)  # fmt: skip
+    bat.set_defaults(handler=_cmd_batch)
 
     kal = sub.add_parser(
         "kalibr",
@@ -724,6 +899,16 @@ def build_parser() -> argparse.ArgumentParser:
                          help=f"coefficient {name} (default: 0)")
     sim.add_argument("--bias", type=_finite_float, default=0.0, metavar="VALUE",
                      help="constant bias added to every sample (default: 0)")
+    sim.add_argument("--markov", type=_number_tuple("--markov", 2, 2), metavar="STD,TAU",
+                     help="first-order Gauss-Markov term: standard deviation (unit) and "
+                     "correlation time (s)")  # fmt: skip
+    sim.add_argument("--sinusoid", type=_number_tuple("--sinusoid", 2, 3),
+                     metavar="AMP,HZ[,PHASE]",
+                     help="deterministic sinusoid: amplitude (unit), frequency (Hz) and "
+                     "phase (rad, default 0)")  # fmt: skip
+    sim.add_argument("--variance-reading", action="store_true",
+                     help="--scenario disturbance of variance 3 (the paper's text read "
+                     "literally) instead of standard deviation 3")  # fmt: skip
     sim.add_argument("--units", default="deg/s", metavar="UNIT",
                      help="unit written in the header (default: deg/s)")
     sim.add_argument("--seed", type=_seed, default=2018, metavar="N", help="seed (default: 2018)")
@@ -969,12 +1154,22 @@ def _output_error(out: str | os.PathLike[str], exc: OSError) -> AdavarInputError
 
 
 def _load(
-    args: argparse.Namespace, *, several: bool = False
+    args: argparse.Namespace,
+    *,
+    several: bool = False,
+    pieces: bool | None = None,
+    out_of_core: bool = False,
 ) -> tuple[Any, dict[str, Any], Any, float]:
     """Read FILE's column, preprocess it, and settle its unit and tau0 (seconds).
 
+    With ``out_of_core`` (commands whose analysis streams: avar, davar, adaptive), a
+    memory-mapped ``.npy`` column or a lazy HDF5/Parquet channel is passed on as it is,
+    so a record larger than memory is read piece by piece; preprocessing loads it.
+
     With ``several``, every selected channel (``--column gx,gy,gz``, or all numeric
-    columns) is returned: a dict name -> samples, and a dict name -> unit.
+    columns) is returned: a dict name -> samples, and a dict name -> unit. With
+    ``pieces`` (default: ``several``), ``--gaps split`` gives each gap-free piece of a
+    channel as a channel of its own.
 
     The rate comes from --rate/--tau0 or from the file's time stamps (both: they must
     agree); the unit from --units or from the format (ROS bags declare rad/s and m/s^2).
@@ -993,12 +1188,15 @@ def _load(
         time_column=option("time_column", None), time_format=option("time_format", "auto"),
         gaps=option("gaps", "error"), nan=option("nan", "error"),
         dataset=option("dataset", None), topic=option("topic", None),
+        gap_tolerance=option("gap_tolerance", 0.5), lazy=option("lazy", None),
     )  # fmt: skip
     if len(record.names) != 1 and not several:
         raise UsageError(
             f"{args.file} has {len(record.names)} channels ({', '.join(record.names)}): "
             "choose one with --column"
-        )
+            + ("" if getattr(args, "command", None) == "compare"
+               else " (or several, comma-separated, e.g. --column a,b)")
+        )  # fmt: skip
     declared_units = record.meta.get("units") or {}
     given = args.units.strip() if args.units and args.units.strip() else None
     units_of = {name: given or declared_units.get(name) for name in record.names}
@@ -1011,7 +1209,7 @@ def _load(
     steps: list[dict[str, Any]] = []
     channels: dict[str, np.ndarray] = {}
     split = record.segments is not None and len(record.segments) > 1
-    if split and not several:
+    if split and not (several if pieces is None else pieces):
         raise UsageError(
             f"{args.file} has {len(record.segments)} gap-free pieces: --gaps split is for "
             "adavar avar; here use --gaps interpolate, or give a file with one piece"
@@ -1019,8 +1217,12 @@ def _load(
     for name in record.names:
         pieces = record.pieces(name) if split else [record.channel(name)]
         for k, piece in enumerate(pieces):
-            x = np.asarray(piece, dtype=np.float64)
-            if getattr(args, "preprocess", None):
+            preprocessing = bool(getattr(args, "preprocess", None))
+            if out_of_core and not preprocessing and stream.is_chunked(piece):
+                x = piece
+            else:
+                x = np.asarray(piece, dtype=np.float64)
+            if preprocessing:
                 x, new_rate, steps = preprocess(x, rate=float(record.rate),
                                                 steps=args.preprocess)  # fmt: skip
                 rate = float(new_rate)
@@ -1064,11 +1266,15 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         check_output_directory(args.out, replace=args.force)
         _guard_replacement(args.out, [Path(args.file)])
 
-    channels, meta, units_of, tau0 = _load(args, several=True)
+    status = _Status()
+    status(f"reading {args.file}")
+    channels, meta, units_of, tau0 = _load(args, several=True, out_of_core=True)
     runs = []
-    for name, samples in channels.items():
+    for k, (name, samples) in enumerate(channels.items()):
         meta_c = {**meta, "column": name}
-        runs.append(_avar_channel(args, samples, meta_c, units_of[name], tau0, do_fit))
+        tag = f"{name} ({k + 1}/{len(channels)}): " if len(channels) > 1 else ""
+        runs.append(_avar_channel(args, samples, meta_c, units_of[name], tau0, do_fit,
+                                  status, tag))  # fmt: skip
     several = len(runs) > 1
     if several:
         payload: dict[str, Any] = {
@@ -1092,6 +1298,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         try:
             with atomic_directory(args.out, replace=args.force) as tmp:
                 for run in runs:
+                    status(f"writing {args.out}: {run['name']}")
                     prefix = f"{_safe_name(run['name'])}_" if several else ""
                     _write_csv(tmp / f"{prefix}deviation.csv", run["result"], run["comment"])
                     fig = deviation_figure(run["result"], run["fit"], title=run["title"])
@@ -1102,6 +1309,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
                 written.append("result.json")
         except OSError as exc:
             raise _output_error(args.out, exc) from None
+    status.close()
 
     if args.json:
         print(text)
@@ -1126,12 +1334,14 @@ def _safe_name(name: str) -> str:
 
 def _avar_channel(
     args: argparse.Namespace, samples: np.ndarray, meta: dict[str, Any], units: str,
-    tau0: float, do_fit: bool,
+    tau0: float, do_fit: bool, status: _Status | None = None, tag: str = "",
 ) -> dict[str, Any]:  # fmt: skip
     """The deviation (and fit) of one channel: results, JSON payload and printed lines."""
     from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
 
+    status = status or _Status()
     rate_u = rate_unit(units, args.data_type)
+    status(f"{tag}computing the {args.stat} of {samples.size} samples")
     result = deviation(
         samples,
         stat=args.stat,
@@ -1141,11 +1351,13 @@ def _avar_channel(
         confidence=args.confidence,
         points_per_decade=args.points_per_decade,
         units=rate_u,
+        **_chunk_keywords(args),
     )
     fit = None
     if do_fit:
+        status(f"{tag}fitting the noise terms")
         try:
-            fit = fit_noise(result, terms=args.terms or TERM_NAMES)
+            fit = fit_noise(result, **_fit_keywords(args))
         except ValueError as exc:
             raise AdavarInputError(f"column {meta['column']!r}: {exc}") from None
     payload: dict[str, Any] = {
@@ -1174,7 +1386,7 @@ def _avar_channel(
         _deviation_table(result),
     ]
     lines += [f"note: {note}" for note in result.notes]
-    if samples.size and np.ptp(samples) == 0:
+    if result.dev.size and not np.any(result.dev):  # a constant column (no full pass)
         lines.append(f"note: column {meta['column']!r} is constant: its deviation is 0")
     if fit is not None:
         lines += ["", *_fit_lines(fit)]
@@ -1372,8 +1584,6 @@ def _schedule_of(result: Any) -> Any:
 
 
 def _cmd_davar(args: argparse.Namespace) -> int:
-    from adavar.plots import rate_unit
-
     if args.format is not None and args.out is None:
         raise UsageError("--format chooses the surface file of --out: give --out DIR as well")
     if args.confidence is None and args.terms is not None:
@@ -1391,10 +1601,102 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         raise UsageError("--method oracle needs --change-times T,... (seconds)")
     status = _Status()
     status(f"reading {args.file}")
-    samples, meta, units, tau0 = _load(args)
+    # several channels only when --column names them: a surface of every numeric column
+    # (a temperature too) is too costly to be a default
+    chosen = args.column is not None
+    loaded, meta, units_of, tau0 = _load(args, several=chosen, pieces=False,
+                                          out_of_core=True)
+    if not chosen:
+        loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
+    names = list(loaded)
+    several = len(names) > 1
+    folders = _channel_folders(names) if several else {}
+    runs = []
+    for k, name in enumerate(names):
+        out = args.out if args.out is None or not several else f"{args.out}/{folders[name]}"
+        tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
+        runs.append(_davar_channel(args, loaded[name], {**meta, "column": name}, units_of[name],
+                                   tau0, fmt, out, status, tag))  # fmt: skip
+    if several:
+        payload: dict[str, Any] = {
+            "adavar_version": __version__,
+            "input": {"file": meta["path"], "columns": names, "rate": 1.0 / tau0, "tau0": tau0,
+                      "data_type": args.data_type},
+            "channels": {run["name"]: run["payload"] for run in runs},
+            "out": None if args.out is None else {"dir": args.out, "format": fmt,
+                                                  "folders": folders},
+        }  # fmt: skip
+        if meta["preprocessing"]:
+            payload["input"]["preprocessing"] = [
+                step.get("spec", str(step)) for step in meta["preprocessing"]
+            ]
+        text = _dumps(payload)
+        written = [f"{folders[name]}/" for name in names] + ["result.json"]
+    else:
+        text = runs[0]["text"]
+        written = runs[0]["written"]
+
+    if args.out is not None:
+        try:
+            with atomic_directory(args.out, replace=args.force) as tmp:
+                for run in runs:
+                    dest = tmp
+                    if several:
+                        dest = tmp / folders[run["name"]]
+                        dest.mkdir()
+                    _write_davar_channel(args, run, dest, fmt, status)
+                if several:
+                    (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise _output_error(args.out, exc) from None
+    status.close()
+
+    if args.json:
+        print(text)
+        if args.out is not None:
+            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
+        return EXIT_OK
+    for k, run in enumerate(runs):
+        if k:
+            print()
+        print("\n".join(_davar_summary(run["result"], run["fit"], run["meta"], run["units"],
+                                       args.data_type, [] if several else run["written"],
+                                       args.out)))  # fmt: skip
+    if several and args.out is not None:
+        print()
+        print(f"wrote {args.out}/ ({', '.join(written)}; in each folder: "
+              f"{', '.join(runs[0]['written'])})")  # fmt: skip
+    return EXIT_OK
+
+
+def _channel_folders(names: Sequence[str]) -> dict[str, str]:
+    """A distinct folder name for every channel (case-insensitively: not every file system
+    tells gx from GX), never ``result.json``."""
+    folders: dict[str, str] = {}
+    used = {"result.json"}
+    for name in names:
+        base = candidate = _safe_name(name)
+        k = 2
+        while candidate.lower() in used:
+            candidate = f"{base}_{k}"
+            k += 1
+        used.add(candidate.lower())
+        folders[name] = candidate
+    return folders
+
+
+def _davar_channel(
+    args: argparse.Namespace, samples: np.ndarray, meta: dict[str, Any], units: str,
+    tau0: float, fmt: str, out: str | None, status: _Status, tag: str,
+) -> dict[str, Any]:  # fmt: skip
+    """The (adaptive) DAVAR surface and its noise fit of one channel, with its JSON payload
+    and the names of the files its output folder ``out`` gets."""
+    from adavar.plots import rate_unit
+
+    adaptive = args.command == "adaptive"
     rate_u = rate_unit(units, args.data_type)
-    status(f"computing the {'adaptive ' if adaptive else ''}DAVAR surface of {samples.size} "
-           "samples")  # fmt: skip
+    status(f"{tag}computing the {'adaptive ' if adaptive else ''}DAVAR surface of "
+           f"{samples.size} samples")  # fmt: skip
     common = dict(
         # the rate as given: times are centre / rate, without 0.1-step rounding noise
         rate=args.rate if args.rate is not None else 1.0,
@@ -1408,6 +1710,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         noise_type=args.noise_type,
         t0=args.t0,
         units=rate_u,
+        **_chunk_keywords(args),
     )
     if adaptive:
         result = adaptive_davar(
@@ -1418,15 +1721,14 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         result = davar(samples, window=args.window, **common)
     fit = None
     if args.confidence is not None:
-        status("fitting the noise terms of every window")
+        status(f"{tag}fitting the noise terms of every window")
         try:
-            fit = fit_noise(result, terms=args.terms or TERM_NAMES)
+            fit = fit_noise(result, **_fit_keywords(args))
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
-    status.close()
 
     written: list[str] = []
-    if args.out is not None:
+    if out is not None:
         written = [f"surface{SURFACE_FORMATS[fmt]}"]
         if fit is not None:
             written.append("coefficients.csv")
@@ -1472,7 +1774,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         "alpha": result.alpha,
         "notes": list(result.notes),
         "fit": None if fit is None else _davar_fit_json(fit, np.asarray(result.time)),
-        "out": None if args.out is None else {"dir": args.out, "format": fmt, "files": written},
+        "out": None if out is None else {"dir": out, "format": fmt, "files": written},
     }
     if meta["preprocessing"]:
         payload["input"]["preprocessing"] = [
@@ -1484,63 +1786,73 @@ def _cmd_davar(args: argparse.Namespace) -> int:
             "min": int(np.min(result.window)), "max": int(np.max(result.window)),
             "shrunk_fraction": float(np.mean(result.window < result.parameters["lmax"])),
         }  # fmt: skip
-    text = _dumps(payload)
+    return {
+        "name": meta["column"], "result": result, "fit": fit, "meta": meta, "units": units,
+        "tau0": tau0, "payload": payload, "text": _dumps(payload), "written": written,
+        "tag": tag,
+    }  # fmt: skip
 
-    if args.out is not None:
-        from adavar.plots import (
-            coefficient_figure,
-            davar_heatmap_figure,
-            davar_surface_figure,
-            save_figure,
-            term_unit,
+
+def _write_davar_channel(
+    args: argparse.Namespace, run: dict[str, Any], dest: Path, fmt: str, status: _Status
+) -> None:
+    """The surface, coefficients, figures and result.json of one channel into ``dest``."""
+    from adavar.plots import (
+        coefficient_figure,
+        davar_heatmap_figure,
+        davar_surface_figure,
+        save_figure,
+        term_unit,
+    )
+
+    adaptive = args.command == "adaptive"
+    result, fit, meta, tau0 = run["result"], run["fit"], run["meta"], run["tau0"]
+    status(f"{run['tag']}drawing the figures")
+    title = f"{Path(meta['path']).name}, column {meta['column']}"
+    figures = {
+        "davar_surface": davar_surface_figure(result),
+        "davar_heatmap": davar_heatmap_figure(result),
+    }
+    if adaptive:
+        from adavar.plots import controller_figure
+
+        figures["controller"] = controller_figure(
+            _schedule_of(result), result.time, change_times=args.change_times or (),
+            title=f"{title}: {result.method} window",
+        )  # fmt: skip
+    if fit is not None:
+        term = _coefficient_term(fit)
+        what = f"window {args.window} samples" if not adaptive else f"{result.method} window"
+        figures[_TERM_FILES[term]] = coefficient_figure(fit, term=term, title=f"{title}: {what}")
+    status(f"{run['tag']}writing the surface and the figures")
+    write_surface(dest / run["written"][0], result, fmt=fmt)
+    if fit is not None:
+        units_text = ", ".join(
+            f"{name} in {term_unit(name, fit.units) or '1'}" for name in fit.terms
         )
+        _write_coefficients(
+            dest / "coefficients.csv", result, fit,
+            f"adavar {__version__}: noise coefficients of every DAVAR window of "
+            f"{meta['path']} column {meta['column']!r} ({args.data_type} data, "
+            f"tau0 = {tau0:g} s); time_s: window centre, window: samples; "
+            f"{units_text}; uncertainties 1 sigma (an upper bound where the value "
+            "is 0); nan: window not fitted",
+        )  # fmt: skip
+    for stem, fig in figures.items():
+        save_figure(fig, dest / stem)
+    (dest / "result.json").write_text(run["text"] + "\n", encoding="utf-8")
 
-        title = f"{Path(meta['path']).name}, column {meta['column']}"
-        figures = {
-            "davar_surface": davar_surface_figure(result),
-            "davar_heatmap": davar_heatmap_figure(result),
-        }
-        if adaptive:
-            from adavar.plots import controller_figure
 
-            figures["controller"] = controller_figure(
-                _schedule_of(result), result.time, change_times=args.change_times or (),
-                title=f"{title}: {result.method} window",
-            )  # fmt: skip
-        if fit is not None:
-            term = _coefficient_term(fit)
-            what = f"window {args.window} samples" if not adaptive else f"{result.method} window"
-            figures[_TERM_FILES[term]] = coefficient_figure(
-                fit, term=term, title=f"{title}: {what}"
-            )
-        try:
-            with atomic_directory(args.out, replace=args.force) as tmp:
-                write_surface(tmp / written[0], result, fmt=fmt)
-                if fit is not None:
-                    units_text = ", ".join(
-                        f"{name} in {term_unit(name, fit.units) or '1'}" for name in fit.terms
-                    )
-                    _write_coefficients(
-                        tmp / "coefficients.csv", result, fit,
-                        f"adavar {__version__}: noise coefficients of every DAVAR window of "
-                        f"{meta['path']} column {meta['column']!r} ({args.data_type} data, "
-                        f"tau0 = {tau0:g} s); time_s: window centre, window: samples; "
-                        f"{units_text}; uncertainties 1 sigma (an upper bound where the value "
-                        "is 0); nan: window not fitted",
-                    )  # fmt: skip
-                for stem, fig in figures.items():
-                    save_figure(fig, tmp / stem)
-                (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
-        except OSError as exc:
-            raise _output_error(args.out, exc) from None
+def _fit_keywords(args: argparse.Namespace) -> dict[str, Any]:
+    """The keywords of :func:`adavar.fit_noise` from the parsed flags."""
+    return dict(terms=args.terms or TERM_NAMES, n_reweight=args.n_reweight,
+                spacing=args.spacing)  # fmt: skip
 
-    if args.json:
-        print(text)
-        if written:
-            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
-        return EXIT_OK
-    print("\n".join(_davar_summary(result, fit, meta, units, args.data_type, written, args.out)))
-    return EXIT_OK
+
+def _chunk_keywords(args: argparse.Namespace) -> dict[str, Any]:
+    """``chunk_size`` for the library, only when --chunk-size is given."""
+    size = getattr(args, "chunk_size", None)
+    return {} if size is None else {"chunk_size": size}
 
 
 # --------------------------------------------------------------------------------------
@@ -1904,16 +2216,20 @@ class _Status:
     def __init__(self) -> None:
         self.enabled = sys.stderr.isatty()
         self.start = time.perf_counter()
+        self.shown = False
 
     def __call__(self, what: str) -> None:
         if self.enabled:
             elapsed = time.perf_counter() - self.start
             print(f"\r{what} ... ({elapsed:.1f} s)".ljust(79)[:79], end="", file=sys.stderr,
                   flush=True)  # fmt: skip
+            self.shown = True
 
     def close(self) -> None:
-        if self.enabled:
+        """Erase the line (the command's output follows on a clean line)."""
+        if self.enabled and self.shown:
             print("\r" + " " * 79 + "\r", end="", file=sys.stderr, flush=True)
+            self.shown = False
 
 
 class _ProgressBar:
@@ -1939,6 +2255,23 @@ class _ProgressBar:
             print("\r" + " " * 79 + "\r", end="", file=sys.stderr, flush=True)
 
 
+def _truth_column(args: argparse.Namespace, size: int, tau0: float) -> np.ndarray:
+    """The true N of every sample, from another column of the compared FILE."""
+    from adavar.readers import read_record
+
+    record = read_record(
+        args.file, columns=[args.truth_column], rate=1.0 / tau0, gaps=args.gaps,
+        nan=args.nan, gap_tolerance=args.gap_tolerance,
+    )  # fmt: skip
+    truth = np.asarray(record.channel(record.names[0]), dtype=np.float64)
+    if truth.size != size:
+        raise AdavarInputError(
+            f"--truth-column {args.truth_column}: {truth.size} values for {size} samples "
+            "(missing values dropped?): give a complete column"
+        )
+    return truth
+
+
 def _cmd_compare(args: argparse.Namespace) -> int:
     from adavar import simulate
     from adavar.compare import compare, compare_seeds, kurtosis_study, threshold_study
@@ -1948,9 +2281,13 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     units: str | None = None
     tau0 = 1.0
     if args.scenario is not None:
-        for flag, value in (("--column", args.column), ("--rate", args.rate),
-                            ("--tau0", args.tau0), ("--units", args.units),
-                            ("--change-times", args.change_times)):  # fmt: skip
+        file_flags = (("--column", args.column), ("--rate", args.rate),
+                      ("--tau0", args.tau0), ("--units", args.units),
+                      ("--change-times", args.change_times),
+                      ("--truth-column", args.truth_column),
+                      ("--time-column", args.time_column), ("--dataset", args.dataset),
+                      ("--topic", args.topic), ("--preprocess", args.preprocess))  # fmt: skip
+        for flag, value in file_flags:
             if value is not None:
                 raise UsageError(
                     f"{flag} describes a data FILE; --scenario simulates its own record "
@@ -1973,9 +2310,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         combine=args.combine, thresholds=args.thresholds, false_alarm=args.false_alarm,
     )  # fmt: skip
     terms = args.terms or TERM_NAMES
-    fig8 = tuple(sorted({*_FIG8_THRESHOLDS, float(args.k2)}))
+    if args.crossing_thresholds is not None:
+        fig8 = tuple(sorted(set(args.crossing_thresholds)))
+    else:
+        fig8 = tuple(sorted({*_FIG8_THRESHOLDS, float(args.k2)}))
+    crossing_window = args.crossing_window or args.lmax
     start = time.perf_counter()
+    status = _Status()
+    truth = None
     if args.scenario is not None:
+        status(f"simulating scenario {args.scenario}")
         data: Any = simulate.paper_scenario(
             args.scenario, seed=args.seed, variance_reading=args.variance_reading
         )
@@ -1987,7 +2331,10 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         }  # fmt: skip
         description = None
     else:
+        status(f"reading {args.file}")
         samples, meta, units, tau0 = _load(args)
+        if args.truth_column is not None:
+            truth = _truth_column(args, samples.size, tau0)
         data = samples
         rate = args.rate if args.rate is not None else 1.0 / tau0
         changes = args.change_times
@@ -1997,14 +2344,19 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         }  # fmt: skip
         description = (f"{meta['path']}, column {meta['column']!r}: {samples.size} samples at "
                        f"{1.0 / tau0:g} Hz in {units}")  # fmt: skip
+    status("running " + ", ".join(args.methods) if args.methods else "running the methods")
     comp = compare(
         data, methods=args.methods, rate=rate, change_times=changes, taus=args.taus or "all",
-        terms=terms, units=units, description=description, **controller,
+        terms=terms, units=units, description=description, truth=truth,
+        intervals=args.intervals, confidence=args.confidence, noise_type=args.noise_type,
+        points_per_decade=args.points_per_decade, **controller,
     )  # fmt: skip
     thr = None
     if comp.change_times:
-        thr = threshold_study(data, change_times=comp.change_times, window=args.lmax,
+        status("kurtosis threshold crossings")
+        thr = threshold_study(data, change_times=comp.change_times, window=crossing_window,
                               thresholds=fig8, rate=comp.rate)  # fmt: skip
+    status.close()
     study = None
     if args.seeds > 1:
         bar = _ProgressBar(f"scenario {args.scenario}, {args.seeds} realisations")
@@ -2013,18 +2365,21 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                 args.scenario, range(args.seed, args.seed + args.seeds),
                 variance_reading=args.variance_reading, methods=args.methods,
                 taus=args.taus or "octave", terms=terms, crossing_thresholds=fig8,
-                progress=bar, **controller,
+                crossing_window=args.crossing_window, progress=bar, **controller,
             )  # fmt: skip
         finally:
             bar.close()
     kurt = None
     if args.out is not None:
+        status("kurtosis study")
         windows = tuple(w for w in (11, 201, 601) if w <= comp.data.size)
         kurt = kurtosis_study(data, rate=comp.rate, windows=windows,
                               change_times=comp.change_times)  # fmt: skip
     elapsed = time.perf_counter() - start
 
     tables = _compare_tables(comp, study, thr)
+    if args.out is not None:
+        status("drawing the figures")
     figures = _compare_figures(comp, kurt, thr) if args.out is not None else {}
     written = [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg")),
                "result.json"] if args.out is not None else []  # fmt: skip
@@ -2041,6 +2396,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if args.out is not None:
         from adavar.plots import save_figure
 
+        status(f"writing {args.out}")
         try:
             with atomic_directory(args.out, replace=args.force) as tmp:
                 for name, body in tables.items():
@@ -2050,6 +2406,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                 (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
         except OSError as exc:
             raise _output_error(args.out, exc) from None
+    status.close()
     if args.json:
         print(text)
         if written:
@@ -2134,6 +2491,8 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
     output = _check_output_file(args.output, args.force, (".yaml", ".yml"))
     if len(args.gyro) != 3 or len(args.accel) != 3:
         raise UsageError("--gyro and --accel take three columns each (x,y,z)")
+    status = _Status()
+    status(f"reading {args.file}")
     record = read_record(
         args.file, columns=[*args.gyro, *args.accel], rate=args.rate,
         time_column=args.time_column, topic=args.topic, gaps=args.gaps,
@@ -2147,8 +2506,9 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
             "(e.g. m/s^2, g); adavar never guesses units"
         )
     fits = {}
-    for name, units in [*((g, gyro_units) for g in args.gyro),
-                        *((a, accel_units) for a in args.accel)]:  # fmt: skip
+    for k, (name, units) in enumerate([*((g, gyro_units) for g in args.gyro),
+                                       *((a, accel_units) for a in args.accel)]):  # fmt: skip
+        status(f"fitting the noise terms of {name} ({k + 1}/6)")
         result = deviation(record.channel(name), rate=record.rate, units=units)
         try:
             fits[name] = fit_noise(result)
@@ -2166,10 +2526,12 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
     except ValueError as exc:  # the library names its keyword; here it is a flag
         message = str(exc).replace("pinned='bound'", "--pinned bound")
         raise AdavarInputError(message) from None
+    status(f"writing {output}")
     try:
         write_text(output, text)
     except OSError as exc:
         raise _output_error(args.output, exc) from None
+    status.close()
     if args.json:
         print(_dumps({"adavar_version": __version__, "output": str(output),
                       "rate": record.rate, "n_samples": record.n_samples, "kalibr": values}))
@@ -2184,23 +2546,44 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     from adavar.export import write_text
 
     output = _check_output_file(args.output, args.force, (".csv",))
+    status = _Status()
+    terms = {"quantization": args.quantization, "angle_random_walk": args.arw,
+             "bias_instability": args.bias_instability,
+             "rate_random_walk": args.rrw, "rate_ramp": args.rate_ramp}  # fmt: skip
     if args.scenario is not None:
-        sc = simulate.paper_scenario(args.scenario, seed=args.seed)
+        if any(terms.values()) or args.bias or args.markov or args.sinusoid:
+            raise UsageError(
+                "--scenario simulates the paper's record; the sensor terms (--arw, --bias, "
+                "--markov, ...) describe another one: drop them or --scenario"
+            )
+        status(f"simulating scenario {args.scenario}")
+        sc = simulate.paper_scenario(
+            args.scenario, seed=args.seed, variance_reading=args.variance_reading
+        )
         x, rate, what = np.asarray(sc.data), float(sc.rate), sc.description
     else:
-        terms = {"quantization": args.quantization, "angle_random_walk": args.arw,
-                 "bias_instability": args.bias_instability,
-                 "rate_random_walk": args.rrw, "rate_ramp": args.rate_ramp}  # fmt: skip
-        if not any(v > 0 for v in terms.values()):
+        if args.variance_reading:
+            raise UsageError("--variance-reading chooses a --scenario's disturbance")
+        if not any(v > 0 for v in terms.values()) and not (args.markov or args.sinusoid):
             raise UsageError(
                 "give at least one noise coefficient (--arw, --bias-instability, --rrw, "
-                "--quantization, --rate-ramp) or --scenario 1|2"
+                "--quantization, --rate-ramp, --markov, --sinusoid) or --scenario 1|2"
             )
         if any(v < 0 for v in terms.values()):
             raise UsageError("noise coefficients must not be negative")
-        x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, **terms) + args.bias
+        status(f"simulating {args.n} samples")
+        try:
+            x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, bias=args.bias,
+                                markov=args.markov, sinusoid=args.sinusoid,
+                                **terms)  # fmt: skip
+        except ValueError as exc:  # e.g. a sinusoid above the Nyquist frequency
+            raise AdavarInputError(str(exc)) from None
         rate = float(args.rate)
         what = ", ".join(f"{k}={v:g}" for k, v in terms.items() if v > 0)
+        for name, value in (("markov", args.markov), ("sinusoid", args.sinusoid)):
+            if value:
+                what += f"{', ' if what else ''}{name}={','.join(f'{v:g}' for v in value)}"
+    status(f"writing {output}")
     t = np.arange(x.size) / rate
     body = "\n".join(f"{ti!r},{xi!r}" for ti, xi in zip(t.tolist(), x.tolist(), strict=True))
     header = (f"# adavar {__version__} simulate, seed {args.seed}: {what}; "
@@ -2209,6 +2592,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         write_text(output, header + body + "\n")
     except OSError as exc:
         raise _output_error(args.output, exc) from None
+    status.close()
     if args.json:
         print(_dumps({"output": str(output), "n_samples": int(x.size), "rate": rate,
                       "units": args.units, "seed": args.seed, "what": what}))
@@ -2222,7 +2606,107 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     output = _check_output_file(args.output, args.force, (".html", ".htm"))
     terms = args.terms or TERM_NAMES
-    samples, meta, units, tau0 = _load(args)
+    status = _Status()
+    status(f"reading {args.file}")
+    chosen = args.column is not None  # several channels only when --column names them
+    loaded, meta, units_of, tau0 = _load(args, several=chosen, pieces=False)
+    if not chosen:
+        loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
+    names = list(loaded)
+    several = len(names) > 1
+    runs = []
+    for k, name in enumerate(names):
+        tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
+        runs.append(_report_channel(args, loaded[name], units_of[name], tau0, status, tag))
+    first = runs[0]
+    units = first["units"] if not several else "; ".join(
+        f"{name}: {units_of[name]}" for name in names
+    )  # fmt: skip
+    parameters: dict[str, Any] = {
+        "statistic": "oadev", "data type": args.data_type, "units": units,
+        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
+    }  # fmt: skip
+    if args.n_reweight != 3 or args.spacing != "octave":
+        parameters.update({"fit reweighting passes": args.n_reweight,
+                           "fit tau spacing": args.spacing})  # fmt: skip
+    if first["surface"] is not None:
+        parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
+        if first["adaptive"] is not None:
+            parameters.update({f"controller {k}": v
+                               for k, v in first["adaptive"].parameters.items()
+                               if v is not None})  # fmt: skip
+        else:
+            parameters["DAVAR window [samples]"] = args.window
+    steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
+    status("building the figures and the HTML")
+    if several:
+        title = args.title or f"{Path(meta['path']).name}, columns {', '.join(names)}"
+        html = _channels_report(
+            title=title,
+            source={"file": meta["path"], "columns": ", ".join(names), "format": meta["kind"],
+                    "samples": int(first["samples"])},
+            runs=dict(zip(names, runs, strict=True)), parameters=parameters,
+            preprocessing=steps,
+        )  # fmt: skip
+    else:
+        title = args.title or f"{Path(meta['path']).name}, column {meta['column']}"
+        html = build_report(
+            title=title,
+            source={"file": meta["path"], "column": meta["column"], "format": meta["kind"],
+                    "samples": int(first["samples"])},
+            deviation=first["result"], fit=first["fit"], surface=first["surface"],
+            coefficients=first["coefficients"], adaptive=first["adaptive"],
+            parameters=parameters, preprocessing=steps, units=first["rate_units"],
+        )  # fmt: skip
+    status(f"writing {output}")
+    try:
+        write_report(output, html)
+    except OSError as exc:
+        raise _output_error(args.output, exc) from None
+    status.close()
+
+    def channel_json(name: str, run: dict[str, Any]) -> dict[str, Any]:
+        surface = run["surface"]
+        return {
+            "input": {"file": meta["path"], "column": name, "rate": 1.0 / tau0,
+                      "units": run["units"], "n_samples": int(run["samples"]),
+                      "preprocessing": steps},
+            "fit": _fit_json(run["fit"]),
+            "surface": None if surface is None else {
+                "windows": int(np.shape(surface.avar)[0]),
+                "taus": int(np.shape(surface.avar)[1]),
+                "method": getattr(surface, "method", "fixed"),
+            },
+        }  # fmt: skip
+
+    payload: dict[str, Any] = {
+        "adavar_version": __version__,
+        "report": str(output),
+        "bytes": len(html.encode("utf-8")),
+    }
+    if several:
+        payload["input"] = {"file": meta["path"], "columns": names, "rate": 1.0 / tau0,
+                            "preprocessing": steps}  # fmt: skip
+        payload["channels"] = {name: channel_json(name, run)
+                               for name, run in zip(names, runs, strict=True)}  # fmt: skip
+    else:
+        payload.update(channel_json(names[0], first))
+    if args.json:
+        print(_dumps(payload))
+        return EXIT_OK
+    print(f"wrote {output} ({payload['bytes'] / 1e6:.1f} MB): {title}")
+    for name, run in zip(names, runs, strict=True):
+        if several:
+            print(f"  column {name!r} ({run['units']}):")
+        print("\n".join(_fit_lines(run["fit"], "    " if several else "  ")))
+    return EXIT_OK
+
+
+def _report_channel(
+    args: argparse.Namespace, samples: np.ndarray, units: str, tau0: float, status: _Status,
+    tag: str,
+) -> dict[str, Any]:  # fmt: skip
+    """The results of one channel shown in the report: deviation, fit, optional surface."""
     from adavar.plots import rate_unit
 
     rate_u = rate_unit(units, args.data_type)
@@ -2230,66 +2714,103 @@ def _cmd_report(args: argparse.Namespace) -> int:
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,
     )  # fmt: skip
+    status(f"{tag}deviation and noise fit of {samples.size} samples")
     result = deviation(samples, data_type=args.data_type, units=rate_u, **rate_kw)
     try:
-        fit = fit_noise(result, terms=terms)
+        fit = fit_noise(result, **_fit_keywords(args))
     except ValueError as exc:
         raise AdavarInputError(str(exc)) from None
     surface = adaptive = coefficients = None
     common = dict(data_type=args.data_type, taus=args.taus, step=args.step, units=rate_u,
                   **rate_kw)  # fmt: skip
     if args.adaptive:
+        status(f"{tag}adaptive DAVAR surface")
         adaptive = adaptive_davar(samples, **_controller_settings(args), **common)
         surface = adaptive
     elif args.window is not None:
+        status(f"{tag}DAVAR surface")
         surface = davar(samples, window=args.window, **common)
     if surface is not None:
+        status(f"{tag}noise coefficients of every window")
         try:
-            coefficients = fit_noise(surface, terms=terms)
+            coefficients = fit_noise(surface, **_fit_keywords(args))
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
-    parameters: dict[str, Any] = {
-        "statistic": "oadev", "data type": args.data_type, "units": units,
-        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
+    return {
+        "result": result, "fit": fit, "surface": surface, "adaptive": adaptive,
+        "coefficients": coefficients, "units": units, "rate_units": rate_u,
+        "samples": samples.size,
     }  # fmt: skip
-    if surface is not None:
-        parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
-        if adaptive is not None:
-            parameters.update({f"controller {k}": v for k, v in adaptive.parameters.items()
-                               if v is not None})  # fmt: skip
-        else:
-            parameters["DAVAR window [samples]"] = args.window
-    steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
-    title = args.title or f"{Path(meta['path']).name}, column {meta['column']}"
-    html = build_report(
-        title=title,
-        source={"file": meta["path"], "column": meta["column"], "format": meta["kind"],
-                "samples": int(samples.size)},
-        deviation=result, fit=fit, surface=surface, coefficients=coefficients,
-        adaptive=adaptive, parameters=parameters, preprocessing=steps, units=rate_u,
-    )  # fmt: skip
-    try:
-        write_report(output, html)
-    except OSError as exc:
-        raise _output_error(args.output, exc) from None
-    payload = {
-        "adavar_version": __version__,
-        "report": str(output),
-        "bytes": len(html.encode("utf-8")),
-        "input": {"file": meta["path"], "column": meta["column"], "rate": 1.0 / tau0,
-                  "units": units, "n_samples": int(samples.size), "preprocessing": steps},
-        "fit": _fit_json(fit),
-        "surface": None if surface is None else {
-            "windows": int(np.shape(surface.avar)[0]), "taus": int(np.shape(surface.avar)[1]),
-            "method": getattr(surface, "method", "fixed"),
-        },
-    }  # fmt: skip
-    if args.json:
-        print(_dumps(payload))
-        return EXIT_OK
-    print(f"wrote {output} ({payload['bytes'] / 1e6:.1f} MB): {title}")
-    print("\n".join(_fit_lines(fit, "  ")))
-    return EXIT_OK
+
+
+def _channels_report(
+    *, title: str, source: dict[str, Any], runs: dict[str, dict[str, Any]],
+    parameters: dict[str, Any], preprocessing: list[str],
+) -> str:  # fmt: skip
+    """One HTML report with a section per channel (plots and coefficient table of each).
+
+    The page (head, data, parameters, preprocessing, footer) is :func:`build_report`'s;
+    the channel sections are made of its figure and table builders, with plot ids
+    prefixed by the channel's number so that they stay unique.
+    """
+    from adavar import report as rp
+
+    figures: dict[str, dict[str, Any]] = {}
+
+    def plot(key: str, figure: dict[str, Any]) -> str:
+        figures[key] = figure
+        return f'<div class="plot" id="{key}"></div>'
+
+    sections = []
+    for k, (name, run) in enumerate(runs.items(), start=1):
+        units, dev, fit = run["rate_units"], run["result"], run["fit"]
+        stat = rp.STAT_NAMES.get(dev.stat, dev.stat)
+        cap = (
+            f"{stat} of {dev.n_samples} samples at {dev.rate:.6g} Hz ({dev.data_type} data), "
+            f"{dev.tau.size} taus; bars: {100 * dev.confidence:.1f} % confidence interval. "
+            "Hover for values."
+        )
+        parts = [
+            f'<section id="channel-{k}" class="channel"><h2>Channel {rp._esc(name)} '
+            f"({rp._esc(run['units'])})</h2>",
+            "<h3>Deviation and noise fit</h3>",
+            plot(f"plot-{k}-deviation", rp._deviation_figure(dev, fit, units)),
+            f'<p class="caption">{rp._esc(cap)}</p>{rp._notes(dev.notes)}',
+            f"<h3>Noise coefficients</h3>{rp._coefficient_table(fit, units)}",
+        ]
+        surface = run["surface"]
+        if surface is not None:
+            figure, caption = rp._surface_figure(surface, units)
+            parts += ["<h3>Dynamic Allan deviation surface</h3>",
+                      plot(f"plot-{k}-surface", figure),
+                      f'<p class="caption">{rp._esc(caption)}</p>{rp._notes(surface.notes)}']
+            figure, terms = rp._coefficient_figure(run["coefficients"], units)
+            parts.append("<h3>Noise coefficients over time</h3>")
+            if figure:
+                parts.append(plot(f"plot-{k}-coefficients", figure))
+                cap = (f"{', '.join(terms)} of every window over time; band: ±1σ (clipped at "
+                       "0; from 0 to the 1-sigma upper bound where a term is pinned at 0).")
+            else:
+                cap = "No term is non-zero in any window."
+            parts.append(f'<p class="caption">{rp._esc(cap)}</p>')
+        if run["adaptive"] is not None:
+            parts += ["<h3>Adaptive window controller</h3>",
+                      plot(f"plot-{k}-adaptive", rp._adaptive_figure(run["adaptive"]))]
+        parts.append("</section>")
+        sections.append("".join(parts))  # fmt: skip
+
+    page = rp.build_report(title=title, source=source, parameters=parameters,
+                           preprocessing=preprocessing)  # fmt: skip
+    plotly_js, plotly_version = rp._plotly_js()
+    scripts = (f"<script>{plotly_js}</script>\n"
+               f'<script type="application/json" id="adavar-figures">'
+               f"{rp._script_json(figures)}</script>\n<script>{rp._RENDER_JS}</script>\n")
+    # after the data section (or at the top of <main>), before the parameters
+    anchor = '<section id="parameters">' if parameters else "\n</main>"
+    page = page.replace(anchor, "\n".join(sections) + "\n" + anchor, 1)
+    page = page.replace(".</footer>", f"; plots by plotly.js {rp._esc(plotly_version)} "
+                        "(embedded).</footer>", 1)
+    return page.replace("\n</body>", "\n" + scripts + "</body>", 1)  # fmt: skip
 
 
 def _demo_report(demo: Any) -> str:
@@ -2322,8 +2843,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
     start = time.perf_counter()
     _check_demo_out(args.out, args.force)
+    status = _Status()
+    status("NIST check values, a simulated gyro and the paper's scenario 1")
     demo = run_demo(seed=args.seed)
     gyro = demo.gyro
+    status("drawing the figures")
     fig = deviation_figure(
         gyro.result, gyro.fit,
         title=f"Simulated MEMS gyro ({gyro.n_samples:,} samples at {gyro.rate:g} Hz, "
@@ -2339,9 +2863,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         figures = _compare_figures(paper.comparison, paper.kurtosis, paper.thresholds)
         files += [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg"))]
     files.append("report.html")
+    status("building the HTML report")
     html = _demo_report(demo)
     payload = _demo_json(demo, str(args.out), files)
     text = _dumps(payload)
+    status(f"writing {args.out}")
     try:
         with atomic_directory(args.out, replace=True) as tmp:
             save_figure(fig, tmp / "gyro_oadev")
@@ -2356,6 +2882,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             )
     except OSError as exc:
         raise _output_error(args.out, exc) from None
+    status.close()
     elapsed = time.perf_counter() - start
 
     if args.json:
@@ -2396,6 +2923,119 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     print(f"wrote {Path(args.out) / files[0]} and {', '.join(files[1:])}")
     print(f"done in {elapsed:.1f} s (computation {demo.elapsed:.2f} s)")
     return EXIT_OK
+
+
+# --------------------------------------------------------------------------------------
+# batch
+# --------------------------------------------------------------------------------------
+
+#: Most files listed one per line by ``adavar batch`` (beyond: the failed ones only).
+_BATCH_LISTED = 50
+
+
+def _duration(seconds: float) -> str:
+    seconds = max(0, round(seconds))
+    if seconds < 60:
+        return f"{seconds} s"
+    if seconds < 3600:
+        return f"{seconds // 60} min {seconds % 60:02d} s"
+    return f"{seconds // 3600} h {seconds // 60 % 60:02d} min"
+
+
+class _BatchProgress(_ProgressBar):
+    """The batch's bar: files done of all, errors so far, time left (only on a terminal)."""
+
+    def __init__(self) -> None:
+        super().__init__("batch")
+        self.errors = 0
+        self.computed = 0
+
+    def __call__(self, done: int, total: int, row: dict[str, Any] | None = None) -> None:
+        if row is not None:
+            self.errors += row.get("status") == "error"
+            self.computed += row.get("status") != "done"
+        if not self.enabled or total <= 0:
+            return
+        elapsed = time.perf_counter() - self.start
+        filled = int(20 * done / total)
+        left = (f", {_duration(elapsed / self.computed * (total - done))} left"
+                if self.computed and done < total else "")  # fmt: skip
+        errors = f", {self.errors} error{'s' if self.errors != 1 else ''}" if self.errors else ""
+        line = f"\rbatch [{'#' * filled}{'-' * (20 - filled)}] {done}/{total} files{errors}{left}"
+        print(line.ljust(80)[:80], end="", file=sys.stderr, flush=True)
+
+
+def _batch_row_line(row: dict[str, Any]) -> list[str]:
+    from adavar.plots import format_pm
+
+    n_value = row.get("N")
+    coefficient = (
+        "" if n_value is None else f"N = {format_pm(n_value, row['N_uncertainty'], row['N_unit'])}"
+    )
+    events = "" if row.get("n_events") is None else str(row["n_events"])
+    elapsed = "" if row.get("elapsed_s") is None else f"{row['elapsed_s']:.1f}"
+    return [row["name"], row["status"], coefficient, events, elapsed]
+
+
+def _batch_error(row: dict[str, Any]) -> str:
+    """A failed row's error, naming its file once."""
+    error = row["error"] or "failed"
+    return error if row["file"] in error else f"{row['file']}: {error}"
+
+
+def _cmd_batch(args: argparse.Namespace) -> int:
+    from adavar.batch import collect_files, report_options, run_batch
+
+    files = collect_files(args.inputs, files_from=args.files_from)
+    options = report_options(args, ignore_unknown=True)
+    progress = _BatchProgress()
+    try:
+        result = run_batch(
+            files, out=args.out, options=options, scheduler=args.scheduler,
+            workers=args.workers, force=args.force, progress=progress, timeout=args.timeout,
+        )  # fmt: skip
+    finally:
+        progress.close()
+    counts = result.counts
+    failed = [row for row in result.rows if row["status"] == "error"]
+    code = EXIT_INTERNAL if counts["internal_errors"] else (EXIT_USAGE if failed else EXIT_OK)
+    computed = counts["ok"] + counts["error"]
+    summary = [str(result.summary_csv)]
+    if result.summary_parquet is not None:
+        summary.append(str(result.summary_parquet))
+    if args.json:
+        print(_dumps({
+            "adavar_version": __version__, "out": str(result.out), "cluster": result.cluster,
+            "counts": counts, "elapsed_s": result.elapsed_s,
+            "files_per_minute": 60.0 * computed / result.elapsed_s if computed else None,
+            "summary": {"csv": summary[0], "parquet": summary[1] if len(summary) > 1 else None},
+            "notes": list(result.notes), "exit_code": code, "rows": result.rows,
+        }))  # fmt: skip
+    else:
+        print(
+            f"adavar batch: {counts['files']} files {result.cluster} in "
+            f"{_duration(result.elapsed_s)}: {counts['ok']} ok, {counts['done']} done earlier "
+            f"(skipped), {counts['error']} failed"
+        )
+        if len(result.rows) <= _BATCH_LISTED:
+            rows = [_batch_row_line(row) for row in result.rows if row["status"] != "error"]
+            if rows:
+                print(_table(["output", "status", "whole-record fit", "events", "s"], rows,
+                             "  "))  # fmt: skip
+        for row in failed:
+            print(f"  error in {row['name']}: {_batch_error(row)}")
+        for note in result.notes:
+            print(f"note: {note}")
+        print(f"wrote {' and '.join(summary)}")
+    if failed:
+        first = failed[0]
+        print(
+            f"adavar: error: {len(failed)} of {counts['files']} files failed (first: "
+            f"{_batch_error(first)}); every file's row is in {summary[0]}: fix them and "
+            "rerun with the same --out (the finished files are skipped)",
+            file=sys.stderr,
+        )
+    return code
 
 
 # --------------------------------------------------------------------------------------
@@ -2474,6 +3114,11 @@ def _with_config(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
             if value:
                 tokens.append(f"--{name}")
             continue
+        if isinstance(action, argparse.BooleanOptionalAction):  # --lazy / --no-lazy
+            if not isinstance(value, bool) or name.startswith("no-"):
+                raise UsageError(f"--config {path}: {key} takes true or false")
+            tokens.append(f"--{name}" if value else f"--no-{name}")
+            continue
         if isinstance(value, list):
             value = ",".join(str(v) for v in value)
         elif isinstance(value, bool):
@@ -2511,8 +3156,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise UsageError(
                 "choose a command: avar (deviation of a data file), davar (dynamic Allan "
                 "variance of a data file), adaptive (A-DAVAR), compare (fixed and adaptive "
-                "windows side by side), report (HTML report), kalibr (imu.yaml), simulate "
-                "or demo (see 'adavar --help')"
+                "windows side by side), report (HTML report), batch (many files, on a "
+                "cluster), kalibr (imu.yaml), simulate or demo (see 'adavar --help')"
             )
         return int(args.handler(args))
     except SystemExit as exc:  # --help, --version

@@ -1,0 +1,1014 @@
+"""Batches of records: one task per file, on a ``dask.distributed`` cluster or in process.
+
+:func:`run_batch` analyses many logs (a production line's static gyro recordings, a fleet's
+daily files) the way ``adavar report FILE`` analyses one: every file is one task that runs
+:func:`analyse_file` (the function behind ``adavar report``, so a file's numbers in a batch
+are those of running it alone) and writes ``OUT/<name>/`` atomically:
+
+- ``report.html``: the self-contained interactive report of ``adavar report``;
+- ``result.json``: the input (file, column, rate, unit, samples, preprocessing, the size and
+  modification time of the file), every analysis option, the whole-record noise fit (Q, N,
+  B, K, R with 1-sigma uncertainties, in the data's units and the conventional ones), the
+  events (with ``window`` or ``adaptive``), the time taken and the worker;
+- ``deviation.csv``: the overlapping Allan deviation with its confidence bounds.
+
+Then ``OUT/summary.csv`` and ``OUT/summary.parquet`` (with pyarrow) hold one row per file
+(:data:`SUMMARY_COLUMNS`), rewritten atomically at the end of every run.
+
+Where the tasks run: ``workers=N`` starts a ``distributed.LocalCluster`` of N single-threaded
+worker processes (each with ``NUMBA_NUM_THREADS=1``, so N files use N cores);
+``scheduler="tcp://host:8786"`` (or the path of a ``--scheduler-file`` JSON) connects to an
+existing scheduler, whose workers must see the same files and ``OUT`` (a shared file
+system); neither runs the files one after another in this process (no cluster to start, the
+numba kernels use every core for each file).
+
+A bad file (unreadable, NaN, too short, ...) ends its own task with its one-line error in
+its row (``status="error"``) and does not stop the batch. A rerun skips every file whose
+``OUT/<name>/result.json`` exists with the same input size, modification time and options
+(``status="done"``; its numbers are the stored ones); ``force=True`` recomputes them.
+
+Events (``result.json["events"]``, ``n_events`` and ``event_times_s`` of the summary): with
+``adaptive``, every run of window centres where the adaptive window is shorter than Lmax,
+with its node times (METHOD.md section 6: Beginning, End = start of the last regrowth,
+Restore = back at Lmax); with a fixed ``window`` L, every run of centres where the
+adaptive controller's test (kurtosis outside [K1, K2] or S > S2, the same settings) flags
+the L-sample window. With the paper's thresholds this test fires on stationary noise too
+(a few runs per thousand windows): ``thresholds="calibrated"`` sets its false-alarm rate.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import datetime as _dt
+import functools
+import glob
+import hashlib
+import json
+import logging
+import os
+import re
+import time
+from collections import Counter, defaultdict
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adavar.errors import AdavarInputError
+from adavar.noise_model import TERM_NAMES
+
+__all__ = [
+    "BATCH_MARKER",
+    "SUMMARY_COLUMNS",
+    "BatchResult",
+    "ReportAnalysis",
+    "analyse_file",
+    "collect_files",
+    "output_names",
+    "report_options",
+    "run_batch",
+]
+
+#: File that marks a folder as an ``adavar batch`` output (only such a folder is reused).
+BATCH_MARKER = ".adavar-batch"
+
+#: Letter of each noise term in the summary's column names.
+_LETTERS = {
+    "quantization": "Q",
+    "angle_random_walk": "N",
+    "bias_instability": "B",
+    "rate_random_walk": "K",
+    "rate_ramp": "R",
+}
+
+#: Columns of ``summary.csv`` / ``summary.parquet``, in order. ``status`` is ``ok``
+#: (computed now), ``done`` (skipped: the stored result of an earlier run) or ``error``
+#: (``error_type`` ``input``: a problem with the file or the options; ``internal``: a bug
+#: or a lost worker). Coefficients are in their conventional unit (``N_unit``, e.g.
+#: deg/sqrt(h)) when the data's unit has one, else in the data's unit times a power of
+#: seconds; ``N_uncertainty`` is 1 sigma. ``event_times_s``: the Beginning node of every
+#: event, seconds from the first sample, separated by ``;``.
+SUMMARY_COLUMNS: tuple[str, ...] = (
+    "file", "name", "status", "error_type", "error", "n_samples", "rate_hz", "units",
+    "column",
+    *(f"{letter}{suffix}" for letter in _LETTERS.values()
+      for suffix in ("", "_uncertainty", "_unit")),
+    "reduced_chi2", "n_events", "event_times_s", "elapsed_s", "worker",
+)  # fmt: skip
+
+_INT_COLUMNS = frozenset({"n_samples", "n_events"})
+_FLOAT_COLUMNS = frozenset(
+    {"rate_hz", "reduced_chi2", "elapsed_s"}
+    | {f"{letter}{suffix}" for letter in _LETTERS.values() for suffix in ("", "_uncertainty")}
+)
+#: Names an output folder must not take (the summary files sit next to the folders).
+_RESERVED = frozenset({"summary.csv", "summary.parquet"})
+#: Keys of the ``adavar report`` namespace that are not analysis options.
+_CLI_ONLY = frozenset(
+    {"command", "handler", "file", "output", "json", "force", "title", "config", "debug",
+     "help"}
+)  # fmt: skip
+_ALIASES = {"l": "segment"}
+#: A scheduler address: optional protocol, host (name, IPv4 or [IPv6]) and port.
+_ADDRESS = re.compile(r"^(?:[a-z][a-z0-9+]*://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]]+):\d{1,5}$")
+
+
+# --------------------------------------------------------------------------------------
+# Options: those of adavar report
+# --------------------------------------------------------------------------------------
+
+
+@functools.cache
+def _report_defaults() -> tuple[tuple[str, Any], ...]:
+    """The analysis options of ``adavar report`` and their defaults, from its own parser."""
+    from adavar.cli import build_parser
+
+    args = build_parser().parse_args(["report", "FILE", "-o", "report.html"])
+    return tuple(sorted((k, v) for k, v in vars(args).items() if k not in _CLI_ONLY))
+
+
+def report_options(
+    options: Mapping[str, Any] | argparse.Namespace | None = None, *, ignore_unknown: bool = False
+) -> dict[str, Any]:
+    """Every analysis option of ``adavar report``: its defaults, updated with ``options``.
+
+    Parameters
+    ----------
+    options : mapping or argparse.Namespace, optional
+        Option values by the destination names of the flags of ``adavar report`` (``units``,
+        ``rate``, ``tau0``, ``column``, ``data_type``, ``preprocess``, ``window``,
+        ``adaptive``, ``taus``, ``step``, ``terms``, ``lmax``, ``lmin``, ``k1``, ``k2``,
+        ``s2``, ``segment`` (or ``l``), ``thresholds``, ``nan``, ``gaps``, ...); dashes may
+        be written as underscores or dashes.
+    ignore_unknown : bool
+        Skip keys that are not analysis options (for a command-line namespace) instead of
+        raising.
+
+    Returns
+    -------
+    dict
+        Name -> value for every analysis option.
+
+    Raises
+    ------
+    AdavarInputError
+        An unknown option name (unless ``ignore_unknown``).
+    """
+    defaults = dict(_report_defaults())
+    if options is None:
+        given: dict[str, Any] = {}
+    elif isinstance(options, argparse.Namespace):
+        given = dict(vars(options))
+    else:
+        given = dict(options)
+    out = dict(defaults)
+    for key, value in given.items():
+        name = _ALIASES.get(str(key), str(key).replace("-", "_"))
+        if name in defaults:
+            out[name] = value
+        elif not ignore_unknown:
+            raise AdavarInputError(
+                f"unknown analysis option {key!r}: use the names of the flags of 'adavar "
+                f"report' ({', '.join(sorted(defaults))})"
+            )
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# One file: what adavar report computes
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class ReportAnalysis:
+    """Everything ``adavar report`` computes for one file (from :func:`analyse_file`).
+
+    Attributes
+    ----------
+    path : str
+        The file as given.
+    title : str
+        Title of the report.
+    samples : ndarray
+        The samples analysed (after preprocessing).
+    meta : dict
+        How they were read (``path``, ``column``, ``kind``, ``rate_from``, ``reader``,
+        ``preprocessing``, ...).
+    units : str
+        Declared unit of the samples.
+    rate_units : str
+        Unit of the rate samples (the integrated unit per second for phase data).
+    tau0 : float
+        Sample interval, seconds.
+    rate_options : dict
+        The ``rate``/``tau0`` keywords given to the analysis functions.
+    options : dict
+        Every analysis option (:func:`report_options`).
+    deviation : DeviationResult
+        The whole-record overlapping Allan deviation.
+    fit : NoiseFit
+        Its noise fit.
+    surface, adaptive : DavarResult, AdaptiveResult or None
+        The DAVAR surface (``window``) or the adaptive one (``adaptive``; then both are it).
+    coefficients : NoiseFit or None
+        The fit of every window of the surface.
+    parameters : dict
+        The parameter table of the report.
+    preprocessing : list of str
+        The preprocessing steps, in order.
+    """
+
+    path: str
+    title: str
+    samples: np.ndarray
+    meta: dict[str, Any]
+    units: str
+    rate_units: str
+    tau0: float
+    rate_options: dict[str, Any]
+    options: dict[str, Any]
+    deviation: Any
+    fit: Any
+    surface: Any = None
+    adaptive: Any = None
+    coefficients: Any = None
+    parameters: dict[str, Any] = field(default_factory=dict)
+    preprocessing: list[str] = field(default_factory=list)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples analysed."""
+        return int(self.samples.size)
+
+    def html(self) -> str:
+        """The report (:func:`adavar.report.build_report`) of ``adavar report``."""
+        from adavar.report import build_report
+
+        return build_report(
+            title=self.title,
+            source={"file": self.meta["path"], "column": self.meta["column"],
+                    "format": self.meta["kind"], "samples": self.n_samples},
+            deviation=self.deviation, fit=self.fit, surface=self.surface,
+            coefficients=self.coefficients, adaptive=self.adaptive,
+            parameters=self.parameters, preprocessing=self.preprocessing,
+            units=self.rate_units,
+        )  # fmt: skip
+
+    def events(self) -> dict[str, Any] | None:
+        """The events the window detected: None without ``window`` or ``adaptive``.
+
+        Returns
+        -------
+        dict or None
+            ``{"method", "rule", "count", "items", "note"}``; every item has ``start_s``
+            (the Beginning node: first centre of the run, seconds from the first sample),
+            ``end_s`` (adaptive: the End node, the start of the last regrowth; fixed: the
+            last flagged centre), ``restore_s`` (adaptive: back at Lmax, None if the record
+            ends first), ``leading_edge_s`` (the newest sample of the window at
+            ``start_s``: the event began at or before it) and ``min_window`` (samples).
+        """
+        if self.surface is None:
+            return None
+        if self.adaptive is not None:
+            lmax = int(self.adaptive.parameters["lmax"])
+            window = np.asarray(self.adaptive.window)
+            time_s = np.asarray(self.adaptive.time, dtype=float)
+            items = []
+            for a, b in _runs(window < lmax):
+                e = b
+                while e > a and window[e - 1] < window[e]:
+                    e -= 1
+                items.append({
+                    "start_s": float(time_s[a]), "end_s": float(time_s[e]),
+                    "restore_s": float(time_s[b + 1]) if b + 1 < window.size else None,
+                    "leading_edge_s": float(time_s[a] + self._seconds(lmax // 2)),
+                    "min_window": int(window[a : b + 1].min()),
+                })  # fmt: skip
+            return {
+                "method": self.adaptive.method,
+                "rule": f"runs of window centres where the window is shorter than Lmax = {lmax}",
+                "count": len(items), "items": items, "note": None,
+            }  # fmt: skip
+        return self._fixed_window_events()
+
+    def _seconds(self, samples: Any) -> Any:
+        """Sample counts as seconds, as the DAVAR times are (``n / rate`` or ``n * tau0``)."""
+        n = np.asarray(samples, dtype=float)
+        if self.rate_options.get("tau0") is None:
+            return n / float(self.rate_options["rate"])
+        return n * float(self.rate_options["tau0"])
+
+    def _fixed_window_events(self) -> dict[str, Any]:
+        from adavar.adaptive import adaptive_schedule
+        from adavar.cli import _controller_settings
+
+        length = int(self.options["window"])
+        settings = _controller_settings(argparse.Namespace(**self.options))
+        settings.update(lmax=length, lmin=length)
+        rule = (f"runs of window centres where the adaptive controller's test flags the "
+                f"fixed {length}-sample window")  # fmt: skip
+        if settings["l"] > length - 4:
+            note = (
+                f"no events: the S test needs a window of more than l + 3 = "
+                f"{settings['l'] + 3} samples (give a longer --window or a smaller --l)"
+            )
+            return {"method": "fixed", "rule": rule, "count": None, "items": None, "note": note}
+        u = self.samples if self.options["data_type"] == "rate" else np.diff(self.samples)
+        sched = adaptive_schedule(u, method="fixed", **settings, **self.rate_options)
+        time_s = self._seconds(sched.centre)
+        items = [
+            {"start_s": float(time_s[a]), "end_s": float(time_s[b]), "restore_s": None,
+             "leading_edge_s": float(self._seconds(sched.centre[a] + length // 2)),
+             "min_window": length}
+            for a, b in _runs(np.asarray(sched.f))
+        ]  # fmt: skip
+        return {"method": "fixed", "rule": rule, "count": len(items), "items": items,
+                "note": None}  # fmt: skip
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """First and last index of every run of True in a 1-D boolean array."""
+    edges = np.diff(np.concatenate(([0], np.asarray(mask, dtype=np.int8), [0])))
+    starts = np.flatnonzero(edges == 1)
+    stops = np.flatnonzero(edges == -1) - 1
+    return list(zip(starts.tolist(), stops.tolist(), strict=True))
+
+
+def analyse_file(
+    path: str | os.PathLike[str],
+    options: Mapping[str, Any] | argparse.Namespace | None = None,
+    *,
+    title: str | None = None,
+) -> ReportAnalysis:
+    """Read, preprocess and analyse one file exactly as ``adavar report FILE`` does.
+
+    ``adavar report`` and every task of :func:`run_batch` call this, so a file's numbers are
+    the same in both.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The record (any format of :func:`adavar.readers.read_record`).
+    options : mapping or argparse.Namespace, optional
+        Analysis options (:func:`report_options`); ``units`` and ``rate`` or ``tau0`` (unless
+        the file has time stamps) are needed.
+    title : str, optional
+        Title of the report (default: the file and column).
+
+    Returns
+    -------
+    ReportAnalysis
+
+    Raises
+    ------
+    AdavarInputError
+        An unreadable or bad file, or bad options (also ``adavar.cli.UsageError`` for the
+        options the command line checks: a missing unit, both rate and tau0, ...).
+    """
+    from adavar.cli import _load, _report_channel
+
+    opts = report_options(options, ignore_unknown=isinstance(options, argparse.Namespace))
+    args = argparse.Namespace(file=os.fspath(path), **opts)
+    # as adavar report: read (sets args.rate / args.tau0 as every command does), then the
+    # channel's deviation, fit and surface by the report's own function
+    chosen = args.column is not None
+    loaded, meta, units_of, tau0 = _load(args, several=chosen, pieces=False)
+    if chosen:
+        if len(loaded) != 1:
+            raise AdavarInputError(
+                f"{path}: --column {args.column} selects {len(loaded)} channels; a batch "
+                "analyses one column per file: run one batch per column (e.g. --column "
+                f"{next(iter(loaded))}) with its own --out"
+            )
+        name = next(iter(loaded))
+        samples, units = loaded[name], units_of[name]
+    else:
+        samples, units = loaded, units_of
+    run = _report_channel(args, samples, units, tau0, lambda what: None, "")
+    rate_kw = dict(
+        rate=args.rate if args.rate is not None else 1.0,
+        tau0=None if args.rate is not None else tau0,
+    )  # fmt: skip
+    terms = args.terms or TERM_NAMES
+    parameters: dict[str, Any] = {
+        "statistic": "oadev", "data type": args.data_type, "units": units,
+        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
+    }  # fmt: skip
+    if args.n_reweight != 3 or args.spacing != "octave":
+        parameters.update({"fit reweighting passes": args.n_reweight,
+                           "fit tau spacing": args.spacing})  # fmt: skip
+    surface, adaptive = run["surface"], run["adaptive"]
+    if surface is not None:
+        parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
+        if adaptive is not None:
+            parameters.update({f"controller {k}": v for k, v in adaptive.parameters.items()
+                               if v is not None})  # fmt: skip
+        else:
+            parameters["DAVAR window [samples]"] = args.window
+    steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
+    return ReportAnalysis(
+        path=os.fspath(path),
+        title=title or f"{Path(meta['path']).name}, column {meta['column']}",
+        samples=samples, meta=meta, units=units, rate_units=run["rate_units"],
+        tau0=float(tau0), rate_options=rate_kw, options=opts, deviation=run["result"],
+        fit=run["fit"], surface=surface, adaptive=adaptive,
+        coefficients=run["coefficients"], parameters=parameters, preprocessing=steps,
+    )  # fmt: skip
+
+
+# --------------------------------------------------------------------------------------
+# Inputs and output names
+# --------------------------------------------------------------------------------------
+
+
+def collect_files(
+    patterns: Sequence[str | os.PathLike[str]] = (),
+    *,
+    files_from: str | os.PathLike[str] | None = None,
+) -> list[str]:
+    """The files of a batch: glob patterns and paths, and the lines of a list file.
+
+    Parameters
+    ----------
+    patterns : sequence of str or path-like
+        Paths, or glob patterns (``*``, ``?``, ``[...]``; ``**`` crosses folders), each
+        expanded in sorted order. A plain path is taken as it is (a missing file becomes an
+        error row of its own).
+    files_from : str or path-like, optional
+        A text file with one path per line (blank lines and lines starting with ``#`` are
+        skipped; relative paths are relative to the list file's folder).
+
+    Returns
+    -------
+    list of str
+        Absolute paths, each once, in the order given.
+
+    Raises
+    ------
+    AdavarInputError
+        A pattern that matches nothing, an unreadable list file, or no file at all.
+    """
+    found: list[str] = []
+    for pattern in patterns:
+        text = os.fspath(pattern)
+        if glob.has_magic(text):
+            matches = sorted(glob.glob(os.path.expanduser(text), recursive=True))
+            if not matches:
+                raise AdavarInputError(
+                    f"no file matches {text!r}: check the pattern (quote it so that the shell "
+                    "does not expand it, e.g. 'logs/*.csv'; ** crosses folders)"
+                )
+            found += matches
+        else:
+            found.append(os.path.expanduser(text))
+    if files_from is not None:
+        listing = Path(files_from)
+        try:
+            lines = listing.read_text(encoding="utf-8").splitlines()
+        except (OSError, UnicodeDecodeError) as exc:
+            reason = getattr(exc, "strerror", None) or exc
+            raise AdavarInputError(
+                f"--files-from {listing}: cannot read it ({reason}): give a text file with "
+                "one path per line"
+            ) from None
+        for line in lines:
+            entry = line.strip()
+            if entry and not entry.startswith("#"):
+                item = Path(os.path.expanduser(entry))
+                found.append(str(item if item.is_absolute() else listing.parent / item))
+    out: list[str] = []
+    seen: set[str] = set()
+    for item in found:
+        full = os.path.abspath(item)
+        if full not in seen:
+            seen.add(full)
+            out.append(full)
+    if not out:
+        raise AdavarInputError(
+            "no input files: give files or glob patterns (e.g. 'logs/*.csv'), or "
+            "--files-from LIST.txt with one path per line"
+        )
+    return out
+
+
+def _safe(text: str) -> str:
+    cleaned = "".join(c if c.isalnum() or c in "-_." else "_" for c in text).strip("._")
+    return cleaned or "record"
+
+
+def output_names(paths: Sequence[str | os.PathLike[str]]) -> list[str]:
+    """The name of every file's output folder: its stem, made unique.
+
+    Files whose stems collide (``a/gyro.csv`` and ``b/gyro.csv``, case-insensitively) are
+    named after their path from the folder the colliding files share (``a__gyro``,
+    ``b__gyro``), keeping the suffix when that is what differs (``gyro.csv``,
+    ``gyro.npy``); characters other than letters, digits, ``-``, ``_`` and ``.`` become
+    ``_``; a name still not unique gets 8 hex digits of a hash of its path.
+
+    Parameters
+    ----------
+    paths : sequence of str or path-like
+
+    Returns
+    -------
+    list of str
+        One folder name per path, in order, unique case-insensitively.
+    """
+    items = [Path(os.path.abspath(p)) for p in paths]
+    names = [_safe(p.stem) for p in items]
+    groups: dict[str, list[int]] = defaultdict(list)
+    for i, name in enumerate(names):
+        groups[name.casefold()].append(i)
+    for members in groups.values():
+        if len(members) < 2:
+            continue
+        base = os.path.commonpath([str(items[i].parent) for i in members])
+        folders = {i: Path(os.path.relpath(items[i].parent, base)).parts for i in members}
+        for i in members:
+            names[i] = "__".join(_safe(s) for s in (*folders[i], items[i].stem) if s != ".")
+        again = Counter(names[i].casefold() for i in members)
+        for i in members:
+            if again[names[i].casefold()] > 1:
+                names[i] = "__".join(_safe(s) for s in (*folders[i], items[i].name) if s != ".")
+    counts = Counter(name.casefold() for name in names)
+    for i, name in enumerate(names):
+        if counts[name.casefold()] > 1 or name.casefold() in _RESERVED:
+            digest = hashlib.sha1(str(items[i]).encode("utf-8")).hexdigest()[:8]
+            names[i] = f"{name}-{digest}"
+    return names
+
+
+def _fingerprint(path: str) -> dict[str, Any] | None:
+    """Size and modification time of a file (a ROS 2 bag folder: of its files), or None."""
+    target = Path(path)
+    try:
+        if target.is_dir():
+            stats = [p.stat() for p in sorted(target.rglob("*")) if p.is_file()]
+            return {"size": sum(s.st_size for s in stats),
+                    "mtime_ns": max((s.st_mtime_ns for s in stats), default=0),
+                    "files": len(stats)}  # fmt: skip
+        st = target.stat()
+    except OSError:
+        return None
+    return {"size": int(st.st_size), "mtime_ns": int(st.st_mtime_ns)}
+
+
+# --------------------------------------------------------------------------------------
+# One task
+# --------------------------------------------------------------------------------------
+
+
+def _one_line(exc: BaseException) -> str:
+    return " ".join(str(exc).split())
+
+
+def _plain(obj: Any) -> Any:
+    """JSON-ready objects (NaN and inf as None), compared after a JSON round trip."""
+    from adavar.cli import _jsonable
+
+    return json.loads(json.dumps(_jsonable(obj), allow_nan=False))
+
+
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().address)
+    except (ImportError, ValueError):
+        return f"in-process (pid {os.getpid()})"
+
+
+def _row(path: str, name: str, **values: Any) -> dict[str, Any]:
+    row: dict[str, Any] = dict.fromkeys(SUMMARY_COLUMNS)
+    row.update(file=path, name=name, **values)
+    return row
+
+
+def _summary_row(
+    path: str, name: str, analysis: ReportAnalysis, fit_json: dict[str, Any],
+    events: dict[str, Any] | None,
+) -> dict[str, Any]:  # fmt: skip
+    conventional = fit_json.get("conventional")
+    row = _row(path, name, status="ok", n_samples=analysis.n_samples,
+               rate_hz=1.0 / analysis.tau0, units=analysis.units,
+               column=str(analysis.meta["column"]),
+               reduced_chi2=fit_json.get("reduced_chi2"))  # fmt: skip
+    for term, letter in _LETTERS.items():
+        source = conventional[term] if conventional else fit_json[term]
+        row[letter] = source["value"]
+        row[f"{letter}_uncertainty"] = source["uncertainty"]
+        row[f"{letter}_unit"] = source["unit"]
+    if events is not None and events["items"] is not None:
+        row["n_events"] = events["count"]
+        row["event_times_s"] = ";".join(repr(item["start_s"]) for item in events["items"])
+    return row
+
+
+def _write_outputs(
+    target: Path, analysis: ReportAnalysis, payload: dict[str, Any], start: float,
+    row: dict[str, Any],
+) -> None:  # fmt: skip
+    """``report.html``, ``deviation.csv`` and last ``result.json``, into one new folder."""
+    from adavar import __version__
+    from adavar.cli import _dumps, _write_csv
+    from adavar.io import atomic_directory
+
+    html = analysis.html()
+    with atomic_directory(target, replace=True) as tmp:
+        (tmp / "report.html").write_text(html, encoding="utf-8")
+        _write_csv(
+            tmp / "deviation.csv", analysis.deviation,
+            f"adavar {__version__}: oadev of {analysis.meta['path']} column "
+            f"{analysis.meta['column']!r}; {analysis.options['data_type']} data, tau0 = "
+            f"{analysis.tau0:g} s, deviation in {analysis.rate_units or 'data units'}",
+        )  # fmt: skip
+        row["elapsed_s"] = time.perf_counter() - start
+        payload["elapsed_s"] = row["elapsed_s"]
+        payload["summary"] = row
+        (tmp / "result.json").write_text(_dumps(payload) + "\n", encoding="utf-8")
+
+
+def _process_file(path: str, name: str, out: str, options: dict[str, Any]) -> dict[str, Any]:
+    """The task of one file: analyse it, write ``OUT/<name>/``, return its summary row.
+
+    Every exception but an interrupt becomes the row's error, so one bad file does not
+    stop the batch.
+    """
+    from adavar import __version__
+    from adavar.cli import UsageError, _fit_json
+
+    start = time.perf_counter()
+    worker = _worker_name()
+    try:
+        fingerprint = _fingerprint(path)
+        analysis = analyse_file(path, options)
+        events = analysis.events()
+        fit_json = _fit_json(analysis.fit)
+        row = _summary_row(path, name, analysis, fit_json, events)
+        row["worker"] = worker
+        payload: dict[str, Any] = {
+            "adavar_version": __version__,
+            "file": path,
+            "name": name,
+            "input": {
+                "file": analysis.meta["path"], "column": analysis.meta["column"],
+                "format": analysis.meta["kind"], "rate": 1.0 / analysis.tau0,
+                "tau0": analysis.tau0, "rate_from": analysis.meta["rate_from"],
+                "units": analysis.units, "data_type": analysis.options["data_type"],
+                "n_samples": analysis.n_samples, "preprocessing": analysis.preprocessing,
+                "fingerprint": fingerprint,
+            },
+            "options": _plain(options),
+            "parameters": analysis.parameters,
+            "fit": fit_json,
+            "surface": None if analysis.surface is None else {
+                "windows": int(np.shape(analysis.surface.avar)[0]),
+                "taus": int(np.shape(analysis.surface.avar)[1]),
+                "method": getattr(analysis.surface, "method", "fixed"),
+            },
+            "events": events,
+            "worker": worker,
+            "finished": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+        }  # fmt: skip
+        _write_outputs(Path(out) / name, analysis, payload, start, row)
+        return row
+    except (AdavarInputError, UsageError) as exc:
+        error_type, message = "input", _one_line(exc)
+    except Exception as exc:  # a bug in one file's task is that file's row, not the batch's
+        error_type, message = "internal", f"{type(exc).__name__}: {_one_line(exc)}"
+    return _row(path, name, status="error", error_type=error_type, error=message,
+                elapsed_s=time.perf_counter() - start, worker=worker)  # fmt: skip
+
+
+def _done_row(out: Path, path: str, name: str, options: dict[str, Any]) -> dict[str, Any] | None:
+    """The stored row of a file already analysed with these options, or None."""
+    try:
+        stored = json.loads((out / name / "result.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(stored, dict) or not isinstance(stored.get("summary"), dict):
+        return None
+    fingerprint = _fingerprint(path)
+    if (
+        fingerprint is None
+        or stored.get("file") != path
+        or (stored.get("input") or {}).get("fingerprint") != fingerprint
+        or stored.get("options") != _plain(options)
+    ):
+        return None
+    row = _row(path, name)
+    row.update({k: v for k, v in stored["summary"].items() if k in row})
+    row["status"] = "done"
+    return row
+
+
+# --------------------------------------------------------------------------------------
+# The batch
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """What :func:`run_batch` did.
+
+    Attributes
+    ----------
+    rows : list of dict
+        One summary row per file (keys :data:`SUMMARY_COLUMNS`), in input order.
+    counts : dict
+        ``{"files", "ok", "done", "error", "input_errors", "internal_errors"}``.
+    out : Path
+        The output folder.
+    summary_csv : Path
+        ``OUT/summary.csv``.
+    summary_parquet : Path or None
+        ``OUT/summary.parquet`` (None without pyarrow).
+    cluster : str
+        Where the tasks ran.
+    elapsed_s : float
+        Wall time of the batch, seconds.
+    notes : tuple of str
+        Anything the caller should know (no pyarrow, inputs inside OUT left out, ...).
+    """
+
+    rows: list[dict[str, Any]]
+    counts: dict[str, int]
+    out: Path
+    summary_csv: Path
+    summary_parquet: Path | None
+    cluster: str
+    elapsed_s: float
+    notes: tuple[str, ...] = ()
+
+
+def _check_options(options: dict[str, Any], paths: Sequence[str]) -> None:
+    """Mistakes in the options that would fail every file, before any work."""
+    from adavar.preprocess import Pipeline
+    from adavar.readers import SUFFIXES
+
+    if options.get("rate") is not None and options.get("tau0") is not None:
+        raise AdavarInputError("give exactly one of --rate HZ or --tau0 SECONDS (both given)")
+    units = options.get("units")
+    if not (isinstance(units, str) and units.strip()):
+        # ROS bags declare their units; every other format needs --units
+        bags = {suffix for suffix, kind in SUFFIXES.items() if kind in ("ros1", "ros2")}
+        if not all(Path(p).is_dir() or Path(p).suffix.lower() in bags for p in paths):
+            raise AdavarInputError(
+                "declare the unit of the samples with --units (e.g. --units deg/s); adavar "
+                "never guesses units"
+            )
+    steps = options.get("preprocess")
+    if steps:
+        Pipeline([s for s in (p.strip() for p in str(steps).split(",")) if s])
+
+
+def _check_out(out: str | os.PathLike[str]) -> Path:
+    target = Path(out).expanduser().absolute()
+    if target.exists() or target.is_symlink():
+        if not target.is_dir():
+            raise AdavarInputError(f"--out {out} exists and is not a folder: choose another one")
+        if not (target / BATCH_MARKER).is_file() and any(target.iterdir()):
+            raise AdavarInputError(
+                f"--out {out} exists and is not an adavar batch folder (no {BATCH_MARKER} in "
+                "it): choose a new or empty folder, or the --out of an earlier batch"
+            )
+    elif not target.parent.is_dir():
+        raise AdavarInputError(
+            f"the parent folder of --out {out} does not exist: create it first or choose "
+            "another output folder"
+        )
+    return target
+
+
+def _open_out(target: Path) -> None:
+    try:
+        target.mkdir(exist_ok=True)
+        marker = target / BATCH_MARKER
+        if not marker.is_file():
+            marker.write_text(
+                "written by adavar batch: a rerun with this --out skips the files already "
+                "done\n", encoding="utf-8",
+            )  # fmt: skip
+    except OSError as exc:
+        raise AdavarInputError(
+            f"cannot write the output folder {target}: {exc.strerror or exc}"
+        ) from None
+
+
+@contextlib.contextmanager
+def _cluster(
+    scheduler: str | None, workers: int | None, timeout: float
+) -> Iterator[tuple[Any, str]]:
+    """A ``distributed.Client`` (None: in process) and a description of where it runs."""
+    if scheduler is not None and workers is not None:
+        raise AdavarInputError(
+            "give --scheduler ADDRESS (an existing cluster) or --workers N (a local one), not both"
+        )
+    if scheduler is None and workers is None:
+        yield None, "in this process (no cluster)"
+        return
+    from distributed import Client, LocalCluster
+
+    if workers is not None:
+        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+            raise AdavarInputError(f"workers must be a positive integer, got {workers!r}")
+        # one single-threaded process per core: the numba kernels must not oversubscribe
+        with LocalCluster(
+            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+            silence_logs=logging.ERROR, env={"NUMBA_NUM_THREADS": "1"},
+        ) as cluster, Client(cluster, set_as_default=False) as client:  # fmt: skip
+            yield (
+                client,
+                f"on a LocalCluster of {workers} worker process{'es' if workers > 1 else ''}",
+            )
+        return
+    address = str(scheduler)
+    by_file = address.lower().endswith(".json") and Path(address).is_file()
+    hint = (
+        "check that 'dask scheduler' runs there and that this machine can reach it (the "
+        "address it prints, e.g. tcp://HOST:8786, or its --scheduler-file), or use "
+        "--workers N for a local cluster"
+    )
+    if not by_file and not _ADDRESS.match(address):
+        raise AdavarInputError(
+            f"--scheduler {address!r} is not a scheduler address: give the address 'dask "
+            "scheduler' prints (tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786) or the path of its "
+            "--scheduler-file JSON"
+        )
+    try:
+        if by_file:
+            client = Client(scheduler_file=address, timeout=timeout, set_as_default=False)
+        else:
+            client = Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError, ValueError, TypeError) as exc:
+        raise AdavarInputError(
+            f"cannot connect to the dask scheduler at {address} ({_one_line(exc)}): {hint}"
+        ) from None
+    with client:
+        try:
+            client.wait_for_workers(1, timeout=timeout)
+        except (OSError, TimeoutError) as exc:
+            raise AdavarInputError(
+                f"the dask scheduler at {address} has no worker ({_one_line(exc) or 'timed out'}"
+                f"): start some with 'dask worker {address} --nthreads 1', or use --workers N"
+            ) from None
+        n = len(client.scheduler_info().get("workers", {}))
+        yield client, f"on the scheduler {address} ({n} worker{'s' if n != 1 else ''} at the start)"
+
+
+def _write_summary(
+    out: Path, rows: list[dict[str, Any]], notes: list[str]
+) -> tuple[Path, Path | None]:
+    from adavar import __version__
+    from adavar.export import write_table_csv
+    from adavar.io import atomic_file
+
+    csv_path = write_table_csv(
+        out / "summary.csv", rows, SUMMARY_COLUMNS,
+        comment=f"adavar {__version__} batch: one row per file; status ok (computed), done "
+        "(skipped: analysed earlier with the same input and options) or error; "
+        "coefficients in their *_unit, uncertainties 1 sigma; event_times_s: Beginning "
+        "node of every event (s from the first sample), ';'-separated",
+    )  # fmt: skip
+    try:
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+    except ImportError:
+        notes.append("pyarrow is not installed: wrote summary.csv only (pip install pyarrow "
+                     "for summary.parquet)")  # fmt: skip
+        return Path(csv_path), None
+
+    def kind(column: str) -> Any:
+        if column in _INT_COLUMNS:
+            return pa.int64()
+        return pa.float64() if column in _FLOAT_COLUMNS else pa.string()
+
+    schema = pa.schema([pa.field(c, kind(c)) for c in SUMMARY_COLUMNS])
+    table = pa.Table.from_pylist([{c: row[c] for c in SUMMARY_COLUMNS} for row in rows],
+                                 schema=schema)  # fmt: skip
+    parquet = out / "summary.parquet"
+    with atomic_file(parquet) as handle:
+        pq.write_table(table, handle)
+    return Path(csv_path), parquet
+
+
+def run_batch(
+    files: Sequence[str | os.PathLike[str]],
+    *,
+    out: str | os.PathLike[str],
+    options: Mapping[str, Any] | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    force: bool = False,
+    progress: Callable[[int, int, dict[str, Any]], None] | None = None,
+    timeout: float = 10.0,
+) -> BatchResult:
+    """Analyse many files, one task per file, and write their results and a summary.
+
+    Parameters
+    ----------
+    files : sequence of str or path-like
+        The records (see :func:`collect_files` for globs and list files). Files inside
+        ``out`` are left out.
+    out : str or path-like
+        Output folder: created if missing (its parent must exist); an existing one must be
+        empty or an earlier batch's (it holds :data:`BATCH_MARKER`).
+    options : mapping, optional
+        Analysis options of every file (:func:`report_options`), e.g. ``{"units": "deg/s",
+        "rate": 100, "adaptive": True}``.
+    scheduler : str, optional
+        Address of a running ``dask scheduler`` (``tcp://host:8786``) or the path of its
+        ``--scheduler-file``; its workers must see the files and ``out``.
+    workers : int, optional
+        Start a ``distributed.LocalCluster`` of this many single-threaded processes.
+        Neither ``scheduler`` nor ``workers``: the files run one by one in this process.
+    force : bool
+        Recompute files analysed by an earlier run (default: skip them).
+    progress : callable, optional
+        Called as ``progress(done, total, row)`` after every file (skipped ones first).
+    timeout : float
+        Seconds to wait for the scheduler (and for its first worker).
+
+    Returns
+    -------
+    BatchResult
+
+    Raises
+    ------
+    AdavarInputError
+        Bad options, an unusable ``out``, both or a bad ``scheduler``/``workers``, a
+        scheduler that cannot be reached or has no worker. Nothing is written then.
+    """
+    start = time.perf_counter()
+    target = _check_out(out)
+    paths = [os.path.abspath(os.fspath(p)) for p in files]
+    notes: list[str] = []
+    inside = [p for p in paths if Path(p) == target or target in Path(p).parents]
+    if inside:
+        notes.append(f"left out {len(inside)} file(s) inside --out {out}")
+        paths = [p for p in paths if p not in inside]
+    paths = list(dict.fromkeys(paths))
+    if not paths:
+        raise AdavarInputError(
+            "no input files: give files or glob patterns (e.g. 'logs/*.csv'), or "
+            "--files-from LIST.txt with one path per line"
+        )
+    opts = report_options(options)
+    _check_options(opts, paths)
+    names = output_names(paths)
+    total = len(paths)
+    rows: list[dict[str, Any] | None] = [None] * total
+    done = 0
+
+    def finished(i: int, row: dict[str, Any]) -> None:
+        nonlocal done
+        rows[i] = row
+        done += 1
+        if progress is not None:
+            progress(done, total, row)
+
+    with _cluster(scheduler, workers, float(timeout)) as (client, where):
+        _open_out(target)
+        pending = []
+        for i, (path, name) in enumerate(zip(paths, names, strict=True)):
+            row = None if force else _done_row(target, path, name, opts)
+            if row is None:
+                pending.append(i)
+            else:
+                finished(i, row)
+        if client is None:
+            for i in pending:
+                finished(i, _process_file(paths[i], names[i], str(target), opts))
+        elif pending:
+            from distributed import as_completed
+
+            futures = {
+                client.submit(_process_file, paths[i], names[i], str(target), opts,
+                              pure=False): i
+                for i in pending
+            }  # fmt: skip
+            for future in as_completed(list(futures), loop=client.loop):
+                i = futures[future]
+                try:
+                    row = future.result()
+                except Exception as exc:  # a lost worker, a task the cluster gave up on
+                    row = _row(paths[i], names[i], status="error", error_type="internal",
+                               error=f"the task failed on the cluster: {type(exc).__name__}: "
+                               f"{_one_line(exc)}")  # fmt: skip
+                finished(i, row)
+                future.release()
+    final = [row for row in rows if row is not None]
+    csv_path, parquet = _write_summary(target, final, notes)
+    counts = Counter(row["status"] for row in final)
+    errors = Counter(row["error_type"] for row in final if row["status"] == "error")
+    return BatchResult(
+        rows=final,
+        counts={"files": total, "ok": counts["ok"], "done": counts["done"],
+                "error": counts["error"], "input_errors": errors["input"],
+                "internal_errors": errors["internal"]},
+        out=target, summary_csv=csv_path, summary_parquet=parquet, cluster=where,
+        elapsed_s=time.perf_counter() - start, notes=tuple(notes),
+    )  # fmt: skip
