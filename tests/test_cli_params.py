@@ -49,6 +49,9 @@ NOT_FLAGS = {
     "description",
     # compare --seeds: the command draws its own progress bar with this callback
     "progress",
+    # davar: a lazy dask surface is for dask arrays in Python; the CLI reads files (it
+    # streams them out of core, and writes the surface it computed)
+    "lazy",
 }
 
 #: (function, commands that call it with the user's settings)
