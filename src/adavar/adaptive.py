@@ -650,7 +650,7 @@ def adaptive_schedule(
     chunked = chunk_size is not None or stream.is_chunked(data)
     chunk = stream.DEFAULT_CHUNK
     if chunk_size is not None:
-        chunk = _check_int("chunk_size", chunk_size, 1)
+        chunk = stream.check_chunk_size(chunk_size)
     if lmin > lmax:
         raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
     if (lmax - lmin) % 2 or dl0 % 2 or dl1 % 2:

@@ -98,21 +98,9 @@ def _bound_factors(table: np.ndarray, confidence: float) -> tuple[np.ndarray, np
     return flo, fhi
 
 
-def _available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (Linux), or None if unknown."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:  # pragma: no cover - not Linux
-        return None
-    return None  # pragma: no cover
-
-
 def _check_memory(n_centres: int, n_taus: int, n_arrays: int) -> None:
     need = n_centres * n_taus * n_arrays * 8  # the bounds are made only when read
-    free = _available_memory()
+    free = stream.available_memory()
     if free is not None and need > 0.8 * free:
         raise AdavarInputError(
             f"the DAVAR surface would need {need / 2**30:.1f} GiB ({n_centres} centres x "
@@ -284,28 +272,6 @@ def _lazy_avar(array: Any, dtype: str, sched: Any, ms: np.ndarray, scale: float,
     return da.concatenate(blocks, axis=0)
 
 
-def _chunk_option(chunk_size: Any) -> int:
-    if isinstance(chunk_size, bool) or not isinstance(chunk_size, (int, np.integer)):
-        raise AdavarInputError(f"chunk_size must be a positive integer, got {chunk_size!r}")
-    if chunk_size < 1:
-        raise AdavarInputError(f"chunk_size must be a positive integer, got {chunk_size!r}")
-    return int(chunk_size)
-
-
-def _open_source(data: Any, min_length: int) -> stream.ChunkedSource:
-    """The record as a chunked source, checked like :func:`adavar.statistics.as_samples`."""
-    source = stream.as_source(data)
-    if isinstance(source, stream.ArraySource) and source.array.ndim != 1:
-        raise AdavarInputError(
-            f"data must be one channel (1-D); got shape {np.shape(data)}: pass one column"
-        )
-    if source.size < min_length:
-        raise AdavarInputError(
-            f"the record has {source.size} samples; at least {min_length} are needed"
-        )
-    return source
-
-
 def davar(
     data: Sequence[float] | np.ndarray | stream.ChunkedSource | Any,
     *,
@@ -442,8 +408,8 @@ def davar(
     elif lazy and not stream._is_dask(data):
         raise AdavarInputError("lazy=True needs a dask array as data: leave lazy out")
     if chunked:
-        chunk = stream.DEFAULT_CHUNK if chunk_size is None else _chunk_option(chunk_size)
-        source = _open_source(data, min_length)
+        chunk = stream.DEFAULT_CHUNK if chunk_size is None else stream.check_chunk_size(chunk_size)
+        source = stream.open_record(data, min_length)
         n_samples = source.size
         increments = source if dtype == "rate" else stream.DifferencedSource(source)
         n = increments.size

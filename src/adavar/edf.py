@@ -587,6 +587,24 @@ def alpha_from_lag1(
     raise AssertionError("unreachable: d reaches dmax")  # pragma: no cover
 
 
+def fill_unidentified(alpha: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Per-tau alphas with NaN (not identified) replaced by the nearest identified one.
+
+    Too few clusters at the longest taus is the usual reason. With none identified at all,
+    white noise (alpha 0) is assumed and a note says so. Returns ``(alpha int64, notes)``.
+    """
+    alpha = np.array(alpha, dtype=np.float64)
+    known = np.flatnonzero(np.isfinite(alpha))
+    if known.size == 0:
+        alpha[:] = 0.0
+        return alpha.astype(np.int64), (
+            "noise type could not be identified at any tau; white noise assumed for EDF",
+        )
+    index = np.arange(alpha.size)
+    nearest = known[np.abs(index[:, None] - known[None, :]).argmin(axis=1)]
+    return alpha[nearest].astype(np.int64), ()
+
+
 def _b1_theory(n: int, mu: float) -> float:
     """Barnes B1(N, r=1, mu): expected N-sample over 2-sample variance for AVAR ~ tau^mu.
 

@@ -51,6 +51,7 @@ from adavar.stream import (
     ChunkedSource,
     HDF5Source,
     ParquetSource,
+    available_memory,
     memmap_source,
 )
 
@@ -694,24 +695,13 @@ def _numeric_kind(dtype: np.dtype) -> str:
 LAZY_BYTES = 1 << 30
 
 
-def _available_memory() -> int | None:
-    try:
-        with open("/proc/meminfo", encoding="ascii") as fh:
-            for line in fh:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:  # pragma: no cover - not Linux
-        return None
-    return None  # pragma: no cover
-
-
 def _lazy_wanted(opts: dict[str, Any], nbytes: int) -> bool:
     lazy = opts.get("lazy")
     if lazy is not None:
         return bool(lazy)
     if opts.get("nan", "error") != "error" or opts.get("time_column") is not None:
         return False
-    free = _available_memory()
+    free = available_memory()
     limit = LAZY_BYTES if free is None else min(LAZY_BYTES, free // 4)
     return nbytes > limit
 

@@ -108,42 +108,7 @@ def _noise_types(phase: diff.AnchoredPhase, ms: np.ndarray, dmax: int):
                 alpha[k] = edf_mod.identify_noise(z, data_type="rate", dmax=dmax)
         except edf_mod.NoiseIdError:
             continue
-    notes: tuple[str, ...] = ()
-    known = np.flatnonzero(np.isfinite(alpha))
-    if known.size == 0:
-        alpha[:] = 0.0
-        notes = ("noise type could not be identified at any tau; white noise assumed for EDF",)
-    else:
-        # too few clusters at the longest taus: carry the nearest identified type over
-        nearest = known[np.abs(np.arange(ms.size)[:, None] - known[None, :]).argmin(axis=1)]
-        alpha = alpha[nearest]
-    return alpha.astype(np.int64), notes
-
-
-def _chunk_size(value: object) -> int:
-    try:
-        chunk = int(value)  # type: ignore[call-overload]
-    except (TypeError, ValueError):
-        chunk = 0
-    if isinstance(value, bool) or chunk < 1 or chunk != value:
-        raise AdavarInputError(
-            f"chunk_size must be a positive whole number of samples, got {value!r}"
-        )
-    return chunk
-
-
-def _chunked_samples(data: object, min_length: int) -> stream.ChunkedSource:
-    """The record as a :class:`~adavar.stream.ChunkedSource`, validated like :func:`as_samples`."""
-    source = stream.as_source(data)
-    if isinstance(source, stream.ArraySource) and source.array.ndim != 1:
-        raise AdavarInputError(
-            f"data must be one channel (1-D); got shape {np.shape(data)}: pass one column"
-        )
-    if source.size < min_length:
-        raise AdavarInputError(
-            f"the record has {source.size} samples; at least {min_length} are needed"
-        )
-    return source
+    return edf_mod.fill_unidentified(alpha)
 
 
 def deviation(
@@ -237,8 +202,8 @@ def deviation(
 
     chunked = chunk_size is not None or stream.is_chunked(data)
     if chunked:
-        chunk = stream.DEFAULT_CHUNK if chunk_size is None else _chunk_size(chunk_size)
-        source = _chunked_samples(data, min_length)
+        chunk = stream.DEFAULT_CHUNK if chunk_size is None else stream.check_chunk_size(chunk_size)
+        source = stream.open_record(data, min_length)
         increments = source if dtype == "rate" else stream.DifferencedSource(source)
         n_samples, n_points = source.size, increments.size + 1
     else:

@@ -408,6 +408,41 @@ def as_source(data: Any, *, name: str = "record") -> ChunkedSource:
     return ArraySource(data, name=name)
 
 
+def check_chunk_size(value: Any) -> int:
+    """``chunk_size`` as a positive int, or a one-line error."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+        raise AdavarInputError(
+            f"chunk_size must be a positive whole number of samples, got {value!r}"
+        )
+    return int(value)
+
+
+def open_record(data: Any, min_length: int) -> ChunkedSource:
+    """The record as a source, checked like :func:`adavar.statistics.as_samples`."""
+    source = as_source(data)
+    if isinstance(source, ArraySource) and source.array.ndim != 1:
+        raise AdavarInputError(
+            f"data must be one channel (1-D); got shape {np.shape(data)}: pass one column"
+        )
+    if source.size < min_length:
+        raise AdavarInputError(
+            f"the record has {source.size} samples; at least {min_length} are needed"
+        )
+    return source
+
+
+def available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux), or None if unknown."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:  # pragma: no cover - not Linux
+        return None
+    return None  # pragma: no cover
+
+
 def read_extended(source: ChunkedSource, start: int, stop: int, pad_before: int) -> np.ndarray:
     """Samples ``start .. stop - 1`` of the record extended by time reversal at both ends.
 
@@ -809,13 +844,4 @@ def noise_types(
                 alpha[t] = edf_mod.identify_noise(z, data_type="rate", dmax=int(dmax))
         except edf_mod.NoiseIdError:
             continue
-    notes: tuple[str, ...] = ()
-    known = np.flatnonzero(np.isfinite(alpha))
-    if known.size == 0:
-        alpha[:] = 0.0
-        notes = ("noise type could not be identified at any tau; white noise assumed for EDF",)
-    else:
-        # too few clusters at the longest taus: carry the nearest identified type over
-        nearest = known[np.abs(np.arange(ms.size)[:, None] - known[None, :]).argmin(axis=1)]
-        alpha = alpha[nearest]
-    return alpha.astype(np.int64), notes
+    return edf_mod.fill_unidentified(alpha)
