@@ -70,21 +70,31 @@ def main() -> None:
         (kx - stats.kurtosis(w[:500], fisher=False)) / kx
     peer_s = (time.perf_counter() - t) / starts.size * n
 
-    print(f"N = {n:.0e} samples, Lmax 600 / Lmin 400, octave taus; best of {args.repeat} "
-          "(first call in brackets)")
+    print(
+        f"N = {n:.0e} samples, Lmax 600 / Lmin 400, octave taus; best of {args.repeat} "
+        "(first call in brackets)"
+    )
     print(f"{'':40s}{'fixed 600':>11s}{'A-DAVAR':>11s}{'ratio':>8s}")
     for conf, fixed, fixed_first, adapt, adapt_first, _ in rows:
         label = "confidence=None" if conf is None else "noise ID + EDF"
-        print(f"{label:40s}{fixed:8.2f} s ({fixed_first:.2f}){adapt:8.2f} s ({adapt_first:.2f})"
-              f"{adapt / fixed:8.2f}")
-    print(f"controller alone (adaptive_schedule): {ctrl:.2f} s ({ctrl_first:.2f}), "
-          f"{ctrl / n * 1e9:.0f} ns per centre; windows shorter than Lmax: "
-          f"{np.mean(sched.window < 600):.1%}")
-    print(f"sliding_kurtosis, window 600: {kurt:.2f} s ({kurt_first:.2f}); scipy.stats.kurtosis "
-          f"per window (x N, estimated): {peer_kurt:.0f} s; speed-up {peer_kurt / kurt:.0f}")
-    print(f"kurtosis_contribution, window 600, segment 100: {contrib:.2f} s "
-          f"({contrib_first:.2f}); scipy per window: {peer_s:.0f} s; speed-up "
-          f"{peer_s / contrib:.0f}")
+        print(
+            f"{label:40s}{fixed:8.2f} s ({fixed_first:.2f}){adapt:8.2f} s ({adapt_first:.2f})"
+            f"{adapt / fixed:8.2f}"
+        )
+    print(
+        f"controller alone (adaptive_schedule): {ctrl:.2f} s ({ctrl_first:.2f}), "
+        f"{ctrl / n * 1e9:.0f} ns per centre; windows shorter than Lmax: "
+        f"{np.mean(sched.window < 600):.1%}"
+    )
+    print(
+        f"sliding_kurtosis, window 600: {kurt:.2f} s ({kurt_first:.2f}); scipy.stats.kurtosis "
+        f"per window (x N, estimated): {peer_kurt:.0f} s; speed-up {peer_kurt / kurt:.0f}"
+    )
+    print(
+        f"kurtosis_contribution, window 600, segment 100: {contrib:.2f} s "
+        f"({contrib_first:.2f}); scipy per window: {peer_s:.0f} s; speed-up "
+        f"{peer_s / contrib:.0f}"
+    )
 
 
 if __name__ == "__main__":

@@ -108,26 +108,38 @@ def main() -> None:
     )
     rel = float(np.max(np.abs(r.adev[centres] / np.array(peer) - 1)))
 
-    print(f"N = {n:.0e} white-noise samples, window {L}, every sample a centre (mirrored "
-          f"edges), {ms.size} octave taus (m = 1..{ms[-1]}); best of {args.repeat}, first "
-          "call in brackets")
+    print(
+        f"N = {n:.0e} white-noise samples, window {L}, every sample a centre (mirrored "
+        f"edges), {ms.size} octave taus (m = 1..{ms[-1]}); best of {args.repeat}, first "
+        "call in brackets"
+    )
     print(f"{'':46s}{'seconds':>10s}{'first':>9s}{'speed-up':>10s}")
-    print(f"{'allantools.oadev per window (x N, estimated)':46s}{loop_estimate:10.1f}"
-          f"{'':9s}{1.0:10.0f}")
+    print(
+        f"{'allantools.oadev per window (x N, estimated)':46s}{loop_estimate:10.1f}"
+        f"{'':9s}{1.0:10.0f}"
+    )
     print(f"  ({per_window * 1e3:.3f} ms per window, {centres.size} windows timed)")
-    print(f"{'adavar.davar(confidence=None)':46s}{bare:10.3f}{bare_first:9.3f}"
-          f"{loop_estimate / bare:10.0f}")
-    print(f"{'adavar.davar (noise ID, per-cell EDF)':46s}{full:10.3f}{full_first:9.3f}"
-          f"{loop_estimate / full:10.0f}")
-    print(f"{'  ... and reading the avar_high bounds':46s}{bounds:10.3f}{bounds_first:9.3f}"
-          f"{loop_estimate / bounds:10.0f}")
+    print(
+        f"{'adavar.davar(confidence=None)':46s}{bare:10.3f}{bare_first:9.3f}"
+        f"{loop_estimate / bare:10.0f}"
+    )
+    print(
+        f"{'adavar.davar (noise ID, per-cell EDF)':46s}{full:10.3f}{full_first:9.3f}"
+        f"{loop_estimate / full:10.0f}"
+    )
+    print(
+        f"{'  ... and reading the avar_high bounds':46s}{bounds:10.3f}{bounds_first:9.3f}"
+        f"{loop_estimate / bounds:10.0f}"
+    )
     print(f"max relative difference of adev at the {centres.size} compared windows: {rel:.1e}")
 
     fit_t, _, fit = timed(lambda: adavar.fit_noise(rf), 1)
     n_ok = int(np.isfinite(fit.angle_random_walk.value).sum())
-    print(f"adavar.fit_noise on all {n:.0e} windows (5 terms, {ms.size} taus): "
-          f"{fit_t:.2f} s ({n_ok} fitted; median N = "
-          f"{np.nanmedian(fit.angle_random_walk.value):.4f}, truth 1)")
+    print(
+        f"adavar.fit_noise on all {n:.0e} windows (5 terms, {ms.size} taus): "
+        f"{fit_t:.2f} s ({n_ok} fitted; median N = "
+        f"{np.nanmedian(fit.angle_random_walk.value):.4f}, truth 1)"
+    )
 
     if args.big:
         for conf in (None, 0.683):
@@ -137,10 +149,12 @@ def main() -> None:
             label = "confidence=None" if conf is None else "with noise ID and EDF"
             base = res["before_kib"] * 1024 / gib
             extra = peak - base - res["output_bytes"] / gib
-            print(f"N = {args.big:.0e}, {label}, fresh process: {res['seconds']:.2f} s; peak "
-                  f"RSS {peak:.2f} GiB = before the call {base:.2f} (interpreter and input) "
-                  f"+ output {res['output_bytes'] / gib:.2f} + {extra:.2f} GiB working "
-                  f"memory ({extra / (res['input_bytes'] / gib):.1f} x the input)")
+            print(
+                f"N = {args.big:.0e}, {label}, fresh process: {res['seconds']:.2f} s; peak "
+                f"RSS {peak:.2f} GiB = before the call {base:.2f} (interpreter and input) "
+                f"+ output {res['output_bytes'] / gib:.2f} + {extra:.2f} GiB working "
+                f"memory ({extra / (res['input_bytes'] / gib):.1f} x the input)"
+            )
 
 
 if __name__ == "__main__":

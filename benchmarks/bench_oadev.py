@@ -42,14 +42,20 @@ def main() -> None:
     common, i, j = np.intersect1d(r.tau, ptau, return_indices=True)
     rel = float(np.max(np.abs(r.dev[i] / pdev[j] - 1)))
 
-    print(f"N = {args.n:.0e} white-noise rate samples, {r.tau.size} octave taus, "
-          f"best of {args.repeat} (first call in brackets)")
+    print(
+        f"N = {args.n:.0e} white-noise rate samples, {r.tau.size} octave taus, "
+        f"best of {args.repeat} (first call in brackets)"
+    )
     print(f"{'':44s}{'seconds':>10s}{'first':>10s}{'speed-up':>10s}")
     print(f"{'allantools.oadev':44s}{peer:10.3f}{peer_first:10.3f}{1.0:10.1f}")
-    print(f"{'adavar.deviation(confidence=None)':44s}{bare:10.3f}{bare_first:10.3f}"
-          f"{peer / bare:10.1f}")
-    print(f"{'adavar.deviation (with EDF intervals)':44s}{full:10.3f}{full_first:10.3f}"
-          f"{peer / full:10.1f}")
+    print(
+        f"{'adavar.deviation(confidence=None)':44s}{bare:10.3f}{bare_first:10.3f}"
+        f"{peer / bare:10.1f}"
+    )
+    print(
+        f"{'adavar.deviation (with EDF intervals)':44s}{full:10.3f}{full_first:10.3f}"
+        f"{peer / full:10.1f}"
+    )
     print(f"max relative difference of the {common.size} common taus: {rel:.1e}")
 
 

@@ -97,9 +97,7 @@ def main() -> int:
     rows = []
     for name, cli, lib in cases:
         t_ooc, m_ooc = measure([*ADAVAR, *cli, *common])
-        t_mem, m_mem = measure(
-            [c.replace("PATH", repr(str(path))) for c in in_memory(lib)]
-        )
+        t_mem, m_mem = measure([c.replace("PATH", repr(str(path))) for c in in_memory(lib)])
         rows.append((name, t_ooc, m_ooc, t_mem, m_mem))
         print(f"{name:22s} out of core (CLI, figures included): {t_ooc:6.1f} s {m_ooc:6.0f} MB"
               f" | in memory (library only): {t_mem:6.1f} s {m_mem:6.0f} MB"

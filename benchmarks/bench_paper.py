@@ -80,9 +80,17 @@ def spread_table(study, methods=None) -> str:
     headers = ["node [s]", *(f"{study.labels[m]} 5-95 %" for m in methods)]
     rows = []
     for r in study.node_rows():
-        rows.append([f"{TITLES[r['node']]}({r['change']:g})",
-                     *(f"{r['stats'][m]['p05']:.0f} .. {r['stats'][m]['p95']:.0f}"
-                       if math.isfinite(r['stats'][m]['p05']) else "-" for m in methods)])
+        rows.append(
+            [
+                f"{TITLES[r['node']]}({r['change']:g})",
+                *(
+                    f"{r['stats'][m]['p05']:.0f} .. {r['stats'][m]['p95']:.0f}"
+                    if math.isfinite(r["stats"][m]["p05"])
+                    else "-"
+                    for m in methods
+                ),
+            ]
+        )
     return table(headers, rows)
 
 
@@ -104,9 +112,13 @@ def arw_table(study) -> str:
     for r in rows_in[1:]:
         a, b = r["interval"]
         a0, b0 = first["interval"]
-        rows.append([f"ARW({a:g}~{b:g}) / ARW({a0:g}~{b0:g})",
-                     *(f"{r['values'][m] / first['values'][m]:.3f}" for m in methods),
-                     *(f"{r['paper'][m] / first['paper'][m]:.3f}" for m in cols)])
+        rows.append(
+            [
+                f"ARW({a:g}~{b:g}) / ARW({a0:g}~{b0:g})",
+                *(f"{r['values'][m] / first['values'][m]:.3f}" for m in methods),
+                *(f"{r['paper'][m] / first['paper'][m]:.3f}" for m in cols),
+            ]
+        )
     return table(headers, rows)
 
 
@@ -152,16 +164,20 @@ def verdict(study, method: str = "a-davar") -> str:
     std = rows[("std", None)]
     errors = [v for (k, _), v in rows.items() if k == "error"]
     rises = [v for (k, _), v in rows.items() if k == "rise"]
-    lines = [f"{study.labels[method]} relative to each method (ratio of medians; < 1: "
-             f"{study.labels[method]} better)"]
+    lines = [
+        f"{study.labels[method]} relative to each method (ratio of medians; < 1: "
+        f"{study.labels[method]} better)"
+    ]
     for other in study.methods:
         if other == method:
             continue
         err = np.mean([e[method] / e[other] for e in errors])
         rise = np.mean([r[method] / r[other] for r in rises])
         ratio = std[method] / std[other]
-        lines.append(f"  vs {study.labels[other]:12s} stationary std x{ratio:.2f}, tracking "
-                     f"error x{err:.2f}, 10-90 % rise x{rise:.2f}")
+        lines.append(
+            f"  vs {study.labels[other]:12s} stationary std x{ratio:.2f}, tracking "
+            f"error x{err:.2f}, 10-90 % rise x{rise:.2f}"
+        )
     return "\n".join(lines)
 
 
@@ -193,48 +209,63 @@ def main() -> None:
     t = time.perf_counter()
     s1 = compare_seeds(1, seeds, methods=methods)
     t1 = time.perf_counter() - t
-    print(f"1. Scenario 1 (std x3 at 3000-4000 s), {len(s1.seeds)} seeds, octave taus, "
-          f"five-term fit ({t1:.1f} s)")
+    print(
+        f"1. Scenario 1 (std x3 at 3000-4000 s), {len(s1.seeds)} seeds, octave taus, "
+        f"five-term fit ({t1:.1f} s)"
+    )
     print("Node times, window centres in s: median [quartiles]")
     print(node_table(s1))
     print("Spread of the adaptive nodes over realisations (5 % .. 95 %)")
     print(spread_table(s1))
-    print("ARW interval means (N in u*sqrt(s); true N 1 outside, 3 inside the disturbance); "
-          "paper in 1e-3 deg/sqrt(h)")
+    print(
+        "ARW interval means (N in u*sqrt(s); true N 1 outside, 3 inside the disturbance); "
+        "paper in 1e-3 deg/sqrt(h)"
+    )
     print(arw_table(s1))
-    print("Ground-truth metrics (stationary: > Lmax/2 from the changes; tracking: within "
-          "Lmax of each change)")
+    print(
+        "Ground-truth metrics (stationary: > Lmax/2 from the changes; tracking: within "
+        "Lmax of each change)"
+    )
     print(metric_table(s1))
     print(verdict(s1))
     print()
 
     t = time.perf_counter()
-    s1v = compare_seeds(1, seeds, variance_reading=True,
-                        methods=("davar-400", "davar-600", "davar-k", "a-davar"))
-    print(f"2. Scenario 1 read literally (variance x3, std sqrt(3)), {len(s1v.seeds)} seeds "
-          f"({time.perf_counter() - t:.1f} s)")
+    s1v = compare_seeds(
+        1, seeds, variance_reading=True, methods=("davar-400", "davar-600", "davar-k", "a-davar")
+    )
+    print(
+        f"2. Scenario 1 read literally (variance x3, std sqrt(3)), {len(s1v.seeds)} seeds "
+        f"({time.perf_counter() - t:.1f} s)"
+    )
     print(node_table(s1v))
     print("Fig. 8 crossings under this reading")
     print(crossing_table(s1v))
     print()
 
-    print(f"3. Fig. 8: kurtosis of a fixed window of {s1.crossing_window} samples crossing "
-          f"K2, scenario 1, {len(s1.seeds)} seeds: median [quartiles]")
+    print(
+        f"3. Fig. 8: kurtosis of a fixed window of {s1.crossing_window} samples crossing "
+        f"K2, scenario 1, {len(s1.seeds)} seeds: median [quartiles]"
+    )
     print(crossing_table(s1))
     print()
 
     t = time.perf_counter()
     s2 = compare_seeds(2, seeds, methods=methods)
-    print(f"4. Scenario 2 (std x3 at 1000-2000 s and 4000-5000 s), {len(s2.seeds)} seeds "
-          f"({time.perf_counter() - t:.1f} s); paper = its Table 3, a MEASURED gyro with "
-          "this shape")
+    print(
+        f"4. Scenario 2 (std x3 at 1000-2000 s and 4000-5000 s), {len(s2.seeds)} seeds "
+        f"({time.perf_counter() - t:.1f} s); paper = its Table 3, a MEASURED gyro with "
+        "this shape"
+    )
     print(node_table(s2))
     print(metric_table(s2))
     print()
 
-    print(f"5. False alarms on stationary unit white noise ({args.fa_samples} samples x 3 "
-          "seeds, centres away from the ends): fraction of steps flagged, and of centres "
-          "with a window shorter than Lmax")
+    print(
+        f"5. False alarms on stationary unit white noise ({args.fa_samples} samples x 3 "
+        "seeds, centres away from the ends): fraction of steps flagged, and of centres "
+        "with a window shorter than Lmax"
+    )
     rows = []
     for method in ("kurtosis", "adaptive"):
         for th in ("paper", "calibrated"):
@@ -245,8 +276,10 @@ def main() -> None:
                          f"{100 * fa['f']:.2f} %", f"{100 * fa['shrunk']:.1f} %",
                          f"{time.perf_counter() - t:.1f} s"])  # fmt: skip
     print(table(["controller, thresholds", "f1", "f2", "f", "shrunk", "time"], rows))
-    print("   (calibrated: K1, K2 per window length for a 1 % per-step false alarm of f1, S2 "
-          "for 1 % of f2; f2 is computed but unused by DAVAR-K)")
+    print(
+        "   (calibrated: K1, K2 per window length for a 1 % per-step false alarm of f1, S2 "
+        "for 1 % of f2; f2 is computed but unused by DAVAR-K)"
+    )
     # adaptive_schedule recomputes the calibrated thresholds (about 1 s: a seeded simulation
     # of the S quantile) on every call; they depend only on (lmin, lmax, l, false_alarm), so
     # this script computes them once.
@@ -261,15 +294,19 @@ def main() -> None:
         s1c = compare_seeds(1, seeds, thresholds="calibrated", methods=methods)
     finally:
         adavar.adaptive.calibrated_thresholds = original
-    print(f"Scenario 1 with calibrated thresholds, {len(s1c.seeds)} seeds "
-          f"({time.perf_counter() - t:.1f} s)")
+    print(
+        f"Scenario 1 with calibrated thresholds, {len(s1c.seeds)} seeds "
+        f"({time.perf_counter() - t:.1f} s)"
+    )
     print(node_table(s1c))
     print(metric_table(s1c))
     print()
 
     best, first, _ = timed(lambda: compare_seeds(1, range(100)), 3)
-    print(f"6. Speed: compare_seeds(1, range(100)) (4 methods, octave taus, Fig. 8 study): "
-          f"best {best:.1f} s, first {first:.1f} s of 3")
+    print(
+        f"6. Speed: compare_seeds(1, range(100)) (4 methods, octave taus, Fig. 8 study): "
+        f"best {best:.1f} s, first {first:.1f} s of 3"
+    )
 
 
 if __name__ == "__main__":

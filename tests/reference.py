@@ -117,9 +117,7 @@ def variance(data, m, stat, data_type="rate", tau0=1.0):
         ext = np.pad(u, npts - 2, mode="symmetric")
         pad = npts - 2
         n = npts - 2
-        s = math.fsum(
-            sq(d2_terms(ext, pad + 1 - m + k, m)) for k in range(n)
-        )
+        s = math.fsum(sq(d2_terms(ext, pad + 1 - m + k, m)) for k in range(n))
         return unit * s / (2 * m * m * n)
     raise ValueError(stat)
 
@@ -242,8 +240,7 @@ def kurtosis_reference(x, window, *, edges="mirror", step=1):
     return np.array([p for p, _, _ in rows], dtype=np.int64), np.array(out)
 
 
-def contribution_reference(x, window, segment=None, *, reference="window", edges="mirror",
-                           step=1):
+def contribution_reference(x, window, segment=None, *, reference="window", edges="mirror", step=1):
     """Sliding kurtosis contribution ``(kurt(X) - kurt(c)) / kurt(X)`` by explicit loops.
 
     ``reference="window"``: ``X`` the (mirror-extended) window, ``c`` its first

@@ -278,8 +278,10 @@ def test_parallel_segments_reproduce_the_sequential_pass_bit_for_bit(monkeypatch
     x_reg[::2] *= 1.0 + (np.arange(20_000) % 1024 < 500)  # long non-stationary stretches
     monkeypatch.setattr(adaptive, "_segments", lambda n: 1)
     ref = adaptive_schedule(x_reg, **SMALL).window
-    bounds = [(k * x_reg.size // segments) // adaptive.REANCHOR * adaptive.REANCHOR
-              for k in range(1, segments)]
+    bounds = [
+        (k * x_reg.size // segments) // adaptive.REANCHOR * adaptive.REANCHOR
+        for k in range(1, segments)
+    ]
     assert any(ref[b] != SMALL["lmax"] for b in bounds)  # a rerun is needed
     monkeypatch.setattr(adaptive, "_segments", lambda n: segments)
     np.testing.assert_array_equal(adaptive_schedule(x_reg, **SMALL).window, ref)

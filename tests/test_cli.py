@@ -40,8 +40,6 @@ def avar_args(path, *extra):
             *extra]  # fmt: skip
 
 
-
-
 # --------------------------------------------------------------------------------------
 # avar
 # --------------------------------------------------------------------------------------
@@ -171,29 +169,129 @@ def nan_csv(tmp_path):
     ("argv", "fragments"),
     [
         (["avar", "{dir}/missing.csv", "--rate", "1", "--units", "deg/s"], ["no such file"]),
-        (["avar", "{csv}", "--column", "gyro_y", "--rate", "1", "--units", "deg/s"],
-         ["unknown column 'gyro_y'", "'time', 'gyro_x', 'temp'"]),
-        (["avar", "{nan}", "--column", "x", "--rate", "1", "--units", "deg/s"],
-         ["row 4", "NaN", "--nan interpolate"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "0", "--units", "deg/s"],
-         ["--rate", "positive"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "-5", "--units", "deg/s"],
-         ["--rate", "positive"]),
+        (
+            ["avar", "{csv}", "--column", "gyro_y", "--rate", "1", "--units", "deg/s"],
+            ["unknown column 'gyro_y'", "'time', 'gyro_x', 'temp'"],
+        ),
+        (
+            ["avar", "{nan}", "--column", "x", "--rate", "1", "--units", "deg/s"],
+            ["row 4", "NaN", "--nan interpolate"],
+        ),
+        (
+            ["avar", "{csv}", "--column", "gyro_x", "--rate", "0", "--units", "deg/s"],
+            ["--rate", "positive"],
+        ),
+        (
+            ["avar", "{csv}", "--column", "gyro_x", "--rate", "-5", "--units", "deg/s"],
+            ["--rate", "positive"],
+        ),
         (["avar", "{csv}", "--column", "gyro_x", "--rate", "10"], ["--units"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--tau0", "0.1", "--units",
-          "deg/s"], ["exactly one"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s", "--stat",
-          "xdev"], ["--stat", "invalid choice", "oadev"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s", "--taus",
-          "1e6,1e7"], ["no requested tau"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s", "--taus",
-          "soon"], ["--taus"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s",
-          "--stat", "mdev", "--fit"], ["--fit needs an Allan statistic"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s",
-          "--terms", "N,X"], ["unknown noise term 'X'"]),
-        (["avar", "{csv}", "--column", "gyro_x", "--rate", "10", "--units", "deg/s",
-          "--confidence", "1.5"], ["--confidence"]),
+        (
+            [
+                "avar",
+                "{csv}",
+                "--column",
+                "gyro_x",
+                "--rate",
+                "10",
+                "--tau0",
+                "0.1",
+                "--units",
+                "deg/s",
+            ],
+            ["exactly one"],
+        ),
+        (
+            [
+                "avar",
+                "{csv}",
+                "--column",
+                "gyro_x",
+                "--rate",
+                "10",
+                "--units",
+                "deg/s",
+                "--stat",
+                "xdev",
+            ],
+            ["--stat", "invalid choice", "oadev"],
+        ),
+        (
+            [
+                "avar",
+                "{csv}",
+                "--column",
+                "gyro_x",
+                "--rate",
+                "10",
+                "--units",
+                "deg/s",
+                "--taus",
+                "1e6,1e7",
+            ],
+            ["no requested tau"],
+        ),
+        (
+            [
+                "avar",
+                "{csv}",
+                "--column",
+                "gyro_x",
+                "--rate",
+                "10",
+                "--units",
+                "deg/s",
+                "--taus",
+                "soon",
+            ],
+            ["--taus"],
+        ),
+        (
+            [
+                "avar",
+                "{csv}",
+                "--column",
+                "gyro_x",
+                "--rate",
+                "10",
+                "--units",
+                "deg/s",
+                "--stat",
+                "mdev",
+                "--fit",
+            ],
+            ["--fit needs an Allan statistic"],
+        ),
+        (
+            [
+                "avar",
+                "{csv}",
+                "--column",
+                "gyro_x",
+                "--rate",
+                "10",
+                "--units",
+                "deg/s",
+                "--terms",
+                "N,X",
+            ],
+            ["unknown noise term 'X'"],
+        ),
+        (
+            [
+                "avar",
+                "{csv}",
+                "--column",
+                "gyro_x",
+                "--rate",
+                "10",
+                "--units",
+                "deg/s",
+                "--confidence",
+                "1.5",
+            ],
+            ["--confidence"],
+        ),
         (["avar"], ["FILE"]),
         (["avar", "{csv}", "--bogus"], ["unrecognized arguments: --bogus"]),
         (["frobnicate"], ["invalid choice"]),
@@ -338,8 +436,20 @@ def test_rate_from_the_time_column_or_declared(capsys, white_csv, tmp_path):
 def test_several_channels_at_once(capsys, white_csv, tmp_path):
     """--column a,b (or no --column: every numeric column but time) analyses each channel."""
     out = tmp_path / "out"
-    code, stdout, err = run(capsys, ["avar", str(white_csv), "--column", "gyro_x,temp",
-                                     "--units", "deg/s", "--json", "--out", str(out)])
+    code, stdout, err = run(
+        capsys,
+        [
+            "avar",
+            str(white_csv),
+            "--column",
+            "gyro_x,temp",
+            "--units",
+            "deg/s",
+            "--json",
+            "--out",
+            str(out),
+        ],
+    )
     assert code == 0, err
     payload = json.loads(stdout)
     assert payload["input"]["columns"] == ["gyro_x", "temp"]

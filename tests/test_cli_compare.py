@@ -15,8 +15,6 @@ FIGURES = ["fig06_kurtosis_windows", "fig07_contribution", "fig08_thresholds",
            "fig10_controller", "fig11_adavar_surface", "fig12_arw"]  # fmt: skip
 
 
-
-
 @pytest.fixture(scope="module")
 def scenario_csv(tmp_path_factory):
     """Scenario 1 as a data file (deg/h at 1 Hz), with a time column."""
@@ -40,8 +38,23 @@ def test_scenario_table(capsys):
 
 def test_scenario_seeds_json_and_out(capsys, tmp_path):
     out_dir = tmp_path / "cmp"
-    code, out, err = run(capsys, ["compare", "--scenario", "2", "--seeds", "3", "--seed", "1",
-                                  "--taus", "octave", "--json", "--out", str(out_dir)])
+    code, out, err = run(
+        capsys,
+        [
+            "compare",
+            "--scenario",
+            "2",
+            "--seeds",
+            "3",
+            "--seed",
+            "1",
+            "--taus",
+            "octave",
+            "--json",
+            "--out",
+            str(out_dir),
+        ],
+    )
     assert code == 0, err
     payload = json.loads(out)
     assert payload["input"]["scenario"] == 2 and payload["input"]["seed"] == 1
@@ -77,8 +90,22 @@ def test_data_file_with_change_times(capsys, scenario_csv):
     assert "Beginning(3000)" in out and "A-DAVAR" in out and "deg/sqrt(h)" not in out
     assert "Ground truth" not in out  # no truth for a data file
     assert "crossing K2" in out
-    code, out, err = run(capsys, ["compare", str(scenario_csv), "--column", "gyro", "--tau0",
-                                  "1", "--units", "deg/h", "--taus", "octave", "--json"])
+    code, out, err = run(
+        capsys,
+        [
+            "compare",
+            str(scenario_csv),
+            "--column",
+            "gyro",
+            "--tau0",
+            "1",
+            "--units",
+            "deg/h",
+            "--taus",
+            "octave",
+            "--json",
+        ],
+    )
     assert code == 0, err
     payload = json.loads(out)
     assert payload["comparison"]["change_times"] == [] and payload["crossings"] is None
@@ -93,11 +120,37 @@ def test_data_file_with_change_times(capsys, scenario_csv):
         (["compare", "--scenario", "3"], ["--scenario", "invalid choice"]),
         (["compare", "--scenario", "1", "--rate", "10"], ["--rate", "drop it"]),
         (["compare", "--scenario", "1", "--change-times", "10"], ["--change-times"]),
-        (["compare", "{csv}", "--column", "gyro", "--rate", "1", "--units", "deg/h",
-          "--seeds", "2"], ["--seeds"]),
+        (
+            [
+                "compare",
+                "{csv}",
+                "--column",
+                "gyro",
+                "--rate",
+                "1",
+                "--units",
+                "deg/h",
+                "--seeds",
+                "2",
+            ],
+            ["--seeds"],
+        ),
         (["compare", "{csv}", "--column", "gyro", "--rate", "1"], ["--units"]),
-        (["compare", "{csv}", "--column", "gyro", "--rate", "1", "--units", "deg/h",
-          "--change-times", "9000"], ["outside the record"]),
+        (
+            [
+                "compare",
+                "{csv}",
+                "--column",
+                "gyro",
+                "--rate",
+                "1",
+                "--units",
+                "deg/h",
+                "--change-times",
+                "9000",
+            ],
+            ["outside the record"],
+        ),
         (["compare", "--scenario", "1", "--methods", "davar-x"], ["unknown method"]),
         (["compare", "--scenario", "1", "--lmin", "700"], ["lmin"]),
         (["compare", "--scenario", "1", "--k2", "nan"], ["--k2", "finite"]),

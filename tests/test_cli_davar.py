@@ -57,8 +57,6 @@ def davar_args(path, *extra, window=WINDOW):
             "--window", str(window), *extra]  # fmt: skip
 
 
-
-
 # --------------------------------------------------------------------------------------
 # Summary and JSON
 # --------------------------------------------------------------------------------------
@@ -280,21 +278,42 @@ BASE = ["--column", "gyro_x", "--rate", "10", "--units", "deg/s"]
 @pytest.mark.parametrize(
     ("argv", "fragments"),
     [
-        ([*BASE, "--window", "5000"], ["window of 5000 samples is longer than the record",
-                                        "4000 samples"]),
+        (
+            [*BASE, "--window", "5000"],
+            ["window of 5000 samples is longer than the record", "4000 samples"],
+        ),
         ([*BASE, "--window", "2"], ["--window", "at least 3"]),
         ([*BASE, "--window", "0"], ["--window", "at least 3"]),
         ([*BASE, "--window", "12.5"], ["--window", "whole number"]),
         ([*BASE], ["required", "--window"]),
-        (["--column", "gyro_x", "--rate", "0", "--units", "deg/s", "--window", "100"],
-         ["--rate", "positive"]),
-        (["--column", "gyro_x", "--rate", "-10", "--units", "deg/s", "--window", "100"],
-         ["--rate", "positive"]),
+        (
+            ["--column", "gyro_x", "--rate", "0", "--units", "deg/s", "--window", "100"],
+            ["--rate", "positive"],
+        ),
+        (
+            ["--column", "gyro_x", "--rate", "-10", "--units", "deg/s", "--window", "100"],
+            ["--rate", "positive"],
+        ),
         (["--column", "gyro_x", "--rate", "10", "--window", "100"], ["--units"]),
-        (["--column", "gyro_x", "--rate", "10", "--tau0", "0.1", "--units", "deg/s",
-          "--window", "100"], ["exactly one"]),
-        (["--column", "gyro_y", "--rate", "10", "--units", "deg/s", "--window", "100"],
-         ["unknown column 'gyro_y'", "'time', 'gyro_x', 'temp'"]),
+        (
+            [
+                "--column",
+                "gyro_x",
+                "--rate",
+                "10",
+                "--tau0",
+                "0.1",
+                "--units",
+                "deg/s",
+                "--window",
+                "100",
+            ],
+            ["exactly one"],
+        ),
+        (
+            ["--column", "gyro_y", "--rate", "10", "--units", "deg/s", "--window", "100"],
+            ["unknown column 'gyro_y'", "'time', 'gyro_x', 'temp'"],
+        ),
         (["--rate", "10", "--units", "deg/s", "--window", "100"], ["--column", "2 channels"]),
         ([*BASE, "--window", "100", "--step", "0"], ["--step", "positive integer"]),
         ([*BASE, "--window", "100", "--edges", "wrap"], ["--edges", "invalid choice"]),
@@ -303,8 +322,10 @@ BASE = ["--column", "gyro_x", "--rate", "10", "--units", "deg/s"]
         ([*BASE, "--window", "100", "--taus", "1e6,1e7"], ["no requested tau"]),
         ([*BASE, "--window", "100", "--taus", "soon"], ["--taus"]),
         ([*BASE, "--window", "100", "--terms", "N,X"], ["unknown noise term 'X'"]),
-        ([*BASE, "--window", "100", "--confidence", "none", "--terms", "N"],
-         ["--terms needs the confidence bounds"]),
+        (
+            [*BASE, "--window", "100", "--confidence", "none", "--terms", "N"],
+            ["--terms needs the confidence bounds"],
+        ),
         ([*BASE, "--window", "100", "--format", "hdf5"], ["--format", "invalid choice"]),
         ([*BASE, "--window", "100", "--bogus"], ["unrecognized arguments: --bogus"]),
     ],
@@ -320,12 +341,42 @@ def test_bad_input_exit_2_one_line_and_no_output(capsys, gyro_csv, tmp_path, arg
 @pytest.mark.parametrize(
     ("argv", "fragments"),
     [
-        (["davar", "{dir}/missing.csv", "--rate", "1", "--units", "deg/s", "--window", "10"],
-         ["no such file"]),
-        (["davar", "{nan}", "--column", "x", "--rate", "1", "--units", "deg/s", "--window",
-          "10"], ["row 52", "NaN", "--nan interpolate"]),
-        (["davar", "{nan}", "--column", "x", "--rate", "1", "--units", "deg/s", "--window",
-          "10", "--format", "nc"], ["--format", "--out"]),
+        (
+            ["davar", "{dir}/missing.csv", "--rate", "1", "--units", "deg/s", "--window", "10"],
+            ["no such file"],
+        ),
+        (
+            [
+                "davar",
+                "{nan}",
+                "--column",
+                "x",
+                "--rate",
+                "1",
+                "--units",
+                "deg/s",
+                "--window",
+                "10",
+            ],
+            ["row 52", "NaN", "--nan interpolate"],
+        ),
+        (
+            [
+                "davar",
+                "{nan}",
+                "--column",
+                "x",
+                "--rate",
+                "1",
+                "--units",
+                "deg/s",
+                "--window",
+                "10",
+                "--format",
+                "nc",
+            ],
+            ["--format", "--out"],
+        ),
         (["davar"], ["FILE"]),
     ],
 )

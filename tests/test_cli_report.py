@@ -65,8 +65,20 @@ def test_report_bad_input(capsys, step_csv, tmp_path, argv, fragment):
 
 def test_adaptive_command_writes_the_controller_panels(capsys, step_csv, tmp_path):
     out = tmp_path / "ada"
-    code, stdout, err = run(capsys, ["adaptive", str(step_csv), "--units", "deg/s",
-                                     "--taus", "octave", "--out", str(out), "--json"])
+    code, stdout, err = run(
+        capsys,
+        [
+            "adaptive",
+            str(step_csv),
+            "--units",
+            "deg/s",
+            "--taus",
+            "octave",
+            "--out",
+            str(out),
+            "--json",
+        ],
+    )
     assert code == 0, err
     payload = json.loads(stdout)
     assert payload["window"]["min"] == 400 and payload["window"]["max"] == 600
@@ -191,8 +203,11 @@ def test_gaps_split_analyses_each_piece(capsys, tmp_path):
     t = np.arange(3000) / 10.0
     t[1500:] += 20.0  # a 20 s gap after 150 s
     path = tmp_path / "gap.csv"
-    path.write_text("time,gx\n" + "\n".join(f"{a!r},{b!r}" for a, b in
-                                             zip(t.tolist(), x.tolist(), strict=True)) + "\n")
+    path.write_text(
+        "time,gx\n"
+        + "\n".join(f"{a!r},{b!r}" for a, b in zip(t.tolist(), x.tolist(), strict=True))
+        + "\n"
+    )
     code, _, err = run(capsys, ["avar", str(path), "--units", "deg/s"])
     assert code == 2 and "gap of 20.1 s" in err and "--gaps split" in err
     code, out, err = run(capsys, ["avar", str(path), "--units", "deg/s", "--gaps", "split",

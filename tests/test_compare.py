@@ -77,7 +77,7 @@ def test_nodes_ignore_false_alarms_elsewhere_and_use_the_final_regrowth():
     # a false alarm during the regrowth: shrinks for 3 steps, then the final regrowth
     w2 = w.copy()
     k = 3200  # regrowing here: w = 500
-    w2[k:k + 3] = [498, 496, 494]
+    w2[k : k + 3] = [498, 496, 494]
     p = ramp(w2, k + 3, LMAX, 2)
     w2[p:] = LMAX
     (n1,) = schedule_nodes(w, [3000.0], lmax=LMAX)
@@ -224,12 +224,14 @@ def test_compare_structure(scenario, comparison):
     np.testing.assert_array_equal(c.methods["davar-400"].window, 400)
     np.testing.assert_array_equal(c.methods["a-davar"].window,
                                   adaptive_schedule(scenario.data).window)  # fmt: skip
-    np.testing.assert_array_equal(c.methods["davar-k"].window,
-                                  adaptive_schedule(scenario.data, method="kurtosis").window)
+    np.testing.assert_array_equal(
+        c.methods["davar-k"].window, adaptive_schedule(scenario.data, method="kurtosis").window
+    )
     # N(t) is the fit of the DAVAR surface on the schedule
     res = adavar.davar(scenario.data, window=c.methods["a-davar"].window, taus="octave")
-    np.testing.assert_array_equal(c.methods["a-davar"].arw,
-                                  adavar.fit_noise(res).angle_random_walk.value)
+    np.testing.assert_array_equal(
+        c.methods["a-davar"].arw, adavar.fit_noise(res).angle_random_walk.value
+    )
     # the fixed windows' nodes by definition; the adaptive ones from the schedule
     assert c.methods["davar-600"].node("beginning", 3000.0) == 2700.0
     assert c.methods["a-davar"].nodes == schedule_nodes(

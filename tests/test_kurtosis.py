@@ -60,10 +60,16 @@ def check_kurtosis(x, window, *, edges="mirror", step=1, atol=ATOL):
     return got, want
 
 
-def check_contribution(x, window, segment=None, *, reference_form="window", edges="mirror",
-                       step=1, atol=ATOL):
+def check_contribution(
+    x, window, segment=None, *, reference_form="window", edges="mirror", step=1, atol=ATOL
+):
     centre, got = kurtosis_contribution(
-        x, window=window, segment=segment, reference=reference_form, edges=edges, step=step,
+        x,
+        window=window,
+        segment=segment,
+        reference=reference_form,
+        edges=edges,
+        step=step,
         return_centres=True,
     )
     want_centre, want = reference.contribution_reference(
@@ -112,8 +118,9 @@ def test_return_centres_follow_the_schedule():
     x = _noise(100)
     for edges, step in [("mirror", 1), ("mirror", 7), ("valid", 3)]:
         centre, k = sliding_kurtosis(x, window=15, edges=edges, step=step, return_centres=True)
-        np.testing.assert_array_equal(centre, window_schedule(100, 15, edges=edges,
-                                                              step=step).centre)
+        np.testing.assert_array_equal(
+            centre, window_schedule(100, 15, edges=edges, step=step).centre
+        )
         assert k.shape == centre.shape and k.dtype == np.float64
         np.testing.assert_array_equal(k, sliding_kurtosis(x, window=15, edges=edges, step=step))
 
@@ -167,8 +174,7 @@ def test_hard_data(kind, small_chunks):
 def test_hard_data_default_chunks(kind):
     x = HARD[kind](9000, 12)
     check_kurtosis(x, 301, step=7)
-    check_contribution(x, np.random.default_rng(4).integers(200, 300, size=x.size), 100,
-                       step=11)
+    check_contribution(x, np.random.default_rng(4).integers(200, 300, size=x.size), 100, step=11)
 
 
 @pytest.mark.parametrize("level", [1e4, 1e6, 1e9])
@@ -293,8 +299,9 @@ def test_contribution_record_form_single_shock(spike, small_chunks):
 
 def test_contribution_record_form_schedule(small_chunks):
     x = _burst(400, 17) - 2e6
-    check_contribution(x, np.random.default_rng(2).integers(3, 100, size=400),
-                       reference_form="record")
+    check_contribution(
+        x, np.random.default_rng(2).integers(3, 100, size=400), reference_form="record"
+    )
 
 
 def test_contribution_record_form_long():
@@ -431,13 +438,15 @@ def test_property_sliding_kurtosis(data):
     x = data.draw(records())
     step = data.draw(st.integers(1, 4))
     window = _windows(data.draw, x.size, step)
-    edges = "mirror" if np.ndim(window) and window.size != x.size else data.draw(
-        st.sampled_from(["mirror", "valid"]))
+    edges = (
+        "mirror"
+        if np.ndim(window) and window.size != x.size
+        else data.draw(st.sampled_from(["mirror", "valid"]))
+    )
     saved = kmod._SPAN
     kmod._SPAN = _span(data.draw)
     try:
-        centre, k = sliding_kurtosis(x, window=window, edges=edges, step=step,
-                                     return_centres=True)
+        centre, k = sliding_kurtosis(x, window=window, edges=edges, step=step, return_centres=True)
     except AdavarInputError:
         return  # no valid centre
     finally:
@@ -463,19 +472,30 @@ def test_property_contribution(data):
         segment = data.draw(st.integers(1, shortest - 4))
     else:
         segment = None
-    edges = "mirror" if np.ndim(window) and window.size != x.size else data.draw(
-        st.sampled_from(["mirror", "valid"]))
+    edges = (
+        "mirror"
+        if np.ndim(window) and window.size != x.size
+        else data.draw(st.sampled_from(["mirror", "valid"]))
+    )
     saved = kmod._SPAN, kmod._GRID
     kmod._SPAN = _span(data.draw)
     kmod._GRID = data.draw(st.sampled_from([1, 4, 16, kmod._GRID]))
     try:
-        centre, S = kurtosis_contribution(x, window=window, segment=segment, reference=form,
-                                          edges=edges, step=step, return_centres=True)
+        centre, S = kurtosis_contribution(
+            x,
+            window=window,
+            segment=segment,
+            reference=form,
+            edges=edges,
+            step=step,
+            return_centres=True,
+        )
     except AdavarInputError:
         return
     finally:
         kmod._SPAN, kmod._GRID = saved
-    want_centre, want = reference.contribution_reference(x, window, segment, reference=form,
-                                                         edges=edges, step=step)
+    want_centre, want = reference.contribution_reference(
+        x, window, segment, reference=form, edges=edges, step=step
+    )
     np.testing.assert_array_equal(centre, want_centre)
     np.testing.assert_allclose(S, want, rtol=ATOL / 3, atol=ATOL, equal_nan=True)

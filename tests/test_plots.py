@@ -21,9 +21,7 @@ from adavar.plots import (
 
 @pytest.fixture(scope="module")
 def gyro():
-    x = simulate.sensor(
-        100_000, rate=100.0, angle_random_walk=2e-3, rate_random_walk=2e-4, seed=7
-    )
+    x = simulate.sensor(100_000, rate=100.0, angle_random_walk=2e-3, rate_random_walk=2e-4, seed=7)
     result = adavar.deviation(x, rate=100.0, units="deg/s")
     return result, adavar.fit_noise(result)
 
@@ -86,9 +84,7 @@ def test_units_argument_overrides_and_tdev_unit(gyro):
     x = simulate.white(4000, seed=1)
     result = adavar.deviation(x, stat="tdev", rate=10.0, units="deg/s")
     assert deviation_figure(result).axes[0].get_ylabel() == "Time deviation [deg]"
-    assert deviation_figure(result, units="rad/s").axes[0].get_ylabel() == (
-        "Time deviation [rad]"
-    )
+    assert deviation_figure(result, units="rad/s").axes[0].get_ylabel() == ("Time deviation [rad]")
 
 
 def test_no_confidence_interval_still_plots():

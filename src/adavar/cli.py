@@ -397,8 +397,9 @@ def _add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
     """--out DIR, --force and the hidden --debug of an analysis command."""
     cmd.add_argument("--out", metavar="DIR", help=out_help)
     cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
-    cmd.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                     help=argparse.SUPPRESS)
+    cmd.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
 
 
 def _add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
@@ -421,8 +422,12 @@ def _add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
                       help="regrow step, samples (default: 2)")  # fmt: skip
     cmd.add_argument("--dl1", type=_seed, default=2, metavar="N",
                       help="shrink step, samples (default: 2)")  # fmt: skip
-    cmd.add_argument("--s-test", default="upper", choices=("upper", "band", "abs"),
-                      help="f2 test: S > S2 (default), S outside [S1, S2], |S| > S2")
+    cmd.add_argument(
+        "--s-test",
+        default="upper",
+        choices=("upper", "band", "abs"),
+        help="f2 test: S > S2 (default), S outside [S1, S2], |S| > S2",
+    )
     cmd.add_argument("--combine", default="or", choices=("or", "and"),
                       help="f = f1 or f2 (default) / f1 and f2")  # fmt: skip
     cmd.add_argument(
@@ -673,8 +678,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="scenario disturbance of variance 3 (the paper's text read literally) instead "
         "of standard deviation 3",
     )  # fmt: skip
-    cmp_.add_argument("--seed", type=_seed, default=2018, metavar="N",
-                      help="seed of the (first) simulated realisation (default: 2018)")
+    cmp_.add_argument(
+        "--seed",
+        type=_seed,
+        default=2018,
+        metavar="N",
+        help="seed of the (first) simulated realisation (default: 2018)",
+    )
     cmp_.add_argument(
         "--seeds", type=_positive_int, default=1, metavar="N",
         help="with --scenario: repeat over N realisations (seeds SEED .. SEED+N-1) and report "
@@ -784,8 +794,9 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("--title", help="title of the report (default: the file and column)")
     rep.add_argument("--json", action="store_true", help="print one JSON object")
     rep.add_argument("--force", action="store_true", help="replace an existing --output")
-    rep.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                     help=argparse.SUPPRESS)
+    rep.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
     rep.set_defaults(handler=_cmd_report)
 
     bat = sub.add_parser(
@@ -845,36 +856,72 @@ def build_parser() -> argparse.ArgumentParser:
         "file", metavar="FILE",
         help="ROS 1 .bag / ROS 2 bag folder (sensor_msgs/Imu) or a file with 6 columns",
     )  # fmt: skip
-    kal.add_argument("--gyro", type=_names, default=["gx", "gy", "gz"], metavar="X,Y,Z",
-                     help="gyro columns (default: gx,gy,gz, the names of a ROS bag)")
-    kal.add_argument("--accel", type=_names, default=["ax", "ay", "az"], metavar="X,Y,Z",
-                     help="accelerometer columns (default: ax,ay,az)")
+    kal.add_argument(
+        "--gyro",
+        type=_names,
+        default=["gx", "gy", "gz"],
+        metavar="X,Y,Z",
+        help="gyro columns (default: gx,gy,gz, the names of a ROS bag)",
+    )
+    kal.add_argument(
+        "--accel",
+        type=_names,
+        default=["ax", "ay", "az"],
+        metavar="X,Y,Z",
+        help="accelerometer columns (default: ax,ay,az)",
+    )
     kal.add_argument("--gyro-units", metavar="UNIT",
                      help="unit of the gyro samples (default: the bag's rad/s; required "
                      "for other files)")  # fmt: skip
-    kal.add_argument("--accel-units", metavar="UNIT",
-                     help="unit of the accelerometer samples (default: the bag's m/s^2)")
-    kal.add_argument("--rate", metavar="HZ", type=_positive_float("Hz"),
-                     help="sample rate, if the file has no time stamps")
+    kal.add_argument(
+        "--accel-units",
+        metavar="UNIT",
+        help="unit of the accelerometer samples (default: the bag's m/s^2)",
+    )
+    kal.add_argument(
+        "--rate",
+        metavar="HZ",
+        type=_positive_float("Hz"),
+        help="sample rate, if the file has no time stamps",
+    )
     kal.add_argument("--time-column", metavar="NAME", help="column of time stamps")
     kal.add_argument("--topic", metavar="TOPIC", help="IMU topic of a ROS bag")
-    kal.add_argument("--gaps", default="error", choices=("error", "interpolate"),
-                     help="a gap in the time stamps is an error (default) or interpolated")
-    kal.add_argument("--combine", default="max", choices=("max", "mean"),
-                     help="how the three axes are combined (default: max, conservative)")
+    kal.add_argument(
+        "--gaps",
+        default="error",
+        choices=("error", "interpolate"),
+        help="a gap in the time stamps is an error (default) or interpolated",
+    )
+    kal.add_argument(
+        "--combine",
+        default="max",
+        choices=("max", "mean"),
+        help="how the three axes are combined (default: max, conservative)",
+    )
     kal.add_argument(
         "--pinned", default="error", choices=("error", "bound"),
         help="an axis whose N or K the fit pins at 0 (e.g. K of a short record) is an error "
         "(default) or contributes its 1-sigma upper bound",
     )  # fmt: skip
-    kal.add_argument("--inflate", type=_positive_float("a factor"), default=1.0,
-                     metavar="F", help="multiply all four values (default: 1, as fitted)")
-    kal.add_argument("-o", "--output", metavar="imu.yaml", required=True,
-                     help="the file to write (atomically; existing needs --force)")
+    kal.add_argument(
+        "--inflate",
+        type=_positive_float("a factor"),
+        default=1.0,
+        metavar="F",
+        help="multiply all four values (default: 1, as fitted)",
+    )
+    kal.add_argument(
+        "-o",
+        "--output",
+        metavar="imu.yaml",
+        required=True,
+        help="the file to write (atomically; existing needs --force)",
+    )
     kal.add_argument("--json", action="store_true", help="print one JSON object")
     kal.add_argument("--force", action="store_true", help="replace an existing --output")
-    kal.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                     help=argparse.SUPPRESS)
+    kal.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
     kal.set_defaults(handler=_cmd_kalibr)
 
     sim = sub.add_parser(
@@ -884,21 +931,50 @@ def build_parser() -> argparse.ArgumentParser:
         "paper's scenario 1 or 2, and write them as a CSV with a time column, ready for the "
         "other commands.",
     )
-    sim.add_argument("-o", "--output", metavar="FILE.csv", required=True,
-                     help="the CSV to write (atomically; existing needs --force)")
-    sim.add_argument("--scenario", type=int, choices=(1, 2),
-                     help="the paper's scenario 1 or 2 (6000 s at 1 Hz, unit white noise)")
-    sim.add_argument("--n", type=_positive_int, default=100_000, metavar="N",
-                     help="number of samples of a simulated sensor (default: 100000)")
-    sim.add_argument("--rate", type=_positive_float("Hz"), default=100.0, metavar="HZ",
-                     help="sample rate of a simulated sensor (default: 100)")
+    sim.add_argument(
+        "-o",
+        "--output",
+        metavar="FILE.csv",
+        required=True,
+        help="the CSV to write (atomically; existing needs --force)",
+    )
+    sim.add_argument(
+        "--scenario",
+        type=int,
+        choices=(1, 2),
+        help="the paper's scenario 1 or 2 (6000 s at 1 Hz, unit white noise)",
+    )
+    sim.add_argument(
+        "--n",
+        type=_positive_int,
+        default=100_000,
+        metavar="N",
+        help="number of samples of a simulated sensor (default: 100000)",
+    )
+    sim.add_argument(
+        "--rate",
+        type=_positive_float("Hz"),
+        default=100.0,
+        metavar="HZ",
+        help="sample rate of a simulated sensor (default: 100)",
+    )
     for flag, name in (("--quantization", "Q, unit*s"), ("--arw", "N, unit*sqrt(s)"),
                        ("--bias-instability", "B, unit"), ("--rrw", "K, unit/sqrt(s)"),
                        ("--rate-ramp", "R, unit/s")):  # fmt: skip
-        sim.add_argument(flag, type=_finite_float, default=0.0, metavar="VALUE",
-                         help=f"coefficient {name} (default: 0)")
-    sim.add_argument("--bias", type=_finite_float, default=0.0, metavar="VALUE",
-                     help="constant bias added to every sample (default: 0)")
+        sim.add_argument(
+            flag,
+            type=_finite_float,
+            default=0.0,
+            metavar="VALUE",
+            help=f"coefficient {name} (default: 0)",
+        )
+    sim.add_argument(
+        "--bias",
+        type=_finite_float,
+        default=0.0,
+        metavar="VALUE",
+        help="constant bias added to every sample (default: 0)",
+    )
     sim.add_argument("--markov", type=_number_tuple("--markov", 2, 2), metavar="STD,TAU",
                      help="first-order Gauss-Markov term: standard deviation (unit) and "
                      "correlation time (s)")  # fmt: skip
@@ -909,13 +985,18 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--variance-reading", action="store_true",
                      help="--scenario disturbance of variance 3 (the paper's text read "
                      "literally) instead of standard deviation 3")  # fmt: skip
-    sim.add_argument("--units", default="deg/s", metavar="UNIT",
-                     help="unit written in the header (default: deg/s)")
+    sim.add_argument(
+        "--units",
+        default="deg/s",
+        metavar="UNIT",
+        help="unit written in the header (default: deg/s)",
+    )
     sim.add_argument("--seed", type=_seed, default=2018, metavar="N", help="seed (default: 2018)")
     sim.add_argument("--json", action="store_true", help="print one JSON object")
     sim.add_argument("--force", action="store_true", help="replace an existing --output")
-    sim.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                     help=argparse.SUPPRESS)
+    sim.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
     sim.set_defaults(handler=_cmd_simulate)
 
     demo = sub.add_parser(
@@ -939,8 +1020,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--force", action="store_true",
         help="replace --out even if it is not a folder written by adavar demo",
     )  # fmt: skip
-    demo.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
-                      help=argparse.SUPPRESS)
+    demo.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
     demo.set_defaults(handler=_cmd_demo)
     for cmd in sub.choices.values():  # read by _with_config before parsing; listed for --help
         cmd.add_argument(
@@ -1050,12 +1132,23 @@ def _deviation_table(result: DeviationResult, indent: str = "") -> str:
     headers = ["tau [s]", "n", "alpha", "edf", "dev", "dev_low", "dev_high"]
     rows = [
         [
-            f"{tau:.6g}", f"{n:d}", f"{alpha:d}", f"{edf:.5g}",
-            f"{dev:.6e}", f"{low:.6e}", f"{high:.6e}",
+            f"{tau:.6g}",
+            f"{n:d}",
+            f"{alpha:d}",
+            f"{edf:.5g}",
+            f"{dev:.6e}",
+            f"{low:.6e}",
+            f"{high:.6e}",
         ]
         for tau, n, alpha, edf, dev, low, high in zip(
-            result.tau, result.n, result.alpha, result.edf, result.dev, result.dev_low,
-            result.dev_high, strict=True,
+            result.tau,
+            result.n,
+            result.alpha,
+            result.edf,
+            result.dev,
+            result.dev_low,
+            result.dev_high,
+            strict=True,
         )
     ]
     return _table(headers, rows, indent)
@@ -1604,8 +1697,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     # several channels only when --column names them: a surface of every numeric column
     # (a temperature too) is too costly to be a default
     chosen = args.column is not None
-    loaded, meta, units_of, tau0 = _load(args, several=chosen, pieces=False,
-                                          out_of_core=True)
+    loaded, meta, units_of, tau0 = _load(args, several=chosen, pieces=False, out_of_core=True)
     if not chosen:
         loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
     names = list(loaded)
@@ -2029,8 +2121,10 @@ def _crossing_lines(thr: Any, study: Any, scenario: int | None) -> list[str]:
                          _fmt_summary(r["fall"]),
                          f"{_fmt_time(r['expected'][0])} / {_fmt_time(r['expected'][1])}",
                          f"{_fmt_time(pp[0])} / {_fmt_time(pp[1])}"])  # fmt: skip
-        title = (f"Kurtosis of a fixed window of {study.crossing_window} samples crossing K2 "
-                 f"(paper Fig. 8): median [quartiles] over {len(study.seeds)} realisations")
+        title = (
+            f"Kurtosis of a fixed window of {study.crossing_window} samples crossing K2 "
+            f"(paper Fig. 8): median [quartiles] over {len(study.seeds)} realisations"
+        )
     headers = ["K2", "change [s]", "rises above [s]", "falls back [s]", "expected (truth)",
                "paper"]  # fmt: skip
     return [title, _table(headers, rows, "  ")]
@@ -2085,14 +2179,27 @@ def _compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
         paper = comp.paper_nodes() if study is None else study.paper_nodes()
         cols = _paper_columns(comp, paper)
         if study is None:
-            rows = [[r["node"], r["change"], *(r["values"][m] for m in names),
-                     *(r["paper"].get(m, math.nan) for m in cols)] for r in comp.node_rows()]
+            rows = [
+                [
+                    r["node"],
+                    r["change"],
+                    *(r["values"][m] for m in names),
+                    *(r["paper"].get(m, math.nan) for m in cols),
+                ]
+                for r in comp.node_rows()
+            ]
             columns = ["node", "change_s", *names]
         else:
             stats = ("median", "q25", "q75", "missed")
-            rows = [[r["node"], r["change"],
-                     *(r["stats"][m][k] for m in names for k in stats),
-                     *(r["paper"].get(m, math.nan) for m in cols)] for r in study.node_rows()]
+            rows = [
+                [
+                    r["node"],
+                    r["change"],
+                    *(r["stats"][m][k] for m in names for k in stats),
+                    *(r["paper"].get(m, math.nan) for m in cols),
+                ]
+                for r in study.node_rows()
+            ]
             columns = ["node", "change_s", *(f"{m}_{k}" for m in names for k in stats)]
         files["nodes.csv"] = _csv_text(
             f"{head}; node times (window centres) in s; paper_*: {PAPER_REFERENCE}",
@@ -2427,8 +2534,12 @@ def _demo_json(demo: Any, out: str, files: list[str]) -> dict[str, Any]:
         "nist": {
             "rows": [
                 {
-                    "stat": r.stat, "averaging_factor": r.averaging_factor, "tau": r.tau,
-                    "computed": r.computed, "published": r.published, "rel_diff": r.rel_diff,
+                    "stat": r.stat,
+                    "averaging_factor": r.averaging_factor,
+                    "tau": r.tau,
+                    "computed": r.computed,
+                    "published": r.published,
+                    "rel_diff": r.rel_diff,
                 }
                 for r in demo.nist
             ],
@@ -2448,7 +2559,9 @@ def _demo_json(demo: Any, out: str, files: list[str]) -> dict[str, Any]:
             **_deviation_json(gyro.result),
             "fit": _fit_json(gyro.fit),
         },
-        "paper": None if demo.paper is None else {
+        "paper": None
+        if demo.paper is None
+        else {
             "comparison": demo.paper.comparison.to_dict(),
             "crossings": _crossings_json(demo.paper.thresholds),
             "seeds": demo.paper.study.to_dict(),
@@ -2533,8 +2646,17 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
         raise _output_error(args.output, exc) from None
     status.close()
     if args.json:
-        print(_dumps({"adavar_version": __version__, "output": str(output),
-                      "rate": record.rate, "n_samples": record.n_samples, "kalibr": values}))
+        print(
+            _dumps(
+                {
+                    "adavar_version": __version__,
+                    "output": str(output),
+                    "rate": record.rate,
+                    "n_samples": record.n_samples,
+                    "kalibr": values,
+                }
+            )
+        )
         return EXIT_OK
     print(f"{args.file}: {record.n_samples} samples at {record.rate:g} Hz; wrote {output}")
     print(text)
@@ -2594,8 +2716,18 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         raise _output_error(args.output, exc) from None
     status.close()
     if args.json:
-        print(_dumps({"output": str(output), "n_samples": int(x.size), "rate": rate,
-                      "units": args.units, "seed": args.seed, "what": what}))
+        print(
+            _dumps(
+                {
+                    "output": str(output),
+                    "n_samples": int(x.size),
+                    "rate": rate,
+                    "units": args.units,
+                    "seed": args.seed,
+                    "what": what,
+                }
+            )
+        )
     else:
         print(f"wrote {output}: {x.size} samples at {rate:g} Hz ({what})")
     return EXIT_OK
@@ -2781,35 +2913,44 @@ def _channels_report(
         surface = run["surface"]
         if surface is not None:
             figure, caption = rp._surface_figure(surface, units)
-            parts += ["<h3>Dynamic Allan deviation surface</h3>",
-                      plot(f"plot-{k}-surface", figure),
-                      f'<p class="caption">{rp._esc(caption)}</p>{rp._notes(surface.notes)}']
+            parts += [
+                "<h3>Dynamic Allan deviation surface</h3>",
+                plot(f"plot-{k}-surface", figure),
+                f'<p class="caption">{rp._esc(caption)}</p>{rp._notes(surface.notes)}',
+            ]
             figure, terms = rp._coefficient_figure(run["coefficients"], units)
             parts.append("<h3>Noise coefficients over time</h3>")
             if figure:
                 parts.append(plot(f"plot-{k}-coefficients", figure))
-                cap = (f"{', '.join(terms)} of every window over time; band: ±1σ (clipped at "
-                       "0; from 0 to the 1-sigma upper bound where a term is pinned at 0).")
+                cap = (
+                    f"{', '.join(terms)} of every window over time; band: ±1σ (clipped at "
+                    "0; from 0 to the 1-sigma upper bound where a term is pinned at 0)."
+                )
             else:
                 cap = "No term is non-zero in any window."
             parts.append(f'<p class="caption">{rp._esc(cap)}</p>')
         if run["adaptive"] is not None:
-            parts += ["<h3>Adaptive window controller</h3>",
-                      plot(f"plot-{k}-adaptive", rp._adaptive_figure(run["adaptive"]))]
+            parts += [
+                "<h3>Adaptive window controller</h3>",
+                plot(f"plot-{k}-adaptive", rp._adaptive_figure(run["adaptive"])),
+            ]
         parts.append("</section>")
         sections.append("".join(parts))  # fmt: skip
 
     page = rp.build_report(title=title, source=source, parameters=parameters,
                            preprocessing=preprocessing)  # fmt: skip
     plotly_js, plotly_version = rp._plotly_js()
-    scripts = (f"<script>{plotly_js}</script>\n"
-               f'<script type="application/json" id="adavar-figures">'
-               f"{rp._script_json(figures)}</script>\n<script>{rp._RENDER_JS}</script>\n")
+    scripts = (
+        f"<script>{plotly_js}</script>\n"
+        f'<script type="application/json" id="adavar-figures">'
+        f"{rp._script_json(figures)}</script>\n<script>{rp._RENDER_JS}</script>\n"
+    )
     # after the data section (or at the top of <main>), before the parameters
     anchor = '<section id="parameters">' if parameters else "\n</main>"
     page = page.replace(anchor, "\n".join(sections) + "\n" + anchor, 1)
-    page = page.replace(".</footer>", f"; plots by plotly.js {rp._esc(plotly_version)} "
-                        "(embedded).</footer>", 1)
+    page = page.replace(
+        ".</footer>", f"; plots by plotly.js {rp._esc(plotly_version)} (embedded).</footer>", 1
+    )
     return page.replace("\n</body>", "\n" + scripts + "</body>", 1)  # fmt: skip
 
 
@@ -2858,8 +2999,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     figures: dict[str, Any] = {}
     paper = demo.paper
     if paper is not None:
-        tables = {f"paper_{name}": body for name, body in
-                  _compare_tables(paper.comparison, paper.study, paper.thresholds).items()}
+        tables = {
+            f"paper_{name}": body
+            for name, body in _compare_tables(
+                paper.comparison, paper.study, paper.thresholds
+            ).items()
+        }
         figures = _compare_figures(paper.comparison, paper.kurtosis, paper.thresholds)
         files += [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg"))]
     files.append("report.html")

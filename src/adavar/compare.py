@@ -347,9 +347,9 @@ def schedule_nodes(
     return tuple(out)
 
 
-def fixed_nodes(change_times: Iterable[float], window: int, *, rate: float = 1.0) -> tuple[
-    Nodes, ...
-]:
+def fixed_nodes(
+    change_times: Iterable[float], window: int, *, rate: float = 1.0
+) -> tuple[Nodes, ...]:
     """Node times of a fixed window of ``window`` samples: ``X -/+ window tau0 / 2``.
 
     Parameters
@@ -933,8 +933,7 @@ def _compare(
         true = np.asarray(true, dtype=float)
         if true.shape != (n,) or not np.all(np.isfinite(true)) or not np.all(true > 0):
             raise AdavarInputError(
-                f"truth must hold one positive, finite N per sample ({n}), got shape "
-                f"{true.shape}"
+                f"truth must hold one positive, finite N per sample ({n}), got shape {true.shape}"
             )
     if intervals is None:
         intervals = known.get("intervals") or None
@@ -948,8 +947,10 @@ def _compare(
 
     lmax = int(controller["lmax"])
     lmin = int(controller["lmin"])
-    specs = [_parse_method(m, float(controller["k2"]), str(controller["thresholds"]))
-             for m in (methods if methods is not None else default_methods(lmin, lmax))]
+    specs = [
+        _parse_method(m, float(controller["k2"]), str(controller["thresholds"]))
+        for m in (methods if methods is not None else default_methods(lmin, lmax))
+    ]
     if not specs:
         raise AdavarInputError("give at least one method")
     names = [s.name for s in specs]
@@ -1139,7 +1140,11 @@ class ThresholdStudy:
 
 
 def _crossings(
-    t: np.ndarray, k: np.ndarray, changes: Sequence[float], threshold: float, window: int,
+    t: np.ndarray,
+    k: np.ndarray,
+    changes: Sequence[float],
+    threshold: float,
+    window: int,
     tau0: float,
 ) -> np.ndarray:
     """(rise, fall) per change: the run above ``threshold`` holding the peak near the change.
@@ -1529,9 +1534,7 @@ def compare_seeds(
         changes, intervals = comp.change_times, comp.intervals
         for name, run in comp.methods.items():
             labels[name] = run.label
-            nodes.setdefault(name, []).append(
-                [[n.beginning, n.end, n.restore] for n in run.nodes]
-            )
+            nodes.setdefault(name, []).append([[n.beginning, n.end, n.restore] for n in run.nodes])
             arw.setdefault(name, []).append([run.intervals[iv] for iv in intervals])
             m = run.metrics
             assert m is not None  # the scenario brings its truth

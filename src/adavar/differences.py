@@ -640,7 +640,21 @@ def _eval_runs(ph, pl, aloc, lens, runs, n_runs, m, norm, res):  # pragma: no co
 
 @jit
 def _window_chunk(
-    r, hh, hl, ms, centres, lengths, offset, c0, c1, scale, out, coefs, d, ph, pl,
+    r,
+    hh,
+    hl,
+    ms,
+    centres,
+    lengths,
+    offset,
+    c0,
+    c1,
+    scale,
+    out,
+    coefs,
+    d,
+    ph,
+    pl,
 ):  # pragma: no cover - compiled
     """Windows ``c0 .. c1 - 1`` at every factor; returns the (possibly grown) scratch."""
     nt = ms.size
@@ -714,7 +728,18 @@ def _window_chunk(
 
 @parallel_jit
 def _window_avar(
-    r, hh, hl, ms, centres, lengths, offset, chunk, workers, scale, out, coefs,
+    r,
+    hh,
+    hl,
+    ms,
+    centres,
+    lengths,
+    offset,
+    chunk,
+    workers,
+    scale,
+    out,
+    coefs,
 ):  # pragma: no cover - compiled
     """Overlapping Allan variance of every window at every averaging factor.
 
@@ -739,14 +764,26 @@ def _window_avar(
         for ch in range(w, nch, workers):
             c0 = ch * chunk
             d, ph, pl = _window_chunk(
-                r, hh, hl, ms, centres, lengths, offset, c0, min(c0 + chunk, nc), scale, out,
-                coefs, d, ph, pl,
+                r,
+                hh,
+                hl,
+                ms,
+                centres,
+                lengths,
+                offset,
+                c0,
+                min(c0 + chunk, nc),
+                scale,
+                out,
+                coefs,
+                d,
+                ph,
+                pl,
             )
 
 
 # ---------------------------------------------------------------------------------------
 # public wrappers
-
 
 
 def overlapping_sums(
@@ -838,8 +875,10 @@ def fused_lag1(phase: AnchoredPhase, m: int):
         return None
     cross1 = alpha * (z1 - z_last) + beta * (zt - t_last * z_last) + beta * (z1 - z_last)
     cross2 = alpha * (z1 - z_first) + beta * (zt - t_first * z_first) - beta * (z1 - z_first)
-    lines = (c - 1) * alpha * alpha + alpha * beta * (c - 1 - 2 * t_last) + beta * beta * (
-        stt - t_last * t_last - t_last
+    lines = (
+        (c - 1) * alpha * alpha
+        + alpha * beta * (c - 1 - 2 * t_last)
+        + beta * beta * (stt - t_last * t_last - t_last)
     )
     num = zl - cross1 - cross2 + lines
     zmax = float(blocks[:, 4].max())

@@ -127,9 +127,7 @@ def _parse_column(
                 if "," in cell and _is_number(cell.replace(",", "."))
                 else ": fix or remove that row"
             )
-            raise _fail(
-                f"{path}: row {number}, column {label!r} is not a number ({cell!r}){hint}"
-            )
+            raise _fail(f"{path}: row {number}, column {label!r} is not a number ({cell!r}){hint}")
         values = np.array([float(cell) for cell in cells], dtype=np.float64)
     return values
 
@@ -201,9 +199,9 @@ def _select_column(
     return index
 
 
-def read_text(path: str | os.PathLike[str], *, column: str | int | None = None) -> tuple[
-    np.ndarray, dict[str, Any]
-]:
+def read_text(
+    path: str | os.PathLike[str], *, column: str | int | None = None
+) -> tuple[np.ndarray, dict[str, Any]]:
     """Read one numeric column of a plain text table.
 
     Parameters
@@ -373,9 +371,7 @@ def _make_sibling(target: Path, tag: str) -> Path:
 
 
 @contextlib.contextmanager
-def atomic_directory(
-    path: str | os.PathLike[str], *, replace: bool = False
-) -> Iterator[Path]:
+def atomic_directory(path: str | os.PathLike[str], *, replace: bool = False) -> Iterator[Path]:
     """Build a folder under a temporary sibling name and move it to ``path`` at the end.
 
     Use as ``with atomic_directory(out) as tmp: write files into tmp``. If the block raises,

@@ -96,8 +96,10 @@ def _fma(typingctx, a, b, c):  # pragma: no cover - compile-time
     sig = types.float64(types.float64, types.float64, types.float64)
 
     def codegen(context, builder, signature, args):
-        args = [context.cast(builder, v, t, types.float64)
-                for v, t in zip(args, signature.args, strict=True)]
+        args = [
+            context.cast(builder, v, t, types.float64)
+            for v, t in zip(args, signature.args, strict=True)
+        ]
         d = ir.DoubleType()
         fn = builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d]))
         return builder.call(fn, args)
@@ -442,8 +444,11 @@ def _merge(na, ma, a2, a3, a4, nb, mb, b2, b3, b4):  # pragma: no cover - compil
     m2 = a2 + b2 + d * dn * na * nb
     m3 = a3 + b3 + d * dn * dn * na * nb * (na - nb) + 3.0 * dn * (na * b2 - nb * a2)
     m4 = (
-        a4 + b4 + d * dn * dn * dn * na * nb * (na * na - na * nb + nb * nb)
-        + 6.0 * dn * dn * (na * na * b2 + nb * nb * a2) + 4.0 * dn * (na * b3 - nb * a3)
+        a4
+        + b4
+        + d * dn * dn * dn * na * nb * (na * na - na * nb + nb * nb)
+        + 6.0 * dn * dn * (na * na * b2 + nb * nb * a2)
+        + 4.0 * dn * (na * b3 - nb * a3)
     )
     return n, mean, m2, m3, m4
 
@@ -480,13 +485,33 @@ def _grid_moments(x, anchor, scale, grid):  # pragma: no cover - compiled
     pre = np.zeros((nb + 1, 5))
     suf = np.zeros((nb + 1, 5))
     for b in range(nb):
-        r = _merge(pre[b, 0], pre[b, 1], pre[b, 2], pre[b, 3], pre[b, 4],
-                   blocks[b, 0], blocks[b, 1], blocks[b, 2], blocks[b, 3], blocks[b, 4])
+        r = _merge(
+            pre[b, 0],
+            pre[b, 1],
+            pre[b, 2],
+            pre[b, 3],
+            pre[b, 4],
+            blocks[b, 0],
+            blocks[b, 1],
+            blocks[b, 2],
+            blocks[b, 3],
+            blocks[b, 4],
+        )
         for k in range(5):
             pre[b + 1, k] = r[k]
     for b in range(nb - 1, -1, -1):
-        r = _merge(blocks[b, 0], blocks[b, 1], blocks[b, 2], blocks[b, 3], blocks[b, 4],
-                   suf[b + 1, 0], suf[b + 1, 1], suf[b + 1, 2], suf[b + 1, 3], suf[b + 1, 4])
+        r = _merge(
+            blocks[b, 0],
+            blocks[b, 1],
+            blocks[b, 2],
+            blocks[b, 3],
+            blocks[b, 4],
+            suf[b + 1, 0],
+            suf[b + 1, 1],
+            suf[b + 1, 2],
+            suf[b + 1, 3],
+            suf[b + 1, 4],
+        )
         for k in range(5):
             suf[b, k] = r[k]
     return pre, suf
@@ -514,7 +539,19 @@ def _piece(P, a, b, n, offset):  # pragma: no cover - compiled
 
 @parallel_jit
 def _record(
-    x, a_arr, b_arr, chunk, workers, anchor, scale, pre, suf, grid, kx, const, out,
+    x,
+    a_arr,
+    b_arr,
+    chunk,
+    workers,
+    anchor,
+    scale,
+    pre,
+    suf,
+    grid,
+    kx,
+    const,
+    out,
 ):  # pragma: no cover - compiled
     """Record-form contribution: ``X = x``, ``s = x[a:b]``, ``c = x[:a] + x[b:]``.
 
@@ -564,12 +601,42 @@ def _record(
                 # holds s, so a shock in s cannot swamp them
                 p = _piece(P, 0, a - lo, a - lo, offset)
                 q = _piece(Q, hi - lo, b - lo, hi - b, offset)
-                left = _merge(pre[g_lo, 0], pre[g_lo, 1], pre[g_lo, 2], pre[g_lo, 3],
-                              pre[g_lo, 4], p[0], p[1], p[2], p[3], p[4])
-                right = _merge(q[0], q[1], q[2], q[3], q[4], suf[g_hi, 0], suf[g_hi, 1],
-                               suf[g_hi, 2], suf[g_hi, 3], suf[g_hi, 4])
-                c = _merge(left[0], left[1], left[2], left[3], left[4],
-                           right[0], right[1], right[2], right[3], right[4])
+                left = _merge(
+                    pre[g_lo, 0],
+                    pre[g_lo, 1],
+                    pre[g_lo, 2],
+                    pre[g_lo, 3],
+                    pre[g_lo, 4],
+                    p[0],
+                    p[1],
+                    p[2],
+                    p[3],
+                    p[4],
+                )
+                right = _merge(
+                    q[0],
+                    q[1],
+                    q[2],
+                    q[3],
+                    q[4],
+                    suf[g_hi, 0],
+                    suf[g_hi, 1],
+                    suf[g_hi, 2],
+                    suf[g_hi, 3],
+                    suf[g_hi, 4],
+                )
+                c = _merge(
+                    left[0],
+                    left[1],
+                    left[2],
+                    left[3],
+                    left[4],
+                    right[0],
+                    right[1],
+                    right[2],
+                    right[3],
+                    right[4],
+                )
                 kc = c[0] * c[4] / (c[2] * c[2])
                 out[k] = (kx - kc) / kx
 

@@ -349,8 +349,7 @@ def deviation_figure(
     ax.grid(True, which="minor", alpha=0.15)
     handles, labels = ax.get_legend_handles_labels()
     order = sorted(range(len(labels)), key=lambda k: labels[k] != label)  # the data first
-    ax.legend([handles[k] for k in order], [labels[k] for k in order], fontsize="small",
-              loc="best")
+    ax.legend([handles[k] for k in order], [labels[k] for k in order], fontsize="small", loc="best")
     if title:
         ax.set_title(title)
     return fig
@@ -634,9 +633,7 @@ def coefficient_figure(
     if term not in TERM_NAMES:
         raise ValueError(f"unknown noise term {term!r}; valid names: {', '.join(TERM_NAMES)}")
     if term not in fit.terms:
-        raise ValueError(
-            f"{term} is not in the model of this fit (terms: {', '.join(fit.terms)})"
-        )
+        raise ValueError(f"{term} is not in the model of this fit (terms: {', '.join(fit.terms)})")
     noise = fit.term(term)
     value = np.asarray(noise.value, dtype=float)
     sigma = np.asarray(noise.uncertainty, dtype=float)
