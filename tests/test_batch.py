@@ -401,6 +401,24 @@ def test_all_ok_exits_0_and_prints_a_table(small_records, tmp_path):
     assert stamp.sub("", batch_html) == stamp.sub("", alone.read_text(encoding="utf-8"))
 
 
+def test_no_html_keeps_the_numbers_and_drops_the_report(small_records, tmp_path):
+    (small_records / "r9.csv").unlink()
+    args = ["batch", small_records / "*.csv", "--rate", RATE, "--units", "deg/s", "--json"]
+    code, out, err = _cli([*args, "--out", tmp_path / "with"])
+    assert code == 0, err
+    code, out2, err = _cli([*args, "--out", tmp_path / "without", "--no-html"])
+    assert code == 0, err
+    for name in ("r0", "r1"):
+        assert (tmp_path / "with" / name / "report.html").is_file()
+        assert not (tmp_path / "without" / name / "report.html").exists()
+        assert (tmp_path / "without" / name / "deviation.csv").read_text() == (
+            tmp_path / "with" / name / "deviation.csv"
+        ).read_text()
+    keep = ("Q", "N", "B", "K", "R", "status")
+    rows = [{k: r[k] for k in keep} for r in json.loads(out)["rows"]]
+    assert rows == [{k: r[k] for k in keep} for r in json.loads(out2)["rows"]]
+
+
 @pytest.mark.parametrize("failure", [OSError, KeyboardInterrupt])
 def test_a_failed_write_leaves_no_half_written_folder(small_records, tmp_path, monkeypatch,
                                                       failure):  # fmt: skip

@@ -609,16 +609,18 @@ def _summary_row(
 
 def _write_outputs(
     target: Path, analysis: ReportAnalysis, payload: dict[str, Any], start: float,
-    row: dict[str, Any],
+    row: dict[str, Any], html: bool = True,
 ) -> None:  # fmt: skip
-    """``report.html``, ``deviation.csv`` and last ``result.json``, into one new folder."""
+    """``report.html`` (if ``html``), ``deviation.csv`` and last ``result.json``, into one
+    new folder."""
     from adavar import __version__
     from adavar.cli import _dumps, _write_csv
     from adavar.io import atomic_directory
 
-    html = analysis.html()
+    page = analysis.html() if html else None
     with atomic_directory(target, replace=True) as tmp:
-        (tmp / "report.html").write_text(html, encoding="utf-8")
+        if page is not None:
+            (tmp / "report.html").write_text(page, encoding="utf-8")
         _write_csv(
             tmp / "deviation.csv", analysis.deviation,
             f"adavar {__version__}: oadev of {analysis.meta['path']} column "
@@ -631,7 +633,9 @@ def _write_outputs(
         (tmp / "result.json").write_text(_dumps(payload) + "\n", encoding="utf-8")
 
 
-def _process_file(path: str, name: str, out: str, options: dict[str, Any]) -> dict[str, Any]:
+def _process_file(
+    path: str, name: str, out: str, options: dict[str, Any], html: bool = True
+) -> dict[str, Any]:
     """The task of one file: analyse it, write ``OUT/<name>/``, return its summary row.
 
     Every exception but an interrupt becomes the row's error, so one bad file does not
@@ -673,7 +677,7 @@ def _process_file(path: str, name: str, out: str, options: dict[str, Any]) -> di
             "worker": worker,
             "finished": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         }  # fmt: skip
-        _write_outputs(Path(out) / name, analysis, payload, start, row)
+        _write_outputs(Path(out) / name, analysis, payload, start, row, html)
         return row
     except (AdavarInputError, UsageError) as exc:
         error_type, message = "input", _one_line(exc)
@@ -905,6 +909,7 @@ def run_batch(
     force: bool = False,
     progress: Callable[[int, int, dict[str, Any]], None] | None = None,
     timeout: float = 10.0,
+    html: bool = True,
 ) -> BatchResult:
     """Analyse many files, one task per file, and write their results and a summary.
 
@@ -931,6 +936,10 @@ def run_batch(
         Called as ``progress(done, total, row)`` after every file (skipped ones first).
     timeout : float
         Seconds to wait for the scheduler (and for its first worker).
+    html : bool
+        Write each file's ``report.html`` (default). It embeds plotly.js and weighs about
+        5 MB; ``False`` keeps ``result.json`` and ``deviation.csv`` only, for fleets of
+        thousands of files.
 
     Returns
     -------
@@ -981,12 +990,12 @@ def run_batch(
                 finished(i, row)
         if client is None:
             for i in pending:
-                finished(i, _process_file(paths[i], names[i], str(target), opts))
+                finished(i, _process_file(paths[i], names[i], str(target), opts, html))
         elif pending:
             from distributed import as_completed
 
             futures = {
-                client.submit(_process_file, paths[i], names[i], str(target), opts,
+                client.submit(_process_file, paths[i], names[i], str(target), opts, html,
                               pure=False): i
                 for i in pending
             }  # fmt: skip

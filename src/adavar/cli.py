@@ -838,6 +838,9 @@ def build_parser() -> argparse.ArgumentParser:
                      "worker (default: 10)")  # fmt: skip
     bat.add_argument("--force", action="store_true",
                      help="recompute the files an earlier run of this --out finished")  # fmt: skip
+    bat.add_argument("--no-html", dest="html", action="store_false",
+                     help="skip each file's report.html (about 5 MB each: it embeds "
+                     "plotly.js); result.json and deviation.csv are still written")  # fmt: skip
     bat.add_argument("--json", action="store_true", help="print one JSON object")
     bat.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                      help=argparse.SUPPRESS)  # fmt: skip
@@ -3138,6 +3141,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         result = run_batch(
             files, out=args.out, options=options, scheduler=args.scheduler,
             workers=args.workers, force=args.force, progress=progress, timeout=args.timeout,
+            html=args.html,
         )  # fmt: skip
     finally:
         progress.close()
