@@ -633,3 +633,14 @@ def test_lazy_nan_is_reported_with_its_sample_when_read(tmp_path):
     col = read_record(tmp_path / "a.h5", rate=1.0, lazy=True).channel()
     with pytest.raises(AdavarInputError, match=r"sample 777 .* inf"):
         col.read(0, 1000)
+
+
+def test_lazy_refuses_text_files_and_nan_policies(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    (tmp_path / "a.csv").write_text("1\n2\n3\n4\n")
+    with pytest.raises(AdavarInputError, match=r"lazy reading is for \.npy, HDF5 and Parquet"):
+        read_record(tmp_path / "a.csv", rate=1.0, lazy=True)
+    with h5py.File(tmp_path / "a.h5", "w") as f:
+        f["x"] = np.arange(100.0)
+    with pytest.raises(AdavarInputError, match="nan='drop' needs the whole record"):
+        read_record(tmp_path / "a.h5", rate=1.0, lazy=True, nan="drop")

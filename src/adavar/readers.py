@@ -1587,6 +1587,16 @@ def read_record(
                 "bag folder"
             )
         target = target.parent
+    if lazy and kind not in ("hdf5", "parquet", "npy", "npz"):
+        raise _fail(
+            f"{src} is read whole (lazy reading is for .npy, HDF5 and Parquet files): leave "
+            "out lazy=True / --lazy, or convert the file to .npy"
+        )
+    if lazy and nan != "error":
+        raise _fail(
+            f"nan={nan!r} needs the whole record in memory, so it cannot be read lazily: "
+            "leave out lazy=True / --lazy, or remove the bad samples first"
+        )
     if dataset is not None and kind != "hdf5":
         raise _fail(f"--dataset applies to HDF5 files only, not to {src}: leave it out")
     if topic is not None and kind not in ("ros1", "ros2"):
