@@ -231,16 +231,25 @@ def _finite_float(text: str) -> float:
     return value
 
 
-def _seconds_list(text: str) -> list[float]:
-    try:
-        values = [float(part) for part in text.split(",") if part.strip()]
-    except ValueError:
-        values = []
-    if not values or not all(math.isfinite(v) and v > 0 for v in values):
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated positive times in seconds (e.g. 3000,4000), got {text!r}"
-        )
-    return values
+def _positive_list(what: str, example: str) -> Callable[[str], list[float]]:
+    """A parser of comma-separated positive finite numbers (``what`` names them)."""
+
+    def parse(text: str) -> list[float]:
+        try:
+            values = [float(part) for part in text.split(",") if part.strip()]
+        except ValueError:
+            values = []
+        if not values or not all(math.isfinite(v) and v > 0 for v in values):
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated positive {what} (e.g. {example}), got {text!r}"
+            )
+        return values
+
+    return parse
+
+
+_seconds_list = _positive_list("times in seconds", "3000,4000")
+_threshold_list = _positive_list("kurtosis thresholds", "3.3,4")
 
 
 def _intervals(text: str) -> list[tuple[float, float]]:
@@ -261,18 +270,6 @@ def _intervals(text: str) -> list[tuple[float, float]]:
     if not out:
         raise argparse.ArgumentTypeError("give at least one A:B interval")
     return out
-
-
-def _threshold_list(text: str) -> list[float]:
-    try:
-        values = [float(part) for part in text.split(",") if part.strip()]
-    except ValueError:
-        values = []
-    if not values or not all(math.isfinite(v) and v > 0 for v in values):
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated positive kurtosis thresholds (e.g. 3.3,4), got {text!r}"
-        )
-    return values
 
 
 def _number_tuple(flag: str, least: int, most: int) -> Callable[[str], tuple[float, ...]]:
