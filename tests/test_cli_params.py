@@ -86,7 +86,18 @@ def keywords(function: Any) -> list[str]:
     return [name for name in inspect.signature(function).parameters if name not in NOT_FLAGS]
 
 
-def flag_for(keyword: str) -> str:
+#: (function name, keyword) -> CLI flag, where the keyword's flag means something else on
+#: a command that calls both (adaptive's --method is the controller's).
+RENAMED_IN = {
+    ("fit_noise", "method"): "--fit-method",
+    ("fit_avar", "method"): "--fit-method",
+}
+
+
+def flag_for(keyword: str, function: Any = None) -> str:
+    name = getattr(function, "__name__", None)
+    if (name, keyword) in RENAMED_IN:
+        return RENAMED_IN[name, keyword]
     return RENAMED.get(keyword, "--" + keyword.replace("_", "-"))
 
 
@@ -97,7 +108,11 @@ def flag_for(keyword: str) -> str:
 )
 def test_every_keyword_has_a_flag(function, command):
     flags = flags_of(command)
-    missing = [f"{k} ({flag_for(k)})" for k in keywords(function) if flag_for(k) not in flags]
+    missing = [
+        f"{k} ({flag_for(k, function)})"
+        for k in keywords(function)
+        if flag_for(k, function) not in flags
+    ]
     assert not missing, f"adavar {command} has no flag for {function.__name__}: {missing}"
 
 
@@ -204,11 +219,15 @@ def test_fit_noise_gets_the_fit_flags(capsys, monkeypatch, record, tmp_path, com
              "report": ["-o", str(tmp_path / "r.html")]}[command]  # fmt: skip
     code, _, err = run(capsys, [command, str(record), "--column", "x", "--rate", "4",
                                 "--units", "deg/s", "--terms", "N,K", "--n-reweight", "1",
-                                "--spacing", "independent", *extra])  # fmt: skip
+                                "--spacing", "independent", "--fit-method", "wls",
+                                "--select", "none", "--significance", "3", "--exclude",
+                                "none", "--rolloff", "none", "--tau-range", "1:", "--bandwidth",
+                                "1.5", *extra])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.fit_noise, {
         "terms": ("angle_random_walk", "rate_random_walk"), "n_reweight": 1,
-        "spacing": "independent",
+        "spacing": "independent", "method": "wls", "select": "none", "significance": 3.0,
+        "exclude": "none", "rolloff": "none", "tau_range": (1.0, None), "bandwidth": 1.5,
         "units": None,  # --units reaches the fit through the result it fits
     })  # fmt: skip
     assert seen["result"].units == "deg/s"
@@ -348,12 +367,14 @@ def test_simulate_gets_every_flag(capsys, monkeypatch, tmp_path):
                                 "--rate", "50", "--quantization", "1", "--arw", "2",
                                 "--bias-instability", "3", "--rrw", "4", "--rate-ramp", "5",
                                 "--bias", "6", "--markov", "0.1,10", "--sinusoid", "1,2,0.5",
-                                "--seed", "9"])  # fmt: skip
+                                "--seed", "9", "--bandwidth", "12", "--filter-order", "3",
+                                "--lsb", "0.01"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, simulate.sensor, {
         "n": 500, "rate": 50.0, "quantization": 1.0, "angle_random_walk": 2.0,
         "bias_instability": 3.0, "rate_random_walk": 4.0, "rate_ramp": 5.0, "bias": 6.0,
-        "markov": (0.1, 10.0), "sinusoid": (1.0, 2.0, 0.5), "seed": 9,
+        "markov": (0.1, 10.0), "sinusoid": (1.0, 2.0, 0.5), "seed": 9, "bandwidth": 12.0,
+        "filter_order": 3, "lsb": 0.01,
     })  # fmt: skip
     scenario = recorder(monkeypatch, simulate, "paper_scenario")
     code, _, _ = run(capsys, ["simulate", "-o", str(tmp_path / "s.csv"), "--scenario", "1",

@@ -453,8 +453,62 @@ def _noise_type(text: str) -> str | int | list[int]:
     return alphas[0] if len(alphas) == 1 else alphas
 
 
+def _tau_range(text: str) -> tuple[float | None, float | None]:
+    """``MIN:MAX`` seconds, either side may be empty (open)."""
+    parts = text.split(":")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        lo, hi = (float(p) if p.strip() else None for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--tau-range takes MIN:MAX in seconds (either may be empty), got {text!r}"
+        ) from None
+    for v in (lo, hi):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"--tau-range bounds must be positive, got {text!r}")
+    if lo is not None and hi is not None and not lo < hi:
+        raise argparse.ArgumentTypeError(f"--tau-range {text!r}: MIN must be below MAX")
+    return lo, hi
+
+
 def _add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
-    """The noise fit's weighting options (:func:`adavar.fit_noise`)."""
+    """The noise fit's options (:func:`adavar.fit_noise`)."""
+    cmd.add_argument(
+        "--fit-method", default="auto", choices=("auto", "gls", "wls", "slopes"),
+        help="noise fit: gls (full covariance of the taus, term selection, roll-off "
+        "handling; the default for one curve), wls (diagonal edf weights, every term; the "
+        "default for DAVAR windows and the behaviour before 0.2), slopes (the classical "
+        "slope-line read-offs)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--select", default="significance", choices=("significance", "none"),
+        help="gls: keep a term only while C/sigma_C >= --significance (default), or keep "
+        "every --terms term",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--significance", type=_positive_float("sigma"), default=2.0, metavar="Z",
+        help="gls: the significance a term needs to stay in the model (default: 2)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--exclude", default="auto", choices=("auto", "none"),
+        help="gls: leave out the short taus where the curve rolls off below the model "
+        "(a sensor filter, correlated noise; default auto), or fit every tau",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--rolloff", default="model", choices=("model", "none"),
+        help="gls: let the tau^-2 term go negative to model a filter's roll-off (default) "
+        "or keep Q >= 0",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--tau-range", type=_tau_range, metavar="MIN:MAX",
+        help="fit only the taus from MIN to MAX seconds (either may be empty)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--bandwidth", type=_positive_float("Hz"), metavar="HZ",
+        help="the sensor's bandwidth (Hz, datasheet or filter setting): taus below "
+        "2/bandwidth are left out of the fit",
+    )  # fmt: skip
     cmd.add_argument(
         "--n-reweight", type=_seed, default=3, metavar="N",
         help="reweighting passes of the noise fit after the first, with the model's "
@@ -982,6 +1036,14 @@ def build_parser() -> argparse.ArgumentParser:
                      metavar="AMP,HZ[,PHASE]",
                      help="deterministic sinusoid: amplitude (unit), frequency (Hz) and "
                      "phase (rad, default 0)")  # fmt: skip
+    sim.add_argument("--bandwidth", type=_positive_float("Hz"), metavar="HZ",
+                     help="the sensor's low-pass filter: -3 dB bandwidth in Hz, below "
+                     "rate/2 (default: none)")  # fmt: skip
+    sim.add_argument("--filter-order", type=_positive_int, default=2, metavar="N",
+                     help="order of that Butterworth filter (default: 2)")  # fmt: skip
+    sim.add_argument("--lsb", type=_positive_float("units"), metavar="STEP",
+                     help="quantise the output to this step (the sensor's LSB, in the "
+                     "unit; default: none)")  # fmt: skip
     sim.add_argument("--variance-reading", action="store_true",
                      help="--scenario disturbance of variance 3 (the paper's text read "
                      "literally) instead of standard deviation 3")  # fmt: skip
@@ -1111,6 +1173,22 @@ def _fit_json(fit: NoiseFit) -> dict[str, Any]:
     out["dof"] = fit.dof
     out["n_points"] = fit.n_points
     out["terms"] = list(fit.terms)
+    out["method"] = fit.method
+    out["dropped"] = list(fit.dropped)
+    out["adequate"] = bool(fit.adequate)
+    out["p_value"] = fit.p_value
+    out["rolloff"] = fit.rolloff
+    out["warnings"] = list(fit.warnings)
+    out["excluded"] = [
+        {"tau_s": float(t), "reason": r} for t, r in zip(fit.tau, fit.exclusions, strict=True) if r
+    ]
+    out["residuals"] = None if fit.residuals is None else list(fit.residuals)
+    if fit.slopes is not None:
+        out["slopes"] = {
+            n: {"value": v, "uncertainty": fit.slopes.uncertainty[n],
+                "anchor_tau_s": fit.slopes.anchor_tau[n], "unit": term_unit(n, fit.units)}
+            for n, v in fit.slopes.values.items()
+        }  # fmt: skip
     return out
 
 
@@ -1160,11 +1238,18 @@ def _fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = No
     conv = _conventional(fit)
     red = float(fit.reduced_chi2)
     terms = "all five terms" if len(fit.terms) == 5 else ", ".join(fit.terms)
+    how = {
+        "gls": "generalised least squares with the covariance of the taus, terms kept where "
+        "significant",
+        "wls": "non-negative least squares weighted by each point's edf",
+        "slopes": "slope-line read-offs",
+    }[fit.method]
     lines = [
-        f"{indent}Noise fit ({terms}; non-negative least squares weighted by each point's "
-        f"edf): reduced chi2 = {f'{red:.3g}' if math.isfinite(red) else 'n/a'} "
+        f"{indent}Noise fit ({terms}; {how}): reduced chi2 = "
+        f"{f'{red:.3g}' if math.isfinite(red) else 'n/a'} "
         f"(chi2 = {float(fit.chi2):.4g}, dof = {int(fit.dof)})"
     ]
+    lines += [f"{indent}warning: {w}" for w in fit.warnings]
     if int(fit.n_points) < len(fit.terms):
         lines.append(
             f"{indent}(not fitted: {int(fit.n_points)} usable points for {len(fit.terms)} "
@@ -1200,9 +1285,17 @@ def _fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = No
         rows.append(row)
     lines.append(_table(headers, rows, indent))
     lines.append(
-        f"{indent}(0 (< x): pinned at zero by the non-negativity constraint, x is a "
+        f"{indent}(0 (< x): pinned at zero or left out as not significant, x is a "
         "1-sigma upper bound)"
     )
+    if fit.slopes is not None:
+        read = []
+        for n, v in fit.slopes.values.items():
+            if math.isfinite(v):
+                unc = fit.slopes.uncertainty[n]
+                read.append(f"{TERM_LABELS[n][0]} {format_pm(v, unc, term_unit(n, fit.units))}")
+        if read:
+            lines.append(f"{indent}slope-line read-offs: " + "; ".join(read))
     return lines
 
 
@@ -1938,7 +2031,9 @@ def _write_davar_channel(
 def _fit_keywords(args: argparse.Namespace) -> dict[str, Any]:
     """The keywords of :func:`adavar.fit_noise` from the parsed flags."""
     return dict(terms=args.terms or TERM_NAMES, n_reweight=args.n_reweight,
-                spacing=args.spacing)  # fmt: skip
+                spacing=args.spacing, method=args.fit_method, select=args.select,
+                significance=args.significance, exclude=args.exclude, rolloff=args.rolloff,
+                tau_range=args.tau_range, bandwidth=args.bandwidth)  # fmt: skip
 
 
 def _chunk_keywords(args: argparse.Namespace) -> dict[str, Any]:
@@ -2697,7 +2792,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         try:
             x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, bias=args.bias,
                                 markov=args.markov, sinusoid=args.sinusoid,
-                                **terms)  # fmt: skip
+                                bandwidth=args.bandwidth, filter_order=args.filter_order,
+                                lsb=args.lsb, **terms)  # fmt: skip
         except ValueError as exc:  # e.g. a sinusoid above the Nyquist frequency
             raise AdavarInputError(str(exc)) from None
         rate = float(args.rate)
@@ -2705,6 +2801,9 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         for name, value in (("markov", args.markov), ("sinusoid", args.sinusoid)):
             if value:
                 what += f"{', ' if what else ''}{name}={','.join(f'{v:g}' for v in value)}"
+        for name, one in (("bandwidth", args.bandwidth), ("lsb", args.lsb)):
+            if one is not None:
+                what += f", {name}={one:g}"
     status(f"writing {output}")
     t = np.arange(x.size) / rate
     body = "\n".join(f"{ti!r},{xi!r}" for ti, xi in zip(t.tolist(), x.tolist(), strict=True))
@@ -2979,7 +3078,7 @@ def _demo_report(demo: Any) -> str:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from adavar.demo import GYRO_BIAS, run_demo
+    from adavar.demo import GYRO_BANDWIDTH, GYRO_BIAS, GYRO_LSB, run_demo
     from adavar.plots import deviation_figure, save_figure
 
     start = time.perf_counter()
@@ -3051,7 +3150,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     print()
     print(
         f"2. Simulated MEMS gyro: {gyro.n_samples} samples at {gyro.rate:g} Hz in {gyro.units} "
-        f"(bias {GYRO_BIAS:g} {gyro.units}, seed {gyro.seed}), OADEV at octave taus"
+        f"(bias {GYRO_BIAS:g} {gyro.units}, {GYRO_BANDWIDTH:g} Hz low-pass, LSB "
+        f"{GYRO_LSB:.3g} {gyro.units}, seed {gyro.seed}), OADEV at octave taus"
     )
     print(_deviation_table(gyro.result, "   "))
     print()

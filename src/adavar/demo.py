@@ -46,7 +46,9 @@ from adavar.statistics import deviation
 from adavar.units import ConvertedNoise, conventional_units, convert_coefficient
 
 __all__ = [
+    "GYRO_BANDWIDTH",
     "GYRO_BIAS",
+    "GYRO_LSB",
     "GYRO_RATE",
     "GYRO_SAMPLES",
     "GYRO_TRUE",
@@ -88,11 +90,16 @@ GYRO_RATE = 100.0
 GYRO_SAMPLES = 1_000_000
 GYRO_UNITS = "deg/s"
 GYRO_BIAS = 0.2
+#: Its output stage, as on a real MEMS part: a 20 Hz digital low-pass (2nd-order
+#: Butterworth) and a 16-bit word at +-125 deg/s (LSB 1/262.4 deg/s).
+GYRO_BANDWIDTH = 20.0
+GYRO_LSB = 1.0 / 262.4
 
 #: True noise coefficients of the simulated gyroscope, in the conventional units
-#: (arcsec, deg/sqrt(h), deg/h, deg/h/sqrt(h), deg/h^2): a consumer-grade MEMS gyro.
+#: (arcsec, deg/sqrt(h), deg/h, deg/h/sqrt(h), deg/h^2): a consumer-grade MEMS gyro. Its
+#: angle is not quantised (the LSB quantises the rate, after the filter).
 GYRO_TRUE: dict[str, float] = {
-    "quantization": 0.8,
+    "quantization": 0.0,
     "angle_random_walk": 0.1,
     "bias_instability": 3.0,
     "rate_random_walk": 20.0,
@@ -248,7 +255,10 @@ def _gyro(seed: int) -> GyroDemo:
         name: GYRO_TRUE[name] / convert_coefficient(1.0, name, GYRO_UNITS, targets[name])
         for name in TERM_NAMES
     }
-    samples = simulate.sensor(GYRO_SAMPLES, rate=GYRO_RATE, bias=GYRO_BIAS, seed=seed, **true)
+    samples = simulate.sensor(
+        GYRO_SAMPLES, rate=GYRO_RATE, bias=GYRO_BIAS, bandwidth=GYRO_BANDWIDTH, lsb=GYRO_LSB,
+        seed=seed, **true,
+    )  # fmt: skip
     result = deviation(
         samples, stat="oadev", rate=GYRO_RATE, taus="octave", confidence=0.683, units=GYRO_UNITS
     )

@@ -8,8 +8,19 @@ with ``Q = sqrt(C_-2/3)`` (quantization), ``N = sqrt(C_-1)`` (angle/velocity ran
 ``B = sqrt(C_0/(2 ln2/pi))`` (bias instability), ``K = sqrt(3 C_1)`` (rate random walk) and
 ``R = sqrt(2 C_2)`` (rate ramp).
 
-How the fit works
------------------
+Two fits
+--------
+* **One whole-record curve** (a :class:`~adavar.results.DeviationResult`): by default the
+  generalised least-squares fit of :mod:`adavar.gls_fit` (``method="gls"``), with the full
+  covariance of the estimates across taus (:mod:`adavar.avar_covariance`), term selection
+  by significance, automatic exclusion of a sensor filter's roll-off and a signed
+  ``tau^-2`` term above it. Its uncertainties are calibrated (``docs/benchmarks.md``).
+* **Stacks of curves** (a DAVAR surface, raw arrays in :func:`fit_avar`), and any curve
+  with ``method="wls"``: the diagonally weighted fit described below, the default of
+  every fit before issue 11.
+
+How the diagonal fit works
+--------------------------
 * **Non-negative weighted least squares on the variance.** Each ``C_n >= 0``; the residual
   at each tau is weighted by ``1/var(avar_hat)`` with ``var(avar_hat) ~= 2 avar^2 / edf``
   (chi-square statistics of a variance estimate with ``edf`` degrees of freedom). Only the
@@ -53,7 +64,8 @@ prediction. The weights treat the taus as independent, but the taus of an overla
 statistic are positively correlated, which makes ``reduced_chi2`` small (about 0.6 on
 octave taus) and the covariance optimistic: in the simulation above the scatter over seeds
 is 1.4 times the reported uncertainty of N and 1.8 times that of K. Read the
-uncertainties as a lower bound of that order.
+uncertainties as a lower bound of that order (the ``"gls"`` fit of one curve has
+calibrated ones).
 With ``edf=None`` in :func:`fit_avar` the weights are only relative, so the covariance is
 scaled by ``reduced_chi2`` itself (as in ``scipy.optimize.curve_fit`` with
 ``absolute_sigma=False``) and is NaN when ``dof == 0``.
@@ -70,12 +82,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import cached_property, lru_cache
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
-from adavar._jit import jit, parallel_jit, prange
+from adavar import gls_fit
+from adavar._nnls import PARALLEL_MIN, nnls_parallel, nnls_serial, subsets
+from adavar.slopes import SlopeReadoff, read_slopes
 from adavar.units import (
     ConvertedNoise,
     ConvertedTerm,
@@ -106,10 +120,12 @@ _POWERS = np.arange(-2, 3)
 _K = np.array([3.0, 1.0, 2.0 * math.log(2.0) / math.pi, 1.0 / 3.0, 0.5])
 #: Statistics whose variance the IEEE model describes.
 ALLAN_STATS = frozenset({"adev", "oadev", "totdev"})
-
-_PIVOT_TOL = 1e-13  # smallest Cholesky pivot of an equilibrated normal matrix
-_BLOCK = 256  # curves per work item of the parallel kernel
-_PARALLEL_MIN = 1024  # smaller stacks run on the calling thread (no thread start-up cost)
+#: ``p_value`` below which a full-covariance fit is flagged as not describing the data.
+ADEQUATE_P = 1e-3
+#: Fit methods of :func:`fit_noise`.
+METHODS = ("auto", "gls", "wls", "slopes")
+#: Shortest tau kept when the sensor's bandwidth is given: this many ``1 / bandwidth``.
+BANDWIDTH_FACTOR = 2.0
 
 
 @dataclass(frozen=True)
@@ -184,6 +200,26 @@ class NoiseFit:
         For a DAVAR result: the window-centre times (the leading axis), else None.
     spacing : str
         The tau-spacing weighting used (see :func:`fit_avar`).
+    method : str
+        ``"gls"`` (full covariance, one curve), ``"wls"`` (diagonal weights) or
+        ``"slopes"`` (slope-line read-offs), see :func:`fit_noise`.
+    used : ndarray of bool, shape (..., M), or None
+        The points that entered the fit.
+    exclusions : tuple of str
+        For one curve, per tau: why the point did not enter the fit ("" where it did):
+        undefined, outside ``tau_range``, below ``2 / bandwidth``, a short-tau roll-off
+        the model cannot describe, a thinned dense grid.
+    residuals : ndarray, shape (..., M), or None
+        Standardised residuals ``(avar - model) / sigma`` at every valid tau (excluded ones
+        too, so a figure can show them), ``sigma`` the model's standard error of the
+        estimate (full covariance for ``"gls"``, ``sqrt(2/edf)`` for ``"wls"``).
+    dropped : tuple of str
+        Terms removed by the term selection (value 0, uncertainty a 1-sigma upper bound).
+    coefficient_covariance : ndarray, shape (5, 5), or None
+        Covariance of ``C_-2 .. C_2`` (``"gls"``; NaN rows for terms not selected).
+    slopes : SlopeReadoff or None
+        The classical slope-line read-offs of the curve (one curve only), see
+        :mod:`adavar.slopes`.
 
     Notes
     -----
@@ -203,12 +239,95 @@ class NoiseFit:
     weighted: bool = True
     time: np.ndarray | None = None
     spacing: str = "octave"
+    method: str = "wls"
+    used: np.ndarray | None = None
+    exclusions: tuple[str, ...] = ()
+    residuals: np.ndarray | None = None
+    dropped: tuple[str, ...] = ()
+    coefficient_covariance: np.ndarray | None = None
+    slopes: SlopeReadoff | None = None
+
+    @property
+    def rolloff(self) -> Any:
+        """The negative ``tau^-2`` coefficient that models a filter's roll-off (else 0).
+
+        In ``unit^2 s^2`` like ``C_-2``: the model's variance holds ``rolloff / tau^2``
+        (see :mod:`adavar.gls_fit`, ``rolloff="model"``).
+        """
+        c = np.minimum(self.coefficients[..., 0], 0.0)
+        return c[()] if c.ndim == 0 else c
+
+    @property
+    def excluded(self) -> np.ndarray | None:
+        """Valid points that the fit left out (tau range, bandwidth, roll-off), or None."""
+        if self.used is None or self.residuals is None:
+            return None
+        return np.isfinite(self.residuals) & ~self.used
+
+    @property
+    def p_value(self) -> Any:
+        """Probability of a chi2 at least this large if the model is right (NaN: no dof)."""
+        from scipy.stats import chi2 as chi2_dist
+
+        dof = np.asarray(self.dof, dtype=float)
+        with np.errstate(invalid="ignore"):
+            p = np.where(dof > 0, chi2_dist.sf(np.asarray(self.chi2, float), np.maximum(dof, 1)),
+                         np.nan)  # fmt: skip
+        return p[()] if p.ndim == 0 else p
+
+    @property
+    def adequate(self) -> Any:
+        """True where the model describes the points it fitted (``p_value >= 1e-3``).
+
+        Judged only for the full-covariance fit, whose chi-square has its nominal
+        distribution; the diagonal fit's chi-square ignores the correlation of the taus, so
+        there it is ``reduced_chi2 <= 3``.
+        """
+        if self.method == "gls":
+            p = np.asarray(self.p_value, dtype=float)
+            out = ~(p < ADEQUATE_P)
+        else:
+            out = ~(np.asarray(self.reduced_chi2, dtype=float) > 3.0)
+        return out[()] if out.ndim == 0 else out
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """One line per thing a user must know about this fit (one curve; else empty)."""
+        if np.ndim(self.chi2) != 0:
+            return ()
+        out = []
+        if not bool(self.adequate):
+            out.append(
+                f"the noise model does not describe the data (reduced chi2 = "
+                f"{float(self.reduced_chi2):.3g}, p = {float(self.p_value):.2g}): read the "
+                "per-tau residuals, restrict tau_range, or give the sensor's bandwidth"
+            )
+        rolled = [j for j, r in enumerate(self.exclusions) if r.startswith("short-tau")]
+        if rolled:
+            top = self.tau[max(rolled)]
+            out.append(
+                f"{len(rolled)} taus up to {top:.3g} s excluded: the curve rolls off below "
+                "the model there (sensor filter or correlated noise)"
+            )
+        if float(self.rolloff) < 0:
+            out.append(
+                f"a negative tau^-2 term ({float(self.rolloff):.3g}) models the roll-off of "
+                "a sensor filter or correlated short-tau noise; Q reads 0 (rolloff='none' "
+                "keeps Q >= 0)"
+            )
+        if self.dropped:
+            out.append(
+                "not supported by the data, left out: " + ", ".join(self.dropped)
+                + " (value 0, 1-sigma upper bound given)"
+            )  # fmt: skip
+        return tuple(out)
 
     def _term(self, k: int) -> NoiseTerm:
         c = self.coefficients[..., k]
         sig = self.coefficient_uncertainty[..., k]
         with np.errstate(divide="ignore", invalid="ignore"):
-            value = np.sqrt(c / _K[k])
+            # a negative tau^-2 coefficient is the roll-off term (see `rolloff`): Q is 0
+            value = np.sqrt(np.maximum(c, 0.0) / _K[k])
             # sigma_value = sigma_C * dvalue/dC; pinned at 0: sqrt of the 1-sigma bound on C
             unc = np.where(c > 0, sig / (2.0 * np.sqrt(_K[k] * c)), np.sqrt(sig / _K[k]))
         return NoiseTerm(value[()], unc[()])
@@ -245,8 +364,8 @@ class NoiseFit:
 
     @property
     def fitted_dev(self) -> np.ndarray:
-        """The model deviation at :attr:`tau`, ``sqrt(fitted_avar)``."""
-        return np.sqrt(self.fitted_avar)
+        """The model deviation at :attr:`tau`, ``sqrt(fitted_avar)`` (NaN where negative)."""
+        return self.model_dev(self.tau)
 
     @property
     def active(self) -> np.ndarray:
@@ -284,7 +403,9 @@ class NoiseFit:
         ndarray
             Shape ``leading_shape + np.shape(tau)``.
         """
-        return np.sqrt(self.model_avar(tau))
+        avar = self.model_avar(tau)
+        # a negative roll-off term makes the model negative below its validity: NaN there
+        return np.sqrt(np.where(avar >= 0, avar, np.nan))
 
     def term_dev(self, name: str, tau: Any) -> np.ndarray:
         """The deviation asymptote of one term, ``sqrt(C_n tau^n)``.
@@ -303,7 +424,7 @@ class NoiseFit:
         """
         k = _term_index(name)
         t = np.asarray(tau, dtype=float)
-        c = self.coefficients[..., k]
+        c = np.maximum(self.coefficients[..., k], 0.0)
         return np.sqrt(np.multiply.outer(c, t ** _POWERS[k]))
 
     def term(self, name: str) -> NoiseTerm:
@@ -373,365 +494,6 @@ def _term_index(name: str) -> int:
 
 
 # --------------------------------------------------------------------------------------
-# The compiled kernel
-# --------------------------------------------------------------------------------------
-
-
-@jit(error_model="numpy")
-def _solve_subset(G, h, sub_idx, mask, s, L, dsc, x):  # pragma: no cover - compiled
-    """Solve the normal equations restricted to the terms of ``mask``.
-
-    Jacobi-equilibrated Cholesky of ``G[idx][:, idx]`` into ``L``/``dsc``, then the solve
-    into ``x[:s]``. Returns False (and leaves ``x`` undefined) if the sub-matrix is not
-    numerically positive definite.
-    """
-    for a in range(s):
-        g = G[sub_idx[mask, a], sub_idx[mask, a]]
-        if not g > 0.0:
-            return False
-        dsc[a] = 1.0 / math.sqrt(g)
-    for a in range(s):
-        ia = sub_idx[mask, a]
-        for b in range(a + 1):
-            v = G[ia, sub_idx[mask, b]] * dsc[a] * dsc[b]
-            for k in range(b):
-                v -= L[a, k] * L[b, k]
-            if a == b:
-                if not v > _PIVOT_TOL:
-                    return False
-                L[a, a] = math.sqrt(v)
-            else:
-                L[a, b] = v / L[b, b]
-    for a in range(s):
-        v = h[sub_idx[mask, a]] * dsc[a]
-        for k in range(a):
-            v -= L[a, k] * x[k]
-        x[a] = v / L[a, a]
-    for a in range(s - 1, -1, -1):
-        v = x[a]
-        for k in range(a + 1, s):
-            v -= L[k, a] * x[k]
-        x[a] = v / L[a, a]
-    for a in range(s):
-        x[a] *= dsc[a]
-    return True
-
-
-@jit(error_model="numpy")
-def _inv_diag(s, L, dsc, out, col):  # pragma: no cover - compiled
-    """Diagonal of ``G_sub^-1`` from the factor left by :func:`_solve_subset`."""
-    # G_sub = D^-1 (L L^T) D^-1, so G_sub^-1 = D L^-T L^-1 D and
-    # diag_c = dsc_c^2 * sum_a (L^-1)[a, c]^2 (column c of L^-1 by forward substitution).
-    for c in range(s):
-        acc = 0.0
-        for a in range(c, s):
-            v = 1.0 if a == c else 0.0
-            for k in range(c, a):
-                v -= L[a, k] * col[k]
-            col[a] = v / L[a, a]
-            acc += col[a] * col[a]
-        out[c] = acc * dsc[c] * dsc[c]
-
-
-@jit(error_model="numpy")
-def _try_subset(
-    G, h, sub_idx, sub_size, mask, n_terms, L, dsc, x, phi, avar_i, ok, w
-):  # pragma: no cover - compiled
-    """Solve one active set. Returns (status, objective).
-
-    status 0: singular or infeasible (some coefficient <= 0); 1: feasible; 2: feasible and
-    the KKT conditions hold (every excluded term's gradient ``h_k - (G x)_k <= 0``), i.e.
-    the NNLS optimum.
-    """
-    s = sub_size[mask]
-    if not _solve_subset(G, h, sub_idx, mask, s, L, dsc, x):
-        return 0, 0.0
-    for a in range(s):
-        if not x[a] > 0.0:
-            return 0, 0.0
-    obj = 0.0
-    for j in range(avar_i.shape[0]):
-        if ok[j]:
-            r = avar_i[j]
-            for a in range(s):
-                r -= x[a] * phi[j, sub_idx[mask, a]]
-            obj += w[j] * r * r
-    for k in range(n_terms):
-        if not (mask >> k) & 1:
-            dual = h[k]
-            for a in range(s):
-                dual -= G[k, sub_idx[mask, a]] * x[a]
-            if dual > 0.0:
-                return 1, obj
-    return 2, obj
-
-
-@jit(error_model="numpy")
-def _lawson_hanson(G, h, n_terms, sub_idx, sub_size, L, dsc, x, xcur):  # pragma: no cover
-    """Active set of the Lawson-Hanson NNLS iteration on the normal equations.
-
-    Returns the bit mask of the positive coefficients, or -1 if the iteration fails to
-    converge (rounding in a degenerate problem); the caller verifies the KKT conditions.
-    """
-    passive = 0
-    for k in range(n_terms):
-        xcur[k] = 0.0
-    for _outer in range(3 * n_terms + 3):
-        # most promising excluded term: largest gradient per unit of its column norm
-        add = -1
-        best = 0.0
-        for k in range(n_terms):
-            if not (passive >> k) & 1:
-                grad = h[k]
-                for b in range(n_terms):
-                    grad -= G[k, b] * xcur[b]
-                v = grad / math.sqrt(G[k, k])
-                if v > best:
-                    best = v
-                    add = k
-        if add < 0:
-            return passive
-        passive |= 1 << add
-        for _inner in range(n_terms + 1):
-            s = sub_size[passive]
-            if not _solve_subset(G, h, sub_idx, passive, s, L, dsc, x):
-                return -1
-            step = 1.0
-            all_pos = True
-            for a in range(s):
-                if not x[a] > 0.0:
-                    all_pos = False
-                    k = sub_idx[passive, a]
-                    den = xcur[k] - x[a]
-                    r = xcur[k] / den if den > 0.0 else 0.0
-                    if r < step:
-                        step = r
-            if all_pos:
-                for a in range(s):
-                    xcur[sub_idx[passive, a]] = x[a]
-                break
-            for a in range(s):
-                k = sub_idx[passive, a]
-                xcur[k] += step * (x[a] - xcur[k])
-            for a in range(s):
-                k = sub_idx[passive, a]
-                if not xcur[k] > 0.0:
-                    xcur[k] = 0.0
-                    passive &= ~(1 << k)
-        else:
-            return -1
-    return -1
-
-
-@jit(error_model="numpy")
-def _fit_curve(
-    i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x, best_x, xcur, dg,
-):  # fmt: skip  # pragma: no cover - compiled
-    """Iteratively reweighted exact NNLS of row ``i`` of ``avar`` (see the module docs).
-
-    ``phi[j, a]`` is the basis of the selected term ``sel[a]`` on the scaled time axis, so
-    the solution ``d_a`` gives ``C = d_a * unscale[a]``. Writes, per curve, the five
-    ``C_n`` into ``coef`` (0 for unselected or pinned terms; NaN if not fitted), their
-    scaled 1-sigma into ``coef_sig`` (unconstrained covariance for pinned terms, NaN for
-    unselected ones), the weighted residual sum of squares ``chi2`` and the number of valid
-    points ``npts``.
-
-    The active sets are tried in a per-curve order (the previous pass's optimum, the
-    Lawson-Hanson active set, then all sets from the largest down); the first one that is
-    feasible and satisfies the KKT conditions is the unique NNLS optimum. If rounding lets
-    no set pass the KKT test (a degenerate optimum), the feasible set with the smallest
-    weighted residual is taken instead, which is the same optimum by exhaustion.
-    """
-    n_tau = avar.shape[1]
-    n_terms = phi.shape[1]
-    n_order = order.shape[0]
-    full = (1 << n_terms) - 1
-    ie = i if edf.shape[0] > 1 else 0  # a single edf row serves every curve
-    avar_i = avar[i]
-    n = 0
-    n_eff = 0.0
-    for j in range(n_tau):
-        a = avar_i[j]
-        e = edf[ie, j]
-        good = np.isfinite(a) and np.isfinite(e) and a > 0.0 and e > 0.0
-        ok[j] = good
-        if good:
-            ref[j] = a
-            n += 1
-            n_eff += share[j]
-    npts[i] = n
-    for k in range(5):
-        coef[i, k] = np.nan
-        coef_sig[i, k] = np.nan
-    chi2[i] = np.nan
-    if n < n_terms:
-        return
-    best_mask = 0
-    best_obj = 0.0
-    for _pass in range(n_reweight + 1):
-        for j in range(n_tau):
-            w[j] = edf[ie, j] / (2.0 * ref[j] * ref[j]) if ok[j] else 0.0
-        yy = 0.0
-        for a in range(n_terms):
-            h[a] = 0.0
-            for b in range(a + 1):
-                G[a, b] = 0.0
-        for j in range(n_tau):
-            if ok[j]:
-                wj = w[j]
-                yj = avar_i[j]
-                yy += wj * yj * yj
-                for a in range(n_terms):
-                    wpa = wj * phi[j, a]
-                    h[a] += wpa * yj
-                    for b in range(a + 1):
-                        G[a, b] += wpa * phi[j, b]
-        for a in range(n_terms):
-            for b in range(a):
-                G[b, a] = G[a, b]
-        # candidates: the previous pass's optimum, then the Lawson-Hanson active
-        # set, then every set from the largest down (exhaustive fallback)
-        prev = best_mask if _pass > 0 else 0
-        lh = -1
-        # the empty set (all zero) is always feasible: the fallback's start
-        best_mask = 0
-        best_obj = yy
-        for k in range(n_terms):
-            best_x[k] = 0.0
-        for t in range(-2, n_order):
-            if t == -2:
-                mask = prev
-                if mask == 0:
-                    continue
-            elif t == -1:
-                lh = _lawson_hanson(G, h, n_terms, sub_idx, sub_size, L, dsc, x, xcur)
-                mask = lh
-                if mask <= 0 or mask == prev:
-                    continue
-            else:
-                mask = order[t]
-                if mask == prev or mask == lh:
-                    continue
-            status, obj = _try_subset(
-                G, h, sub_idx, sub_size, mask, n_terms, L, dsc, x, phi, avar_i, ok, w
-            )
-            if status == 0:
-                continue
-            if status == 2 or obj < best_obj:
-                best_obj = obj
-                best_mask = mask
-                for k in range(n_terms):
-                    best_x[k] = 0.0
-                for a in range(sub_size[mask]):
-                    best_x[sub_idx[mask, a]] = x[a]
-            if status == 2:
-                break
-        # next pass weights: the model avar (the measured one where the model is 0)
-        for j in range(n_tau):
-            if ok[j]:
-                m = 0.0
-                for k in range(n_terms):
-                    m += best_x[k] * phi[j, k]
-                ref[j] = m if m > 0.0 else avar_i[j]
-    chi2[i] = best_obj
-    # covariance scale: max(1, chi2/dof) with absolute weights, chi2/dof otherwise
-    dof = n_eff - n_terms  # effective: densely spaced taus count by their octave share
-    red = best_obj / dof if dof > 0 else np.nan
-    if weighted:
-        factor = max(1.0, red) if dof > 0 else 1.0
-    else:
-        factor = red
-    for k in range(5):
-        coef[i, k] = 0.0
-    for a in range(n_terms):
-        coef[i, sel[a]] = best_x[a] * unscale[a]
-    # 1-sigma of the active coefficients from the active set's covariance...
-    if best_mask > 0:
-        s = sub_size[best_mask]
-        if _solve_subset(G, h, sub_idx, best_mask, s, L, dsc, x):
-            _inv_diag(s, L, dsc, dg, x)
-            for a in range(s):
-                b = sub_idx[best_mask, a]
-                coef_sig[i, sel[b]] = math.sqrt(dg[a] * factor) * unscale[b]
-    # ...and of the pinned ones from the unconstrained covariance (an upper bound)
-    if best_mask != full and _solve_subset(G, h, sub_idx, full, n_terms, L, dsc, x):
-        _inv_diag(n_terms, L, dsc, dg, x)
-        for a in range(n_terms):
-            if not (best_mask >> a) & 1:
-                coef_sig[i, sel[a]] = math.sqrt(dg[a] * factor) * unscale[a]
-
-
-@jit(error_model="numpy")
-def _nnls_serial(
-    phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts,
-):  # fmt: skip  # pragma: no cover - compiled
-    """:func:`_fit_curve` over every row, on the calling thread (small stacks)."""
-    n_curves, n_tau = avar.shape
-    n_terms = phi.shape[1]
-    w = np.empty(n_tau)
-    ref = np.empty(n_tau)
-    ok = np.empty(n_tau, dtype=np.bool_)
-    G = np.empty((n_terms, n_terms))
-    h = np.empty(n_terms)
-    L = np.empty((n_terms, n_terms))
-    dsc = np.empty(n_terms)
-    x = np.empty(n_terms)
-    best_x = np.empty(n_terms)
-    xcur = np.empty(n_terms)
-    dg = np.empty(n_terms)
-    for i in range(n_curves):
-        _fit_curve(
-            i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted,
-            share, coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x, best_x, xcur, dg,
-        )  # fmt: skip
-
-
-@parallel_jit(error_model="numpy")
-def _nnls_parallel(
-    phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts,
-):  # fmt: skip  # pragma: no cover - compiled
-    """:func:`_fit_curve` over every row, blocks of rows in parallel (large stacks)."""
-    n_curves, n_tau = avar.shape
-    n_terms = phi.shape[1]
-    n_blocks = (n_curves + _BLOCK - 1) // _BLOCK
-    for blk in prange(n_blocks):
-        w = np.empty(n_tau)
-        ref = np.empty(n_tau)
-        ok = np.empty(n_tau, dtype=np.bool_)
-        G = np.empty((n_terms, n_terms))
-        h = np.empty(n_terms)
-        L = np.empty((n_terms, n_terms))
-        dsc = np.empty(n_terms)
-        x = np.empty(n_terms)
-        best_x = np.empty(n_terms)
-        xcur = np.empty(n_terms)
-        dg = np.empty(n_terms)
-        for i in range(blk * _BLOCK, min((blk + 1) * _BLOCK, n_curves)):
-            _fit_curve(
-                i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale,
-                weighted, share, coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x,
-                best_x, xcur, dg,
-            )  # fmt: skip
-
-
-@lru_cache(maxsize=8)
-def _subsets(n_terms: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Members and sizes of every active set (bit mask), and the non-empty masks by size."""
-    n_sub = 1 << n_terms
-    idx = np.zeros((n_sub, max(n_terms, 1)), dtype=np.int64)
-    size = np.zeros(n_sub, dtype=np.int64)
-    for mask in range(n_sub):
-        members = [k for k in range(n_terms) if mask >> k & 1]
-        size[mask] = len(members)
-        idx[mask, : len(members)] = members
-    order = sorted(range(1, n_sub), key=lambda m: (-size[m], m))
-    return idx, size, np.array(order, dtype=np.int64)
-
-
-# --------------------------------------------------------------------------------------
 # Public API
 # --------------------------------------------------------------------------------------
 
@@ -762,8 +524,21 @@ def fit_avar(
     units: str | None = None,
     n_reweight: int = 3,
     spacing: str = "octave",
+    method: str = "auto",
+    select: str = "significance",
+    significance: float = gls_fit.SIGNIFICANCE,
+    exclude: str = "auto",
+    tau_range: tuple[float | None, float | None] | None = None,
+    bandwidth: float | None = None,
+    rolloff: str = "model",
 ) -> NoiseFit:
     """Fit the noise model to raw Allan-variance arrays.
+
+    Raw arrays carry neither the record length nor the sample interval that the estimators'
+    covariance needs, so this is the diagonally weighted fit (``method="wls"``; ``"auto"``
+    means it); fit a :class:`~adavar.results.DeviationResult` with :func:`fit_noise` for
+    the full-covariance fit. ``select`` and ``exclude`` belong to that fit and are not
+    applied here; ``tau_range`` and ``bandwidth`` are.
 
     Parameters
     ----------
@@ -793,6 +568,16 @@ def fit_avar(
         noise in 600-sample windows with all taus, ``"independent"`` gives N 6 % low with a
         spurious quantization term in most windows, ``"octave"`` gives N within 2 %. Octave
         and decade grids are unchanged. ``"independent"``: the weights as they are.
+    method : {"auto", "wls", "slopes"}
+        ``"wls"`` (what ``"auto"`` means here) or the slope-line read-offs (which need
+        ``edf`` only for their uncertainties).
+    select, significance, exclude, rolloff
+        See :func:`fit_noise` (full-covariance fit only; not applied here).
+    tau_range : (float or None, float or None), optional
+        Fit only the taus in ``[min, max]`` seconds (None: open).
+    bandwidth : float, optional
+        The sensor's bandwidth in Hz: taus below ``BANDWIDTH_FACTOR / bandwidth`` are left
+        out.
 
     Returns
     -------
@@ -801,11 +586,110 @@ def fit_avar(
     Raises
     ------
     ValueError
-        On a bad ``tau``, inconsistent shapes, unknown terms or units.
+        On a bad ``tau``, inconsistent shapes, unknown terms or units, or ``method="gls"``.
     """
     if units is not None:
         rate_unit_info(units)
-    return _fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing)
+    method = _check_options(method, select, significance, exclude, rolloff)
+    if method == "gls":
+        raise ValueError(
+            "method='gls' needs the record length and sample interval: fit the "
+            "DeviationResult with fit_noise(result, method='gls')"
+        )
+    tau_a = np.asarray(tau, dtype=float)
+    keep, reasons = _tau_selection(tau_a, tau_range, bandwidth)
+    if method == "slopes":
+        dev = np.sqrt(np.asarray(avar, dtype=float))
+        return _slopes_fit(tau_a, dev, None, None, terms, units)
+    avar = np.where(keep, np.asarray(avar, dtype=float), np.nan)
+    return _fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
+                reasons=reasons)  # fmt: skip
+
+
+def _check_options(
+    method: str, select: str, significance: float, exclude: str, rolloff: str
+) -> str:
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
+    if select not in ("significance", "none"):
+        raise ValueError(f"unknown select {select!r}: use 'significance' or 'none'")
+    if exclude not in ("auto", "none"):
+        raise ValueError(f"unknown exclude {exclude!r}: use 'auto' or 'none'")
+    if rolloff not in ("model", "none"):
+        raise ValueError(f"unknown rolloff {rolloff!r}: use 'model' or 'none'")
+    try:
+        ok = float(significance) > 0 and math.isfinite(float(significance))
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"significance must be a positive number, got {significance!r}")
+    return method
+
+
+def _tau_selection(
+    tau: np.ndarray, tau_range: Any, bandwidth: float | None
+) -> tuple[np.ndarray, list[str]]:
+    """Points inside the tau range and above the bandwidth limit, with the reasons."""
+    keep = np.ones(tau.shape, dtype=bool)
+    reasons = [""] * tau.size
+    if tau_range is not None:
+        try:
+            lo, hi = tau_range
+            lo = -math.inf if lo is None else float(lo)
+            hi = math.inf if hi is None else float(hi)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"tau_range must be (min, max) in seconds, got {tau_range!r}"
+            ) from None
+        if not lo < hi:
+            raise ValueError(f"tau_range {tau_range!r}: the minimum must be below the maximum")
+        for j, t in enumerate(tau):
+            if not lo <= t <= hi:
+                keep[j] = False
+                reasons[j] = f"outside tau_range [{lo:g}, {hi:g}] s"
+    if bandwidth is not None:
+        try:
+            bw = float(bandwidth)
+        except (TypeError, ValueError):
+            bw = math.nan
+        if not (bw > 0 and math.isfinite(bw)):
+            raise ValueError(f"bandwidth must be a positive number of Hz, got {bandwidth!r}")
+        limit = BANDWIDTH_FACTOR / bw
+        for j, t in enumerate(tau):
+            if keep[j] and t < limit:
+                keep[j] = False
+                reasons[j] = f"below {BANDWIDTH_FACTOR:g} / bandwidth = {limit:.3g} s"
+    return keep, reasons
+
+
+def _readoff_reach(result: Any) -> float | None:
+    """A tenth of the record (s), where slope read-offs stop; None if unknown."""
+    try:
+        return 0.1 * float(result.n_samples) * float(result.tau0)
+    except (AttributeError, TypeError, ValueError):
+        return None
+
+
+def _slopes_fit(tau, dev, dev_low, dev_high, terms, units, tau_max=None) -> NoiseFit:
+    """A NoiseFit whose coefficients are the slope-line read-offs."""
+    terms = _check_terms(terms)
+    read = read_slopes(tau, dev, dev_low, dev_high, tau_max=tau_max)
+    coef = np.zeros(5)
+    unc = np.full(5, np.nan)
+    for k, name in enumerate(TERM_NAMES):
+        if name not in terms:
+            continue
+        v, u = read.values[name], read.uncertainty[name]
+        if math.isfinite(v):
+            coef[k] = _K[k] * v * v
+            unc[k] = 2.0 * _K[k] * v * u
+    n = int(np.isfinite(dev).sum())
+    return NoiseFit(
+        coefficients=coef, coefficient_uncertainty=unc, tau=np.asarray(tau, float),
+        chi2=math.nan, dof=0, reduced_chi2=math.nan, n_points=n, terms=terms, units=units,
+        n_reweight=0, weighted=dev_low is not None, method="slopes",
+        exclusions=tuple("" for _ in range(np.size(tau))), slopes=read,
+    )  # fmt: skip
 
 
 def _fit(
@@ -818,8 +702,10 @@ def _fit(
     *,
     spacing: str = "octave",
     time: np.ndarray | None = None,
+    reasons: list[str] | None = None,
+    slopes: SlopeReadoff | None = None,
 ) -> NoiseFit:
-    """The common body of :func:`fit_avar` and :func:`fit_noise` (units already checked)."""
+    """The diagonally weighted fit behind :func:`fit_avar` and :func:`fit_noise`."""
     if spacing not in ("octave", "independent"):
         raise ValueError(f"unknown spacing {spacing!r}: use 'octave' or 'independent'")
     terms = _check_terms(terms)
@@ -867,13 +753,13 @@ def _fit(
     powers = _POWERS[sel]
     tau_ref = float(np.exp(np.mean(np.log(tau))))
     phi = np.ascontiguousarray((tau / tau_ref)[:, None] ** powers[None, :])
-    sub_idx, sub_size, order = _subsets(len(sel))
+    sub_idx, sub_size, order = subsets(len(sel))
 
     coefficients = np.empty((n_curves, 5))
     coef_sig = np.empty((n_curves, 5))
     chi2 = np.empty(n_curves)
     npts = np.empty(n_curves, dtype=np.int64)
-    kernel = _nnls_parallel if n_curves >= _PARALLEL_MIN else _nnls_serial
+    kernel = nnls_parallel if n_curves >= PARALLEL_MIN else nnls_serial
     kernel(
         phi, a2, e2, n_reweight, sub_idx, sub_size, order, sel,
         tau_ref ** (-powers.astype(float)), weighted, share,
@@ -892,6 +778,17 @@ def _fit(
         x = x.reshape(lead + x.shape[1:])
         return x[()] if x.ndim == 0 else x
 
+    good = np.isfinite(a2) & (a2 > 0) & np.isfinite(e2) & (e2 > 0)
+    model = coefficients @ (tau[:, None] ** _POWERS[None, :]).T
+    with np.errstate(invalid="ignore", divide="ignore"):
+        resid = np.where(good, (a2 - model) / (model * np.sqrt(2.0 / (e2 / share))), np.nan)
+    exclusions: tuple[str, ...] = ()
+    if not lead:
+        base = reasons or [""] * n_tau
+        exclusions = tuple(
+            r or ("" if good[0, j] else "undefined (NaN or not positive)")
+            for j, r in enumerate(base)
+        )
     return NoiseFit(
         coefficients=coefficients.reshape((*lead, 5)),
         coefficient_uncertainty=coef_sig.reshape((*lead, 5)),
@@ -906,6 +803,11 @@ def _fit(
         weighted=weighted,
         time=time,
         spacing=spacing,
+        method="wls",
+        used=good.reshape((*lead, n_tau)),
+        exclusions=exclusions,
+        residuals=resid.reshape((*lead, n_tau)),
+        slopes=slopes,
     )
 
 
@@ -916,6 +818,13 @@ def fit_noise(
     units: str | None = None,
     n_reweight: int = 3,
     spacing: str = "octave",
+    method: str = "auto",
+    select: str = "significance",
+    significance: float = gls_fit.SIGNIFICANCE,
+    exclude: str = "auto",
+    tau_range: tuple[float | None, float | None] | None = None,
+    bandwidth: float | None = None,
+    rolloff: str = "model",
 ) -> NoiseFit:
     """Fit the IEEE noise model (METHOD.md Eq. 7) to an Allan-deviation result.
 
@@ -927,28 +836,78 @@ def fit_noise(
         result (2-D ``avar`` and ``edf``, one row per window), ... If it has a ``stat``, it
         must be an Allan-type statistic (``"adev"``, ``"oadev"``, ``"totdev"``).
     terms : sequence of str
-        The terms of the model, from :data:`TERM_NAMES`.
+        The candidate terms of the model, from :data:`TERM_NAMES`.
     units : str, optional
         Declared unit of the input rate samples; defaults to ``result.units`` if the result
         has one (an explicit value must agree with it). An explicit value is checked here;
         one inherited from the result only when :meth:`NoiseFit.to_units` needs it.
     n_reweight : int
-        Reweighting passes after the first (see the module docstring).
+        Passes after the first, each weighted with the previous pass's model (the
+        covariance for ``"gls"``, the diagonal weights for ``"wls"``).
     spacing : {"octave", "independent"}
-        Weighting of densely spaced taus, see :func:`fit_avar`.
+        Weighting of densely spaced taus in the ``"wls"`` fit, see :func:`fit_avar` (the
+        ``"gls"`` fit has the taus' correlation in its covariance instead).
+    method : {"auto", "gls", "wls", "slopes"}
+        ``"gls"``: generalised least squares with the full covariance of the estimates
+        across taus, term selection and automatic exclusion of short taus the model cannot
+        describe (:mod:`adavar.gls_fit`); it needs a whole-record result (``m``, ``tau0``,
+        ``n_samples``, ``data_type``). ``"wls"``: the non-negative fit with diagonal
+        weights ``edf / (2 avar^2)`` of every term in ``terms`` (the behaviour before
+        version 0.2, and the fit of DAVAR stacks). ``"slopes"``: the classical slope-line
+        read-offs (:mod:`adavar.slopes`) as the coefficients. ``"auto"`` (default):
+        ``"gls"`` for one curve of ``oadev``/``adev``/``totdev`` with its record length,
+        ``"wls"`` otherwise (a stack of windows: one covariance per window would cost
+        O(M^3) each).
+    select : {"significance", "none"}
+        ``"gls"`` only. ``"significance"`` (default): backward elimination, a term stays
+        only while ``C / sigma_C >= significance``; the removed ones are listed in
+        ``NoiseFit.dropped`` with value 0 and a 1-sigma upper bound. ``"none"``: every
+        term of ``terms`` (non-negative, pinned at 0 where the data push it negative).
+    significance : float
+        Threshold of the term selection (default 2).
+    exclude : {"auto", "none"}
+        ``"gls"`` only. ``"auto"`` (default): while the shortest fitted tau lies below a
+        third of the curve's minimum and misses the model by more than
+        ``gls_fit.EXCLUDE_Z`` standard errors, it is left out (the roll-off of a sensor's
+        anti-aliasing filter, correlated short-tau noise); ``NoiseFit.exclusions`` says
+        which and why. ``"none"``: every point in the tau range.
+    tau_range : (float or None, float or None), optional
+        Fit only the taus in ``[min, max]`` seconds (None: open at that end).
+    bandwidth : float, optional
+        The sensor's -3 dB bandwidth in Hz (datasheet, or the filter setting): taus below
+        ``BANDWIDTH_FACTOR / bandwidth`` (2 / bandwidth) are left out.
+    rolloff : {"model", "none"}
+        ``"gls"`` only. ``"model"`` (default): the ``tau^-2`` coefficient may be negative,
+        which is the Allan variance of positively correlated short-tau noise (a sensor's
+        low-pass filter) beyond its correlation time; it is reported as
+        ``NoiseFit.rolloff`` and Q as 0. Without it the filter's deficit just above the
+        excluded taus biases N low (4 % on the 100 Hz simulator with a 10 Hz filter).
+        ``"none"``: Q >= 0 like every term.
 
     Returns
     -------
     NoiseFit
         Coefficients in the data's own units: ``unit*s`` (Q), ``unit*sqrt(s)`` (N),
         ``unit`` (B), ``unit/sqrt(s)`` (K), ``unit/s`` (R); arrays over the leading shape
-        for a stack of curves.
+        for a stack of curves. For one curve, ``slopes`` holds the slope-line read-offs
+        whatever the method, and ``residuals``, ``exclusions``, ``adequate`` and
+        ``warnings`` say how well the model follows the curve.
 
     Raises
     ------
     ValueError
         For a non-Allan statistic, a result without ``edf``, or bad inputs.
+
+    Notes
+    -----
+    Uncertainties of the ``"gls"`` fit are the inverse Fisher matrix of the selected terms
+    under the model's own covariance, scaled by ``max(1, chi2/dof)``. Over 200 simulated
+    records each of white + rate random walk, white + flicker + rate random walk and the
+    bandwidth-limited, quantised sensor simulator, ``(estimate - truth) / uncertainty``
+    has a standard deviation near 1 for N, B and K (``benchmarks/bench_fit_real.py``,
+    ``docs/benchmarks.md``).
     """
+    method = _check_options(method, select, significance, exclude, rolloff)
     stat = getattr(result, "stat", None)
     if stat is not None and str(stat).lower() not in ALLAN_STATS:
         raise ValueError(
@@ -963,6 +922,7 @@ def fit_noise(
         if dev is None:
             raise ValueError("result has neither 'avar' nor 'dev'")
         avar = np.asarray(dev, dtype=float) ** 2
+    avar = np.asarray(avar, dtype=float)
     edf = getattr(result, "edf", None)
     if edf is None or not np.isfinite(np.asarray(edf, dtype=float)).any():
         raise ValueError(
@@ -979,4 +939,95 @@ def fit_noise(
     time = getattr(result, "time", None)
     if time is not None and np.ndim(avar) != 2:
         time = None
-    return _fit(result.tau, avar, edf, terms, units, n_reweight, spacing=spacing, time=time)
+    tau = np.asarray(result.tau, dtype=float)
+    keep, reasons = _tau_selection(tau, tau_range, bandwidth)
+    one = avar.ndim == 1
+    slopes = None
+    if one:
+        dev = np.sqrt(avar)
+        low, high = getattr(result, "dev_low", None), getattr(result, "dev_high", None)
+        if method == "slopes":
+            return _slopes_fit(tau, np.where(keep, dev, np.nan), low, high, terms, units,
+                               tau_max=_readoff_reach(result))  # fmt: skip
+        slopes = read_slopes(tau, dev, low, high, tau_max=_readoff_reach(result))
+    elif method == "slopes":
+        raise ValueError("method='slopes' reads one curve; fit a stack with 'wls'")
+    record = _record_of(result) if one else None
+    if method == "gls" and record is None:
+        raise ValueError(
+            "method='gls' needs one whole-record curve with its record (m, tau0, n_samples, "
+            "data_type): a DeviationResult; use method='wls' for stacks or raw arrays"
+        )
+    if method == "wls" or record is None:
+        masked = np.where(keep, avar, np.nan)
+        return _fit(tau, masked, edf, terms, units, n_reweight, spacing=spacing, time=time,
+                    reasons=reasons, slopes=slopes)  # fmt: skip
+    return _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
+                float(significance), exclude, rolloff, slopes)  # fmt: skip
+
+
+def _record_of(result: Any) -> tuple[np.ndarray, int, float] | None:
+    """(m, n_points, tau0) of a whole-record result of an Allan statistic, else None."""
+    try:
+        m = np.asarray(result.m, dtype=np.int64)
+        tau0 = float(result.tau0)
+        n_samples = int(result.n_samples)
+        phase = str(result.data_type) == "phase"
+        stat = str(getattr(result, "stat", "oadev")).lower()
+    except (AttributeError, TypeError, ValueError):
+        return None
+    if stat not in ALLAN_STATS or m.shape != np.shape(result.tau):
+        return None
+    n_points = n_samples if phase else n_samples + 1
+    if np.any(m < 1) or np.any(n_points - 2 * m < 1):
+        return None
+    return m, n_points, tau0
+
+
+def _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
+         significance, exclude, rolloff, slopes) -> NoiseFit:  # fmt: skip
+    """The full-covariance fit of one curve (:mod:`adavar.gls_fit`) as a NoiseFit."""
+    terms = _check_terms(terms)
+    if isinstance(n_reweight, bool) or int(n_reweight) != n_reweight or n_reweight < 0:
+        raise ValueError(f"n_reweight must be a non-negative integer, got {n_reweight!r}")
+    ms, n_points, tau0 = record
+    tau = np.asarray(result.tau, dtype=float)
+    edf = np.broadcast_to(np.asarray(result.edf, dtype=float), tau.shape)
+    good = np.isfinite(avar) & (avar > 0) & np.isfinite(edf) & (edf > 0)
+    for j in np.flatnonzero(~good):
+        reasons[j] = "undefined (NaN or not positive)"
+    usable = good & keep
+    stat = str(getattr(result, "stat", "oadev")).lower()
+    alpha = np.asarray(getattr(result, "alpha", np.zeros(tau.size)), dtype=np.int64)
+    sel = tuple(_term_index(t) for t in terms)
+    if usable.sum() < len(sel):
+        return _fit(tau, np.where(usable, avar, np.nan), edf, terms, units, 0,
+                    reasons=reasons, slopes=slopes)  # fmt: skip
+    out = gls_fit.fit_curve(
+        tau, avar, edf, ms=ms, n_points=n_points, tau0=tau0, stat=stat, alpha=alpha,
+        terms=sel, usable=usable, reasons=reasons, n_iter=int(n_reweight), select=select,
+        significance=significance, exclude=exclude, rolloff=rolloff,
+    )  # fmt: skip
+    red = out.chi2 / out.dof if out.dof > 0 else math.nan
+    dropped = tuple(TERM_NAMES[k] for k in out.dropped)
+    return NoiseFit(
+        coefficients=out.coefficients,
+        coefficient_uncertainty=out.coefficient_uncertainty,
+        tau=tau,
+        chi2=float(out.chi2),
+        dof=int(out.dof),
+        reduced_chi2=float(red),
+        n_points=int(out.n_points),
+        terms=terms,
+        units=units,
+        n_reweight=int(n_reweight),
+        weighted=True,
+        spacing="covariance",
+        method="gls",
+        used=out.used,
+        exclusions=out.reasons,
+        residuals=out.residuals,
+        dropped=dropped,
+        coefficient_covariance=out.coefficient_covariance,
+        slopes=slopes,
+    )

@@ -293,8 +293,9 @@ def deviation_figure(
     Returns
     -------
     matplotlib.figure.Figure
-        One axes: the data as an error-bar line (``ax.containers[0]``), then the model and
-        the asymptotes as lines, with a legend.
+        One axes: the data as an error-bar line (``ax.containers[0]``), then the model,
+        the taus the fit left out (hollow grey markers, ``fit.excluded``) and the
+        asymptotes as lines, with a legend.
     """
     unit = units if units is not None else result.units
     tau = np.asarray(result.tau, dtype=float)
@@ -324,12 +325,21 @@ def deviation_figure(
         coefficients = np.asarray(fit.coefficients)
         if coefficients.ndim != 1:
             raise ValueError("deviation_figure draws one fit: pass a single-curve NoiseFit")
-        grid = np.geomspace(tau.min(), tau.max(), 200) if tau.size > 1 else tau
+        used = tau if fit.used is None or not np.any(fit.used) else tau[np.asarray(fit.used)]
+        # the model is drawn where it was fitted (a roll-off term is no model below that)
+        grid = np.geomspace(used.min(), used.max(), 200) if used.size > 1 else used
         red = float(fit.reduced_chi2)
         fit_label = "fitted model"
         if math.isfinite(red):
             fit_label += f" (reduced χ² = {red:.2f})"
         ax.plot(grid, fit.model_dev(grid), "-", color="k", linewidth=1.6, label=fit_label)
+        excluded = fit.excluded
+        if excluded is not None and np.any(excluded):
+            # the points the fit left out (roll-off, tau range, bandwidth): hollow, grey
+            ax.plot(
+                tau[excluded], dev[excluded], "o", markerfacecolor="white", color="0.45",
+                markersize=7, zorder=4, label=f"not fitted ({int(excluded.sum())} taus)",
+            )  # fmt: skip
         labels = _term_labels(fit, unit)
         for k, name in enumerate(TERM_NAMES):
             if coefficients[k] > 0:

@@ -292,7 +292,20 @@ def _deviation_figure(deviation: Any, fit: Any, units: str | None) -> dict[str, 
         tau = np.asarray(fit.tau, dtype=float)
         ylabel = _esc(_unit_label("Allan deviation", unit))
     if fit is not None:
-        grid = np.geomspace(tau.min(), tau.max(), 200) if tau.size > 1 else tau
+        used = tau if fit.used is None or not np.any(fit.used) else tau[np.asarray(fit.used)]
+        # the model where it was fitted (a roll-off term is no model below that)
+        grid = np.geomspace(used.min(), used.max(), 200) if used.size > 1 else used
+        excluded = fit.excluded
+        if deviation is not None and excluded is not None and np.any(excluded):
+            why = [_esc(r) for r, e in zip(fit.exclusions, excluded, strict=True) if e]
+            traces.append({
+                "type": "scatter", "mode": "markers", "x": _num(tau[excluded]),
+                "y": _num(dev[excluded]), "name": f"not fitted ({int(excluded.sum())} taus)",
+                "marker": {"size": 11, "color": "rgba(0,0,0,0)",
+                           "line": {"color": "#777", "width": 1.5}},
+                "customdata": why,
+                "hovertemplate": "τ = %{x:.6g} s: not fitted<br>%{customdata}<extra></extra>",
+            })  # fmt: skip
         red = float(fit.reduced_chi2)
         name = "fitted model" + (f" (reduced χ² = {red:.2f})" if math.isfinite(red) else "")
         traces.append(
@@ -573,6 +586,8 @@ def _coefficient_table(fit: Any, units: str | None) -> str:
             state = "not in the model"
         elif float(term.value) > 0:
             state = "fitted"
+        elif name in fit.dropped:
+            state = "not significant, left out (1-sigma upper bound)"
         else:
             state = "pinned at 0 (1-sigma upper bound)"
         row = [
@@ -590,10 +605,13 @@ def _coefficient_table(fit: Any, units: str | None) -> str:
         header.append("value ± 1σ (conventional units)")
     red = float(fit.reduced_chi2)
     summary = (
-        f"Fitted on {int(fit.n_points)} taus with terms {', '.join(fit.terms)}; "
-        f"χ² = {float(fit.chi2):.4g}, dof = {float(fit.dof):.4g}, reduced χ² = "
-        f"{red:.3g}; {fit.n_reweight} reweighting passes, spacing {fit.spacing!r}."
+        f"Fitted ({fit.method}) on {int(fit.n_points)} taus with candidate terms "
+        f"{', '.join(fit.terms)}; χ² = {float(fit.chi2):.4g}, dof = {float(fit.dof):.4g}, "
+        f"reduced χ² = {red:.3g}; {fit.n_reweight} reweighting passes, spacing "
+        f"{fit.spacing!r}."
     )
+    for warning in fit.warnings:
+        summary += f" Warning: {warning}."
     if unit is None:
         summary += " No unit declared: values in the data's own units."
     elif converted is None:

@@ -588,9 +588,17 @@ def sensor(
     bias: float = 0.0,
     markov: tuple[float, float] | None = None,
     sinusoid: tuple[float, float] | tuple[float, float, float] | None = None,
+    bandwidth: float | None = None,
+    filter_order: int = 2,
+    lsb: float | None = None,
     seed: SeedLike = None,
 ) -> FloatArray:
     r"""Rate output of a sensor: sum of independent IEEE 952 noise terms and disturbances.
+
+    With ``bandwidth`` and ``lsb`` it is the output of a real MEMS sensor: the noise passes
+    the sensor's digital low-pass (anti-aliasing) filter and the result is quantised to the
+    output word's least significant bit, so the Allan deviation shows the short-tau roll-off
+    and the correlated samples that real logs have.
 
     Parameters
     ----------
@@ -615,6 +623,24 @@ def sensor(
         First-order Gauss–Markov term (see :func:`markov`).
     sinusoid : (amplitude, frequency) or (amplitude, frequency, phase) or None
         Deterministic sinusoid (see :func:`sinusoid`).
+    bandwidth : float or None, default None
+        -3 dB bandwidth in Hz of the sensor's digital low-pass filter, below the Nyquist
+        frequency ``rate / 2`` (a MEMS gyro at 100 Hz with its filter at 20 Hz: 20.0). The
+        sum of all terms (bias and ramp included) passes a Butterworth low-pass of order
+        ``filter_order`` with unit gain at DC, started in its steady state so the record has
+        no start-up transient. The long-tau Allan variance is unchanged; below a few
+        ``1 / bandwidth`` the samples are correlated and the Allan deviation rolls off
+        below the ``N / sqrt(tau)`` line. None: no filter.
+    filter_order : int, default 2
+        Order of that Butterworth filter (1 to 8).
+    lsb : float or None, default None
+        Quantisation step of the output in ``u`` (the sensor's least significant bit, e.g.
+        ``1/131`` deg/s for a +-250 deg/s 16-bit gyro): the output is rounded to the
+        nearest multiple of ``lsb``, after the filter. Where the noise spans many LSBs the
+        rounding error is white with variance ``lsb**2 / 12``, which adds
+        ``lsb**2 tau0 / (12 tau)`` to the Allan variance (an angle-random-walk-like term);
+        where it spans less than one LSB the output is piecewise constant and the record
+        becomes strongly correlated. None: no quantisation.
     seed : int, None, SeedSequence or Generator
         Root seed.  The random terms use fixed child streams of it, in the order
         quantization, angle random walk, bias instability, rate random walk, Markov, so each
@@ -628,9 +654,31 @@ def sensor(
     -----
     The terms are independent, so the PSDs and Allan variances add:
     ``AVAR = 3Q^2/tau^2 + N^2/tau + (2 ln2/pi) B^2 + K^2 tau/3 + R^2 tau^2/2 + ...``.
+    ``bandwidth`` multiplies the PSD by the filter's ``|H(f)|^2`` (so the sum holds at
+    ``tau >> 1/bandwidth``), and ``lsb`` adds the rounding error described above.
+
+    Examples
+    --------
+    A 100 Hz MEMS gyro with a 20 Hz filter and a 16-bit output at +-250 deg/s:
+
+    >>> from adavar import simulate
+    >>> w = simulate.sensor(360_000, rate=100.0, angle_random_walk=0.005,
+    ...                     bias_instability=0.002, rate_random_walk=1e-4,
+    ...                     bandwidth=20.0, lsb=1 / 131, seed=1)
     """
     n = _check_n(n)
     rate = _check_rate(rate)
+    if bandwidth is not None:
+        bandwidth = _check_positive(bandwidth, "bandwidth")
+        if not bandwidth < rate / 2.0:
+            raise ValueError(
+                f"bandwidth {bandwidth} Hz is not below the Nyquist frequency rate/2 = "
+                f"{rate / 2.0} Hz; give a bandwidth below it, or None for no filter."
+            )
+        if isinstance(filter_order, bool) or filter_order not in range(1, 9):
+            raise ValueError(f"filter_order must be an integer from 1 to 8, got {filter_order!r}")
+    if lsb is not None:
+        lsb = _check_positive(lsb, "lsb")
     bias = _check_real(bias, "bias")
     coefs = {
         "quantization": _check_nonneg(quantization, "quantization"),
@@ -679,7 +727,20 @@ def sensor(
     if sin_args is not None:
         phase = sin_args[2] if len(sin_args) == 3 else 0.0
         out += _sinusoid(n, sin_args[0], sin_args[1], phase=phase, rate=rate)
+    if bandwidth is not None:
+        out = _low_pass(out, bandwidth, rate, int(filter_order))
+    if lsb is not None:
+        out = np.round(out / lsb) * lsb
     return out
+
+
+def _low_pass(x: FloatArray, bandwidth: float, rate: float, order: int) -> FloatArray:
+    """Butterworth low-pass, unit DC gain, initial state steady at the first sample."""
+    from scipy.signal import butter, sosfilt, sosfilt_zi
+
+    sos = butter(order, bandwidth, btype="low", fs=rate, output="sos")
+    y, _ = sosfilt(sos, x, zi=sosfilt_zi(sos) * x[0])
+    return np.asarray(y, dtype=np.float64)
 
 
 def _as_tuple(value: object) -> tuple:
