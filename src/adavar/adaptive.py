@@ -1,4 +1,4 @@
-"""The adaptive window (A-DAVAR) and its baselines: METHOD.md section 5, step by step.
+"""The adaptive window (A-DAVAR) and its baselines: docs/method.md section 8, step by step.
 
 The controller walks the centres in order. At each centre ``p`` it takes the window of the
 current length ``L`` centred at ``p`` (mirror-extended record), computes its kurtosis ``k``
@@ -143,7 +143,7 @@ def _run(
 ):  # fmt: skip  # pragma: no cover - compiled
     """Run the controller over centres ``p_start .. p_end - 1`` from length ``L``.
 
-    METHOD.md section 5. ``x`` is the extended record, centre ``p`` at ``x[p + offset]``.
+    docs/method.md section 8. ``x`` is the extended record, centre ``p`` at ``x[p + offset]``.
     ``k1[L]``, ``k2[L]``, ``s2[L]`` are the thresholds for a window of length ``L``. With
     ``adapt`` false the lengths come from ``given`` and only the kurtosis, S and flags are
     recorded. Outputs are written for ``p >= record_from``. Returns the length in force
@@ -406,7 +406,7 @@ def calibrated_thresholds(
 ) -> Thresholds:
     """Thresholds from the sampling distribution of the kurtosis, for a target false-alarm rate.
 
-    Beyond the paper, which fixes ``K1 = 2.5, K2 = 3.3, S2 = 0.07`` by hand (METHOD.md
+    Beyond the paper, which fixes ``K1 = 2.5, K2 = 3.3, S2 = 0.07`` by hand (docs/method.md
     section 7). For a window of ``L`` Gaussian samples, ``K1(L)`` and ``K2(L)`` are the
     ``false_alarm / 2`` and ``1 - false_alarm / 2`` quantiles of its sample kurtosis (the
     Anscombe-Glynn normal approximation used by ``scipy.stats.kurtosistest``, accurate to
@@ -521,7 +521,7 @@ class Schedule:
 def oracle_schedule(
     n_samples: int, change_samples: Sequence[int], *, lmax: int = 600, lmin: int = 400
 ) -> np.ndarray:
-    """The ideal window lengths for changes at known samples (METHOD.md section 5).
+    """The ideal window lengths for changes at known samples (docs/method.md section 8).
 
     For each change ``X`` the length is ``lmax`` until the window's leading edge reaches
     ``X``, shrinks with the leading edge pinned on ``X`` to ``lmin``, stays there until the
@@ -656,7 +656,7 @@ def adaptive_schedule(
     if (lmax - lmin) % 2 or dl0 % 2 or dl1 % 2:
         raise AdavarInputError(
             "lmax - lmin, dl0 and dl1 must be even: the window keeps the parity of its length "
-            "(METHOD.md section 5)"
+            "(docs/method.md section 8)"
         )
     if seg > lmin - 4:
         raise AdavarInputError(
@@ -834,7 +834,7 @@ def adaptive_davar(
     rate : float
         Sample rate in Hz (or give ``tau0``).
     method : {"adaptive", "kurtosis", "oracle", "fixed"}
-        ``"adaptive"``: A-DAVAR, METHOD.md section 5 (``f = f1 combine f2``);
+        ``"adaptive"``: A-DAVAR, docs/method.md section 8 (``f = f1 combine f2``);
         ``"kurtosis"``: DAVAR-K (``f = f1``); ``"oracle"``: the ideal schedule for
         ``change_times``; ``"fixed"``: DAVAR-``lmax`` (kurtosis and flags recorded along).
     lmax, lmin : int
@@ -848,7 +848,7 @@ def adaptive_davar(
     dl0, dl1 : int
         Regrow and shrink steps (paper: 2, 2); even, so the parity of ``L`` is kept.
     s_test : {"upper", "band", "abs"}
-        The paper's ambiguous f2 test (METHOD.md section 5): ``"upper"`` (default) flags
+        The paper's ambiguous f2 test (docs/method.md section 8): ``"upper"`` (default) flags
         ``S > s2``; ``"band"`` (the literal reading) flags ``S`` outside ``[s1, s2]``, which
         fires on about half of all stationary windows; ``"abs"`` flags ``|S| > s2``.
     combine : {"or", "and"}

@@ -29,7 +29,7 @@ its row (``status="error"``) and does not stop the batch. A rerun skips every fi
 
 Events (``result.json["events"]``, ``n_events`` and ``event_times_s`` of the summary): with
 ``adaptive``, every run of window centres where the adaptive window is shorter than Lmax,
-with its node times (METHOD.md section 6: Beginning, End = start of the last regrowth,
+with its node times (docs/method.md section 9: Beginning, End = start of the last regrowth,
 Restore = back at Lmax); with a fixed ``window`` L, every run of centres where the
 adaptive controller's test (kurtosis outside [K1, K2] or S > S2, the same settings) flags
 the L-sample window. With the paper's thresholds this test fires on stationary noise too

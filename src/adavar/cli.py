@@ -400,7 +400,7 @@ def _add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
 
 
 def _add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
-    """The adaptive window's settings (METHOD.md section 5; the paper's values by default)."""
+    """The adaptive window's settings (docs/method.md section 8; the paper's values by default)."""
     cmd.add_argument("--lmax", type=_positive_int, default=600, metavar="L",
                       help="longest window, samples (default: 600)")  # fmt: skip
     cmd.add_argument("--lmin", type=_positive_int, default=400, metavar="L",
@@ -679,7 +679,7 @@ def build_parser() -> argparse.ArgumentParser:
     ada = sub.add_parser(
         "adaptive",
         help="A-DAVAR: the dynamic Allan variance with the paper's adaptive window",
-        description="The adaptive-window dynamic Allan variance (A-DAVAR, METHOD.md section "
+        description="The adaptive-window dynamic Allan variance (A-DAVAR, docs/method.md section "
         "5) of one column of a text file: the window shrinks from --lmax towards --lmin where "
         "the kurtosis leaves [--k1, --k2] or a shock enters its leading --l samples (S > "
         "--s2), and regrows where the noise is stationary; then the surface, its per-cell "

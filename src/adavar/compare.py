@@ -3,7 +3,7 @@
 :func:`compare` runs several window strategies on one record (a fixed window of ``Lmin`` and
 of ``Lmax`` samples, the kurtosis-only controller DAVAR-K, the adaptive A-DAVAR, optionally
 the oracle schedule), fits the noise model to every window and returns, per method, the
-window schedule, ``N(t)``, the node times around every change (METHOD.md section 6), the
+window schedule, ``N(t)``, the node times around every change (docs/method.md section 9), the
 interval means ``ARW(a~b)`` and, when the true noise level is known (the paper's simulations,
 :func:`adavar.simulate.paper_scenario`), ground-truth metrics of confidence and tracking.
 :func:`compare_seeds` repeats this over many realisations of a scenario and sets the node
@@ -145,7 +145,7 @@ PAPER_TABLE1_NODES: dict[str, dict[tuple[str, float], float]] = {
 }  # fmt: skip
 
 #: Table 1 of the paper, ARW interval means in 1e-3 deg/sqrt(h): method -> {(a, b): value}.
-#: The absolute scale cannot be reproduced from the paper's text (METHOD.md section 6):
+#: The absolute scale cannot be reproduced from the paper's text (docs/method.md section 9):
 #: compare ratios between intervals and methods.
 PAPER_TABLE1_ARW: dict[str, dict[tuple[float, float], float]] = {
     "davar-400": {(0.0, 2000.0): 4.03, (3000.0, 4000.0): 10.97},

@@ -5,7 +5,7 @@ of the window centred at every centre; :func:`kurtosis_contribution` the coeffic
 
     ``S = (kurt(X) - kurt(c)) / kurt(X)``
 
-of METHOD.md section 4, where ``c`` is the reference sequence ``X`` without a segment ``s``:
+of docs/method.md section 7, where ``c`` is the reference sequence ``X`` without a segment ``s``:
 either the adaptive controller's form (``X`` the window, ``s`` its newest samples) or the
 paper's section 3 demonstration (``X`` the whole record, ``s`` the window).
 

@@ -1,4 +1,4 @@
-"""Fit the IEEE Std 952 noise model to Allan-variance curves (METHOD.md section 1, Eq. 7).
+"""Fit the IEEE Std 952 noise model to Allan-variance curves (docs/method.md section 4, Eq. 7).
 
 The model is
 
@@ -826,7 +826,7 @@ def fit_noise(
     bandwidth: float | None = None,
     rolloff: str = "model",
 ) -> NoiseFit:
-    """Fit the IEEE noise model (METHOD.md Eq. 7) to an Allan-deviation result.
+    """Fit the IEEE noise model (docs/method.md section 4) to an Allan-deviation result.
 
     Parameters
     ----------

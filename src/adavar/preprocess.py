@@ -1,6 +1,6 @@
 """Preprocessing of real records: detrend, mean removal, decimation, time-range selection.
 
-These are the paper's real-data steps (METHOD.md section 6: a 100 Hz gyro, a 3rd-order
+These are the paper's real-data steps (docs/method.md section 9: a 100 Hz gyro, a 3rd-order
 polynomial detrend, decimation keeping 1 of 100 samples) plus block-average decimation and a
 time-range selection. Each step is a plain function on an array (``x`` of shape ``(n,)``, or
 ``(n, c)`` for ``c`` channels sampled together; the first axis is time); :func:`preprocess`

@@ -45,7 +45,6 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.signal import fftconvolve, lfilter
 
 __all__ = [
     "PAPER_SCENARIOS",
@@ -281,6 +280,8 @@ def flicker(
     w = math.sqrt(math.pi * h_minus1) * _rng(seed).standard_normal(n)
     if n == 1:
         return w
+    from scipy.signal import fftconvolve  # lazy: scipy.signal costs 0.4 s to import
+
     return np.asarray(fftconvolve(w, _kasdin_walter_coefficients(n, 1.0))[:n], np.float64)
 
 
@@ -335,6 +336,8 @@ def markov(
     x = np.empty(n)
     x[0] = std * z[0]
     if n > 1:
+        from scipy.signal import lfilter
+
         x[1:], _ = lfilter([innovation], [1.0, -phi], z[1:], zi=[phi * x[0]])
     return x
 
@@ -895,7 +898,7 @@ def piecewise_white_times(
 # --------------------------------------------------------------------------------------------
 
 #: The paper's simulated records (Micromachines 2018, 9(8), 373, sections 2.2 and 4.3; see
-#: METHOD.md section 6): duration (s), disturbed intervals (s), and the intervals over which
+#: docs/method.md section 9): duration (s), disturbed intervals (s), and the intervals over which
 #: the paper averages the ARW (its Table 1; scenario 2 uses the intervals of its Table 3).
 PAPER_SCENARIOS: dict[int, dict[str, Any]] = {
     1: {
@@ -933,7 +936,7 @@ class PaperScenario:
     variance_reading : bool
         True: the disturbance has variance 3 (the paper's text read literally, std
         ``sqrt(3)``); False (default): std 3, the reading that reproduces the paper's node
-        times (METHOD.md section 6).
+        times (docs/method.md section 9).
     intervals : tuple of (float, float)
         The paper's ARW averaging intervals for this scenario, seconds.
     description : str

@@ -4,7 +4,7 @@ adavar never guesses a unit: the user declares the unit of the input rate sample
 (``"deg/s"``, ``"deg/h"``, ``"rad/s"`` for gyroscopes; ``"m/s^2"``, ``"g"`` for
 accelerometers) and this module converts the fitted noise coefficients, which come out of
 :func:`adavar.noise_model.fit_noise` in the data's own units with time in seconds, into the
-units the inertial community reports (METHOD.md section 1).
+units the inertial community reports (docs/method.md section 4).
 
 Every unit known here is a *rate* unit times a power of time:
 
@@ -24,7 +24,7 @@ acceleration random walk is reported in m/s^2/sqrt(h) (``"ug/sqrt(h)"`` and
 ``"m/s^2/sqrt(s)"`` are available through ``output_units``/:func:`convert`), and the
 accelerometer rate ramp in m/s^2/h. The standard gravity is ``1 g = 9.80665 m/s^2``.
 
-With the rate in deg/h and tau in s this reproduces the checks of METHOD.md:
+With the rate in deg/h and tau in s this reproduces the checks of docs/method.md:
 ``N[deg/sqrt(h)] = sqrt(C_-1)/60``, ``K[deg/h/sqrt(h)] = 60 sqrt(3 C_1)``,
 ``R[deg/h^2] = 3600 sqrt(2 C_2)`` and ``Q[arcsec] = sqrt(C_-2/3)``.
 """

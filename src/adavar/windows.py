@@ -5,12 +5,12 @@ adaptive controller): a window of ``L`` samples centred at sample ``p`` holds sa
 
     ``p - (L - 1) // 2  ..  p - (L - 1) // 2 + L - 1``
 
-(METHOD.md section 2). For odd ``L`` it is symmetric; for even ``L`` it holds ``L/2 - 1``
-samples before the centre and ``L/2`` after it. (METHOD.md's sentence says "one more sample
-before"; its formula, which is followed here, gives one more after.)
+(docs/method.md section 5). For odd ``L`` it is symmetric; for even ``L`` it holds ``L/2 - 1``
+samples before the centre and ``L/2`` after it. (The specification's sentence says "one more
+sample before"; its formula, which is followed here, gives one more after.)
 
 Near the ends of the record a window sticks out. With ``edges="mirror"`` (the paper,
-METHOD.md section 3) the rate samples are time-reversed about each end (``numpy.pad(...,
+docs/method.md section 6) the rate samples are time-reversed about each end (``numpy.pad(...,
 mode="symmetric")``), which is the total-variance reflection of the integrated signal; with
 ``edges="valid"`` only centres whose whole window lies inside the record are used.
 """
