@@ -442,7 +442,8 @@ def test_attributes():
 def test_bounds_are_the_chi2_interval_of_the_cell_edf():
     n = 200
     lengths = np.random.default_rng(24).integers(6, 45, size=n)
-    res = davar(_noise(n, seed=24), window=lengths, confidence=0.9)
+    # interior EDF everywhere, so the table has one row per length (edge rows: below)
+    res = davar(_noise(n, seed=24), window=lengths, confidence=0.9, edge_edf="interior")
     ok = np.isfinite(res.avar)
     assert ok.sum() > 0
     assert np.all(res.avar_low[ok] < res.avar[ok])
@@ -490,17 +491,23 @@ def test_noise_type_int_gives_exact_edf(alpha):
     for row in range(0, n, 7):
         for col, m in enumerate(res.m):
             L = int(res.window[row])
+            # a window reaching into the mirrored ends counts only its distinct samples
+            start = int(res.centre[row]) - (L - 1) // 2
+            h = max(0, -start) + max(0, start + L - n)
             if 3 * m > L:
                 assert math.isnan(res.edf[row, col])
             else:
-                assert res.edf[row, col] == edf_mod.edf("oadev", alpha, int(m), L + 1)
+                terms, repeats = L - 2 * int(m) + 1, max(0, h - int(m))
+                effective = max(1, round(terms**2 / (terms + 2 * repeats)))
+                want = edf_mod.edf("oadev", alpha, int(m), effective + 2 * int(m))
+                assert res.edf[row, col] == want
 
 
 def test_noise_type_per_tau():
     x = _noise(120, seed=28)
     res0 = davar(x, window=30, taus="octave", confidence=None)
     alphas = [0, -1, -2, 1][: res0.m.size]
-    res = davar(x, window=30, taus="octave", noise_type=alphas)
+    res = davar(x, window=30, taus="octave", noise_type=alphas, edge_edf="interior")
     np.testing.assert_array_equal(res.alpha, alphas)
     want = edf_table(np.array([30]), res.m, np.array(alphas))
     np.testing.assert_array_equal(res.edf_table, want)
@@ -691,3 +698,19 @@ def test_integer_like_windows_accepted():
     want = davar(X, window=7, confidence=None).avar
     for window in (np.int64(7), np.int32(7), np.array(7), np.full(50, 7, dtype=np.int32)):
         np.testing.assert_array_equal(davar(X, window=window, confidence=None).avar, want)
+
+
+def test_edge_windows_count_distinct_samples():
+    # issue 11: a mirrored window's EDF is that of its distinct samples, not the interior's
+    x = _noise(400, seed=31)
+    res = davar(x, window=101, taus=[1, 4, 16], noise_type=0)
+    interior = davar(x, window=101, taus=[1, 4, 16], noise_type=0, edge_edf="interior")
+    np.testing.assert_array_equal(res.avar, interior.avar)
+    assert np.all(res.edf[0] < interior.edf[0])  # centre 0: 50 mirrored samples
+    # centre 0: 50 mirrored samples, M = 94 terms at m = 4 of which 46 repeat
+    assert res.edf[0, 1] == edf_mod.edf("oadev", 0, 4, round(94**2 / (94 + 92)) + 8)
+    np.testing.assert_array_equal(res.edf[50:350], interior.edf[50:350])
+    assert np.all(np.diff(res.edf[:51, 0]) >= 0)  # grows back to the interior value
+    np.testing.assert_array_equal(res.edf[::-1][:51], res.edf[:51])  # both ends alike
+    with pytest.raises(AdavarInputError, match="edge_edf"):
+        davar(x, window=101, edge_edf="nearest")

@@ -409,15 +409,33 @@ def test_edf_tdev_equals_mdev_and_statistics_differ():
 
 @pytest.mark.parametrize(("alpha", "b", "c"), [(0, 1.50, 0.0), (-1, 1.17, 0.22), (-2, 0.93, 0.36)])
 def test_totdev_edf_sp1065_table(alpha, b, c):
-    for m, n in [(1, 1001), (10, 1001), (100, 100001)]:
+    for m, n in [(2, 1001), (10, 1001), (100, 100001)]:
         assert edf("totdev", alpha, m, n) == pytest.approx(b * (n - 1) / m - c, rel=1e-14)
+    # at m = 1 TOTVAR is the overlapping AVAR (the reflection adds no term): its EDF; the
+    # table value (1.5 N for white FM) gave 48-50 % coverage there (issue 11)
+    assert edf("totdev", alpha, 1, 1001) == edf("oadev", alpha, 1, 1001)
+    # Stable32's convention: the table at every m, with T/tau = n_phase / m
+    assert edf("totdev", alpha, 1, 1001, totdev_edf="stable32") == pytest.approx(b * 1001 - c)
+    assert edf("totdev", alpha, 1, 1001, totdev_edf="legacy") == pytest.approx(b * 1000 - c)
     # and it exceeds the oadev EDF at long tau, where TOTVAR is meant to help
     assert edf("totdev", alpha, 300, 1001) > edf("oadev", alpha, 300, 1001)
 
 
-@pytest.mark.parametrize("alpha", [2, 1])
-def test_totdev_pm_falls_back_to_oadev(alpha):
-    assert edf("totdev", alpha, 16, 5000) == edf("oadev", alpha, 16, 5000)
+def test_totdev_pm_edf():
+    # flicker PM: TOTVAR behaves like AVAR (SP 1065), the OADEV EDF; white PM: reduced for
+    # the reflected ends, which repeat the end samples' noise in ~m terms each
+    assert edf("totdev", 1, 16, 5000) == edf("oadev", 1, 16, 5000)
+    oadev = edf("oadev", 2, 512, 4097)
+    assert edf("totdev", 2, 512, 4097) == pytest.approx(1 / (1 / oadev + 0.6 / 64))
+    assert edf("totdev", 2, 512, 4097, totdev_edf="legacy") == oadev
+    # Stable32: the simple SP 1065 Table 5 formulas
+    n, m = 241218, 1024
+    fpm = math.exp(math.sqrt(math.log((n - 1) / (2 * m)) * math.log((2 * m + 1) * (n - 1) / 4)))
+    assert edf("totdev", 1, m, n, totdev_edf="stable32") == pytest.approx(fpm)
+    wpm = (n + 1) * (n - 2 * m) / (2 * (n - m))
+    assert edf("totdev", 2, m, n, totdev_edf="stable32") == pytest.approx(wpm)
+    with pytest.raises(ValueError, match="totdev_edf"):
+        edf("totdev", 0, 1, 100, totdev_edf="nist")
 
 
 @pytest.mark.parametrize(
@@ -637,6 +655,8 @@ def test_b1_rn_ratio_needs_m_and_errors():
 
 
 def test_identify_noise_policy(monkeypatch):
+    from adavar import noise_id  # the policy lives there since the split out of edf.py
+
     calls = []
     real_lag1, real_b1 = edf_mod.identify_noise_lag1, edf_mod.identify_noise_b1
 
@@ -648,8 +668,8 @@ def test_identify_noise_policy(monkeypatch):
         calls.append(("b1", z.size, kw["dmax"]))
         return real_b1(z, **kw)
 
-    monkeypatch.setattr(edf_mod, "identify_noise_lag1", spy_lag1)
-    monkeypatch.setattr(edf_mod, "identify_noise_b1", spy_b1)
+    monkeypatch.setattr(noise_id, "identify_noise_lag1", spy_lag1)
+    monkeypatch.setattr(noise_id, "identify_noise_b1", spy_b1)
     y = rate_series(-1, 400, 4)
     assert identify_noise(y, data_type="rate") == identify_noise_lag1(y, data_type="rate")[0]
     assert identify_noise(y[:30], data_type="rate", dmax=3) in [*ALPHAS, -3, -4]

@@ -422,3 +422,17 @@ def test_dask_input_lazy_xarray_and_eager_options():
     np.testing.assert_allclose(eager.avar, want.avar, rtol=1e-12)
     with pytest.raises(AdavarInputError, match="lazy=True needs a dask array"):
         davar(x, window=301, lazy=True)
+
+
+@pytest.mark.parametrize("chunk", [3, 333, 1 << 22])
+@pytest.mark.parametrize("dmax", [2, 3])
+def test_noise_types_phase_data_equal_in_memory(chunk, dmax):
+    """Phase data (issue 11): the decimated-phase lag-1 test and R(n), out of core alike."""
+    rng = np.random.default_rng(7)
+    for u in (np.diff(rng.standard_normal(6001)), np.diff(np.cumsum(rng.standard_normal(6001)))):
+        ms = np.array([1, 2, 4, 8, 16, 64, 150, 256, 500])
+        want, _ = _noise_types(
+            diff.anchored_phase(u, cluster_stats=True), ms, dmax, data_type="phase"
+        )
+        got, _ = stream.noise_types(u, ms, dmax, chunk_size=chunk, data_type="phase")
+        np.testing.assert_array_equal(got, want)

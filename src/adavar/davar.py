@@ -43,18 +43,32 @@ EDF_EXACT_PAIRS = 4096
 EDF_EXACT_LENGTHS = 32
 
 
-def edf_table(lengths: np.ndarray, ms: np.ndarray, alpha: np.ndarray) -> np.ndarray:
+def edf_table(
+    lengths: np.ndarray,
+    ms: np.ndarray,
+    alpha: np.ndarray,
+    overhang: np.ndarray | None = None,
+) -> np.ndarray:
     """Greenhall EDF of the overlapping Allan variance of windows of each length.
 
     Parameters
     ----------
     lengths : ndarray of int, shape (K,)
-        Distinct window lengths (rate samples), sorted.
+        Window lengths (rate samples); sorted and distinct when ``distinct`` is None.
     ms : ndarray of int, shape (M,)
         Averaging factors.
     alpha : ndarray of int, shape (M,)
         Power-law noise exponent per averaging factor.
-
+    overhang : ndarray of int, shape (K,), optional
+        Samples of each row's window that lie in the mirrored extension (``h``). Such a
+        row gets, exactly, the EDF of an overlapping AVAR with the effective number of
+        terms ``M^2 / (M + 2 D)``, where ``M = L - 2m + 1`` and ``D = max(0, h - m)``: the
+        reflected phase ``2 x[0] - x[j]`` makes the term centred ``c`` samples before the
+        end the negative of the one centred ``c`` after it, so the ``D`` terms centred in
+        the extension repeat ``D`` inside and enter the sum with weight 2 (effective count
+        ``(sum w)^2 / sum w^2``). Simulated white FM (400 records, L = 200, window centred
+        on the first sample): empirical EDF 29.5 / 7.5 / 3.8 / 1.6 at m = 4 / 16 / 32 / 64,
+        this rule 29.5 / 7.5 / 3.6 / 1.5, the interior EDF 60 / 15.7 / 7.1 / 2.9.
     Returns
     -------
     ndarray, shape (K, M)
@@ -70,6 +84,17 @@ def edf_table(lengths: np.ndarray, ms: np.ndarray, alpha: np.ndarray) -> np.ndar
         and the error reaches 1.2 %, far inside the EDF's own approximation.
     """
     lengths = np.asarray(lengths, dtype=np.int64)
+    if overhang is not None:
+        overhang = np.asarray(overhang, dtype=np.int64)
+        table = np.full((lengths.size, ms.size), np.nan)
+        for t, (m, a) in enumerate(zip(ms, alpha, strict=True)):
+            m = int(m)
+            for k in np.flatnonzero(3 * m <= lengths):
+                terms = int(lengths[k]) - 2 * m + 1
+                repeats = max(0, int(overhang[k]) - m)
+                effective = max(1, round(terms * terms / (terms + 2 * repeats)))
+                table[k, t] = edf_mod.edf("oadev", int(a), m, effective + 2 * m)
+        return table
     table = np.full((lengths.size, ms.size), np.nan)
     valid = 3 * ms[None, :] <= lengths[:, None]
     exact_everywhere = int(valid.sum()) <= EDF_EXACT_PAIRS
@@ -87,6 +112,28 @@ def edf_table(lengths: np.ndarray, ms: np.ndarray, alpha: np.ndarray) -> np.ndar
         curve = PchipInterpolator(np.log(nodes), np.log(values))
         table[valid[:, t], t] = np.exp(curve(np.log(x)))
     return table
+
+
+def _edge_classes(
+    sched: Any,
+    n: int,
+    ms: np.ndarray,
+    alpha: np.ndarray,
+    table: np.ndarray,
+    window_class: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Extra EDF rows for the windows that hold mirrored samples (few: near the two ends)."""
+    start = sched.start - sched.pad_before  # first sample in record coordinates
+    overhang = np.maximum(0, -start) + np.maximum(0, start + sched.length - n)
+    edge = np.flatnonzero(overhang > 0)
+    if edge.size == 0:
+        return table, window_class
+    keys = np.stack([sched.length[edge], overhang[edge]], axis=1)
+    pairs, inverse = np.unique(keys, axis=0, return_inverse=True)
+    rows = edf_table(pairs[:, 0], ms, alpha, overhang=pairs[:, 1])
+    window_class = window_class.copy()
+    window_class[edge] = table.shape[0] + inverse.ravel()
+    return np.vstack([table, rows]), window_class
 
 
 def _bound_factors(table: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
@@ -289,6 +336,7 @@ def davar(
     units: str | None = None,
     chunk_size: int | None = None,
     lazy: bool | None = None,
+    edge_edf: str = "distinct",
 ) -> DavarResult:
     """Dynamic Allan variance: the overlapping Allan variance of a sliding window.
 
@@ -338,6 +386,12 @@ def davar(
         type at a given tau rarely does. An int applies one alpha everywhere (0: white rate
         noise/ARW, -1: bias instability, -2: rate random walk, 1/2: flicker/white PM or
         quantization); a sequence gives one per tau.
+    edge_edf : {"distinct", "interior"}
+        EDF of a window that reaches into the mirrored extension (``edges="mirror"``).
+        ``"distinct"`` (default): that of an overlapping AVAR over its distinct terms,
+        the mirrored ones counted as repeats (:func:`edf_table`), which keeps the 68 %
+        intervals covering within ``L/2`` of the ends. ``"interior"``: the full window's
+        EDF as before (coverage 47-57 % near the ends).
     units : str, optional
         Declared unit of the *rate* (e.g. ``"deg/s"``; for phase input the unit of its
         derivative: angle in deg gives ``"deg/s"``), carried to the fit's unit conversions
@@ -395,6 +449,8 @@ def davar(
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
     if confidence is not None and not (0.0 < float(confidence) < 1.0):
         raise AdavarInputError(f"confidence must lie strictly between 0 and 1, got {confidence}")
+    if edge_edf not in ("distinct", "interior"):
+        raise AdavarInputError(f"unknown edge_edf {edge_edf!r}: use 'distinct' or 'interior'")
     try:
         t0 = float(t0)
     except (TypeError, ValueError):
@@ -427,8 +483,8 @@ def davar(
 
     def identify() -> tuple[np.ndarray, tuple[str, ...]]:
         if chunked:
-            return stream.noise_types(increments, ms, 2, chunk_size=chunk)
-        return _noise_types(diff.anchored_phase(u, cluster_stats=True), ms, 2)
+            return stream.noise_types(increments, ms, 2, chunk_size=chunk, data_type=dtype)
+        return _noise_types(diff.anchored_phase(u, cluster_stats=True), ms, 2, data_type=dtype)
 
     bounds = table = window_class = None
     if confidence is None:
@@ -441,6 +497,8 @@ def davar(
         distinct = np.flatnonzero(present)
         window_class = (np.cumsum(present) - 1)[sched.length]
         table = edf_table(distinct, ms, alpha)
+        if edge_edf == "distinct":
+            table, window_class = _edge_classes(sched, n, ms, alpha, table, window_class)
         bounds = np.stack(_bound_factors(table, float(confidence)))
 
     if lazy:

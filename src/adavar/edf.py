@@ -28,7 +28,6 @@ autocorrelation", Proc. 18th EFTF (2004).
 
 from __future__ import annotations
 
-import itertools
 import math
 from functools import lru_cache
 from typing import Final
@@ -36,11 +35,32 @@ from typing import Final
 import numpy as np
 from scipy.stats import chi2
 
+# noise identification lives in adavar.noise_id; re-exported so existing imports keep working
+from adavar.noise_id import (  # noqa: F401
+    MIN_POINTS_B1,
+    MIN_POINTS_LAG1,
+    RN_WHITE_FM,
+    NoiseIdError,
+    _b1_alpha,
+    _b1_theory,
+    _detrend,
+    _rn_theory_pm,
+    alpha_from_lag1,
+    alpha_from_phase_lag1,
+    clamp_alpha,
+    decimated_phase_lag1,
+    fill_unidentified,
+    identify_noise,
+    identify_noise_b1,
+    identify_noise_lag1,
+)
+
 __all__ = [
     "EDF_FLOOR",
     "MIN_POINTS_B1",
     "MIN_POINTS_LAG1",
     "STAT_ALPHA_RANGE",
+    "TOTDEV_EDF_METHODS",
     "NoiseIdError",
     "chi2_interval",
     "edf",
@@ -54,14 +74,6 @@ __all__ = [
 #: freedom; the approximations (totvar ``b*T/tau - c``, Greenhall's tables) can dip below
 #: that on very short records, where a chi-square with < 1 dof would give absurd intervals.
 EDF_FLOOR: Final[float] = 1.0
-
-#: Default minimum series length for the lag-1 ACF method (Riley & Greenhall 2004: "about 30").
-MIN_POINTS_LAG1: Final[int] = 30
-
-#: Default minimum number of frequency (rate) values for the B1-ratio method. Below ~10 the
-#: sample B1 ratio has a relative scatter comparable to the spacing of the theoretical values
-#: of adjacent noise types, so reusing a neighbouring tau's noise type is the better guess.
-MIN_POINTS_B1: Final[int] = 10
 
 #: Valid ``alpha`` range (inclusive) of each statistic for the EDF. Greenhall's algorithm needs
 #: ``alpha + 2 d > 1`` (the variance converges), i.e. ``alpha >= -2`` for the Allan family
@@ -119,20 +131,6 @@ _TABLE2: Final[dict[int, dict[int, tuple[float, float]]]] = {
 _TABLE3: Final[dict[int, tuple[float, float]]] = {1: (6.0, 4.0), 2: (15.23, 12.0), 3: (47.8, 40.0)}
 
 _J_MAX: Final[int] = 100
-_DATA_TYPES: Final[dict[str, str]] = {
-    "phase": "phase",
-    "rate": "freq",
-    "freq": "freq",
-    "frequency": "freq",
-}
-
-
-class NoiseIdError(ValueError):
-    """The power-law noise type cannot be identified from this series.
-
-    Raised when the series is too short for either method or degenerate (constant); the
-    caller is expected to reuse the noise type of a neighbouring averaging time.
-    """
 
 
 # ---------------------------------------------------------------------------------------------
@@ -373,7 +371,25 @@ def greenhall_edf(
 # ---------------------------------------------------------------------------------------------
 
 
-def edf(stat: str, alpha: int, m: int, n_phase: int) -> float:
+#: TOTDEV EDF conventions accepted by :func:`edf` (``totdev_edf=``)
+TOTDEV_EDF_METHODS: Final[tuple[str, ...]] = ("sp1065", "stable32", "legacy")
+
+#: White PM TOTVAR: ``1/edf = 1/edf_oadev + C (m / (N_phase - 1))^2``. The reflected phase
+#: ``2 x[0] - x[j]`` repeats the end samples' noise in ~m terms at each end; C was fitted to
+#: Monte Carlo EDFs (N = 1024 and 4096, 800-1500 records, m/N from 1/64 to 1/4: 0.5-0.8).
+TOTVAR_WPM_END_FACTOR: Final[float] = 0.6
+
+
+def _edf_simple_avar(alpha: int, m: int, n_phase: int) -> float:
+    """SP 1065 Table 5 simple AVAR EDF for PM noise (``N`` = phase points), as Stable32."""
+    n = float(n_phase)
+    if alpha == 2:
+        return (n + 1.0) * (n - 2.0 * m) / (2.0 * (n - m))
+    spans = math.log((n - 1.0) / (2.0 * m))
+    return math.exp(math.sqrt(spans * math.log((2.0 * m + 1.0) * (n - 1.0) / 4.0)))
+
+
+def edf(stat: str, alpha: int, m: int, n_phase: int, *, totdev_edf: str = "sp1065") -> float:
     """Equivalent degrees of freedom of a statistic at one averaging time.
 
     Results are cached (a DAVAR asks for the same few thousand (L, m) pairs again and
@@ -393,6 +409,8 @@ def edf(stat: str, alpha: int, m: int, n_phase: int) -> float:
         Averaging factor, ``tau = m * tau0``.
     n_phase : int
         Number of phase points of the record (rate samples + 1).
+    totdev_edf : {"sp1065", "stable32", "legacy"}
+        Convention for ``stat="totdev"`` (ignored otherwise); see Notes.
 
     Returns
     -------
@@ -403,20 +421,39 @@ def edf(stat: str, alpha: int, m: int, n_phase: int) -> float:
     -----
     * adev, oadev, mdev/tdev, hdev, ohdev: :func:`greenhall_edf` with (d, overlapping,
       modified) = (2, F, F), (2, T, F), (2, T, T), (3, F, F), (3, T, F).
-    * totdev: NIST SP 1065 Table 7, ``edf = b (T/tau) - c`` with ``T/tau = (n_phase-1)/m``
-      (T the record length) and (b, c) = (1.50, 0) white FM, (1.17, 0.22) flicker FM,
-      (0.93, 0.36) random-walk FM. SP 1065 gives no TOTVAR EDF for PM noise, where TOTVAR
-      has the same expectation as AVAR and is an overlapping Allan variance of the record
-      extended by reflection; the reflected terms add information, so TOTVAR's EDF is at
-      least that of OADEV. We therefore use the OADEV (Greenhall) EDF for alpha = 1, 2: a
-      conservative (slightly wide) interval rather than an invented formula. (allantools
-      uses ``N/m`` for ``T/tau`` and the simple SP 1065 Table 5 AVAR formulas for PM.)
+    * totdev, ``"sp1065"`` (default). White, flicker and random-walk FM: SP 1065 Table 7,
+      ``edf = b (T/tau) - c`` with ``T/tau = (n_phase - 1)/m`` and (b, c) = (1.50, 0),
+      (1.17, 0.22), (0.93, 0.36) -- except at ``m = 1``, where TOTVAR *is* the overlapping
+      AVAR (the reflection adds no term) and gets its EDF: Table 7 is a fit for longer
+      taus and at m = 1 gives white FM 1.5 N degrees of freedom where the terms, adjacent
+      first differences with correlation -1/2, carry about 2N/3 (coverage 48-50 %).
+      PM noise: SP 1065 gives no TOTVAR EDF and says TOTVAR behaves like AVAR there, so
+      flicker PM takes the OADEV (Greenhall) EDF, which simulation confirms (within the
+      Monte Carlo scatter). White PM takes the OADEV EDF reduced for the reflected ends,
+      ``1/edf = 1/edf_oadev + C (m / (n_phase - 1))^2`` with
+      C = :data:`TOTVAR_WPM_END_FACTOR`: the extension ``2 x[0] - x[j]`` repeats the two end
+      samples' noise in about m terms each, so at m = N/8 TOTVAR has ~90 degrees of freedom
+      where OADEV has ~1700.
+    * totdev, ``"stable32"``: what Stable32 prints (and allantools' ``edf_totdev``):
+      Table 7 with ``T/tau = n_phase / m`` at every m, and for PM noise the simple AVAR
+      formulas of SP 1065 Table 5 (white PM ``(N+1)(N-2m)/(2(N-m))``, flicker PM
+      ``exp(sqrt(ln((N-1)/2m) ln((2m+1)(N-1)/4)))``, N = ``n_phase``).
+    * totdev, ``"legacy"``: adavar before the coverage work: Table 7 at every m and the
+      OADEV EDF for PM noise.
+    * TOTVAR's bias (SP 1065 5.2.11): it is unbiased for white FM, but for flicker and
+      random-walk FM its expectation is ``AVAR (1 - a tau/T)``, a = 1/(3 ln 2) and 3/4;
+      simulation shows a white PM bias of ``1 + 4 tau / (3 T)`` as well. The EDF here is
+      that of the (biased) TOTVAR estimate about its own expectation;
+      :func:`adavar.deviation` can remove the FM bias (``totdev_bias=True``).
     """
-    return _edf_cached(str(stat).lower(), int(alpha), int(m), int(n_phase))
+    method = str(totdev_edf).lower()
+    if method not in TOTDEV_EDF_METHODS:
+        raise ValueError(f"totdev_edf must be one of {TOTDEV_EDF_METHODS}, got {totdev_edf!r}")
+    return _edf_cached(str(stat).lower(), int(alpha), int(m), int(n_phase), method)
 
 
 @lru_cache(maxsize=1 << 16)
-def _edf_cached(stat: str, alpha: int, m: int, n_phase: int) -> float:
+def _edf_cached(stat: str, alpha: int, m: int, n_phase: int, method: str = "sp1065") -> float:
     if stat not in STAT_ALPHA_RANGE:
         raise ValueError(f"unknown statistic {stat!r}; expected one of {sorted(STAT_ALPHA_RANGE)}")
     if m < 1:
@@ -429,340 +466,26 @@ def _edf_cached(stat: str, alpha: int, m: int, n_phase: int) -> float:
             raise ValueError(
                 f"n_phase={n_phase} is too short for totdev at m={m}: need >= {2 * m + 1}"
             )
-        if a in _TOTVAR_BC:
+        if method == "stable32":
+            if a in _TOTVAR_BC:
+                b, c = _TOTVAR_BC[a]
+                value = b * n_phase / m - c
+            else:
+                value = _edf_simple_avar(a, m, n_phase)
+        elif a in _TOTVAR_BC and (m > 1 or method == "legacy"):
             b, c = _TOTVAR_BC[a]
             value = b * (n_phase - 1) / m - c
         else:
             value = greenhall_edf(a, 2, m, n_phase, overlapping=True, modified=False)
+            if a == 2 and method == "sp1065":
+                ends = TOTVAR_WPM_END_FACTOR * (m / (n_phase - 1)) ** 2
+                value = 1.0 / (1.0 / value + ends)
     else:
         d, overlapping, modified = _STAT_GREENHALL[stat]
         value = greenhall_edf(a, d, m, n_phase, overlapping=overlapping, modified=modified)
     if not math.isfinite(value):  # pragma: no cover - defensive, the cases above are finite
         return EDF_FLOOR
     return max(value, EDF_FLOOR)
-
-
-# ---------------------------------------------------------------------------------------------
-# Noise identification
-# ---------------------------------------------------------------------------------------------
-
-
-def _data_type(data_type: str) -> str:
-    try:
-        return _DATA_TYPES[data_type.lower()]
-    except (KeyError, AttributeError):
-        raise ValueError(
-            f"data_type must be 'phase' or 'rate' (alias 'freq'), got {data_type!r}"
-        ) from None
-
-
-def _as_series(z: np.ndarray) -> np.ndarray:
-    z = np.asarray(z, dtype=np.float64)
-    if z.ndim != 1:
-        raise ValueError(f"z must be a 1-D series, got shape {z.shape}")
-    if not np.isfinite(z).all():
-        raise ValueError("z contains non-finite values")
-    return z
-
-
-def _detrend(z: np.ndarray, deg: int) -> np.ndarray:
-    """Residual of a least-squares polynomial fit (on a [-1, 1] abscissa, well conditioned)."""
-    t = np.linspace(-1.0, 1.0, z.size)
-    coef = np.polynomial.polynomial.polyfit(t, z, deg)
-    return z - np.polynomial.polynomial.polyval(t, coef)
-
-
-def identify_noise_lag1(
-    z: np.ndarray,
-    *,
-    data_type: str,
-    dmin: int = 0,
-    dmax: int = 2,
-    min_points: int = MIN_POINTS_LAG1,
-) -> tuple[int, float]:
-    """Power-law noise type from the lag-1 autocorrelation (Riley & Greenhall 2004).
-
-    Parameters
-    ----------
-    z : ndarray
-        The series prepared for one averaging factor ``m``: for ``data_type="phase"`` the
-        phase decimated by ``m`` (``x[::m]``), for ``"rate"``/``"freq"`` the rate averaged
-        over non-overlapping groups of ``m``.
-    data_type : {"phase", "rate", "freq"}
-        ``"rate"`` and ``"freq"`` are synonyms (fractional frequency / sensor rate).
-    dmin, dmax : int
-        Minimum and maximum number of differences taken. ``dmax`` bounds the reddest type
-        that can be recognised: on phase, 2 reaches random-walk FM (Allan), 3 random-run FM
-        (Hadamard); on rate data one difference fewer suffices for the same alpha.
-    min_points : int
-        Shortest series accepted (the method is reliable from about 30 points).
-
-    Returns
-    -------
-    alpha_int : int
-        The estimate rounded to the nearest integer (``p = -2 (delta + d)`` rounded as
-        ``-round(2 delta) - 2 d``, plus 2 for phase data).
-    alpha : float
-        The un-rounded estimate.
-
-    Raises
-    ------
-    NoiseIdError
-        Too few points, or a degenerate (constant) series.
-
-    Notes
-    -----
-    The series is detrended first (quadratic for phase: frequency offset and drift; linear
-    for rate: drift). Then, with ``d = 0``: compute the lag-1 autocorrelation ``r1`` and
-    ``delta = r1 / (1 + r1)``; if ``d >= dmin`` and (``delta < 0.25`` or ``d >= dmax``)
-    stop with ``p = -2 (delta + d)``, otherwise difference the series and repeat. ``delta``
-    estimates the fractional-integration order of the differenced series, which is
-    stationary once ``delta < 0.25`` (PSD exponent of phase, ``beta = alpha - 2``, above
-    -0.5). Same algorithm as ``allantools.ci.autocorr_noise_id`` minus its decimation step.
-    """
-    kind = _data_type(data_type)
-    dmin, dmax = int(dmin), int(dmax)
-    if not 0 <= dmin <= dmax:
-        raise ValueError(f"need 0 <= dmin <= dmax, got dmin={dmin}, dmax={dmax}")
-    x = _as_series(z)
-    # a quadratic detrend and dmax differences need a few points even if min_points is tiny
-    need = max(int(min_points), dmax + 4)
-    if x.size < need:
-        raise NoiseIdError(f"lag-1 ACF noise identification needs >= {need} points, got {x.size}")
-    scale = float(np.max(np.abs(x)))
-    sizes = x.size - np.arange(dmax + 1)
-    x = _detrend(x, 2 if kind == "phase" else 1)
-    r1 = np.full(dmax + 1, np.nan)
-    den = np.zeros(dmax + 1)
-    for d in range(dmax + 1):
-        c = x - x.mean()
-        den[d] = float(np.dot(c, c))
-        if den[d] > 0:
-            r1[d] = float(np.dot(c[:-1], c[1:])) / den[d]
-        x = np.diff(x)
-    return alpha_from_lag1(r1, den, sizes, scale, data_type=kind, dmin=dmin, dmax=dmax)
-
-
-def alpha_from_lag1(
-    r1: np.ndarray,
-    den: np.ndarray,
-    sizes: np.ndarray,
-    scale: float,
-    *,
-    data_type: str,
-    dmin: int = 0,
-    dmax: int = 2,
-) -> tuple[int, float]:
-    """Riley & Greenhall's decision rule, given the lag-1 autocorrelations per difference order.
-
-    Parameters
-    ----------
-    r1, den, sizes : ndarray
-        For ``d = 0..dmax`` differences of the detrended series: the lag-1 autocorrelation,
-        its denominator ``sum (x - mean)^2`` and the series length.
-    scale : float
-        Magnitude of the raw series: a residual at its rounding level (a constant or a pure
-        polynomial trend) is not noise and would give a random ``r1``.
-    data_type, dmin, dmax
-        As in :func:`identify_noise_lag1`.
-
-    Returns
-    -------
-    alpha_int, alpha : int, float
-        As in :func:`identify_noise_lag1`.
-    """
-    kind = _data_type(data_type)
-    offset = 2 if kind == "phase" else 0  # alpha = beta + 2 for phase data
-    floor = (1e3 * np.finfo(np.float64).eps * scale) ** 2
-    for d in range(int(dmax) + 1):
-        if not den[d] > floor * sizes[d]:
-            raise NoiseIdError("no noise left after removing the trend: cannot identify it")
-        if not r1[d] > -1.0:  # perfectly alternating series: delta = -inf
-            raise NoiseIdError("lag-1 autocorrelation is -1: series is not power-law noise")
-        delta = r1[d] / (1.0 + r1[d])
-        if d >= dmin and (delta < 0.25 or d >= dmax):
-            alpha = -2.0 * (delta + d) + offset
-            alpha_int = int(offset - 2 * d - np.rint(2.0 * delta))
-            return alpha_int, float(alpha)
-    raise AssertionError("unreachable: d reaches dmax")  # pragma: no cover
-
-
-def fill_unidentified(alpha: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
-    """Per-tau alphas with NaN (not identified) replaced by the nearest identified one.
-
-    Too few clusters at the longest taus is the usual reason. With none identified at all,
-    white noise (alpha 0) is assumed and a note says so. Returns ``(alpha int64, notes)``.
-    """
-    alpha = np.array(alpha, dtype=np.float64)
-    known = np.flatnonzero(np.isfinite(alpha))
-    if known.size == 0:
-        alpha[:] = 0.0
-        return alpha.astype(np.int64), (
-            "noise type could not be identified at any tau; white noise assumed for EDF",
-        )
-    index = np.arange(alpha.size)
-    nearest = known[np.abs(index[:, None] - known[None, :]).argmin(axis=1)]
-    return alpha[nearest].astype(np.int64), ()
-
-
-def _b1_theory(n: int, mu: float) -> float:
-    """Barnes B1(N, r=1, mu): expected N-sample over 2-sample variance for AVAR ~ tau^mu.
-
-    B1 = N (1 - N^mu) / (2 (N - 1) (1 - 2^mu)), with the limit N ln N / (2 (N-1) ln 2)
-    at mu = 0 (SP 1065 5.5.4; Howe, Beard & Greenhall 2000, Table 3).
-    """
-    if mu == 0:
-        return n * math.log(n) / (2.0 * (n - 1) * math.log(2.0))
-    return n * (1.0 - n**mu) / (2.0 * (n - 1) * (1.0 - 2.0**mu))
-
-
-def _rn_theory_pm(m: int) -> tuple[float, float]:
-    """Expected R(n) = MVAR/AVAR for white PM (1/m) and flicker PM (f_h = 1/(2 tau0))."""
-    white = 1.0 / m
-    mvar = 3.0 * math.log(256.0 / 27.0) / (8.0 * math.pi**2)
-    avar = (1.038 + 3.0 * math.log(2.0 * math.pi * 0.5 * m)) / (4.0 * math.pi**2)
-    return white, mvar / avar
-
-
-def _b1_alpha(y: np.ndarray) -> int:
-    """alpha in {1 (PM), 0, -1, -2} whose B1(N, mu) is nearest (geometrically) to the data's."""
-    n = y.size
-    avar = 0.5 * float(np.mean(np.diff(y) ** 2))
-    if not avar > 0.0:
-        raise NoiseIdError("the series is constant: no noise to identify")
-    ratio = float(np.var(y, ddof=1)) / avar
-    # (alpha, mu) from white-most to red-most; B1(N, mu) increases with mu
-    candidates = [(1, -2), (0, -1), (-1, 0), (-2, 1)]
-    alpha = candidates[0][0]
-    for (_, mu_lo), (a_hi, mu_hi) in itertools.pairwise(candidates):
-        if ratio <= math.sqrt(_b1_theory(n, mu_lo) * _b1_theory(n, mu_hi)):
-            break
-        alpha = a_hi
-    return alpha
-
-
-def identify_noise_b1(
-    z: np.ndarray,
-    *,
-    data_type: str,
-    dmax: int = 2,
-    rn_ratio: float | None = None,
-    m: int | None = None,
-    min_points: int = MIN_POINTS_B1,
-) -> int:
-    """Power-law noise type from the Barnes B1 ratio (SP 1065 section 5.5.4).
-
-    Parameters
-    ----------
-    z : ndarray
-        Series prepared as for :func:`identify_noise_lag1`: rate averaged over groups of
-        ``m`` (``data_type="rate"``/``"freq"``) or phase decimated by ``m`` (``"phase"``;
-        converted here to the rate series by differencing, the scale does not matter).
-    data_type : {"phase", "rate", "freq"}
-        Interpretation of ``z``.
-    dmax : int
-        3 (Hadamard statistics) also recognises flicker-walk and random-run FM (alpha -3,
-        -4); otherwise the reddest type returned is random-walk FM (-2).
-    rn_ratio : float, optional
-        ``R(n) = MVAR / AVAR`` at this tau, computed by the caller from the full-rate phase
-        data. B1 cannot separate white from flicker PM (both have mu = -2); if given together
-        with ``m >= 4`` the R(n) ratio decides between them (SP 1065 5.5.5).
-    m : int, optional
-        Averaging factor, needed with ``rn_ratio``.
-    min_points : int
-        Fewest rate values accepted (default :data:`MIN_POINTS_B1`).
-
-    Returns
-    -------
-    int
-        ``alpha``. For PM noise without a usable ``rn_ratio`` this is 1 (flicker PM), the
-        safe guess: for the overlapping estimators its EDF is far smaller than white PM's
-        (oadev, m=1024, N=241218: 2.9e3 vs 1.2e5), while for the non-overlapping ones the
-        white PM EDF is the smaller by only 5-25%.
-
-    Raises
-    ------
-    NoiseIdError
-        Too few points or a constant series.
-
-    Notes
-    -----
-    The observed ratio ``B1 = s^2 / AVAR`` (``s^2`` the unbiased sample variance of the N
-    rate values, AVAR the non-overlapping Allan variance at this tau) is compared with
-    ``B1(N, mu)`` for mu = -2 (PM), -1 (white FM), 0 (flicker FM), 1 (random-walk FM);
-    the boundaries between adjacent types are the geometric means of their theoretical
-    values (``mu = -alpha - 1`` for ``-2 <= alpha <= 0``).
-
-    Beyond random-walk FM the rate is not stationary-increment and the formal B1(N, mu >= 2)
-    extension does not describe it (random-run FM is then misread as flicker walk). So with
-    ``dmax >= 3``, once the ratio says random-walk FM or redder, the test is repeated on the
-    differenced rate, whose alpha is 2 higher (SP 1065 / Stable32 "B1 of frequency data
-    as phase"), and 2 is subtracted.
-    """
-    kind = _data_type(data_type)
-    x = _as_series(z)
-    y = np.diff(x) if kind == "phase" else x
-    n = y.size
-    if n < max(int(min_points), 4):  # >= 3 values left after the dmax=3 difference
-        raise NoiseIdError(f"B1 noise identification needs >= {min_points} rate values, got {n}")
-    alpha = _b1_alpha(y)
-    if alpha == -2 and dmax >= 3:
-        # differencing raises alpha by 2: RWFM -> 0, FWFM -> -1, RRFM -> -2
-        alpha = min(-2, _b1_alpha(np.diff(y)) - 2)
-
-    if alpha == 1 and rn_ratio is not None:
-        if m is None:
-            raise ValueError("rn_ratio needs the averaging factor m")
-        if m >= 4:  # below that, MVAR ~ AVAR for any noise and R(n) carries no information
-            white, flicker = _rn_theory_pm(int(m))
-            if flicker > white and rn_ratio < math.sqrt(white * flicker):
-                alpha = 2
-    return alpha
-
-
-def identify_noise(
-    z: np.ndarray,
-    *,
-    data_type: str,
-    dmax: int = 2,
-    min_points_lag1: int = MIN_POINTS_LAG1,
-    min_points_b1: int = MIN_POINTS_B1,
-    rn_ratio: float | None = None,
-    m: int | None = None,
-) -> int:
-    """Noise type at one averaging time with the Stable32 policy.
-
-    Lag-1 autocorrelation (:func:`identify_noise_lag1`, ``dmin=0``) when
-    ``len(z) >= min_points_lag1``; otherwise the B1 ratio (:func:`identify_noise_b1`) when
-    there are at least ``min_points_b1`` rate values (``len(z) - 1`` for phase input);
-    otherwise :class:`NoiseIdError`, and the caller should reuse a neighbouring tau's type.
-
-    Parameters
-    ----------
-    z : ndarray
-        Series prepared for this tau (see :func:`identify_noise_lag1`).
-    data_type : {"phase", "rate", "freq"}
-        Interpretation of ``z``.
-    dmax : int
-        2 for the Allan family, 3 for the Hadamard statistics.
-    min_points_lag1, min_points_b1 : int
-        Length thresholds of the two methods.
-    rn_ratio, m : optional
-        Passed to :func:`identify_noise_b1` to separate white from flicker PM.
-
-    Returns
-    -------
-    int
-        ``alpha``, the rate-PSD exponent (not clamped: see :func:`edf`).
-    """
-    x = _as_series(z)
-    if x.size >= min_points_lag1:
-        return identify_noise_lag1(
-            x, data_type=data_type, dmin=0, dmax=dmax, min_points=min_points_lag1
-        )[0]
-    return identify_noise_b1(
-        x, data_type=data_type, dmax=dmax, rn_ratio=rn_ratio, m=m, min_points=min_points_b1
-    )
 
 
 # ---------------------------------------------------------------------------------------------

@@ -9,6 +9,7 @@ per averaging time and exactly (a few ulps), even on records with large offsets 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -21,7 +22,7 @@ from adavar.errors import AdavarInputError
 from adavar.results import DeviationResult
 from adavar.taus import averaging_factors
 
-__all__ = ["DATA_TYPES", "STATISTICS", "as_samples", "deviation", "resolve_tau0"]
+__all__ = ["DATA_TYPES", "NOISE_ID_RULES", "STATISTICS", "as_samples", "deviation", "resolve_tau0"]
 
 STATISTICS = ("adev", "oadev", "mdev", "hdev", "ohdev", "tdev", "totdev")
 DATA_TYPES = ("rate", "phase")
@@ -84,31 +85,121 @@ def _m_max(stat: str, n_points: int) -> int:
     return (n_points - 1) // 3  # hdev, ohdev
 
 
-def _noise_types(phase: diff.AnchoredPhase, ms: np.ndarray, dmax: int):
-    """Power-law noise exponent per tau: lag-1 ACF, B1 fallback, else the neighbour's.
+#: noise identification rules of :func:`deviation` (``noise_id=``)
+NOISE_ID_RULES = ("sp1065", "stable32")
+
+
+def rn_ratio(avar: float, mvar: float) -> float | None:
+    """R(n) = MVAR / AVAR, or None where it is undefined."""
+    return mvar / avar if avar > 0 and np.isfinite(mvar) else None
+
+
+def _rn_in_memory(phase: diff.AnchoredPhase, m: int) -> float | None:
+    ms = np.array([m], dtype=np.int64)
+    n_avar = phase.n_points - 2 * m
+    avar = diff.overlapping_sums(phase, ms, 2)[0] / (2.0 * m * m * n_avar)
+    sums, n = diff.modified_sums(phase, ms)
+    return rn_ratio(float(avar), float(sums[0] / (2.0 * m**4 * n[0])))
+
+
+def pm_with_rn(alpha: int, m: int, rn) -> int:
+    """Lag-1 "white PM" checked by R(n) (SP 1065 5.5.5): flicker PM if R(n) says so.
+
+    On short decimated phase series (tens of points, detrended) the lag-1 test reads
+    flicker PM as white PM often (delta of the finite-filter flicker phase falls below
+    0.25: coverage 31-58 % at m = 16-128, N = 4096); R(n) = MVAR/AVAR, from every
+    overlapping term, separates the two by a factor ~m/8.
+    """
+    if alpha != 2 or m < 4:
+        return alpha
+    ratio = rn()
+    if ratio is None:
+        return alpha
+    white, flicker = edf_mod._rn_theory_pm(m)
+    return 1 if ratio > math.sqrt(white * flicker) else 2
+
+
+def b1_with_rn(z: np.ndarray, m: int, dmax: int, rn, *, strict: bool = False) -> float:
+    """B1 on the cluster means; R(n) (``rn()``, computed only if needed) splits PM / white FM.
+
+    SP 1065 consults R(n) when B1 says PM; it is consulted here when B1 says white FM too,
+    where a short-series B1 of PM noise lands as often (at 8-16 clusters, N = 4096: 15-20
+    % of white or flicker PM records): R(n) of white FM (0.5) is far from both PM values.
+    ``strict`` keeps to SP 1065 (and Stable32's tables): R(n) only where B1 says PM.
+    """
+    alpha = edf_mod.identify_noise_b1(z, data_type="rate", dmax=dmax)
+    if alpha == 1:
+        alpha = edf_mod.identify_noise_b1(z, data_type="rate", dmax=dmax, rn_ratio=rn(), m=m)
+    elif alpha == 0 and m >= 4 and not strict:
+        ratio = rn()
+        if ratio is not None:
+            white, flicker = edf_mod._rn_theory_pm(m)
+            if ratio < math.sqrt(white * flicker):
+                alpha = 2
+            elif ratio < math.sqrt(flicker * edf_mod.RN_WHITE_FM):
+                alpha = 1
+    return edf_mod.clamp_alpha(alpha, dmax)
+
+
+def _noise_types(
+    phase: diff.AnchoredPhase,
+    ms: np.ndarray,
+    dmax: int,
+    *,
+    data_type: str = "rate",
+    noise_id: str = "sp1065",
+):
+    """Power-law noise exponent per tau: lag-1 ACF, B1 + R(n) fallback, else the neighbour's.
 
     The lag-1 statistics stream over the cluster sums of the anchored phase (no copy of the
-    record per tau); short series go to the B1 ratio of :mod:`adavar.edf`.
+    record per tau). Phase data (with ``noise_id="sp1065"``) start on the decimated phase
+    (:mod:`adavar.noise_id`) and a "white PM" there is checked by R(n);
+    ``noise_id="stable32"`` identifies phase data on the m-averaged rate as before
+    (clamped) and uses R(n) only where B1 says PM. Short series go to the B1 ratio.
     """
+    strict = noise_id == "stable32"
+    on_phase = data_type == "phase" and not strict
     alpha = np.full(ms.size, np.nan)
     for k, m in enumerate(ms):
+        m = int(m)
+        count = (phase.n_points - 1) // m
         try:
-            if (phase.n_points - 1) // m >= edf_mod.MIN_POINTS_LAG1:
+            if count >= edf_mod.MIN_POINTS_LAG1:
+                pstats = None
+                if on_phase:
+                    z = diff._cluster_differences(phase.r, phase.hh, phase.hl, m, count)
+                    pstats = edf_mod.decimated_phase_lag1(z)
+                    got = edf_mod.alpha_from_phase_lag1(pstats, None, dmax=dmax)
+                    if got is not None:
+                        alpha[k] = pm_with_rn(got, m, lambda m=m: _rn_in_memory(phase, m))
+                        continue
+                rate_dmax = dmax - 1 if on_phase else dmax
                 # most taus stop at d = 0 (delta < 0.25): try that cheaper pass first, from
                 # the moments gathered while integrating when m is short
-                stats = diff.fused_lag1(phase, int(m)) or diff.cluster_lag1(phase, int(m), 0)
+                stats = diff.fused_lag1(phase, m) or diff.cluster_lag1(phase, m, 0)
                 r1, den, sizes, scale = stats
                 if not r1[0] / (1.0 + r1[0]) < 0.25:
-                    r1, den, sizes, scale = diff.cluster_lag1(phase, int(m), dmax)
-                alpha[k] = edf_mod.alpha_from_lag1(
-                    r1, den, sizes, scale, data_type="rate", dmax=r1.size - 1
-                )[0]
+                    stats = diff.cluster_lag1(phase, m, rate_dmax)
+                if on_phase:
+                    alpha[k] = edf_mod.alpha_from_phase_lag1(pstats, stats, dmax=dmax)
+                else:
+                    r1, den, sizes, scale = stats
+                    alpha[k] = edf_mod.clamp_alpha(
+                        edf_mod.alpha_from_lag1(
+                            r1, den, sizes, scale, data_type="rate", dmax=r1.size - 1
+                        )[0],
+                        dmax,
+                    )
             else:
-                z = diff.cluster_sums(phase, int(m)) / m
-                alpha[k] = edf_mod.identify_noise(z, data_type="rate", dmax=dmax)
+                z = diff.cluster_sums(phase, m) / m
+                rn = lambda m=m: _rn_in_memory(phase, m)  # noqa: E731 - evaluated if needed
+                alpha[k] = b1_with_rn(z, m, dmax, rn, strict=strict)
         except edf_mod.NoiseIdError:
             continue
     return edf_mod.fill_unidentified(alpha)
+
+
+TOTVAR_BIAS: dict[int, float] = {-1: 1.0 / (3.0 * np.log(2.0)), -2: 0.75}
 
 
 def deviation(
@@ -123,6 +214,9 @@ def deviation(
     points_per_decade: int = 10,
     units: str | None = None,
     chunk_size: int | None = None,
+    noise_id: str = "sp1065",
+    totdev_edf: str = "sp1065",
+    totdev_bias: bool = False,
 ) -> DeviationResult:
     """Allan-family deviation of a whole record, with a confidence interval at every tau.
 
@@ -163,6 +257,26 @@ def deviation(
         Samples per read for the out-of-core computation. Giving it forces that path even
         for an in-memory array; for chunked ``data`` the default is
         :data:`adavar.stream.DEFAULT_CHUNK`.
+    noise_id : {"sp1065", "stable32"}
+        Noise identification for the intervals (see :mod:`adavar.noise_id`). ``"sp1065"``
+        (default): lag-1 autocorrelation with at least 30 clusters, started on the
+        decimated phase ``x[::m]`` for phase data (SP 1065), where a "white PM" result is
+        checked by R(n) = MVAR/AVAR (the short detrended decimated phase reads flicker PM
+        as white PM at m >= 16); below 30 clusters the B1 ratio, with R(n) separating
+        white PM, flicker PM and white FM whenever B1 says PM or white FM.
+        ``"stable32"``: the rule Stable32's published tables follow: phase data
+        identified on the m-averaged rate (adavar's rule before; white PM then reads as
+        alpha 3..6 in a third of the records, clamped to 2), R(n) only where B1 says PM.
+        Rate data are identified on the m-averaged rate either way. Every alpha is
+        clamped to the statistic's range ([-2, 2]; Hadamard [-4, 2]).
+    totdev_edf : {"sp1065", "stable32", "legacy"}
+        TOTDEV EDF convention (:func:`adavar.edf.edf`): ``"stable32"`` reproduces Stable32's
+        bounds, ``"legacy"`` adavar's earlier choice.
+    totdev_bias : bool
+        Divide TOTVAR by its SP 1065 bias ``1 - a tau/T`` (a = 1/(3 ln 2) flicker FM, 3/4
+        random-walk FM, per the identified alpha; T = N tau0), as Stable32 does for
+        frequency data, so that ``dev`` estimates the Allan deviation. Default False: the
+        plain TOTDEV of SP 1065 (its published values).
 
     Returns
     -------
@@ -192,6 +306,12 @@ def deviation(
     """
     if stat not in STATISTICS:
         raise AdavarInputError(f"unknown stat {stat!r}: use one of {', '.join(STATISTICS)}")
+    if noise_id not in NOISE_ID_RULES:
+        raise AdavarInputError(f"unknown noise_id {noise_id!r}: use one of {NOISE_ID_RULES}")
+    if str(totdev_edf).lower() not in edf_mod.TOTDEV_EDF_METHODS:
+        raise AdavarInputError(
+            f"unknown totdev_edf {totdev_edf!r}: use one of {edf_mod.TOTDEV_EDF_METHODS}"
+        )
     dtype = _DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
@@ -266,13 +386,21 @@ def deviation(
     else:
         dmax = 3 if stat in ("hdev", "ohdev") else 2
         if chunked:
-            alpha, id_notes = stream.noise_types(increments, ms, dmax, chunk_size=chunk)
+            alpha, id_notes = stream.noise_types(
+                increments, ms, dmax, chunk_size=chunk, data_type=dtype, noise_id=noise_id
+            )
         else:
-            alpha, id_notes = _noise_types(phase, ms, dmax)
+            alpha, id_notes = _noise_types(phase, ms, dmax, data_type=dtype, noise_id=noise_id)
         notes = notes + id_notes
         edf_values = np.array(
-            [edf_mod.edf(stat, int(a), int(m), n_points) for a, m in zip(alpha, ms, strict=True)]
+            [
+                edf_mod.edf(stat, int(a), int(m), n_points, totdev_edf=totdev_edf)
+                for a, m in zip(alpha, ms, strict=True)
+            ]
         )
+        if stat == "totdev" and totdev_bias:
+            bias = np.array([TOTVAR_BIAS.get(int(a), 0.0) for a in alpha])
+            var = var / (1.0 - bias * ms / (n_points - 1))
         var_low, var_high = edf_mod.chi2_interval(var, edf_values, float(confidence))
         low, high = np.sqrt(var_low), np.sqrt(var_high)
 

@@ -34,6 +34,13 @@ from adavar import edf as edf_mod
 from adavar._jit import jit
 from adavar.differences import SHIFT, _cluster_sum, _dd_add
 from adavar.errors import AdavarInputError
+from adavar.noise_id import (
+    decimated_phase_lag1,
+    phase_lag1_result,
+    phase_moments,
+    phase_residual_lag,
+    quadratic_fit,
+)
 
 __all__ = [
     "DEFAULT_CHUNK",
@@ -598,8 +605,9 @@ _PART = 1 << 15
 
 @jit
 def _cluster_pass(
-    r, hh, hl, p0, p1, ms, counts, mode, carry, mom, head, tail, line, q, acc, buf, at, zs
-):  # pragma: no cover - compiled
+    r, hh, hl, p0, p1, ms, counts, mode, carry, mom, head, tail, line, q, acc, buf, at, zs,
+    on_phase, pm, pcoef, ps,
+):  # pragma: no cover - compiled  # fmt: skip
     """One piece of ``r, hh, hl`` (its own anchored phase), every averaging factor.
 
     O(piece / m) per factor. ``carry[t]`` holds, as a double-double, the part of the
@@ -629,6 +637,8 @@ def _cluster_pass(
             continue
         nch = max(1, min(64, nz // _PART))
         if mode[t] == _LINE:
+            if on_phase:  # the decimated phase's moments, in cluster order
+                phase_moments(zs, nz, k0, count, pm[t])
             part = np.zeros((nch, 3))
             for c in range(nch):
                 i0 = (nz * c) // nch
@@ -638,6 +648,8 @@ def _cluster_pass(
             mom[t, 1] += np.sum(part[:, 1])
             mom[t, 2] = max(mom[t, 2], np.max(part[:, 2]))
         elif mode[t] == _LAG:
+            if on_phase:
+                phase_residual_lag(zs, nz, k0, count, pcoef[t], ps[t])
             a = line[t, 0]
             b = line[t, 1]
             part = np.zeros((nch, 4, 3))
@@ -701,13 +713,24 @@ def _lag1_from_moments(
 def _cluster_statistics(
     source: ChunkedSource, ms: np.ndarray, dmax: int, chunk_size: int
 ) -> tuple[list[Any], float]:
+    """:func:`_cluster_statistics_all` without the decimated-phase statistics."""
+    stats, _, shift = _cluster_statistics_all(source, ms, dmax, chunk_size)
+    return stats, shift
+
+
+def _cluster_statistics_all(
+    source: ChunkedSource, ms: np.ndarray, dmax: int, chunk_size: int, on_phase: bool = False
+) -> tuple[list[Any], list[Any], float]:
     """Per averaging factor: ``(r1, den, n, zmax)`` of the lag-1 rule when there are at
     least :data:`adavar.edf.MIN_POINTS_LAG1` clusters, else the cluster sums themselves
     (relative to the shift); and the shift.
 
     Two passes over ``source`` at most (line fit, then the lag sums), each reading it once
     in pieces of ``chunk_size`` increments for every factor at once; series short enough
-    are collected in the first pass and need no second.
+    are collected in the first pass and need no second. With ``on_phase`` the same passes
+    also give the lag-1 statistics of the quadratically detrended decimated phase
+    (:func:`adavar.noise_id.decimated_phase_lag1`), returned as the second list (None
+    for the B1 series).
     """
     n = source.size
     ms = np.ascontiguousarray(ms, dtype=np.int64)
@@ -738,6 +761,9 @@ def _cluster_statistics(
     if chunk >= diff.BLOCK:  # pieces on the anchor blocks: the in-memory local sums exactly
         chunk -= chunk % diff.BLOCK
     zs = np.empty(min(chunk, n) + 1)
+    pm = np.zeros((nt, 5))
+    pcoef = np.zeros((nt, 3))
+    ps = np.zeros((nt, 6))
     kept: diff.AnchoredPhase | None = None
 
     def run_pass() -> None:
@@ -753,7 +779,7 @@ def _cluster_statistics(
                 kept = phase
             _cluster_pass(
                 phase.r, phase.hh, phase.hl, p0, p1, ms, counts, mode, carry, mom, head,
-                tail, line, q, acc, buf, at, zs,
+                tail, line, q, acc, buf, at, zs, bool(on_phase), pm, pcoef, ps,
             )  # fmt: skip
 
     run_pass()
@@ -761,26 +787,32 @@ def _cluster_statistics(
     if streamed.any():
         for t in np.flatnonzero(streamed):
             line[t] = _line(int(counts[t]), mom[t])
+            pcoef[t] = quadratic_fit(int(counts[t]), pm[t])
         mode[streamed] = _LAG
         mode[~streamed] = _SKIP
         carry[:] = 0.0
         run_pass()
 
     stats: list[Any] = []
+    pstats: list[Any] = []
     for t in range(nt):
         count = int(counts[t])
         if streamed[t]:
             stats.append(_lag1_from_moments(count, dmax, mom[t], head[t], tail[t], acc[t]))
+            r1, den, scale = phase_lag1_result(count, pm[t], ps[t])
+            pstats.append((r1, den, count + 1, scale) if on_phase else None)
             continue
         z = buf[at[t] : at[t] + count]
         if not lag1[t]:
             stats.append(z)
+            pstats.append(None)
             continue
         _line_moments(z, count, 0, count, mom[t], head[t], tail[t])
         a, b = _line(count, mom[t])
         _lag_moments(z, count, 0, a, b, count, q[t], acc[t])
         stats.append(_lag1_from_moments(count, dmax, mom[t], head[t], tail[t], acc[t]))
-    return stats, shift
+        pstats.append(decimated_phase_lag1(z) if on_phase else None)
+    return stats, pstats, shift
 
 
 def noise_types(
@@ -789,15 +821,20 @@ def noise_types(
     dmax: int = 2,
     *,
     chunk_size: int | None = None,
+    data_type: str = "rate",
+    noise_id: str = "sp1065",
 ) -> tuple[np.ndarray, tuple[str, ...]]:
     """Power-law noise exponent per averaging factor of a record read piece by piece.
 
     The same rule and, to rounding, the same statistics as the in-memory identification of
     :func:`adavar.deviation` and :func:`adavar.davar` (``noise_type="record"``): per ``m``,
-    the lag-1 autocorrelation of the linearly detrended sums of ``m`` increments, differenced
-    up to ``dmax`` times (Riley & Greenhall's stopping rule), when there are at least
-    :data:`adavar.edf.MIN_POINTS_LAG1` sums; else the B1 ratio of the cluster means; a tau
-    that neither identifies takes its nearest identified neighbour's type.
+    with at least :data:`adavar.edf.MIN_POINTS_LAG1` clusters the lag-1 rule (for phase
+    data with ``noise_id="sp1065"`` started on the quadratically detrended decimated
+    phase, then the linearly detrended sums of ``m`` increments, differenced up to
+    ``dmax - 1`` times; for rate data the sums, up to ``dmax`` times); else the B1 ratio of
+    the cluster means with R(n) = MVAR/AVAR when B1 says PM; a tau that neither
+    identifies takes its nearest identified neighbour's type. Alphas are clamped to the
+    statistic's range.
 
     Parameters
     ----------
@@ -809,6 +846,10 @@ def noise_types(
         Most differences taken (2 for the Allan family, 3 for Hadamard).
     chunk_size : int, optional
         Increments per piece (default :data:`DEFAULT_CHUNK`).
+    data_type : {"rate", "phase"}
+        What the increments are the increments of (``"phase"``: of the user's phase).
+    noise_id : {"sp1065", "stable32"}
+        As in :func:`adavar.deviation`.
 
     Returns
     -------
@@ -823,25 +864,62 @@ def noise_types(
     order), each time once for all factors, from cluster sums that are differences of a
     double-double running integral carried across pieces: O(N sum(1/m)) work. Held in
     memory: one piece, its integral, and the cluster sums of the short series (at most
-    ``max(chunk_size, SMALL_SERIES)`` values beyond the B1 ones).
+    ``max(chunk_size, SMALL_SERIES)`` values beyond the B1 ones). R(n) for the few B1
+    taus that read "PM" costs one more streamed pass (overlapping and modified sums).
     """
+    from adavar import stream_statistics as sstat
+    from adavar.statistics import b1_with_rn, pm_with_rn, rn_ratio
+
     src = as_source(source)
     ms = np.atleast_1d(np.asarray(ms, dtype=np.int64))
     if not 0 <= int(dmax) <= 3:
         raise ValueError("internal: dmax must lie in 0..3")
     chunk = DEFAULT_CHUNK if chunk_size is None else max(1, int(chunk_size))
-    stats, shift = _cluster_statistics(src, ms, int(dmax), chunk)
+    strict = noise_id == "stable32"
+    on_phase = str(data_type).lower() == "phase" and not strict
+    stats, pstats, shift = _cluster_statistics_all(src, ms, int(dmax), chunk, on_phase)
     alpha = np.full(ms.size, np.nan)
-    for t, (m, st) in enumerate(zip(ms, stats, strict=True)):
+    rn_cache: dict[int, float | None] = {}
+    phase_src: list[Any] = []
+
+    def rn(m: int) -> float | None:
+        if m not in rn_cache:
+            if not phase_src:
+                phase_src.append(sstat.streamed_phase(src, chunk))
+            ph = phase_src[0]
+            one = np.array([m], dtype=np.int64)
+            avar = sstat.overlapping_sums(ph, one, 2)[0] / (2.0 * m * m * (src.size + 1 - 2 * m))
+            sums, n = sstat.modified_sums(ph, one)
+            rn_cache[m] = rn_ratio(float(avar), float(sums[0] / (2.0 * m**4 * n[0])))
+        return rn_cache[m]
+
+    for t, (m, st, pst) in enumerate(zip(ms, stats, pstats, strict=True)):
+        m = int(m)
         try:
             if isinstance(st, tuple):
-                r1, den, sizes, zmax = st
-                alpha[t] = edf_mod.alpha_from_lag1(
-                    r1, den, sizes, zmax, data_type="rate", dmax=r1.size - 1
-                )[0]
+                if on_phase:
+                    got = edf_mod.alpha_from_phase_lag1(pst, None, dmax=int(dmax))
+                    if got is not None:
+                        got = pm_with_rn(got, m, lambda m=m: rn(m))
+                    else:
+                        r1, den, sizes, zmax = st
+                        k = int(dmax)  # the rate orders 0 .. dmax - 1, stopping as in memory
+                        if r1[0] / (1.0 + r1[0]) < 0.25:
+                            k = 1
+                        sub = (r1[:k], den[:k], sizes[:k], zmax)
+                        got = edf_mod.alpha_from_phase_lag1(pst, sub, dmax=int(dmax))
+                    alpha[t] = got
+                else:
+                    r1, den, sizes, zmax = st
+                    alpha[t] = edf_mod.clamp_alpha(
+                        edf_mod.alpha_from_lag1(
+                            r1, den, sizes, zmax, data_type="rate", dmax=r1.size - 1
+                        )[0],
+                        int(dmax),
+                    )
             else:
-                z = (st + shift * int(m)) / int(m)
-                alpha[t] = edf_mod.identify_noise(z, data_type="rate", dmax=int(dmax))
+                z = (st + shift * m) / m
+                alpha[t] = b1_with_rn(z, m, int(dmax), lambda m=m: rn(m), strict=strict)
         except edf_mod.NoiseIdError:
             continue
     return edf_mod.fill_unidentified(alpha)

@@ -1,0 +1,557 @@
+"""Power-law noise identification (NIST SP 1065 section 5.6, the Stable32 policy).
+
+Split out of :mod:`adavar.edf`, which re-exports every public name, so
+``from adavar.edf import identify_noise`` keeps working.
+
+The policy, per averaging factor ``m`` with ``n = floor((N_phase - 1) / m)`` clusters:
+
+* ``n >= MIN_POINTS_LAG1`` (30): the lag-1 autocorrelation method (Riley & Greenhall 2004).
+  For phase data it starts, as SP 1065 prescribes, on the decimated phase ``x[::m]``
+  (quadratically detrended): white PM stops there at ``d = 0`` with ``alpha ~ 2``. Only if
+  that phase is too red (``delta >= 0.25``) does it go on to differences, which are the
+  (linearly detrended) m-cluster sums, i.e. the rate path with one difference fewer.
+  Starting on the rate instead puts white PM at ``r1 = -1/2``, the pole of
+  ``delta = r1 / (1 + r1)``: alphas of 3..6 in a third of the records at 64 clusters.
+* ``MIN_POINTS_B1 <= n < 30``: the Barnes B1 ratio, with the R(n) = MVAR / AVAR ratio
+  deciding between white PM, flicker PM and white FM when B1 says "PM" (SP 1065 5.5.5).
+* fewer: not identified (the caller takes the neighbouring tau's type).
+
+Every returned alpha is clamped to the statistic's range (:func:`clamp_alpha`).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Final
+
+import numpy as np
+
+from adavar._jit import jit
+
+__all__ = [
+    "MIN_POINTS_B1",
+    "MIN_POINTS_LAG1",
+    "RN_WHITE_FM",
+    "NoiseIdError",
+    "alpha_from_lag1",
+    "alpha_from_phase_lag1",
+    "clamp_alpha",
+    "decimated_phase_lag1",
+    "fill_unidentified",
+    "identify_noise",
+    "identify_noise_b1",
+    "identify_noise_lag1",
+]
+
+#: Default minimum series length for the lag-1 ACF method (Riley & Greenhall 2004: "about 30").
+MIN_POINTS_LAG1: Final[int] = 30
+
+#: Default minimum number of frequency (rate) values for the B1-ratio method. Below ~10 the
+#: sample B1 ratio has a relative scatter comparable to the spacing of the theoretical values
+#: of adjacent noise types, so reusing a neighbouring tau's noise type is the better guess.
+MIN_POINTS_B1: Final[int] = 10
+
+#: Expected R(n) = MVAR / AVAR of white FM for m >> 1 (SP 1065 5.5.5: 0.50).
+RN_WHITE_FM: Final[float] = 0.5
+
+_DATA_TYPES: Final[dict[str, str]] = {
+    "phase": "phase",
+    "rate": "freq",
+    "freq": "freq",
+    "frequency": "freq",
+}
+
+
+class NoiseIdError(ValueError):
+    """The power-law noise type cannot be identified from this series.
+
+    Raised when the series is too short for either method or degenerate (constant); the
+    caller is expected to reuse the noise type of a neighbouring averaging time.
+    """
+
+
+def clamp_alpha(alpha: float, dmax: int) -> int:
+    """``alpha`` rounded into the valid range: ``[-2, 2]`` (Allan, ``dmax <= 2``) or
+    ``[-4, 2]`` (Hadamard, ``dmax = 3``).
+
+    Nothing is bluer than white PM, and the Allan family cannot tell alpha < -2 from -2
+    (its variance diverges there); the lag-1 rule can return values outside (up to 6 for
+    white PM identified on the rate), which would otherwise be handed to the EDF.
+    """
+    lo = -4 if int(dmax) >= 3 else -2
+    return int(min(max(int(alpha), lo), 2))
+
+
+def _data_type(data_type: str) -> str:
+    try:
+        return _DATA_TYPES[data_type.lower()]
+    except (KeyError, AttributeError):
+        raise ValueError(
+            f"data_type must be 'phase' or 'rate' (alias 'freq'), got {data_type!r}"
+        ) from None
+
+
+def _as_series(z: np.ndarray) -> np.ndarray:
+    z = np.asarray(z, dtype=np.float64)
+    if z.ndim != 1:
+        raise ValueError(f"z must be a 1-D series, got shape {z.shape}")
+    if not np.isfinite(z).all():
+        raise ValueError("z contains non-finite values")
+    return z
+
+
+def _detrend(z: np.ndarray, deg: int) -> np.ndarray:
+    """Residual of a least-squares polynomial fit (on a [-1, 1] abscissa, well conditioned)."""
+    t = np.linspace(-1.0, 1.0, z.size)
+    coef = np.polynomial.polynomial.polyfit(t, z, deg)
+    return z - np.polynomial.polynomial.polyval(t, coef)
+
+
+def identify_noise_lag1(
+    z: np.ndarray,
+    *,
+    data_type: str,
+    dmin: int = 0,
+    dmax: int = 2,
+    min_points: int = MIN_POINTS_LAG1,
+) -> tuple[int, float]:
+    """Power-law noise type from the lag-1 autocorrelation (Riley & Greenhall 2004).
+
+    Parameters
+    ----------
+    z : ndarray
+        The series prepared for one averaging factor ``m``: for ``data_type="phase"`` the
+        phase decimated by ``m`` (``x[::m]``), for ``"rate"``/``"freq"`` the rate averaged
+        over non-overlapping groups of ``m``.
+    data_type : {"phase", "rate", "freq"}
+        ``"rate"`` and ``"freq"`` are synonyms (fractional frequency / sensor rate).
+    dmin, dmax : int
+        Minimum and maximum number of differences taken. ``dmax`` bounds the reddest type
+        that can be recognised: on phase, 2 reaches random-walk FM (Allan), 3 random-run FM
+        (Hadamard); on rate data one difference fewer suffices for the same alpha.
+    min_points : int
+        Shortest series accepted (the method is reliable from about 30 points).
+
+    Returns
+    -------
+    alpha_int : int
+        The estimate rounded to the nearest integer (``p = -2 (delta + d)`` rounded as
+        ``-round(2 delta) - 2 d``, plus 2 for phase data).
+    alpha : float
+        The un-rounded estimate.
+
+    Raises
+    ------
+    NoiseIdError
+        Too few points, or a degenerate (constant) series.
+
+    Notes
+    -----
+    The series is detrended first (quadratic for phase: frequency offset and drift; linear
+    for rate: drift). Then, with ``d = 0``: compute the lag-1 autocorrelation ``r1`` and
+    ``delta = r1 / (1 + r1)``; if ``d >= dmin`` and (``delta < 0.25`` or ``d >= dmax``)
+    stop with ``p = -2 (delta + d)``, otherwise difference the series and repeat. ``delta``
+    estimates the fractional-integration order of the differenced series, which is
+    stationary once ``delta < 0.25`` (PSD exponent of phase, ``beta = alpha - 2``, above
+    -0.5). Same algorithm as ``allantools.ci.autocorr_noise_id`` minus its decimation step.
+    """
+    kind = _data_type(data_type)
+    dmin, dmax = int(dmin), int(dmax)
+    if not 0 <= dmin <= dmax:
+        raise ValueError(f"need 0 <= dmin <= dmax, got dmin={dmin}, dmax={dmax}")
+    x = _as_series(z)
+    # a quadratic detrend and dmax differences need a few points even if min_points is tiny
+    need = max(int(min_points), dmax + 4)
+    if x.size < need:
+        raise NoiseIdError(f"lag-1 ACF noise identification needs >= {need} points, got {x.size}")
+    scale = float(np.max(np.abs(x)))
+    sizes = x.size - np.arange(dmax + 1)
+    x = _detrend(x, 2 if kind == "phase" else 1)
+    r1 = np.full(dmax + 1, np.nan)
+    den = np.zeros(dmax + 1)
+    for d in range(dmax + 1):
+        c = x - x.mean()
+        den[d] = float(np.dot(c, c))
+        if den[d] > 0:
+            r1[d] = float(np.dot(c[:-1], c[1:])) / den[d]
+        x = np.diff(x)
+    return alpha_from_lag1(r1, den, sizes, scale, data_type=kind, dmin=dmin, dmax=dmax)
+
+
+def alpha_from_lag1(
+    r1: np.ndarray,
+    den: np.ndarray,
+    sizes: np.ndarray,
+    scale: float,
+    *,
+    data_type: str,
+    dmin: int = 0,
+    dmax: int = 2,
+) -> tuple[int, float]:
+    """Riley & Greenhall's decision rule, given the lag-1 autocorrelations per difference order.
+
+    Parameters
+    ----------
+    r1, den, sizes : ndarray
+        For ``d = 0..dmax`` differences of the detrended series: the lag-1 autocorrelation,
+        its denominator ``sum (x - mean)^2`` and the series length.
+    scale : float
+        Magnitude of the raw series: a residual at its rounding level (a constant or a pure
+        polynomial trend) is not noise and would give a random ``r1``.
+    data_type, dmin, dmax
+        As in :func:`identify_noise_lag1`.
+
+    Returns
+    -------
+    alpha_int, alpha : int, float
+        As in :func:`identify_noise_lag1`.
+    """
+    kind = _data_type(data_type)
+    offset = 2 if kind == "phase" else 0  # alpha = beta + 2 for phase data
+    floor = (1e3 * np.finfo(np.float64).eps * scale) ** 2
+    for d in range(int(dmax) + 1):
+        if not den[d] > floor * sizes[d]:
+            raise NoiseIdError("no noise left after removing the trend: cannot identify it")
+        if not r1[d] > -1.0:  # perfectly alternating series: delta = -inf
+            raise NoiseIdError("lag-1 autocorrelation is -1: series is not power-law noise")
+        delta = r1[d] / (1.0 + r1[d])
+        if d >= dmin and (delta < 0.25 or d >= dmax):
+            alpha = -2.0 * (delta + d) + offset
+            alpha_int = int(offset - 2 * d - np.rint(2.0 * delta))
+            return alpha_int, float(alpha)
+    raise AssertionError("unreachable: d reaches dmax")  # pragma: no cover
+
+
+def fill_unidentified(alpha: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
+    """Per-tau alphas with NaN (not identified) replaced by the nearest identified one.
+
+    Too few clusters at the longest taus is the usual reason. With none identified at all,
+    white noise (alpha 0) is assumed and a note says so. Returns ``(alpha int64, notes)``.
+    """
+    alpha = np.array(alpha, dtype=np.float64)
+    known = np.flatnonzero(np.isfinite(alpha))
+    if known.size == 0:
+        alpha[:] = 0.0
+        return alpha.astype(np.int64), (
+            "noise type could not be identified at any tau; white noise assumed for EDF",
+        )
+    index = np.arange(alpha.size)
+    nearest = known[np.abs(index[:, None] - known[None, :]).argmin(axis=1)]
+    return alpha[nearest].astype(np.int64), ()
+
+
+def _b1_theory(n: int, mu: float) -> float:
+    """Barnes B1(N, r=1, mu): expected N-sample over 2-sample variance for AVAR ~ tau^mu.
+
+    B1 = N (1 - N^mu) / (2 (N - 1) (1 - 2^mu)), with the limit N ln N / (2 (N-1) ln 2)
+    at mu = 0 (SP 1065 5.5.4; Howe, Beard & Greenhall 2000, Table 3).
+    """
+    if mu == 0:
+        return n * math.log(n) / (2.0 * (n - 1) * math.log(2.0))
+    return n * (1.0 - n**mu) / (2.0 * (n - 1) * (1.0 - 2.0**mu))
+
+
+def _rn_theory_pm(m: int) -> tuple[float, float]:
+    """Expected R(n) = MVAR/AVAR for white PM (1/m) and flicker PM (f_h = 1/(2 tau0))."""
+    white = 1.0 / m
+    mvar = 3.0 * math.log(256.0 / 27.0) / (8.0 * math.pi**2)
+    avar = (1.038 + 3.0 * math.log(2.0 * math.pi * 0.5 * m)) / (4.0 * math.pi**2)
+    return white, mvar / avar
+
+
+def _b1_alpha(y: np.ndarray) -> int:
+    """alpha in {1 (PM), 0, -1, -2} whose B1(N, mu) is nearest (geometrically) to the data's."""
+    n = y.size
+    avar = 0.5 * float(np.mean(np.diff(y) ** 2))
+    if not avar > 0.0:
+        raise NoiseIdError("the series is constant: no noise to identify")
+    ratio = float(np.var(y, ddof=1)) / avar
+    # (alpha, mu) from white-most to red-most; B1(N, mu) increases with mu
+    candidates = [(1, -2), (0, -1), (-1, 0), (-2, 1)]
+    alpha = candidates[0][0]
+    for (_, mu_lo), (a_hi, mu_hi) in itertools.pairwise(candidates):
+        if ratio <= math.sqrt(_b1_theory(n, mu_lo) * _b1_theory(n, mu_hi)):
+            break
+        alpha = a_hi
+    return alpha
+
+
+def identify_noise_b1(
+    z: np.ndarray,
+    *,
+    data_type: str,
+    dmax: int = 2,
+    rn_ratio: float | None = None,
+    m: int | None = None,
+    min_points: int = MIN_POINTS_B1,
+) -> int:
+    """Power-law noise type from the Barnes B1 ratio (SP 1065 section 5.5.4).
+
+    Parameters
+    ----------
+    z : ndarray
+        Series prepared as for :func:`identify_noise_lag1`: rate averaged over groups of
+        ``m`` (``data_type="rate"``/``"freq"``) or phase decimated by ``m`` (``"phase"``;
+        converted here to the rate series by differencing, the scale does not matter).
+    data_type : {"phase", "rate", "freq"}
+        Interpretation of ``z``.
+    dmax : int
+        3 (Hadamard statistics) also recognises flicker-walk and random-run FM (alpha -3,
+        -4); otherwise the reddest type returned is random-walk FM (-2).
+    rn_ratio : float, optional
+        ``R(n) = MVAR / AVAR`` at this tau (overlapping estimators, computed by the caller
+        from the full-rate record). B1 cannot separate white from flicker PM (both have
+        mu = -2); if given together with ``m >= 4``, R(n) decides whenever B1 says "PM"
+        (SP 1065 5.5.5): white PM below the geometric mean of the two PM values
+        (``1/m`` and ``3.37 / (1.04 + 3 ln(pi m))``), white FM above the geometric mean of
+        the flicker PM value and white FM's 0.5, else flicker PM. The last rule catches
+        white FM whose short-series B1 fell below the PM/white-FM boundary (about one
+        record in four at 10-30 clusters); R(n) rests on thousands of overlapping terms.
+    m : int, optional
+        Averaging factor, needed with ``rn_ratio``.
+    min_points : int
+        Fewest rate values accepted (default :data:`MIN_POINTS_B1`).
+
+    Returns
+    -------
+    int
+        ``alpha``. For PM noise without a usable ``rn_ratio`` this is 1 (flicker PM), the
+        safe guess: for the overlapping estimators its EDF is far smaller than white PM's
+        (oadev, m=1024, N=241218: 2.9e3 vs 1.2e5), while for the non-overlapping ones the
+        white PM EDF is the smaller by only 5-25%.
+
+    Raises
+    ------
+    NoiseIdError
+        Too few points or a constant series.
+
+    Notes
+    -----
+    The observed ratio ``B1 = s^2 / AVAR`` (``s^2`` the unbiased sample variance of the N
+    rate values, AVAR the non-overlapping Allan variance at this tau) is compared with
+    ``B1(N, mu)`` for mu = -2 (PM), -1 (white FM), 0 (flicker FM), 1 (random-walk FM);
+    the boundaries between adjacent types are the geometric means of their theoretical
+    values (``mu = -alpha - 1`` for ``-2 <= alpha <= 0``).
+
+    Beyond random-walk FM the rate is not stationary-increment and the formal B1(N, mu >= 2)
+    extension does not describe it (random-run FM is then misread as flicker walk). So with
+    ``dmax >= 3``, once the ratio says random-walk FM or redder, the test is repeated on the
+    differenced rate, whose alpha is 2 higher (SP 1065 / Stable32 "B1 of frequency data
+    as phase"), and 2 is subtracted.
+    """
+    kind = _data_type(data_type)
+    x = _as_series(z)
+    y = np.diff(x) if kind == "phase" else x
+    n = y.size
+    if n < max(int(min_points), 4):  # >= 3 values left after the dmax=3 difference
+        raise NoiseIdError(f"B1 noise identification needs >= {min_points} rate values, got {n}")
+    alpha = _b1_alpha(y)
+    if alpha == -2 and dmax >= 3:
+        # differencing raises alpha by 2: RWFM -> 0, FWFM -> -1, RRFM -> -2
+        alpha = min(-2, _b1_alpha(np.diff(y)) - 2)
+
+    if alpha == 1 and rn_ratio is not None:
+        if m is None:
+            raise ValueError("rn_ratio needs the averaging factor m")
+        if m >= 4:  # below that, MVAR ~ AVAR for any noise and R(n) carries no information
+            white, flicker = _rn_theory_pm(int(m))
+            if flicker > white and rn_ratio < math.sqrt(white * flicker):
+                alpha = 2
+            elif flicker < RN_WHITE_FM and rn_ratio > math.sqrt(flicker * RN_WHITE_FM):
+                alpha = 0
+    return alpha
+
+
+def identify_noise(
+    z: np.ndarray,
+    *,
+    data_type: str,
+    dmax: int = 2,
+    min_points_lag1: int = MIN_POINTS_LAG1,
+    min_points_b1: int = MIN_POINTS_B1,
+    rn_ratio: float | None = None,
+    m: int | None = None,
+) -> int:
+    """Noise type at one averaging time with the Stable32 policy.
+
+    Lag-1 autocorrelation (:func:`identify_noise_lag1`, ``dmin=0``) when
+    ``len(z) >= min_points_lag1``; otherwise the B1 ratio (:func:`identify_noise_b1`) when
+    there are at least ``min_points_b1`` rate values (``len(z) - 1`` for phase input);
+    otherwise :class:`NoiseIdError`, and the caller should reuse a neighbouring tau's type.
+
+    Parameters
+    ----------
+    z : ndarray
+        Series prepared for this tau (see :func:`identify_noise_lag1`).
+    data_type : {"phase", "rate", "freq"}
+        Interpretation of ``z``.
+    dmax : int
+        2 for the Allan family, 3 for the Hadamard statistics.
+    min_points_lag1, min_points_b1 : int
+        Length thresholds of the two methods.
+    rn_ratio, m : optional
+        Passed to :func:`identify_noise_b1` to separate white from flicker PM.
+
+    Returns
+    -------
+    int
+        ``alpha``, the rate-PSD exponent, clamped to the statistic's range
+        (:func:`clamp_alpha`; before 0.x it was returned unclamped).
+    """
+    x = _as_series(z)
+    if x.size >= min_points_lag1:
+        alpha = identify_noise_lag1(
+            x, data_type=data_type, dmin=0, dmax=dmax, min_points=min_points_lag1
+        )[0]
+    else:
+        alpha = identify_noise_b1(
+            x, data_type=data_type, dmax=dmax, rn_ratio=rn_ratio, m=m, min_points=min_points_b1
+        )
+    return clamp_alpha(alpha, dmax)
+
+
+# ---------------------------------------------------------------------------------------------
+# Lag-1 test on the decimated phase, from cluster sums (in memory and out of core alike)
+# ---------------------------------------------------------------------------------------------
+
+
+@jit
+def phase_moments(zs, nz, k0, count, pm):  # pragma: no cover - compiled
+    """First pass over the decimated phase ``P[0] = 0, P[k+1] = P[k] + z[k]``.
+
+    ``zs[:nz]`` are the cluster sums ``k0 .. k0+nz-1``; ``pm`` carries ``[P, sum P,
+    sum u P, sum u^2 P, max |P|]`` with ``u = k - count/2`` over the ``count + 1`` points.
+    Sequential sums in cluster order: the same numbers whatever the piece boundaries.
+    """
+    kc = 0.5 * count
+    p = pm[0]
+    for q in range(nz):
+        p += zs[q]
+        u = k0 + q + 1 - kc
+        pm[1] += p
+        pm[2] += u * p
+        pm[3] += u * u * p
+        pm[4] = max(pm[4], abs(p))
+    pm[0] = p
+
+
+@jit
+def phase_residual_lag(zs, nz, k0, count, coef, ps):  # pragma: no cover - compiled
+    """Second pass: residuals ``e = P - (c0 + c1 u + c2 u^2)`` and their lag-1 sums.
+
+    ``ps`` carries ``[P, e_prev, sum e, sum e^2, sum e_prev e, e_first]``.
+    """
+    kc = 0.5 * count
+    c0, c1, c2 = coef[0], coef[1], coef[2]
+    if k0 == 0:  # the point P[0] = 0 opens the series
+        e = -(c0 - c1 * kc + c2 * kc * kc)
+        ps[1] = e
+        ps[2] += e
+        ps[3] += e * e
+        ps[5] = e
+    p = ps[0]
+    prev = ps[1]
+    for q in range(nz):
+        p += zs[q]
+        u = k0 + q + 1 - kc
+        e = p - (c0 + c1 * u + c2 * u * u)
+        ps[2] += e
+        ps[3] += e * e
+        ps[4] += prev * e
+        prev = e
+    ps[0] = p
+    ps[1] = prev
+
+
+def quadratic_fit(count: int, pm: np.ndarray) -> np.ndarray:
+    """Least-squares quadratic ``c0 + c1 u + c2 u^2`` through the ``count + 1`` points."""
+    n = count + 1.0
+    u2 = n * (n * n - 1.0) / 12.0  # sums of u^2 and u^4 over the symmetric abscissa
+    u4 = n * (n * n - 1.0) * (3.0 * n * n - 7.0) / 240.0
+    c1 = pm[2] / u2 if u2 > 0 else 0.0
+    det = n * u4 - u2 * u2
+    if det > 0:
+        c0 = (pm[1] * u4 - pm[3] * u2) / det
+        c2 = (n * pm[3] - u2 * pm[1]) / det
+    else:
+        c0, c2 = pm[1] / n, 0.0
+    return np.array([c0, c1, c2])
+
+
+def phase_lag1_result(count: int, pm: np.ndarray, ps: np.ndarray) -> tuple[float, float, float]:
+    """``(r1, den, scale)`` of the detrended decimated phase from the two passes' sums."""
+    n = count + 1
+    s1, s2, s11, first, last = ps[2], ps[3], ps[4], ps[5], ps[1]
+    mean = s1 / n
+    den = s2 - n * mean * mean
+    num = s11 - mean * ((s1 - last) + (s1 - first)) + (n - 1) * mean * mean
+    r1 = num / den if den > 0 else math.nan
+    return r1, den, float(pm[4])
+
+
+def decimated_phase_lag1(z: np.ndarray) -> tuple[float, float, int, float]:
+    """Lag-1 autocorrelation of the quadratically detrended decimated phase.
+
+    Parameters
+    ----------
+    z : ndarray
+        The ``count`` cluster sums ``x[(k+1) m] - x[k m]`` (any constant offset per sum,
+        i.e. a linear phase trend, is irrelevant: the detrend removes it).
+
+    Returns
+    -------
+    r1, den, size, scale
+        As one order of :func:`alpha_from_lag1`'s inputs: the autocorrelation, its
+        denominator ``sum e^2``, the series length ``count + 1`` and ``max |P|``.
+    """
+    z = np.ascontiguousarray(z, dtype=np.float64)
+    count = z.size
+    pm = np.zeros(5)
+    phase_moments(z, count, 0, count, pm)
+    ps = np.zeros(6)
+    phase_residual_lag(z, count, 0, count, quadratic_fit(count, pm), ps)
+    r1, den, scale = phase_lag1_result(count, pm, ps)
+    return r1, den, count + 1, scale
+
+
+def alpha_from_phase_lag1(
+    phase_stats: tuple[float, float, int, float],
+    rate_stats: tuple[np.ndarray, np.ndarray, np.ndarray, float] | None,
+    *,
+    dmax: int = 2,
+) -> int | None:
+    """SP 1065 lag-1 rule for phase data: order 0 on the decimated phase, then the rate.
+
+    Parameters
+    ----------
+    phase_stats : tuple
+        ``(r1, den, size, scale)`` of :func:`decimated_phase_lag1`.
+    rate_stats : tuple or None
+        ``(r1, den, sizes, scale)`` of the linearly detrended cluster sums for difference
+        orders ``0 .. dmax - 1`` (the phase's orders ``1 .. dmax``); ``None`` asks only
+        whether order 0 decides (the return value is then ``None`` if it does not).
+    dmax : int
+        2 (Allan) or 3 (Hadamard).
+
+    Returns
+    -------
+    int or None
+        ``alpha`` clamped to the statistic's range.
+
+    Raises
+    ------
+    NoiseIdError
+        A degenerate series.
+    """
+    r1, den, size, scale = phase_stats
+    floor = (1e3 * np.finfo(np.float64).eps * scale) ** 2
+    if den > floor * size and r1 > -1.0:
+        delta = r1 / (1.0 + r1)
+        if delta < 0.25:
+            return clamp_alpha(2 - np.rint(2.0 * delta), dmax)
+    if rate_stats is None:
+        return None
+    r1s, dens, sizes, rscale = rate_stats
+    alpha = alpha_from_lag1(r1s, dens, sizes, rscale, data_type="rate", dmax=r1s.size - 1)[0]
+    return clamp_alpha(alpha, dmax)
