@@ -22,3 +22,24 @@ def assert_one_line_error(code, out, err, *fragments):
     assert "Traceback" not in err
     for fragment in fragments:
         assert fragment in lines[0], lines[0]
+
+
+def patch_cli(monkeypatch, name, value):
+    """Set ``name`` to ``value`` in every ``adavar.cli`` module, and in
+    :mod:`adavar.analysis`, that has it (the commands import the library functions they
+    call, so each of them holds its own reference)."""
+    import importlib
+    import pkgutil
+
+    import adavar.cli
+
+    hit = False
+    names = [f"adavar.cli.{i.name}" for i in pkgutil.iter_modules(adavar.cli.__path__)]
+    for module_name in ["adavar.analysis", *names]:  # the pipeline the commands call, too
+        if module_name.endswith("__main__"):
+            continue
+        module = importlib.import_module(module_name)
+        if hasattr(module, name):
+            monkeypatch.setattr(module, name, value)
+            hit = True
+    assert hit, f"no adavar.cli module has {name!r}"

@@ -26,7 +26,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar import batch, cli, simulate
+from adavar import batch, cli, simulate, writers
 from adavar.batch import (
     BATCH_MARKER,
     SUMMARY_COLUMNS,
@@ -426,7 +426,7 @@ def test_a_failed_write_leaves_no_half_written_folder(small_records, tmp_path, m
         assert (path.parent / "report.html").is_file()  # written, then the failure
         raise failure("disk full")
 
-    monkeypatch.setattr(cli, "_write_csv", broken)
+    monkeypatch.setattr(writers, "write_deviation_csv", broken)
     out = tmp_path / "out"
     code, text, _ = _batch_small(small_records, out)
     if failure is KeyboardInterrupt:

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar import cli, simulate
+from adavar import simulate
 from adavar.io import read_text
 
-from .cli_helpers import assert_one_line_error, run
+from .cli_helpers import assert_one_line_error, patch_cli, run
 
 RATE = 10.0
 STD = 0.5
@@ -314,7 +314,7 @@ def test_internal_error_exit_1_without_traceback(capsys, white_csv, monkeypatch)
     def broken(*args, **kwargs):
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(cli, "deviation", broken)
+    patch_cli(monkeypatch, "deviation", broken)
     monkeypatch.delenv("ADAVAR_DEBUG", raising=False)
     code, _, err = run(capsys, avar_args(white_csv))
     assert code == 1

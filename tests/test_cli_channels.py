@@ -13,9 +13,10 @@ import json
 import numpy as np
 import pytest
 
-from adavar import cli
+from adavar.cli import davar as cli_davar
+from adavar.cli import output as cli_output
 
-from .cli_helpers import assert_one_line_error, run
+from .cli_helpers import assert_one_line_error, patch_cli, run
 
 RATE = 10.0
 N_SAMPLES = 2000
@@ -201,7 +202,7 @@ def test_bad_channels_exit_2_and_no_output(capsys, imu_csv, tmp_path, argv, frag
 
 def test_failure_in_a_later_channel_leaves_no_folder(capsys, imu_csv, tmp_path, monkeypatch):
     calls = []
-    real = cli.write_surface
+    real = cli_davar.write_surface
 
     def flaky(path, result, fmt):
         calls.append(path)
@@ -209,7 +210,7 @@ def test_failure_in_a_later_channel_leaves_no_folder(capsys, imu_csv, tmp_path, 
             raise OSError(28, "No space left on device")
         return real(path, result, fmt=fmt)
 
-    monkeypatch.setattr(cli, "write_surface", flaky)
+    patch_cli(monkeypatch, "write_surface", flaky)
     out = tmp_path / "out"
     code, stdout, err = run(capsys, davar_argv(imu_csv, "gx,gy", "--out", str(out)))
     assert_one_line_error(code, stdout, err, "No space left on device")
@@ -217,7 +218,7 @@ def test_failure_in_a_later_channel_leaves_no_folder(capsys, imu_csv, tmp_path, 
 
 
 def test_channel_folders_are_distinct():
-    folders = cli._channel_folders(["a b", "a_b", "A_B", "result.json", "x/y", "..", "gx"])
+    folders = cli_output.channel_folders(["a b", "a_b", "A_B", "result.json", "x/y", "..", "gx"])
     assert folders["a b"] == "a_b" and folders["gx"] == "gx"
     assert len({f.lower() for f in folders.values()}) == len(folders)
     assert "result.json" not in {f.lower() for f in folders.values()}

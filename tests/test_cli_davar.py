@@ -16,10 +16,10 @@ import xarray as xr
 from scipy.io import netcdf_file
 
 import adavar
-from adavar import cli, simulate
+from adavar import simulate
 from adavar.io import read_text
 
-from .cli_helpers import assert_one_line_error, run
+from .cli_helpers import assert_one_line_error, patch_cli, run
 
 RATE = 10.0
 STD = 0.5
@@ -393,7 +393,7 @@ def test_parquet_without_pyarrow_fails_before_the_work(capsys, gyro_csv, tmp_pat
 
     monkeypatch.setitem(sys.modules, "pyarrow", None)
     monkeypatch.setitem(sys.modules, "pyarrow.parquet", None)
-    monkeypatch.setattr(cli, "davar", never)
+    patch_cli(monkeypatch, "davar", never)
     out_dir = tmp_path / "out"
     code, out, err = run(capsys, davar_args(gyro_csv, "--out", str(out_dir), "--format",
                                             "parquet"))  # fmt: skip
@@ -405,7 +405,7 @@ def test_failure_while_writing_leaves_no_folder(capsys, gyro_csv, tmp_path, monk
     def broken(*args, **kwargs):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(cli, "write_surface", broken)
+    patch_cli(monkeypatch, "write_surface", broken)
     out_dir = tmp_path / "out"
     code, out, err = run(capsys, davar_args(gyro_csv, "--out", str(out_dir), "--step", "50",
                                             "--taus", "octave"))  # fmt: skip
@@ -418,7 +418,7 @@ def test_internal_error_exit_1(capsys, gyro_csv, monkeypatch):
     def broken(*args, **kwargs):
         raise RuntimeError("boom")
 
-    monkeypatch.setattr(cli, "davar", broken)
+    patch_cli(monkeypatch, "davar", broken)
     monkeypatch.delenv("ADAVAR_DEBUG", raising=False)
     code, _, err = run(capsys, davar_args(gyro_csv))
     assert code == 1

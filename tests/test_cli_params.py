@@ -23,7 +23,7 @@ import adavar
 from adavar import cli, readers, simulate
 from adavar.plots import rate_unit
 
-from .cli_helpers import run
+from .cli_helpers import patch_cli, run
 
 compare_module = importlib.import_module("adavar.compare")  # adavar.compare is the function
 
@@ -136,6 +136,20 @@ def test_chunk_size_flag_on_the_commands_that_read_records():
 # --------------------------------------------------------------------------------------
 
 
+def _cli_function(name: str) -> Any:
+    """The library function ``name`` as the command modules import it."""
+    import importlib
+    import pkgutil
+
+    for info in pkgutil.iter_modules(cli.__path__):
+        if info.name == "__main__":
+            continue
+        module = importlib.import_module(f"adavar.cli.{info.name}")
+        if callable(getattr(module, name, None)):
+            return getattr(module, name)
+    raise AssertionError(f"no adavar.cli module uses {name}")
+
+
 class Stop(Exception):
     """Raised by a recorder: the command ends there (exit 1, an 'internal error')."""
 
@@ -144,7 +158,7 @@ def recorder(monkeypatch, owner: Any, name: str, returns: Any = None) -> dict[st
     """Replace ``owner.name`` by a function that records its arguments by name (and then
     raises :class:`Stop`, or returns ``returns``). Keywords the real function does not have
     yet are recorded too (the CLI may pass them ahead of the library)."""
-    real = getattr(owner, name)
+    real = getattr(owner, name) if owner is not cli else _cli_function(name)
     params = inspect.signature(real).parameters
     seen: dict[str, Any] = {}
 
@@ -160,7 +174,10 @@ def recorder(monkeypatch, owner: Any, name: str, returns: Any = None) -> dict[st
         return returns
 
     fake.__wrapped__ = real  # inspect.signature(fake) is the real function's
-    monkeypatch.setattr(owner, name, fake)
+    if owner is cli:  # every command module holds its own reference
+        patch_cli(monkeypatch, name, fake)
+    else:
+        monkeypatch.setattr(owner, name, fake)
     return seen
 
 
@@ -440,3 +457,14 @@ def test_compare_bad_flags(capsys, argv, fragment):
 def test_truth_column_is_for_a_file(capsys, record):
     code, _, err = run(capsys, ["compare", "--scenario", "1", "--truth-column", "truth"])
     assert code == 2 and "--truth-column describes a data FILE" in err
+
+
+def test_report_parser_defaults_are_the_analysis_defaults():
+    """adavar.settings holds every analysis default once; the parser agrees with it."""
+    from adavar.settings import ANALYSIS_DEFAULTS
+
+    args = cli.build_parser().parse_args(["report", "FILE", "-o", "report.html"])
+    cli_only = {"command", "handler", "file", "output", "json", "force", "title", "config",
+                "debug", "help"}  # fmt: skip
+    parsed = {k: v for k, v in vars(args).items() if k not in cli_only}
+    assert parsed == ANALYSIS_DEFAULTS

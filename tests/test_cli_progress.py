@@ -12,7 +12,7 @@ from functools import partial
 import numpy as np
 import pytest
 
-from adavar import cli
+from adavar.cli.output import Status
 
 from .cli_helpers import run
 
@@ -91,7 +91,7 @@ def test_status_on_a_terminal_only(capsys, monkeypatch, tmp_path, files, quick_d
     assert code == 0, plain_err
     assert plain_err == ""  # not a terminal: nothing but the results
 
-    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
     (tmp_path / "tty").mkdir()
     argv, _ = commands(files, tmp_path / "tty")[name]
     code, out, err = run(capsys, argv)
@@ -108,7 +108,7 @@ def test_status_on_a_terminal_only(capsys, monkeypatch, tmp_path, files, quick_d
 
 
 def test_a_failed_command_erases_its_status_line(capsys, monkeypatch, files):
-    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
     code, out, err = run(capsys, ["davar", str(files["two"]), "--units", "deg/s", "--column",
                                   "gx", "--window", "5000"])  # fmt: skip
     assert code == 2 and out == ""
@@ -118,8 +118,8 @@ def test_a_failed_command_erases_its_status_line(capsys, monkeypatch, files):
 
 
 def test_long_channel_names_are_cut_to_one_line(capsys, monkeypatch):
-    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
-    status = cli._Status()
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    status = Status()
     status("x" * 200)
     status.close()
     status.close()  # a second close writes nothing more

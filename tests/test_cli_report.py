@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 import pytest
 
-from adavar import cli
+from adavar.cli.output import ProgressBar, Status
 
 from .cli_helpers import run
 
@@ -187,11 +188,11 @@ def test_config_file_sets_options_and_flags_override(capsys, step_csv, tmp_path)
 
 
 def test_progress_bar_only_on_a_terminal(capsys, monkeypatch):
-    bar = cli._ProgressBar("work")
+    bar = ProgressBar("work")
     bar(1, 4)
     assert capsys.readouterr().err == ""  # pytest's stderr is not a terminal
-    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
-    bar = cli._ProgressBar("work")
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    bar = ProgressBar("work")
     bar(1, 4)
     bar.close()
     err = capsys.readouterr().err
@@ -235,11 +236,11 @@ def test_noise_type_and_t0_flags(capsys, step_csv):
 
 
 def test_status_line_only_on_a_terminal(capsys, monkeypatch):
-    status = cli._Status()
+    status = Status()
     status("reading")
     assert capsys.readouterr().err == ""
-    monkeypatch.setattr(cli.sys.stderr, "isatty", lambda: True, raising=False)
-    status = cli._Status()
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True, raising=False)
+    status = Status()
     status("reading")
     status.close()
     err = capsys.readouterr().err

@@ -123,11 +123,11 @@ _ADDRESS = re.compile(r"^(?:[a-z][a-z0-9+]*://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]
 
 @functools.cache
 def _report_defaults() -> tuple[tuple[str, Any], ...]:
-    """The analysis options of ``adavar report`` and their defaults, from its own parser."""
-    from adavar.cli import build_parser
+    """The analysis options of ``adavar report`` and their defaults (one definition:
+    :data:`adavar.settings.ANALYSIS_DEFAULTS`, which the command line's parser agrees with)."""
+    from adavar.settings import ANALYSIS_DEFAULTS
 
-    args = build_parser().parse_args(["report", "FILE", "-o", "report.html"])
-    return tuple(sorted((k, v) for k, v in vars(args).items() if k not in _CLI_ONLY))
+    return tuple(sorted(ANALYSIS_DEFAULTS.items()))
 
 
 def report_options(
@@ -303,10 +303,10 @@ class ReportAnalysis:
 
     def _fixed_window_events(self) -> dict[str, Any]:
         from adavar.adaptive import adaptive_schedule
-        from adavar.cli import _controller_settings
+        from adavar.analysis import controller_settings
 
         length = int(self.options["window"])
-        settings = _controller_settings(argparse.Namespace(**self.options))
+        settings = controller_settings(argparse.Namespace(**self.options))
         settings.update(lmax=length, lmin=length)
         rule = (f"runs of window centres where the adaptive controller's test flags the "
                 f"fixed {length}-sample window")  # fmt: skip
@@ -365,17 +365,17 @@ def analyse_file(
     Raises
     ------
     AdavarInputError
-        An unreadable or bad file, or bad options (also ``adavar.cli.UsageError`` for the
-        options the command line checks: a missing unit, both rate and tau0, ...).
+        An unreadable or bad file, or bad options (a missing unit, both rate and tau0,
+        ...).
     """
-    from adavar.cli import _load, _report_channel
+    from adavar.analysis import analyse_channel, load_input
 
     opts = report_options(options, ignore_unknown=isinstance(options, argparse.Namespace))
     args = argparse.Namespace(file=os.fspath(path), **opts)
     # as adavar report: read (sets args.rate / args.tau0 as every command does), then the
     # channel's deviation, fit and surface by the report's own function
     chosen = args.column is not None
-    loaded, meta, units_of, tau0 = _load(args, several=chosen, pieces=False)
+    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False)
     if chosen:
         if len(loaded) != 1:
             raise AdavarInputError(
@@ -387,7 +387,7 @@ def analyse_file(
         samples, units = loaded[name], units_of[name]
     else:
         samples, units = loaded, units_of
-    run = _report_channel(args, samples, units, tau0, lambda what: None, "")
+    run = analyse_channel(args, samples, units, tau0, lambda what: None, "")
     rate_kw = dict(
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,
@@ -567,9 +567,9 @@ def _one_line(exc: BaseException) -> str:
 
 def _plain(obj: Any) -> Any:
     """JSON-ready objects (NaN and inf as None), compared after a JSON round trip."""
-    from adavar.cli import _jsonable
+    from adavar.writers import jsonable
 
-    return json.loads(json.dumps(_jsonable(obj), allow_nan=False))
+    return json.loads(json.dumps(jsonable(obj), allow_nan=False))
 
 
 def _worker_name() -> str:
@@ -614,14 +614,13 @@ def _write_outputs(
     """``report.html`` (if ``html``), ``deviation.csv`` and last ``result.json``, into one
     new folder."""
     from adavar import __version__
-    from adavar.cli import _dumps, _write_csv
-    from adavar.io import atomic_directory
+    from adavar.writers import atomic_directory, dumps, write_deviation_csv
 
     page = analysis.html() if html else None
     with atomic_directory(target, replace=True) as tmp:
         if page is not None:
             (tmp / "report.html").write_text(page, encoding="utf-8")
-        _write_csv(
+        write_deviation_csv(
             tmp / "deviation.csv", analysis.deviation,
             f"adavar {__version__}: oadev of {analysis.meta['path']} column "
             f"{analysis.meta['column']!r}; {analysis.options['data_type']} data, tau0 = "
@@ -630,7 +629,7 @@ def _write_outputs(
         row["elapsed_s"] = time.perf_counter() - start
         payload["elapsed_s"] = row["elapsed_s"]
         payload["summary"] = row
-        (tmp / "result.json").write_text(_dumps(payload) + "\n", encoding="utf-8")
+        (tmp / "result.json").write_text(dumps(payload) + "\n", encoding="utf-8")
 
 
 def _process_file(
@@ -642,7 +641,7 @@ def _process_file(
     stop the batch.
     """
     from adavar import __version__
-    from adavar.cli import UsageError, _fit_json
+    from adavar.writers import fit_json as _fit_json
 
     start = time.perf_counter()
     worker = _worker_name()
@@ -679,7 +678,7 @@ def _process_file(
         }  # fmt: skip
         _write_outputs(Path(out) / name, analysis, payload, start, row, html)
         return row
-    except (AdavarInputError, UsageError) as exc:
+    except AdavarInputError as exc:
         error_type, message = "input", _one_line(exc)
     except Exception as exc:  # a bug in one file's task is that file's row, not the batch's
         error_type, message = "internal", f"{type(exc).__name__}: {_one_line(exc)}"
@@ -868,7 +867,7 @@ def _write_summary(
 ) -> tuple[Path, Path | None]:
     from adavar import __version__
     from adavar.export import write_table_csv
-    from adavar.io import atomic_file
+    from adavar.writers import atomic_file
 
     csv_path = write_table_csv(
         out / "summary.csv", rows, SUMMARY_COLUMNS,

@@ -6,7 +6,7 @@ a failure leaves any earlier file untouched. :func:`coefficient_rows` turns a
 :class:`adavar.noise_model.NoiseFit` into the table of the five noise terms, in the data's
 own units and in the conventional ones. :func:`kalibr_imu_yaml` writes the IMU noise file of
 the Kalibr camera-IMU calibrator from the fits of a 6-axis static recording. The DAVAR
-surface is written by :func:`adavar.io.write_surface` (NetCDF or Parquet).
+surface is written by :func:`adavar.writers.write_surface` (NetCDF or Parquet).
 
 Every problem with the user's input raises :class:`adavar.errors.AdavarInputError` with a
 one-line message that names the problem and the way out.
@@ -28,13 +28,13 @@ from typing import Any
 import numpy as np
 
 from adavar.errors import AdavarInputError
-from adavar.io import atomic_file
 from adavar.units import (
     TERM_TIME_POWER,
     conventional_units,
     convert_coefficient,
     rate_unit_info,
 )
+from adavar.writers import atomic_file
 
 __all__ = [
     "COEFFICIENT_COLUMNS",

@@ -33,7 +33,6 @@ from typing import Any
 
 import numpy as np
 
-from adavar.io import atomic_file
 from adavar.noise_model import TERM_NAMES
 from adavar.plots import (
     STAT_NAMES,
@@ -44,6 +43,7 @@ from adavar.plots import (
     term_unit,
 )
 from adavar.units import conventional_units, convert_coefficient
+from adavar.writers import atomic_file
 
 __all__ = [
     "MAX_SERIES_POINTS",

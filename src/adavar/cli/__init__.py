@@ -1,0 +1,33 @@
+"""The ``adavar`` command line.
+
+Commands
+--------
+``adavar avar FILE --rate HZ --units UNIT [...]``
+    Allan-family deviation of one column of a text file, with confidence intervals, and
+    optionally the IEEE Std 952 noise fit; a table, JSON, or an output folder.
+``adavar davar FILE --rate HZ --units UNIT --window L [...]``
+    The dynamic Allan variance of a sliding window and the noise coefficients of every
+    window over time (N(t), B(t), ...); a summary, JSON, or an output folder with the
+    surface (NetCDF or Parquet), the coefficients (CSV) and the figures.
+``adavar compare (FILE --rate HZ --units UNIT | --scenario 1|2) [--seeds N] [...]``
+    DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR on the same record: the node times around
+    each change next to the paper's Table 1, ARW interval means, ground-truth confidence
+    and tracking metrics (simulated scenarios), the kurtosis threshold crossings (Fig. 8);
+    ``--out`` writes the tables (CSV, JSON) and the paper's figures.
+``adavar demo [--out DIR] [--json] [--seed N]``
+    The NIST SP 1065 check values, a simulated MEMS gyroscope and the paper's scenario 1.
+
+``avar``, ``davar``, ``adaptive`` and ``report`` analyse several channels one by one with
+``--column gx,gy,gz`` (``avar``: every numeric column by default); on a terminal every
+command shows what it is doing on one status line of stderr (nothing when stderr is not a
+terminal).
+
+Exit codes: 0 success, 1 internal error (a bug: the traceback with ``--debug`` or
+``ADAVAR_DEBUG=1``), 2 a user mistake (bad flag, unreadable file, bad data), reported as
+one line ``adavar: error: ...`` on stderr. 130 when interrupted.
+
+Only this module prints; the library functions it calls return data."""
+
+from adavar.cli.main import build_parser, main
+
+__all__ = ["build_parser", "main"]

@@ -1,0 +1,233 @@
+"""``adavar avar``: the deviation table and the noise fit of a whole record."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adavar import __version__
+from adavar.analysis import chunk_keywords, fit_keywords, load_input
+from adavar.cli.options import (
+    EXIT_OK,
+    UsageError,
+    add_chunk_argument,
+    add_fit_arguments,
+    add_input_arguments,
+    add_output_arguments,
+    parse_confidence,
+    parse_taus,
+    parse_terms,
+    positive_int,
+)
+from adavar.cli.output import (
+    Status,
+    deviation_table,
+    fit_lines,
+    guard_replacement,
+    output_error,
+    safe_name,
+)
+from adavar.errors import AdavarInputError
+from adavar.noise_model import ALLAN_STATS, fit_noise
+from adavar.statistics import STATISTICS, deviation
+from adavar.writers import (
+    atomic_directory,
+    check_output_directory,
+    deviation_json,
+    dumps,
+    fit_json,
+    write_deviation_csv,
+)
+
+
+def _cmd_avar(args: argparse.Namespace) -> int:
+    do_fit = args.fit or args.terms is not None
+    if do_fit and args.stat not in ALLAN_STATS:
+        raise UsageError(
+            f"--fit needs an Allan statistic ({', '.join(sorted(ALLAN_STATS))}), not "
+            f"--stat {args.stat}"
+        )
+    if args.out is not None:
+        check_output_directory(args.out, replace=args.force)
+        guard_replacement(args.out, [Path(args.file)])
+
+    status = Status()
+    status(f"reading {args.file}")
+    channels, meta, units_of, tau0 = load_input(args, several=True, out_of_core=True)
+    runs = []
+    for k, (name, samples) in enumerate(channels.items()):
+        meta_c = {**meta, "column": name}
+        tag = f"{name} ({k + 1}/{len(channels)}): " if len(channels) > 1 else ""
+        runs.append(_avar_channel(args, samples, meta_c, units_of[name], tau0, do_fit,
+                                  status, tag))  # fmt: skip
+    several = len(runs) > 1
+    if several:
+        payload: dict[str, Any] = {
+            "adavar_version": __version__,
+            "input": {"file": meta["path"], "columns": list(channels), "rate": 1.0 / tau0,
+                      "tau0": tau0, "data_type": args.data_type},
+            "channels": {run["name"]: run["payload"] for run in runs},
+        }  # fmt: skip
+    else:
+        payload = runs[0]["payload"]
+    if meta["preprocessing"]:
+        payload.setdefault("input", {})["preprocessing"] = [
+            step.get("spec", str(step)) for step in meta["preprocessing"]
+        ]
+    text = dumps(payload)
+
+    written: list[str] = []
+    if args.out is not None:
+        from adavar.plots import deviation_figure, save_figure
+
+        try:
+            with atomic_directory(args.out, replace=args.force) as tmp:
+                for run in runs:
+                    status(f"writing {args.out}: {run['name']}")
+                    prefix = f"{safe_name(run['name'])}_" if several else ""
+                    write_deviation_csv(
+                        tmp / f"{prefix}deviation.csv", run["result"], run["comment"]
+                    )
+                    fig = deviation_figure(run["result"], run["fit"], title=run["title"])
+                    save_figure(fig, tmp / f"{prefix}deviation")
+                    written += [f"{prefix}deviation.csv", f"{prefix}deviation.png",
+                                f"{prefix}deviation.svg"]  # fmt: skip
+                (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
+                written.append("result.json")
+        except OSError as exc:
+            raise output_error(args.out, exc) from None
+    status.close()
+
+    if args.json:
+        print(text)
+        if written:
+            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
+        return EXIT_OK
+    for k, run in enumerate(runs):
+        if k:
+            print()
+        print("\n".join(run["lines"]))
+    if written:
+        print()
+        print(f"wrote {args.out}/ ({', '.join(written)})")
+    return EXIT_OK
+
+
+def _avar_channel(
+    args: argparse.Namespace, samples: np.ndarray, meta: dict[str, Any], units: str,
+    tau0: float, do_fit: bool, status: Status | None = None, tag: str = "",
+) -> dict[str, Any]:  # fmt: skip
+    """The deviation (and fit) of one channel: results, JSON payload and printed lines."""
+    from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
+
+    status = status or Status()
+    rate_u = rate_unit(units, args.data_type)
+    status(f"{tag}computing the {args.stat} of {samples.size} samples")
+    result = deviation(
+        samples,
+        stat=args.stat,
+        tau0=tau0,
+        data_type=args.data_type,
+        taus=args.taus,
+        confidence=args.confidence,
+        points_per_decade=args.points_per_decade,
+        units=rate_u,
+        **chunk_keywords(args),
+    )
+    fit = None
+    if do_fit:
+        status(f"{tag}fitting the noise terms")
+        try:
+            fit = fit_noise(result, **fit_keywords(args))
+        except ValueError as exc:
+            raise AdavarInputError(f"column {meta['column']!r}: {exc}") from None
+    payload: dict[str, Any] = {
+        "adavar_version": __version__,
+        "input": {
+            "file": meta["path"],
+            "column": meta["column"],
+            "rate": 1.0 / tau0,
+            "tau0": tau0,
+            "units": units,
+            "data_type": args.data_type,
+            "n_samples": result.n_samples,
+        },
+        "units": deviation_unit(args.stat, rate_u),
+        **deviation_json(result),
+    }
+    if fit is not None:
+        payload["fit"] = fit_json(fit)
+    dev_u = deviation_unit(args.stat, rate_u)
+    lines = [
+        f"{meta['path']}, column {meta['column']!r}: {result.n_samples} samples, "
+        f"{args.data_type} data in {units}, tau0 = {tau0:g} s ({1.0 / tau0:g} Hz)",
+        f"{STAT_NAMES[args.stat]} ({args.stat.upper()})"
+        + (f" [{dev_u}]" if dev_u else "")
+        + f", {100 * result.confidence:.1f} % confidence intervals",
+        deviation_table(result),
+    ]
+    lines += [f"note: {note}" for note in result.notes]
+    if result.dev.size and not np.any(result.dev):  # a constant column (no full pass)
+        lines.append(f"note: column {meta['column']!r} is constant: its deviation is 0")
+    if fit is not None:
+        lines += ["", *fit_lines(fit)]
+    return {
+        "name": meta["column"], "result": result, "fit": fit, "payload": payload,
+        "lines": lines, "title": f"{Path(meta['path']).name}, column {meta['column']}",
+        "comment": f"adavar {__version__}: {args.stat} of {meta['path']} column "
+        f"{meta['column']!r}; {args.data_type} data, tau0 = {tau0:g} s, deviation in "
+        f"{dev_u or 'data units'}",
+    }  # fmt: skip
+
+
+def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``adavar avar`` to the sub-command parsers ``sub``."""
+    avar = sub.add_parser(
+        "avar",
+        help="deviation (and noise fit) of one column of a text file",
+        description="Allan-family deviation of one column of a CSV/TSV/whitespace text file, "
+        "with confidence intervals, and optionally the fit of the IEEE Std 952 noise terms. "
+        "The sampling rate and the unit of the samples are required: adavar never guesses "
+        "them.",
+    )
+    add_input_arguments(avar)
+    avar.add_argument(
+        "--stat", default="oadev", choices=STATISTICS, help="statistic (default: oadev)"
+    )
+    avar.add_argument(
+        "--data-type", default="rate", choices=("rate", "phase"),
+        help="rate samples (gyro rate, acceleration, fractional frequency) or their "
+        "integral (angle, velocity, time error); default: rate",
+    )  # fmt: skip
+    avar.add_argument(
+        "--taus", default="octave", type=parse_taus, metavar="SPEC",
+        help="octave (default), all, decade, log, or comma-separated taus in seconds",
+    )  # fmt: skip
+    avar.add_argument(
+        "--points-per-decade", default=10, type=positive_int, metavar="K",
+        help="density of --taus log (default: 10)",
+    )  # fmt: skip
+    avar.add_argument(
+        "--confidence", default=0.683, type=parse_confidence, metavar="P",
+        help="two-sided confidence level of the intervals (default: 0.683)",
+    )  # fmt: skip
+    avar.add_argument("--fit", action="store_true", help="fit the IEEE Std 952 noise terms")
+    avar.add_argument(
+        "--terms", type=parse_terms, metavar="LIST",
+        help="comma-separated terms of the fit (names or Q,N,B,K,R; default: all five); "
+        "implies --fit",
+    )  # fmt: skip
+    add_fit_arguments(avar)
+    add_chunk_argument(avar)
+    avar.add_argument("--json", action="store_true", help="print one JSON object")
+    add_output_arguments(
+        avar,
+        "also write deviation.csv, result.json and the figure deviation.png/.svg to "
+        "this new folder",
+    )
+    avar.set_defaults(handler=_cmd_avar)
+    return avar

@@ -1,0 +1,525 @@
+"""``adavar davar`` and ``adavar adaptive``: the dynamic Allan variance and N(t), B(t), ..."""
+
+from __future__ import annotations
+
+import argparse
+import io as _stdio
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adavar import __version__
+from adavar.adaptive import adaptive_davar
+from adavar.analysis import chunk_keywords, controller_settings, fit_keywords, load_input
+from adavar.cli.options import (
+    EXIT_OK,
+    TERM_FILES,
+    UsageError,
+    add_controller_arguments,
+    add_input_arguments,
+    add_output_arguments,
+    add_surface_arguments,
+    seconds_list,
+    window_length,
+)
+from adavar.cli.output import Status, channel_folders, guard_replacement, output_error, text_table
+from adavar.davar import davar
+from adavar.errors import AdavarInputError
+from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
+from adavar.results import DavarResult
+from adavar.windows import MIN_WINDOW
+from adavar.writers import (
+    SURFACE_FORMATS,
+    atomic_directory,
+    check_output_directory,
+    check_surface_format,
+    conventional,
+    dumps,
+    write_surface,
+)
+
+
+def _series_stats(values: Any, times: np.ndarray) -> dict[str, Any]:
+    """Median, 5th/95th percentiles, extremes (with their times) and mean of a time series,
+    over its finite values (None where there are none)."""
+    v = np.asarray(values, dtype=float).reshape(-1)
+    ok = np.isfinite(v)
+    keys = ("median", "p05", "p95", "min", "max", "mean", "time_of_min", "time_of_max")
+    if not ok.any():
+        return {"n": 0, **dict.fromkeys(keys)}
+    where = np.flatnonzero(ok)
+    finite = v[ok]
+    p05, median, p95 = np.percentile(finite, [5.0, 50.0, 95.0])
+    return {
+        "n": int(finite.size),
+        "median": float(median),
+        "p05": float(p05),
+        "p95": float(p95),
+        "min": float(finite.min()),
+        "max": float(finite.max()),
+        "mean": float(finite.mean()),
+        "time_of_min": float(times[where[np.argmin(finite)]]),
+        "time_of_max": float(times[where[np.argmax(finite)]]),
+    }
+
+
+def _fitted_windows(fit: NoiseFit) -> np.ndarray:
+    """True for every window whose fit succeeded (all coefficients finite)."""
+    return np.all(np.isfinite(np.asarray(fit.coefficients)), axis=-1).reshape(-1)
+
+
+def _davar_fit_json(fit: NoiseFit, times: np.ndarray) -> dict[str, Any]:
+    from adavar.plots import term_unit
+
+    conv = conventional(fit)
+    fitted = _fitted_windows(fit)
+    terms: dict[str, Any] = {}
+    for name in TERM_NAMES:
+        if name not in fit.terms:
+            terms[name] = None
+            continue
+        term = fit.term(name)
+        terms[name] = {
+            "unit": term_unit(name, fit.units),
+            "value": _series_stats(term.value, times),
+            "uncertainty": _series_stats(term.uncertainty, times),
+            "conventional": None
+            if conv is None
+            else {"unit": conv[name].unit, "value": _series_stats(conv[name].value, times)},
+        }
+    return {
+        "terms": list(fit.terms),
+        "n_windows": int(fitted.size),
+        "n_fitted": int(np.count_nonzero(fitted)),
+        "coefficients": terms,
+        "reduced_chi2": _series_stats(fit.reduced_chi2, times),
+    }
+
+
+def _coefficient_term(fit: NoiseFit) -> str:
+    """The term drawn in the coefficient figure: N if fitted, else the first fitted term."""
+    return "angle_random_walk" if "angle_random_walk" in fit.terms else fit.terms[0]
+
+
+def _write_coefficients(path: Path, result: DavarResult, fit: NoiseFit, comment: str) -> None:
+    columns: list[tuple[str, Any]] = [("time_s", result.time), ("window", result.window)]
+    for name in fit.terms:
+        term = fit.term(name)
+        columns += [(name, term.value), (f"{name}_uncertainty", term.uncertainty)]
+    columns.append(("reduced_chi2", fit.reduced_chi2))
+    lists = [np.asarray(values).reshape(-1).tolist() for _, values in columns]
+    buffer = _stdio.StringIO()
+    buffer.write(f"# {comment}\n")
+    buffer.write(",".join(name for name, _ in columns) + "\n")
+    # str() of a Python float is its shortest round-trip form, as repr()
+    buffer.writelines(",".join(map(str, row)) + "\n" for row in zip(*lists, strict=True))
+    path.write_text(buffer.getvalue(), encoding="utf-8")
+
+
+def _davar_summary(
+    result: DavarResult, fit: NoiseFit | None, meta: dict[str, Any], units: str,
+    data_type: str, written: list[str], out: str | None,
+) -> list[str]:  # fmt: skip
+    from adavar.plots import TERM_LABELS, term_unit
+
+    tau0 = float(result.tau0)
+    window = np.asarray(result.window)
+    n_time, n_tau = np.shape(result.avar)
+    every = "every sample" if result.step == 1 else f"every {result.step} samples"
+    bounds = (
+        "no confidence bounds"
+        if result.avar_low is None
+        else f"{100 * result.confidence:.1f} % confidence bounds"
+    )
+    lines = [
+        f"{meta['path']}, column {meta['column']!r}: {result.n_samples} samples, "
+        f"{data_type} data in {units}, tau0 = {tau0:g} s ({1.0 / tau0:g} Hz), "
+        f"{result.n_samples * tau0:g} s",
+        (
+            f"Dynamic Allan deviation: window {int(window[0])} samples "
+            f"({int(window[0]) * tau0:g} s)"
+            if not hasattr(result, "method")
+            else f"Adaptive dynamic Allan deviation ({result.method}): window "
+            f"{int(window.min())} .. {int(window.max())} samples, shorter than "
+            f"{result.parameters['lmax']} at {np.mean(window < result.parameters['lmax']):.1%} "
+            "of the centres,"
+        )
+        + f" centred on {every}, {result.edges} edges: "
+        f"{n_time} window{'s' if n_time != 1 else ''} ({result.time[0]:g} s .. "
+        f"{result.time[-1]:g} s) x {n_tau} tau{'s' if n_tau != 1 else ''} "
+        f"({result.tau[0]:g} s .. {result.tau[-1]:g} s), {bounds}",
+    ]
+    lines += [f"note: {note}" for note in result.notes]
+    if fit is None:
+        lines.append("(no noise fit: --confidence none computes no EDF to weight it)")
+    else:
+        fitted = _fitted_windows(fit)
+        terms = "all five terms" if len(fit.terms) == 5 else ", ".join(fit.terms)
+        red = _series_stats(fit.reduced_chi2, result.time)["median"]
+        lines.append("")
+        lines.append(
+            f"Noise coefficients of every window ({terms}): {int(fitted.sum())} of "
+            f"{fitted.size} windows fitted; median reduced chi2 = "
+            + (f"{red:.3g}" if red is not None else "n/a")
+        )
+        if not fitted.all():
+            lines.append(
+                f"({fitted.size - int(fitted.sum())} windows not fitted, too few taus for the "
+                "terms: NaN; use more taus or fewer --terms)"
+            )
+        conv = conventional(fit)
+        times = np.asarray(result.time)
+
+        def row(label: str, unit: str | None, values: Any) -> list[str]:
+            st = _series_stats(values, times)
+            if st["n"] == 0:
+                return [label, unit or "", *(["n/a"] * 5)]
+            return [
+                label, unit or "1", f"{st['median']:.4g}", f"{st['p05']:.4g}",
+                f"{st['p95']:.4g}", f"{st['max']:.4g}", f"{st['time_of_max']:g}",
+            ]  # fmt: skip
+
+        rows = []
+        for name in fit.terms:
+            letter, long_name = TERM_LABELS[name]
+            rows.append(row(f"{letter}  {long_name}", term_unit(name, fit.units),
+                            fit.term(name).value))  # fmt: skip
+            if conv is not None:
+                rows.append(row("", conv[name].unit, conv[name].value))
+        headers = ["term", "unit", "median", "5 %", "95 %", "max", "max at t [s]"]
+        lines.append(text_table(headers, rows, "  "))
+        if fit.units and conv is None:
+            lines.append(
+                f"  (no conventional units for {fit.units!r}: declare deg/s, deg/h, rad/s, "
+                "m/s^2 or g to get them)"
+            )
+    if written:
+        lines += ["", f"wrote {out}/ ({', '.join(written)})"]
+    return lines
+
+
+def _schedule_of(result: Any) -> Any:
+    """The controller record of an AdaptiveResult as a Schedule (for the Fig. 10 panels)."""
+    from adavar.adaptive import Schedule, _fixed_thresholds, calibrated_thresholds
+
+    p = result.parameters
+    if p.get("thresholds") == "calibrated":
+        th = calibrated_thresholds(p["lmin"], p["lmax"], p["l"], false_alarm=p["false_alarm"])
+    else:
+        th = _fixed_thresholds(p["lmax"], p["k1"], p["k2"], p["s2"])
+    return Schedule(
+        window=result.window, kurtosis=result.kurtosis, s=result.s, f1=result.f1,
+        f2=result.f2, f=result.f, centre=result.centre, method=result.method,
+        thresholds=th, parameters=p,
+    )  # fmt: skip
+
+
+def _cmd_davar(args: argparse.Namespace) -> int:
+    if args.format is not None and args.out is None:
+        raise UsageError("--format chooses the surface file of --out: give --out DIR as well")
+    if args.confidence is None and args.terms is not None:
+        raise UsageError(
+            "--terms needs the confidence bounds (the fit is weighted by the EDF of every "
+            "cell): drop --confidence none"
+        )
+    fmt = check_surface_format(args.format or "nc")  # before the work: pyarrow installed?
+    if args.out is not None:
+        check_output_directory(args.out, replace=args.force)
+        guard_replacement(args.out, [Path(args.file)])
+
+    adaptive = args.command == "adaptive"
+    if adaptive and args.method == "oracle" and not args.change_times:
+        raise UsageError("--method oracle needs --change-times T,... (seconds)")
+    status = Status()
+    status(f"reading {args.file}")
+    # several channels only when --column names them: a surface of every numeric column
+    # (a temperature too) is too costly to be a default
+    chosen = args.column is not None
+    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False, out_of_core=True)
+    if not chosen:
+        loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
+    names = list(loaded)
+    several = len(names) > 1
+    folders = channel_folders(names) if several else {}
+    runs = []
+    for k, name in enumerate(names):
+        out = args.out if args.out is None or not several else f"{args.out}/{folders[name]}"
+        tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
+        runs.append(_davar_channel(args, loaded[name], {**meta, "column": name}, units_of[name],
+                                   tau0, fmt, out, status, tag))  # fmt: skip
+    if several:
+        payload: dict[str, Any] = {
+            "adavar_version": __version__,
+            "input": {"file": meta["path"], "columns": names, "rate": 1.0 / tau0, "tau0": tau0,
+                      "data_type": args.data_type},
+            "channels": {run["name"]: run["payload"] for run in runs},
+            "out": None if args.out is None else {"dir": args.out, "format": fmt,
+                                                  "folders": folders},
+        }  # fmt: skip
+        if meta["preprocessing"]:
+            payload["input"]["preprocessing"] = [
+                step.get("spec", str(step)) for step in meta["preprocessing"]
+            ]
+        text = dumps(payload)
+        written = [f"{folders[name]}/" for name in names] + ["result.json"]
+    else:
+        text = runs[0]["text"]
+        written = runs[0]["written"]
+
+    if args.out is not None:
+        try:
+            with atomic_directory(args.out, replace=args.force) as tmp:
+                for run in runs:
+                    dest = tmp
+                    if several:
+                        dest = tmp / folders[run["name"]]
+                        dest.mkdir()
+                    _write_davar_channel(args, run, dest, fmt, status)
+                if several:
+                    (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
+        except OSError as exc:
+            raise output_error(args.out, exc) from None
+    status.close()
+
+    if args.json:
+        print(text)
+        if args.out is not None:
+            print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
+        return EXIT_OK
+    for k, run in enumerate(runs):
+        if k:
+            print()
+        print("\n".join(_davar_summary(run["result"], run["fit"], run["meta"], run["units"],
+                                       args.data_type, [] if several else run["written"],
+                                       args.out)))  # fmt: skip
+    if several and args.out is not None:
+        print()
+        print(f"wrote {args.out}/ ({', '.join(written)}; in each folder: "
+              f"{', '.join(runs[0]['written'])})")  # fmt: skip
+    return EXIT_OK
+
+
+def _davar_channel(
+    args: argparse.Namespace, samples: np.ndarray, meta: dict[str, Any], units: str,
+    tau0: float, fmt: str, out: str | None, status: Status, tag: str,
+) -> dict[str, Any]:  # fmt: skip
+    """The (adaptive) DAVAR surface and its noise fit of one channel, with its JSON payload
+    and the names of the files its output folder ``out`` gets."""
+    from adavar.plots import rate_unit
+
+    adaptive = args.command == "adaptive"
+    rate_u = rate_unit(units, args.data_type)
+    status(f"{tag}computing the {'adaptive ' if adaptive else ''}DAVAR surface of "
+           f"{samples.size} samples")  # fmt: skip
+    common = dict(
+        # the rate as given: times are centre / rate, without 0.1-step rounding noise
+        rate=args.rate if args.rate is not None else 1.0,
+        tau0=None if args.rate is not None else tau0,
+        data_type=args.data_type,
+        taus=args.taus,
+        edges=args.edges,
+        step=args.step,
+        confidence=args.confidence,
+        points_per_decade=args.points_per_decade,
+        noise_type=args.noise_type,
+        t0=args.t0,
+        units=rate_u,
+        **chunk_keywords(args),
+    )
+    if adaptive:
+        result = adaptive_davar(
+            samples, method=args.method, change_times=args.change_times,
+            **controller_settings(args), **common,
+        )  # fmt: skip
+    else:
+        result = davar(samples, window=args.window, **common)
+    fit = None
+    if args.confidence is not None:
+        status(f"{tag}fitting the noise terms of every window")
+        try:
+            fit = fit_noise(result, **fit_keywords(args))
+        except ValueError as exc:
+            raise AdavarInputError(str(exc)) from None
+
+    written: list[str] = []
+    if out is not None:
+        written = [f"surface{SURFACE_FORMATS[fmt]}"]
+        if fit is not None:
+            written.append("coefficients.csv")
+        figure_stems = ["davar_surface", "davar_heatmap"]
+        if adaptive:
+            figure_stems.append("controller")
+        if fit is not None:
+            figure_stems.append(TERM_FILES[_coefficient_term(fit)])
+        written += [f"{stem}.{ext}" for stem in figure_stems for ext in ("png", "svg")]
+        written.append("result.json")
+
+    n_time, n_tau = np.shape(result.avar)
+    payload: dict[str, Any] = {
+        "adavar_version": __version__,
+        "input": {
+            "file": meta["path"],
+            "column": meta["column"],
+            "rate": 1.0 / tau0,
+            "tau0": tau0,
+            "units": units,
+            "data_type": args.data_type,
+            "n_samples": result.n_samples,
+        },
+        "parameters": {
+            "window": args.window,
+            "window_s": None if args.window is None else args.window * tau0,
+            "step": result.step,
+            "edges": result.edges,
+            "taus": args.taus,
+            "points_per_decade": args.points_per_decade,
+            "confidence": args.confidence,
+            "terms": None if fit is None else list(fit.terms),
+        },
+        "units": rate_u,
+        "shape": {"time": n_time, "tau": n_tau},
+        "time": {
+            "first": result.time[0],
+            "last": result.time[-1],
+            "spacing": result.step * tau0,
+        },
+        "tau": result.tau,
+        "m": result.m,
+        "alpha": result.alpha,
+        "notes": list(result.notes),
+        "fit": None if fit is None else _davar_fit_json(fit, np.asarray(result.time)),
+        "out": None if out is None else {"dir": out, "format": fmt, "files": written},
+    }
+    if meta["preprocessing"]:
+        payload["input"]["preprocessing"] = [
+            step.get("spec", str(step)) for step in meta["preprocessing"]
+        ]
+    if adaptive:
+        payload["parameters"]["controller"] = result.parameters
+        payload["window"] = {
+            "min": int(np.min(result.window)), "max": int(np.max(result.window)),
+            "shrunk_fraction": float(np.mean(result.window < result.parameters["lmax"])),
+        }  # fmt: skip
+    return {
+        "name": meta["column"], "result": result, "fit": fit, "meta": meta, "units": units,
+        "tau0": tau0, "payload": payload, "text": dumps(payload), "written": written,
+        "tag": tag,
+    }  # fmt: skip
+
+
+def _write_davar_channel(
+    args: argparse.Namespace, run: dict[str, Any], dest: Path, fmt: str, status: Status
+) -> None:
+    """The surface, coefficients, figures and result.json of one channel into ``dest``."""
+    from adavar.plots import (
+        coefficient_figure,
+        davar_heatmap_figure,
+        davar_surface_figure,
+        save_figure,
+        term_unit,
+    )
+
+    adaptive = args.command == "adaptive"
+    result, fit, meta, tau0 = run["result"], run["fit"], run["meta"], run["tau0"]
+    status(f"{run['tag']}drawing the figures")
+    title = f"{Path(meta['path']).name}, column {meta['column']}"
+    figures = {
+        "davar_surface": davar_surface_figure(result),
+        "davar_heatmap": davar_heatmap_figure(result),
+    }
+    if adaptive:
+        from adavar.plots import controller_figure
+
+        figures["controller"] = controller_figure(
+            _schedule_of(result), result.time, change_times=args.change_times or (),
+            title=f"{title}: {result.method} window",
+        )  # fmt: skip
+    if fit is not None:
+        term = _coefficient_term(fit)
+        what = f"window {args.window} samples" if not adaptive else f"{result.method} window"
+        figures[TERM_FILES[term]] = coefficient_figure(fit, term=term, title=f"{title}: {what}")
+    status(f"{run['tag']}writing the surface and the figures")
+    write_surface(dest / run["written"][0], result, fmt=fmt)
+    if fit is not None:
+        units_text = ", ".join(
+            f"{name} in {term_unit(name, fit.units) or '1'}" for name in fit.terms
+        )
+        _write_coefficients(
+            dest / "coefficients.csv", result, fit,
+            f"adavar {__version__}: noise coefficients of every DAVAR window of "
+            f"{meta['path']} column {meta['column']!r} ({args.data_type} data, "
+            f"tau0 = {tau0:g} s); time_s: window centre, window: samples; "
+            f"{units_text}; uncertainties 1 sigma (an upper bound where the value "
+            "is 0); nan: window not fitted",
+        )  # fmt: skip
+    for stem, fig in figures.items():
+        save_figure(fig, dest / stem)
+    (dest / "result.json").write_text(run["text"] + "\n", encoding="utf-8")
+
+
+def add_davar_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``adavar davar`` to the sub-command parsers ``sub``."""
+    dav = sub.add_parser(
+        "davar",
+        help="dynamic Allan variance and noise coefficients over time",
+        description="The dynamic Allan variance (DAVAR) of one column of a CSV/TSV/whitespace "
+        "text file: the overlapping Allan variance of a window of --window samples centred "
+        "on every --step-th sample, with per-cell confidence bounds, and the IEEE Std 952 "
+        "noise coefficients of every window (N(t), B(t), ...). Prints a summary (or JSON); "
+        "--out writes the surface, the coefficients and the figures. The sampling rate and "
+        "the unit of the samples are required: adavar never guesses them.",
+    )
+    add_input_arguments(dav)
+    dav.add_argument(
+        "--window", metavar="L", type=window_length, required=True,
+        help=f"window length in samples (at least {MIN_WINDOW}, at most the record); taus "
+        "up to a third of it",
+    )  # fmt: skip
+    add_surface_arguments(dav)
+    dav.add_argument("--json", action="store_true", help="print one JSON object (a summary)")
+    add_output_arguments(
+        dav,
+        "also write surface.nc (or .parquet), coefficients.csv, result.json and the "
+        "figures davar_surface, davar_heatmap and arw (N(t); of the first term when N is "
+        "not fitted: q, bi, rrw or rr) as .png/.svg to this new folder",
+    )
+    dav.set_defaults(handler=_cmd_davar)
+    return dav
+
+
+def add_adaptive_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``adavar adaptive`` to the sub-command parsers ``sub``."""
+    ada = sub.add_parser(
+        "adaptive",
+        help="A-DAVAR: the dynamic Allan variance with the paper's adaptive window",
+        description="The adaptive-window dynamic Allan variance (A-DAVAR, docs/method.md section "
+        "5) of one column of a text file: the window shrinks from --lmax towards --lmin where "
+        "the kurtosis leaves [--k1, --k2] or a shock enters its leading --l samples (S > "
+        "--s2), and regrows where the noise is stationary; then the surface, its per-cell "
+        "bounds and the noise coefficients of every window, as for davar. --method kurtosis "
+        "runs DAVAR-K (the kurtosis test alone), --method oracle the ideal schedule for "
+        "--change-times. The sampling rate and the unit are required: adavar never guesses.",
+    )
+    add_input_arguments(ada)
+    ada.add_argument(
+        "--method", default="adaptive", choices=("adaptive", "kurtosis", "oracle"),
+        help="adaptive (A-DAVAR, default), kurtosis (DAVAR-K) or oracle (needs "
+        "--change-times)",
+    )  # fmt: skip
+    ada.add_argument(
+        "--change-times", type=seconds_list, metavar="T,...",
+        help="known change times in seconds, for --method oracle",
+    )  # fmt: skip
+    add_controller_arguments(ada)
+    add_surface_arguments(ada)
+    ada.add_argument("--json", action="store_true", help="print one JSON object (a summary)")
+    add_output_arguments(
+        ada,
+        "also write surface.nc (or .parquet), coefficients.csv, result.json and the "
+        "figures davar_surface, davar_heatmap, arw and controller (kurtosis, S, flags and "
+        "window length over time) as .png/.svg to this new folder",
+    )
+    ada.set_defaults(handler=_cmd_davar, window=None)
+    return ada

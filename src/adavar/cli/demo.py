@@ -1,0 +1,241 @@
+"""``adavar demo``: the NIST check values, a simulated MEMS gyro, the paper's scenario 1."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from adavar import __version__
+from adavar.adaptive import adaptive_davar
+from adavar.cli.compare import compare_figures, compare_report, compare_tables, crossings_json
+from adavar.cli.options import EXIT_OK, parse_seed
+from adavar.cli.output import (
+    Status,
+    deviation_table,
+    fit_lines,
+    guard_replacement,
+    output_error,
+    text_table,
+)
+from adavar.errors import AdavarInputError
+from adavar.noise_model import fit_noise
+from adavar.writers import (
+    atomic_directory,
+    check_output_directory,
+    deviation_json,
+    dumps,
+    fit_json,
+)
+
+#: Name of the marker file that identifies a folder written by ``adavar demo`` (such a
+#: folder is replaced by the next run; any other existing folder needs --force).
+DEMO_MARKER = ".adavar-demo"
+
+
+DEMO_DEFAULT_OUT = "adavar-demo"
+
+
+def _demo_json(demo: Any, out: str, files: list[str]) -> dict[str, Any]:
+    gyro = demo.gyro
+    return {
+        "adavar_version": __version__,
+        "nist": {
+            "rows": [
+                {
+                    "stat": r.stat,
+                    "averaging_factor": r.averaging_factor,
+                    "tau": r.tau,
+                    "computed": r.computed,
+                    "published": r.published,
+                    "rel_diff": r.rel_diff,
+                }
+                for r in demo.nist
+            ],
+            "max_rel_diff": demo.nist_max_rel_diff,
+            "mean": {"computed": demo.nist_mean.computed, "published": demo.nist_mean.published},
+            "std": {"computed": demo.nist_std.computed, "published": demo.nist_std.published},
+        },
+        "gyro": {
+            "rate": gyro.rate,
+            "n_samples": gyro.n_samples,
+            "units": gyro.units,
+            "seed": gyro.seed,
+            "true": {
+                name: {"value": value, "unit": unit}
+                for name, (value, unit) in gyro.true_conventional.items()
+            },
+            **deviation_json(gyro.result),
+            "fit": fit_json(gyro.fit),
+        },
+        "paper": None
+        if demo.paper is None
+        else {
+            "comparison": demo.paper.comparison.to_dict(),
+            "crossings": crossings_json(demo.paper.thresholds),
+            "seeds": demo.paper.study.to_dict(),
+        },
+        "out": {"dir": out, "files": files},
+        "elapsed_s": demo.elapsed,
+    }
+
+
+def _check_demo_out(out: str, force: bool) -> None:
+    path = Path(out)
+    if path.is_dir() and not path.is_symlink() and not force:
+        if any(path.iterdir()) and not (path / DEMO_MARKER).is_file():
+            raise AdavarInputError(
+                f"{out} exists and was not written by adavar demo: choose another --out, or "
+                "pass --force to replace it"
+            )
+    check_output_directory(out, replace=True)
+    guard_replacement(out, [])
+
+
+def _demo_report(demo: Any) -> str:
+    """The demo's HTML report: the simulated gyro, and the paper's scenario 1 with A-DAVAR."""
+    from adavar.report import build_report
+
+    gyro = demo.gyro
+    paper = demo.paper
+    adaptive = coefficients = comparison = None
+    if paper is not None:
+        comparison = paper.comparison
+        adaptive = adaptive_davar(comparison.data, rate=comparison.rate, taus="octave")
+        coefficients = fit_noise(adaptive)
+    return build_report(
+        title="adavar demo: a simulated MEMS gyro and the A-DAVAR paper's scenario 1",
+        source={"gyro": f"simulated, {gyro.n_samples} samples at {gyro.rate:g} Hz in "
+                f"{gyro.units}, seed {gyro.seed}",
+                "scenario": None if comparison is None else comparison.description},
+        deviation=gyro.result, fit=gyro.fit, surface=adaptive, coefficients=coefficients,
+        adaptive=adaptive, comparison=comparison,
+        parameters={"gyro statistic": "oadev, octave taus",
+                    "A-DAVAR": "Lmax 600, Lmin 400, K1 2.5, K2 3.3, S2 0.07, l 100"},
+        units=gyro.units,
+    )  # fmt: skip
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from adavar.demo import GYRO_BANDWIDTH, GYRO_BIAS, GYRO_LSB, run_demo
+    from adavar.plots import deviation_figure, save_figure
+
+    start = time.perf_counter()
+    _check_demo_out(args.out, args.force)
+    status = Status()
+    status("NIST check values, a simulated gyro and the paper's scenario 1")
+    demo = run_demo(seed=args.seed)
+    gyro = demo.gyro
+    status("drawing the figures")
+    fig = deviation_figure(
+        gyro.result, gyro.fit,
+        title=f"Simulated MEMS gyro ({gyro.n_samples:,} samples at {gyro.rate:g} Hz, "
+        f"seed {gyro.seed})",
+    )  # fmt: skip
+    files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json"]
+    tables: dict[str, str] = {}
+    figures: dict[str, Any] = {}
+    paper = demo.paper
+    if paper is not None:
+        tables = {
+            f"paper_{name}": body
+            for name, body in compare_tables(
+                paper.comparison, paper.study, paper.thresholds
+            ).items()
+        }
+        figures = compare_figures(paper.comparison, paper.kurtosis, paper.thresholds)
+        files += [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg"))]
+    files.append("report.html")
+    status("building the HTML report")
+    html = _demo_report(demo)
+    payload = _demo_json(demo, str(args.out), files)
+    text = dumps(payload)
+    status(f"writing {args.out}")
+    try:
+        with atomic_directory(args.out, replace=True) as tmp:
+            save_figure(fig, tmp / "gyro_oadev")
+            for name, body in tables.items():
+                (tmp / name).write_text(body, encoding="utf-8")
+            for stem, paper_fig in figures.items():
+                save_figure(paper_fig, tmp / stem)
+            (tmp / "demo.json").write_text(text + "\n", encoding="utf-8")
+            (tmp / "report.html").write_text(html, encoding="utf-8")
+            (tmp / DEMO_MARKER).write_text(
+                "written by adavar demo; the next run replaces this folder\n", encoding="utf-8"
+            )
+    except OSError as exc:
+        raise output_error(args.out, exc) from None
+    status.close()
+    elapsed = time.perf_counter() - start
+
+    if args.json:
+        print(text)
+        print(f"adavar: wrote {args.out}/ ({', '.join(files)})", file=sys.stderr)
+        return EXIT_OK
+
+    print("1. NIST SP 1065 1000-point test data (fractional frequency, tau0 = 1 s)")
+    rows = [
+        [r.stat.upper(), f"{r.averaging_factor}", f"{r.computed:.7e}", f"{r.published:.6e}",
+         f"{r.rel_diff:+.1e}"]
+        for r in demo.nist
+    ]  # fmt: skip
+    for r in (demo.nist_mean, demo.nist_std):
+        rows.append([r.stat, "", f"{r.computed:.7e}", f"{r.published:.6e}", f"{r.rel_diff:+.1e}"])
+    print(text_table(["stat", "AF", "adavar", "published", "rel. diff"], rows, "   "))
+    print(
+        f"   largest |relative difference| of the deviations: {demo.nist_max_rel_diff:.1e} "
+        "(the published values have 7 significant digits)"
+    )
+    print()
+    print(
+        f"2. Simulated MEMS gyro: {gyro.n_samples} samples at {gyro.rate:g} Hz in {gyro.units} "
+        f"(bias {GYRO_BIAS:g} {gyro.units}, {GYRO_BANDWIDTH:g} Hz low-pass, LSB "
+        f"{GYRO_LSB:.3g} {gyro.units}, seed {gyro.seed}), OADEV at octave taus"
+    )
+    print(deviation_table(gyro.result, "   "))
+    print()
+    print("\n".join(fit_lines(gyro.fit, "   ", true=gyro.true_conventional)))
+    print()
+    if paper is not None:
+        print(
+            "3. The A-DAVAR paper's scenario 1 (Micromachines 2018, 9(8), 373): "
+            "DAVAR-400, DAVAR-600, DAVAR-K and A-DAVAR"
+        )
+        report = "\n".join(compare_report(paper.comparison, paper.study, paper.thresholds))
+        print("\n".join("   " + line if line else line for line in report.splitlines()))
+        print()
+    print(f"wrote {Path(args.out) / files[0]} and {', '.join(files[1:])}")
+    print(f"done in {elapsed:.1f} s (computation {demo.elapsed:.2f} s)")
+    return EXIT_OK
+
+
+def add_demo_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``adavar demo`` to the sub-command parsers ``sub``."""
+    demo = sub.add_parser(
+        "demo",
+        help="NIST SP 1065 check values, a simulated MEMS gyro and the paper's scenario 1",
+        description="Reproduce the NIST SP 1065 published deviations, fit the noise terms "
+        "of a simulated MEMS gyroscope with known coefficients, and run the A-DAVAR paper's "
+        "scenario 1 end to end (DAVAR-400/600, DAVAR-K and A-DAVAR: nodes next to the paper's "
+        "Table 1, metrics, Fig. 8 crossings); writes the figures and tables.",
+    )
+    demo.add_argument(
+        "--out", metavar="DIR", default=DEMO_DEFAULT_OUT,
+        help=f"output folder (default: ./{DEMO_DEFAULT_OUT}; replaced if it is an earlier "
+        "demo's folder)",
+    )  # fmt: skip
+    demo.add_argument("--json", action="store_true", help="print one JSON object")
+    demo.add_argument(
+        "--seed", type=parse_seed, default=2018, metavar="N", help="seed of the simulated gyro"
+    )
+    demo.add_argument(
+        "--force", action="store_true",
+        help="replace --out even if it is not a folder written by adavar demo",
+    )  # fmt: skip
+    demo.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    demo.set_defaults(handler=_cmd_demo)
+    return demo

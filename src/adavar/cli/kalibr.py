@@ -1,0 +1,165 @@
+"""``adavar kalibr``: Kalibr's imu.yaml from a static 6-axis recording."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from adavar import __version__
+from adavar.cli.options import EXIT_OK, UsageError, parse_names, positive_float
+from adavar.cli.output import Status, check_output_file, output_error
+from adavar.errors import AdavarInputError
+from adavar.noise_model import fit_noise
+from adavar.statistics import deviation
+from adavar.writers import dumps
+
+
+def _cmd_kalibr(args: argparse.Namespace) -> int:
+    from adavar.export import kalibr_imu_yaml, kalibr_values, write_text
+    from adavar.readers import read_record
+
+    output = check_output_file(args.output, args.force, (".yaml", ".yml"))
+    if len(args.gyro) != 3 or len(args.accel) != 3:
+        raise UsageError("--gyro and --accel take three columns each (x,y,z)")
+    status = Status()
+    status(f"reading {args.file}")
+    record = read_record(
+        args.file, columns=[*args.gyro, *args.accel], rate=args.rate,
+        time_column=args.time_column, topic=args.topic, gaps=args.gaps,
+    )  # fmt: skip
+    declared = record.meta.get("units") or {}
+    gyro_units = args.gyro_units or declared.get(args.gyro[0])
+    accel_units = args.accel_units or declared.get(args.accel[0])
+    if not gyro_units or not accel_units:
+        raise UsageError(
+            "declare the units with --gyro-units (e.g. rad/s, deg/s) and --accel-units "
+            "(e.g. m/s^2, g); adavar never guesses units"
+        )
+    fits = {}
+    for k, (name, units) in enumerate([*((g, gyro_units) for g in args.gyro),
+                                       *((a, accel_units) for a in args.accel)]):  # fmt: skip
+        status(f"fitting the noise terms of {name} ({k + 1}/6)")
+        result = deviation(record.channel(name), rate=record.rate, units=units)
+        try:
+            fits[name] = fit_noise(result)
+        except ValueError as exc:
+            raise AdavarInputError(f"column {name!r}: {exc}") from None
+    kwargs = dict(
+        gyro_fits=[fits[g] for g in args.gyro], accel_fits=[fits[a] for a in args.accel],
+        rate=record.rate, topic=args.topic or "/imu0", gyro_units=gyro_units,
+        accel_units=accel_units, combine=args.combine, inflate=args.inflate,
+        pinned=args.pinned,
+    )  # fmt: skip
+    try:
+        text = kalibr_imu_yaml(**kwargs)
+        values = kalibr_values(**{k: v for k, v in kwargs.items() if k not in ("rate", "topic")})
+    except ValueError as exc:  # the library names its keyword; here it is a flag
+        message = str(exc).replace("pinned='bound'", "--pinned bound")
+        raise AdavarInputError(message) from None
+    status(f"writing {output}")
+    try:
+        write_text(output, text)
+    except OSError as exc:
+        raise output_error(args.output, exc) from None
+    status.close()
+    if args.json:
+        print(
+            dumps(
+                {
+                    "adavar_version": __version__,
+                    "output": str(output),
+                    "rate": record.rate,
+                    "n_samples": record.n_samples,
+                    "kalibr": values,
+                }
+            )
+        )
+        return EXIT_OK
+    print(f"{args.file}: {record.n_samples} samples at {record.rate:g} Hz; wrote {output}")
+    print(text)
+    return EXIT_OK
+
+
+def add_kalibr_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``adavar kalibr`` to the sub-command parsers ``sub``."""
+    kal = sub.add_parser(
+        "kalibr",
+        help="Kalibr imu.yaml (noise densities and random walks) from a static 6-axis log",
+        description="Fit the noise terms of the three gyro and three accelerometer axes of "
+        "a static IMU recording (a ROS bag with sensor_msgs/Imu, or any file with six "
+        "columns) and write Kalibr's imu.yaml: gyroscope/accelerometer noise density (N) "
+        "and random walk (K) in Kalibr's SI units, the axes combined conservatively (the "
+        "largest), with every per-axis value and conversion in the file's comments.",
+    )
+    kal.add_argument(
+        "file", metavar="FILE",
+        help="ROS 1 .bag / ROS 2 bag folder (sensor_msgs/Imu) or a file with 6 columns",
+    )  # fmt: skip
+    kal.add_argument(
+        "--gyro",
+        type=parse_names,
+        default=["gx", "gy", "gz"],
+        metavar="X,Y,Z",
+        help="gyro columns (default: gx,gy,gz, the names of a ROS bag)",
+    )
+    kal.add_argument(
+        "--accel",
+        type=parse_names,
+        default=["ax", "ay", "az"],
+        metavar="X,Y,Z",
+        help="accelerometer columns (default: ax,ay,az)",
+    )
+    kal.add_argument("--gyro-units", metavar="UNIT",
+                     help="unit of the gyro samples (default: the bag's rad/s; required "
+                     "for other files)")  # fmt: skip
+    kal.add_argument(
+        "--accel-units",
+        metavar="UNIT",
+        help="unit of the accelerometer samples (default: the bag's m/s^2)",
+    )
+    kal.add_argument(
+        "--rate",
+        metavar="HZ",
+        type=positive_float("Hz"),
+        help="sample rate, if the file has no time stamps",
+    )
+    kal.add_argument("--time-column", metavar="NAME", help="column of time stamps")
+    kal.add_argument("--topic", metavar="TOPIC", help="IMU topic of a ROS bag")
+    kal.add_argument(
+        "--gaps",
+        default="error",
+        choices=("error", "interpolate"),
+        help="a gap in the time stamps is an error (default) or interpolated",
+    )
+    kal.add_argument(
+        "--combine",
+        default="max",
+        choices=("max", "mean"),
+        help="how the three axes are combined (default: max, conservative)",
+    )
+    kal.add_argument(
+        "--pinned", default="error", choices=("error", "bound"),
+        help="an axis whose N or K the fit pins at 0 (e.g. K of a short record) is an error "
+        "(default) or contributes its 1-sigma upper bound",
+    )  # fmt: skip
+    kal.add_argument(
+        "--inflate",
+        type=positive_float("a factor"),
+        default=1.0,
+        metavar="F",
+        help="multiply all four values (default: 1, as fitted)",
+    )
+    kal.add_argument(
+        "-o",
+        "--output",
+        metavar="imu.yaml",
+        required=True,
+        help="the file to write (atomically; existing needs --force)",
+    )
+    kal.add_argument("--json", action="store_true", help="print one JSON object")
+    kal.add_argument("--force", action="store_true", help="replace an existing --output")
+    kal.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    kal.set_defaults(handler=_cmd_kalibr)
+    return kal

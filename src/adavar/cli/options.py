@@ -1,0 +1,535 @@
+"""Command-line options: exit codes, the usage error, flag-value parsers and the option groups
+shared by several commands."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+from typing import NoReturn
+
+from adavar.noise_model import TERM_NAMES
+from adavar.settings import CONTROLLER, FIT
+from adavar.taus import TAU_KEYWORDS
+from adavar.windows import EDGES, MIN_WINDOW
+from adavar.writers import (
+    SURFACE_FORMATS,
+)
+
+EXIT_OK = 0
+
+
+EXIT_INTERNAL = 1
+
+
+EXIT_USAGE = 2
+
+
+EXIT_INTERRUPTED = 130
+
+
+_TERM_ALIASES = {
+    "q": "quantization",
+    "n": "angle_random_walk",
+    "arw": "angle_random_walk",
+    "vrw": "angle_random_walk",
+    "b": "bias_instability",
+    "bi": "bias_instability",
+    "k": "rate_random_walk",
+    "rrw": "rate_random_walk",
+    "r": "rate_ramp",
+    "rr": "rate_ramp",
+}
+
+
+#: File name (without suffix) of the coefficient figure of each term in a davar --out folder.
+TERM_FILES = {
+    "quantization": "q",
+    "angle_random_walk": "arw",
+    "bias_instability": "bi",
+    "rate_random_walk": "rrw",
+    "rate_ramp": "rr",
+}
+
+
+_TERM_LETTERS = {
+    "quantization": "Q",
+    "angle_random_walk": "N",
+    "bias_instability": "B",
+    "rate_random_walk": "K",
+    "rate_ramp": "R",
+}
+
+
+class UsageError(Exception):
+    """A mistake on the command line (exit code 2)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """ArgumentParser that raises :class:`UsageError` instead of printing usage and exiting."""
+
+    def error(self, message: str) -> NoReturn:
+        """Raise a one-line :class:`UsageError` pointing at this parser's ``--help``."""
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+def positive_float(what: str) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"must be a positive number of {what}, got {text!r}")
+        return value
+
+    return parse
+
+
+def positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
+
+
+def parse_confidence(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(
+            f"must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), got {text!r}"
+        )
+    return value
+
+
+def _confidence_or_none(text: str) -> float | None:
+    if text.strip().lower() in ("none", "off"):
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(
+            "must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), or none "
+            f"for no bounds and no fit, got {text!r}"
+        )
+    return value
+
+
+def window_length(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < MIN_WINDOW:
+        raise argparse.ArgumentTypeError(
+            f"must be a whole number of samples, at least {MIN_WINDOW} (one Allan-variance "
+            f"term at m = 1), got {text!r}"
+        )
+    return value
+
+
+def parse_taus(text: str) -> str | list[float]:
+    key = text.strip().lower()
+    if key in TAU_KEYWORDS:
+        return key
+    try:
+        values = [float(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected {', '.join(TAU_KEYWORDS)} or comma-separated positive seconds "
+            f"(e.g. 0.1,1,10), got {text!r}"
+        )
+    return values
+
+
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"must be a fraction between 0 and 1, got {text!r}")
+    return value
+
+
+def parse_seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
+    return value
+
+
+def finite_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def _positive_list(what: str, example: str) -> Callable[[str], list[float]]:
+    """A parser of comma-separated positive finite numbers (``what`` names them)."""
+
+    def parse(text: str) -> list[float]:
+        try:
+            values = [float(part) for part in text.split(",") if part.strip()]
+        except ValueError:
+            values = []
+        if not values or not all(math.isfinite(v) and v > 0 for v in values):
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated positive {what} (e.g. {example}), got {text!r}"
+            )
+        return values
+
+    return parse
+
+
+seconds_list = _positive_list("times in seconds", "3000,4000")
+
+
+threshold_list = _positive_list("kurtosis thresholds", "3.3,4")
+
+
+def parse_intervals(text: str) -> list[tuple[float, float]]:
+    out = []
+    for part in text.split(","):
+        if not part.strip():
+            continue
+        try:
+            a, b = (float(v) for v in part.split(":"))
+        except ValueError:
+            a = b = math.nan
+        if not (math.isfinite(a) and math.isfinite(b) and 0 <= a < b):
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated A:B intervals in seconds with A < B (e.g. "
+                f"0:3000,3000:4000), got {part.strip()!r}"
+            )
+        out.append((a, b))
+    if not out:
+        raise argparse.ArgumentTypeError("give at least one A:B interval")
+    return out
+
+
+def number_tuple(flag: str, least: int, most: int) -> Callable[[str], tuple[float, ...]]:
+    def parse(text: str) -> tuple[float, ...]:
+        try:
+            values = tuple(float(part) for part in text.split(","))
+        except ValueError:
+            values = ()
+        if not least <= len(values) <= most or not all(math.isfinite(v) for v in values):
+            raise argparse.ArgumentTypeError(
+                f"{flag} takes {least}{'' if least == most else f' or {most}'} comma-separated "
+                f"numbers, got {text!r}"
+            )
+        return values
+
+    return parse
+
+
+def parse_names(text: str) -> list[str]:
+    names = [part.strip().lower() for part in text.split(",") if part.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError("give at least one method, e.g. davar-400,a-davar")
+    return names
+
+
+def parse_terms(text: str) -> tuple[str, ...]:
+    out = []
+    for part in text.split(","):
+        key = part.strip()
+        if not key:
+            continue
+        name = key if key in TERM_NAMES else _TERM_ALIASES.get(key.lower())
+        if name is None:
+            raise argparse.ArgumentTypeError(
+                f"unknown noise term {key!r}: use {', '.join(TERM_NAMES)} or the letters "
+                "Q, N, B, K, R"
+            )
+        if name not in out:
+            out.append(name)
+    if not out:
+        raise argparse.ArgumentTypeError("give at least one noise term")
+    return tuple(out)
+
+
+def add_input_arguments(
+    cmd: argparse.ArgumentParser, *, optional_file: bool = False, several: bool = True
+) -> None:
+    """FILE, --column, --rate/--tau0, --units and the reader's options of every command
+    (``several``: the command analyses several channels one by one)."""
+    cmd.add_argument(
+        "file", metavar="FILE", nargs="?" if optional_file else None,
+        help="the record: CSV/TSV/whitespace text (with or without header, a time column "
+        "in s or ISO 8601, or a declared --rate), .npy/.npz, HDF5 (--dataset), Parquet, a "
+        "ROS 1 .bag or ROS 2 bag folder (sensor_msgs/Imu: gx gy gz ax ay az), Stable32 "
+        ".phd/.frd",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--time-column", metavar="NAME",
+        help="column of time stamps (default: one named time, t, timestamp, ...; "
+        "'header' or 'bag' for ROS bags)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--time-format", default="auto", choices=("auto", "s", "ms", "us", "ns", "iso", "mjd"),
+        help="unit or format of the time column (default: auto)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--gaps", default="error", choices=("error", "split", "interpolate"),
+        help="a gap in the time stamps is an error (default), splits the record into "
+        "gap-free pieces analysed one by one (avar), or is filled by linear interpolation",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--gap-tolerance", type=_fraction, default=0.5, metavar="F",
+        help="an interval longer than (1 + F) or shorter than (1 - F) times the median is a "
+        "gap or non-uniform sampling (default: 0.5)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--nan", default="error", choices=("error", "drop", "interpolate"),
+        help="a NaN/Inf sample is an error (default), its row is dropped, or it is "
+        "interpolated",
+    )  # fmt: skip
+    cmd.add_argument("--dataset", metavar="PATH", help="dataset of an HDF5 file")
+    cmd.add_argument("--topic", metavar="TOPIC", help="IMU topic of a ROS bag")
+    cmd.add_argument(
+        "--lazy", action=argparse.BooleanOptionalAction, default=None,
+        help="HDF5/Parquet: read the channels piece by piece (--lazy) or into memory "
+        "(--no-lazy); default: piece by piece beyond 1 GiB or a quarter of the free memory",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--preprocess", metavar="STEPS",
+        help="comma-separated steps applied in order: detrend:ORDER, mean, "
+        "decimate:K[:average], select:START:STOP (seconds); e.g. detrend:3,decimate:100 "
+        "(the paper's real-data steps)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--column", metavar="NAME[,NAME...]" if several else "NAME",
+        help="header name or 0-based index of the channel; several, comma-separated (e.g. "
+        "gx,gy,gz), are analysed one by one (default: every numeric column but the time)"
+        if several
+        else "header name or 0-based index of the column (needed if there are several)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--rate", metavar="HZ", type=positive_float("Hz"),
+        help="sample rate in Hz (required, or --tau0)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--tau0", metavar="SECONDS", type=positive_float("seconds"),
+        help="sample interval in seconds, instead of --rate",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--units", metavar="UNIT",
+        help="unit of the samples, e.g. deg/s, deg/h, rad/s, m/s^2, g (required); with "
+        "--data-type phase the unit of the integrated samples, e.g. deg or s",
+    )  # fmt: skip
+
+
+def add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
+    """--out DIR, --force and the hidden --debug of an analysis command."""
+    cmd.add_argument("--out", metavar="DIR", help=out_help)
+    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    cmd.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+
+
+def add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The adaptive window's settings (docs/method.md section 8; the paper's values by default)."""
+    cmd.add_argument("--lmax", type=positive_int, default=CONTROLLER.lmax, metavar="L",
+                      help="longest window, samples (default: 600)")  # fmt: skip
+    cmd.add_argument("--lmin", type=positive_int, default=CONTROLLER.lmin, metavar="L",
+                      help="shortest window, samples (default: 400)")  # fmt: skip
+    cmd.add_argument("--k1", type=finite_float, default=CONTROLLER.k1, metavar="K",
+                      help="lower kurtosis threshold (default: 2.5)")  # fmt: skip
+    cmd.add_argument("--k2", type=finite_float, default=CONTROLLER.k2, metavar="K",
+                      help="upper kurtosis threshold (default: 3.3)")  # fmt: skip
+    cmd.add_argument("--s1", type=finite_float, default=CONTROLLER.s1, metavar="S",
+                      help="lower S threshold, --s-test band only (default: 0)")  # fmt: skip
+    cmd.add_argument("--s2", type=finite_float, default=CONTROLLER.s2, metavar="S",
+                      help="upper S threshold (default: 0.07)")  # fmt: skip
+    cmd.add_argument("--l", type=positive_int, default=CONTROLLER.l, metavar="N",
+                      dest="segment",
+                      help="leading segment of the S test, samples (default: 100)")  # fmt: skip
+    cmd.add_argument("--dl0", type=parse_seed, default=CONTROLLER.dl0, metavar="N",
+                      help="regrow step, samples (default: 2)")  # fmt: skip
+    cmd.add_argument("--dl1", type=parse_seed, default=CONTROLLER.dl1, metavar="N",
+                      help="shrink step, samples (default: 2)")  # fmt: skip
+    cmd.add_argument(
+        "--s-test",
+        default=CONTROLLER.s_test,
+        choices=("upper", "band", "abs"),
+        help="f2 test: S > S2 (default), S outside [S1, S2], |S| > S2",
+    )
+    cmd.add_argument("--combine", default=CONTROLLER.combine, choices=("or", "and"),
+                      help="f = f1 or f2 (default) / f1 and f2")  # fmt: skip
+    cmd.add_argument(
+        "--thresholds", default=CONTROLLER.thresholds, choices=("paper", "calibrated"),
+        help="paper: K1, K2, S2 as given (default); calibrated: from the sampling "
+        "distribution of the kurtosis for --false-alarm",
+    )  # fmt: skip
+    cmd.add_argument("--false-alarm", type=parse_confidence, default=CONTROLLER.false_alarm,
+                      metavar="P",
+                      help="per-step false-alarm rate of --thresholds calibrated (default: "
+                      "0.01)")  # fmt: skip
+
+
+def parse_noise_type(text: str) -> str | int | list[int]:
+    value = text.strip().lower()
+    if value == "record":
+        return "record"
+    try:
+        alphas = [int(part) for part in value.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: use 'record', an integer alpha from -2 to 2, or one per tau "
+            "(comma-separated)"
+        ) from None
+    if not all(-2 <= alpha <= 2 for alpha in alphas):
+        raise argparse.ArgumentTypeError(f"{text!r}: alpha must lie in -2 .. 2")
+    return alphas[0] if len(alphas) == 1 else alphas
+
+
+def _tau_range(text: str) -> tuple[float | None, float | None]:
+    """``MIN:MAX`` seconds, either side may be empty (open)."""
+    parts = text.split(":")
+    try:
+        if len(parts) != 2:
+            raise ValueError
+        lo, hi = (float(p) if p.strip() else None for p in parts)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"--tau-range takes MIN:MAX in seconds (either may be empty), got {text!r}"
+        ) from None
+    for v in (lo, hi):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise argparse.ArgumentTypeError(f"--tau-range bounds must be positive, got {text!r}")
+    if lo is not None and hi is not None and not lo < hi:
+        raise argparse.ArgumentTypeError(f"--tau-range {text!r}: MIN must be below MAX")
+    return lo, hi
+
+
+def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The noise fit's options (:func:`adavar.fit_noise`)."""
+    cmd.add_argument(
+        "--fit-method", default=FIT.method, choices=("auto", "gls", "wls", "slopes"),
+        help="noise fit: gls (full covariance of the taus, term selection, roll-off "
+        "handling; the default for one curve), wls (diagonal edf weights, every term; the "
+        "default for DAVAR windows and the behaviour before 0.2), slopes (the classical "
+        "slope-line read-offs)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--select", default=FIT.select, choices=("significance", "none"),
+        help="gls: keep a term only while C/sigma_C >= --significance (default), or keep "
+        "every --terms term",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--significance", type=positive_float("sigma"), default=FIT.significance, metavar="Z",
+        help="gls: the significance a term needs to stay in the model (default: 2)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--exclude", default=FIT.exclude, choices=("auto", "none"),
+        help="gls: leave out the short taus where the curve rolls off below the model "
+        "(a sensor filter, correlated noise; default auto), or fit every tau",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--rolloff", default=FIT.rolloff, choices=("model", "none"),
+        help="gls: let the tau^-2 term go negative to model a filter's roll-off (default) "
+        "or keep Q >= 0",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--tau-range", type=_tau_range, metavar="MIN:MAX",
+        help="fit only the taus from MIN to MAX seconds (either may be empty)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--bandwidth", type=positive_float("Hz"), metavar="HZ",
+        help="the sensor's bandwidth (Hz, datasheet or filter setting): taus below "
+        "2/bandwidth are left out of the fit",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--n-reweight", type=parse_seed, default=FIT.n_reweight, metavar="N",
+        help="reweighting passes of the noise fit after the first, with the model's "
+        "variance in the weights (default: 3; 0: weights of the measured variance)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--spacing", default=FIT.spacing, choices=("octave", "independent"),
+        help="weights of densely spaced taus in the noise fit: octave (default: scaled by "
+        "their spacing in octaves, so a dense grid does not count the same information "
+        "many times) or independent (as they are)",
+    )  # fmt: skip
+
+
+def add_chunk_argument(cmd: argparse.ArgumentParser) -> None:
+    """--chunk-size: how many samples are read at a time (the out-of-core path)."""
+    cmd.add_argument(
+        "--chunk-size", type=positive_int, metavar="N",
+        help="read and process the record N samples at a time, for records larger than "
+        "memory (default: all at once)",
+    )  # fmt: skip
+
+
+def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
+    """Options of a DAVAR surface: centres, taus, edges, data type, bounds, fit, file format."""
+    cmd.add_argument(
+        "--noise-type", type=parse_noise_type, default="record", metavar="ALPHA",
+        help="noise exponent behind the per-cell EDF: record (default: identified per tau on "
+        "the whole record), an integer alpha (0 white rate noise/ARW, -1 bias instability, "
+        "-2 rate random walk, 1/2 flicker/white PM), or one per tau, comma-separated",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--t0", type=finite_float, default=0.0, metavar="SECONDS",
+        help="time of the first sample (default: 0); window times are t0 + centre / rate",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--step", metavar="S", type=positive_int, default=1,
+        help="centre a window on every S-th sample only (default: 1, every sample)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--taus", default="all", type=parse_taus, metavar="SPEC",
+        help="all (default: every multiple of tau0 up to a third of the window), octave, "
+        "decade, log, or comma-separated taus in seconds",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--edges", default="mirror", choices=EDGES,
+        help="mirror (default: every sample is a centre, the record is time-reversed at its "
+        "ends) or valid (only windows inside the record)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--data-type", default="rate", choices=("rate", "phase"),
+        help="rate samples (gyro rate, acceleration, fractional frequency) or their "
+        "integral (angle, velocity, time error); default: rate",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--confidence", default=0.683, type=_confidence_or_none, metavar="P",
+        help="two-sided confidence level of the per-cell bounds (default: 0.683); none: no "
+        "bounds and no noise fit (faster, a third of the memory)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--points-per-decade", default=10, type=positive_int, metavar="K",
+        help="density of --taus log (default: 10)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--terms", type=parse_terms, metavar="LIST",
+        help="comma-separated terms of the fit of every window (names or Q,N,B,K,R; "
+        "default: all five)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--format", choices=tuple(SURFACE_FORMATS),
+        help="file format of the surface in --out: nc (NetCDF, default) or parquet (needs "
+        "pyarrow)",
+    )  # fmt: skip
+    add_fit_arguments(cmd)
+    add_chunk_argument(cmd)

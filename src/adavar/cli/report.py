@@ -1,0 +1,259 @@
+"""``adavar report``: the self-contained HTML report of one or several channels."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from adavar import __version__
+from adavar.analysis import analyse_channel, load_input
+from adavar.cli.options import (
+    EXIT_OK,
+    add_controller_arguments,
+    add_fit_arguments,
+    add_input_arguments,
+    parse_taus,
+    parse_terms,
+    positive_int,
+    window_length,
+)
+from adavar.cli.output import Status, check_output_file, fit_lines, output_error
+from adavar.noise_model import TERM_NAMES
+from adavar.writers import dumps, fit_json
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from adavar.report import build_report, write_report
+
+    output = check_output_file(args.output, args.force, (".html", ".htm"))
+    terms = args.terms or TERM_NAMES
+    status = Status()
+    status(f"reading {args.file}")
+    chosen = args.column is not None  # several channels only when --column names them
+    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False)
+    if not chosen:
+        loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
+    names = list(loaded)
+    several = len(names) > 1
+    runs = []
+    for k, name in enumerate(names):
+        tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
+        runs.append(analyse_channel(args, loaded[name], units_of[name], tau0, status, tag))
+    first = runs[0]
+    units = first["units"] if not several else "; ".join(
+        f"{name}: {units_of[name]}" for name in names
+    )  # fmt: skip
+    parameters: dict[str, Any] = {
+        "statistic": "oadev", "data type": args.data_type, "units": units,
+        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
+    }  # fmt: skip
+    if args.n_reweight != 3 or args.spacing != "octave":
+        parameters.update({"fit reweighting passes": args.n_reweight,
+                           "fit tau spacing": args.spacing})  # fmt: skip
+    if first["surface"] is not None:
+        parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
+        if first["adaptive"] is not None:
+            parameters.update({f"controller {k}": v
+                               for k, v in first["adaptive"].parameters.items()
+                               if v is not None})  # fmt: skip
+        else:
+            parameters["DAVAR window [samples]"] = args.window
+    steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
+    status("building the figures and the HTML")
+    if several:
+        title = args.title or f"{Path(meta['path']).name}, columns {', '.join(names)}"
+        html = _channels_report(
+            title=title,
+            source={"file": meta["path"], "columns": ", ".join(names), "format": meta["kind"],
+                    "samples": int(first["samples"])},
+            runs=dict(zip(names, runs, strict=True)), parameters=parameters,
+            preprocessing=steps,
+        )  # fmt: skip
+    else:
+        title = args.title or f"{Path(meta['path']).name}, column {meta['column']}"
+        html = build_report(
+            title=title,
+            source={"file": meta["path"], "column": meta["column"], "format": meta["kind"],
+                    "samples": int(first["samples"])},
+            deviation=first["result"], fit=first["fit"], surface=first["surface"],
+            coefficients=first["coefficients"], adaptive=first["adaptive"],
+            parameters=parameters, preprocessing=steps, units=first["rate_units"],
+        )  # fmt: skip
+    status(f"writing {output}")
+    try:
+        write_report(output, html)
+    except OSError as exc:
+        raise output_error(args.output, exc) from None
+    status.close()
+
+    def channel_json(name: str, run: dict[str, Any]) -> dict[str, Any]:
+        surface = run["surface"]
+        return {
+            "input": {"file": meta["path"], "column": name, "rate": 1.0 / tau0,
+                      "units": run["units"], "n_samples": int(run["samples"]),
+                      "preprocessing": steps},
+            "fit": fit_json(run["fit"]),
+            "surface": None if surface is None else {
+                "windows": int(np.shape(surface.avar)[0]),
+                "taus": int(np.shape(surface.avar)[1]),
+                "method": getattr(surface, "method", "fixed"),
+            },
+        }  # fmt: skip
+
+    payload: dict[str, Any] = {
+        "adavar_version": __version__,
+        "report": str(output),
+        "bytes": len(html.encode("utf-8")),
+    }
+    if several:
+        payload["input"] = {"file": meta["path"], "columns": names, "rate": 1.0 / tau0,
+                            "preprocessing": steps}  # fmt: skip
+        payload["channels"] = {name: channel_json(name, run)
+                               for name, run in zip(names, runs, strict=True)}  # fmt: skip
+    else:
+        payload.update(channel_json(names[0], first))
+    if args.json:
+        print(dumps(payload))
+        return EXIT_OK
+    print(f"wrote {output} ({payload['bytes'] / 1e6:.1f} MB): {title}")
+    for name, run in zip(names, runs, strict=True):
+        if several:
+            print(f"  column {name!r} ({run['units']}):")
+        print("\n".join(fit_lines(run["fit"], "    " if several else "  ")))
+    return EXIT_OK
+
+
+def _channels_report(
+    *, title: str, source: dict[str, Any], runs: dict[str, dict[str, Any]],
+    parameters: dict[str, Any], preprocessing: list[str],
+) -> str:  # fmt: skip
+    """One HTML report with a section per channel (plots and coefficient table of each).
+
+    The page (head, data, parameters, preprocessing, footer) is :func:`build_report`'s;
+    the channel sections are made of its figure and table builders, with plot ids
+    prefixed by the channel's number so that they stay unique.
+    """
+    from adavar import report as rp
+
+    figures: dict[str, dict[str, Any]] = {}
+
+    def plot(key: str, figure: dict[str, Any]) -> str:
+        figures[key] = figure
+        return f'<div class="plot" id="{key}"></div>'
+
+    sections = []
+    for k, (name, run) in enumerate(runs.items(), start=1):
+        units, dev, fit = run["rate_units"], run["result"], run["fit"]
+        stat = rp.STAT_NAMES.get(dev.stat, dev.stat)
+        cap = (
+            f"{stat} of {dev.n_samples} samples at {dev.rate:.6g} Hz ({dev.data_type} data), "
+            f"{dev.tau.size} taus; bars: {100 * dev.confidence:.1f} % confidence interval. "
+            "Hover for values."
+        )
+        parts = [
+            f'<section id="channel-{k}" class="channel"><h2>Channel {rp._esc(name)} '
+            f"({rp._esc(run['units'])})</h2>",
+            "<h3>Deviation and noise fit</h3>",
+            plot(f"plot-{k}-deviation", rp._deviation_figure(dev, fit, units)),
+            f'<p class="caption">{rp._esc(cap)}</p>{rp._notes(dev.notes)}',
+            f"<h3>Noise coefficients</h3>{rp._coefficient_table(fit, units)}",
+        ]
+        surface = run["surface"]
+        if surface is not None:
+            figure, caption = rp._surface_figure(surface, units)
+            parts += [
+                "<h3>Dynamic Allan deviation surface</h3>",
+                plot(f"plot-{k}-surface", figure),
+                f'<p class="caption">{rp._esc(caption)}</p>{rp._notes(surface.notes)}',
+            ]
+            figure, terms = rp._coefficient_figure(run["coefficients"], units)
+            parts.append("<h3>Noise coefficients over time</h3>")
+            if figure:
+                parts.append(plot(f"plot-{k}-coefficients", figure))
+                cap = (
+                    f"{', '.join(terms)} of every window over time; band: ±1σ (clipped at "
+                    "0; from 0 to the 1-sigma upper bound where a term is pinned at 0)."
+                )
+            else:
+                cap = "No term is non-zero in any window."
+            parts.append(f'<p class="caption">{rp._esc(cap)}</p>')
+        if run["adaptive"] is not None:
+            parts += [
+                "<h3>Adaptive window controller</h3>",
+                plot(f"plot-{k}-adaptive", rp._adaptive_figure(run["adaptive"])),
+            ]
+        parts.append("</section>")
+        sections.append("".join(parts))  # fmt: skip
+
+    page = rp.build_report(title=title, source=source, parameters=parameters,
+                           preprocessing=preprocessing)  # fmt: skip
+    plotly_js, plotly_version = rp._plotly_js()
+    scripts = (
+        f"<script>{plotly_js}</script>\n"
+        f'<script type="application/json" id="adavar-figures">'
+        f"{rp._script_json(figures)}</script>\n<script>{rp._RENDER_JS}</script>\n"
+    )
+    # after the data section (or at the top of <main>), before the parameters
+    anchor = '<section id="parameters">' if parameters else "\n</main>"
+    page = page.replace(anchor, "\n".join(sections) + "\n" + anchor, 1)
+    page = page.replace(
+        ".</footer>", f"; plots by plotly.js {rp._esc(plotly_version)} (embedded).</footer>", 1
+    )
+    return page.replace("\n</body>", "\n" + scripts + "</body>", 1)  # fmt: skip
+
+
+def add_report_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``adavar report`` to the sub-command parsers ``sub``."""
+    rep = sub.add_parser(
+        "report",
+        help="one self-contained interactive HTML report of a record",
+        description="Analyse one column of a record (or several, --column a,b: a section "
+        "each) and write ONE self-contained HTML file "
+        "(interactive plots, no network): the overlapping Allan deviation with confidence "
+        "bars and the fitted noise terms, the coefficient table with uncertainties, and with "
+        "--window or --adaptive the rotatable DAVAR surface, the coefficients over time and "
+        "(A-DAVAR) the controller's kurtosis, S, flags and window length; plus every "
+        "parameter and preprocessing step used.",
+    )
+    add_input_arguments(rep)
+    rep.add_argument(
+        "-o", "--output", metavar="FILE.html", required=True,
+        help="the report to write (atomically; an existing file needs --force)",
+    )  # fmt: skip
+    rep.add_argument(
+        "--data-type", default="rate", choices=("rate", "phase"),
+        help="rate samples (default) or their integral (angle, velocity, time error)",
+    )  # fmt: skip
+    rep.add_argument(
+        "--window", metavar="L", type=window_length,
+        help="also a fixed-window DAVAR of L samples (surface and coefficients over time)",
+    )  # fmt: skip
+    rep.add_argument(
+        "--adaptive", action="store_true",
+        help="also the adaptive-window DAVAR (A-DAVAR, the controller settings below)",
+    )  # fmt: skip
+    add_controller_arguments(rep)
+    rep.add_argument(
+        "--taus", default="octave", type=parse_taus, metavar="SPEC",
+        help="taus of the DAVAR surface: octave (default), all, decade, log or seconds",
+    )  # fmt: skip
+    rep.add_argument(
+        "--step", metavar="S", type=positive_int, default=1,
+        help="DAVAR centres every S samples (default: 1)",
+    )  # fmt: skip
+    rep.add_argument(
+        "--terms", type=parse_terms, metavar="LIST",
+        help="terms of the noise fits (names or Q,N,B,K,R; default: all five)",
+    )  # fmt: skip
+    add_fit_arguments(rep)
+    rep.add_argument("--title", help="title of the report (default: the file and column)")
+    rep.add_argument("--json", action="store_true", help="print one JSON object")
+    rep.add_argument("--force", action="store_true", help="replace an existing --output")
+    rep.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    rep.set_defaults(handler=_cmd_report)
+    return rep

@@ -1,0 +1,185 @@
+"""``adavar simulate``: a simulated record as CSV."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+import numpy as np
+
+from adavar import __version__
+from adavar.cli.options import (
+    EXIT_OK,
+    UsageError,
+    finite_float,
+    number_tuple,
+    parse_seed,
+    positive_float,
+    positive_int,
+)
+from adavar.cli.output import Status, check_output_file, output_error
+from adavar.errors import AdavarInputError
+from adavar.writers import dumps
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from adavar import simulate
+    from adavar.export import write_text
+
+    output = check_output_file(args.output, args.force, (".csv",))
+    status = Status()
+    terms = {"quantization": args.quantization, "angle_random_walk": args.arw,
+             "bias_instability": args.bias_instability,
+             "rate_random_walk": args.rrw, "rate_ramp": args.rate_ramp}  # fmt: skip
+    if args.scenario is not None:
+        if any(terms.values()) or args.bias or args.markov or args.sinusoid:
+            raise UsageError(
+                "--scenario simulates the paper's record; the sensor terms (--arw, --bias, "
+                "--markov, ...) describe another one: drop them or --scenario"
+            )
+        status(f"simulating scenario {args.scenario}")
+        sc = simulate.paper_scenario(
+            args.scenario, seed=args.seed, variance_reading=args.variance_reading
+        )
+        x, rate, what = np.asarray(sc.data), float(sc.rate), sc.description
+    else:
+        if args.variance_reading:
+            raise UsageError("--variance-reading chooses a --scenario's disturbance")
+        if not any(v > 0 for v in terms.values()) and not (args.markov or args.sinusoid):
+            raise UsageError(
+                "give at least one noise coefficient (--arw, --bias-instability, --rrw, "
+                "--quantization, --rate-ramp, --markov, --sinusoid) or --scenario 1|2"
+            )
+        if any(v < 0 for v in terms.values()):
+            raise UsageError("noise coefficients must not be negative")
+        status(f"simulating {args.n} samples")
+        try:
+            x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, bias=args.bias,
+                                markov=args.markov, sinusoid=args.sinusoid,
+                                bandwidth=args.bandwidth, filter_order=args.filter_order,
+                                lsb=args.lsb, **terms)  # fmt: skip
+        except ValueError as exc:  # e.g. a sinusoid above the Nyquist frequency
+            raise AdavarInputError(str(exc)) from None
+        rate = float(args.rate)
+        what = ", ".join(f"{k}={v:g}" for k, v in terms.items() if v > 0)
+        for name, value in (("markov", args.markov), ("sinusoid", args.sinusoid)):
+            if value:
+                what += f"{', ' if what else ''}{name}={','.join(f'{v:g}' for v in value)}"
+        for name, one in (("bandwidth", args.bandwidth), ("lsb", args.lsb)):
+            if one is not None:
+                what += f", {name}={one:g}"
+    status(f"writing {output}")
+    t = np.arange(x.size) / rate
+    body = "\n".join(f"{ti!r},{xi!r}" for ti, xi in zip(t.tolist(), x.tolist(), strict=True))
+    header = (f"# adavar {__version__} simulate, seed {args.seed}: {what}; "
+              f"rate {rate:g} Hz, samples in {args.units}\ntime,x\n")  # fmt: skip
+    try:
+        write_text(output, header + body + "\n")
+    except OSError as exc:
+        raise output_error(args.output, exc) from None
+    status.close()
+    if args.json:
+        print(
+            dumps(
+                {
+                    "output": str(output),
+                    "n_samples": int(x.size),
+                    "rate": rate,
+                    "units": args.units,
+                    "seed": args.seed,
+                    "what": what,
+                }
+            )
+        )
+    else:
+        print(f"wrote {output}: {x.size} samples at {rate:g} Hz ({what})")
+    return EXIT_OK
+
+
+def add_simulate_parser(sub: Any) -> argparse.ArgumentParser:
+    """Add ``adavar simulate`` to the sub-command parsers ``sub``."""
+    sim = sub.add_parser(
+        "simulate",
+        help="write a simulated record (a noisy sensor or the paper's scenarios) to CSV",
+        description="Simulate rate samples with known noise terms (seeded), or the A-DAVAR "
+        "paper's scenario 1 or 2, and write them as a CSV with a time column, ready for the "
+        "other commands.",
+    )
+    sim.add_argument(
+        "-o",
+        "--output",
+        metavar="FILE.csv",
+        required=True,
+        help="the CSV to write (atomically; existing needs --force)",
+    )
+    sim.add_argument(
+        "--scenario",
+        type=int,
+        choices=(1, 2),
+        help="the paper's scenario 1 or 2 (6000 s at 1 Hz, unit white noise)",
+    )
+    sim.add_argument(
+        "--n",
+        type=positive_int,
+        default=100_000,
+        metavar="N",
+        help="number of samples of a simulated sensor (default: 100000)",
+    )
+    sim.add_argument(
+        "--rate",
+        type=positive_float("Hz"),
+        default=100.0,
+        metavar="HZ",
+        help="sample rate of a simulated sensor (default: 100)",
+    )
+    for flag, name in (("--quantization", "Q, unit*s"), ("--arw", "N, unit*sqrt(s)"),
+                       ("--bias-instability", "B, unit"), ("--rrw", "K, unit/sqrt(s)"),
+                       ("--rate-ramp", "R, unit/s")):  # fmt: skip
+        sim.add_argument(
+            flag,
+            type=finite_float,
+            default=0.0,
+            metavar="VALUE",
+            help=f"coefficient {name} (default: 0)",
+        )
+    sim.add_argument(
+        "--bias",
+        type=finite_float,
+        default=0.0,
+        metavar="VALUE",
+        help="constant bias added to every sample (default: 0)",
+    )
+    sim.add_argument("--markov", type=number_tuple("--markov", 2, 2), metavar="STD,TAU",
+                     help="first-order Gauss-Markov term: standard deviation (unit) and "
+                     "correlation time (s)")  # fmt: skip
+    sim.add_argument("--sinusoid", type=number_tuple("--sinusoid", 2, 3),
+                     metavar="AMP,HZ[,PHASE]",
+                     help="deterministic sinusoid: amplitude (unit), frequency (Hz) and "
+                     "phase (rad, default 0)")  # fmt: skip
+    sim.add_argument("--bandwidth", type=positive_float("Hz"), metavar="HZ",
+                     help="the sensor's low-pass filter: -3 dB bandwidth in Hz, below "
+                     "rate/2 (default: none)")  # fmt: skip
+    sim.add_argument("--filter-order", type=positive_int, default=2, metavar="N",
+                     help="order of that Butterworth filter (default: 2)")  # fmt: skip
+    sim.add_argument("--lsb", type=positive_float("units"), metavar="STEP",
+                     help="quantise the output to this step (the sensor's LSB, in the "
+                     "unit; default: none)")  # fmt: skip
+    sim.add_argument("--variance-reading", action="store_true",
+                     help="--scenario disturbance of variance 3 (the paper's text read "
+                     "literally) instead of standard deviation 3")  # fmt: skip
+    sim.add_argument(
+        "--units",
+        default="deg/s",
+        metavar="UNIT",
+        help="unit written in the header (default: deg/s)",
+    )
+    sim.add_argument(
+        "--seed", type=parse_seed, default=2018, metavar="N", help="seed (default: 2018)"
+    )
+    sim.add_argument("--json", action="store_true", help="print one JSON object")
+    sim.add_argument("--force", action="store_true", help="replace an existing --output")
+    sim.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
+    )
+    sim.set_defaults(handler=_cmd_simulate)
+    return sim

@@ -1,0 +1,106 @@
+"""Parameter objects: the adaptive controller's settings and the noise fit's options, with
+their defaults in one place.
+
+:class:`ControllerSettings` holds the thirteen keywords of the adaptive window
+(docs/method.md section 8) with the paper's values; :class:`FitSettings` the keywords of
+:func:`adavar.fit_noise`. The command line takes its flags' defaults from them, the
+library's functions and :mod:`adavar.batch` their keywords, so a default is written once.
+:data:`ANALYSIS_DEFAULTS` lists every analysis option of ``adavar report`` (and so of
+``adavar batch``) with its default; ``tests/test_cli_params.py`` checks that the parser
+agrees with it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+__all__ = ["ANALYSIS_DEFAULTS", "CONTROLLER", "FIT", "ControllerSettings", "FitSettings"]
+
+
+@dataclass(frozen=True)
+class ControllerSettings:
+    """The adaptive window's settings (the paper's values by default).
+
+    Attributes
+    ----------
+    lmax, lmin : int
+        Longest and shortest window, samples.
+    k1, k2 : float
+        Kurtosis band of the f1 test.
+    s1, s2 : float
+        Thresholds of the f2 test on the contribution coefficient S (``s1`` for the band
+        test only).
+    l : int
+        Leading segment of the S test, samples.
+    dl0, dl1 : int
+        Regrow and shrink steps, samples.
+    s_test : {"upper", "band", "abs"}
+        The f2 test (docs/method.md section 8, its ambiguities).
+    combine : {"or", "and"}
+        How f1 and f2 make f.
+    thresholds : {"paper", "calibrated"}
+        The given thresholds, or ones calibrated for ``false_alarm``.
+    false_alarm : float
+        Per-step false-alarm rate of the calibrated thresholds.
+    """
+
+    lmax: int = 600
+    lmin: int = 400
+    k1: float = 2.5
+    k2: float = 3.3
+    s1: float = 0.0
+    s2: float = 0.07
+    l: int = 100  # noqa: E741 - the paper's name
+    dl0: int = 2
+    dl1: int = 2
+    s_test: str = "upper"
+    combine: str = "or"
+    thresholds: str = "paper"
+    false_alarm: float = 0.01
+
+    def keywords(self) -> dict[str, Any]:
+        """The keywords of :func:`adavar.adaptive_davar` / :func:`adavar.adaptive_schedule`."""
+        return asdict(self)
+
+    @classmethod
+    def from_options(cls, options: Any) -> ControllerSettings:
+        """From an object with the command line's option names (``segment`` for ``l``)."""
+        values = {f.name: getattr(options, f.name) for f in fields(cls) if f.name != "l"}
+        return cls(l=options.segment, **values)
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """The options of :func:`adavar.fit_noise` (see its docstring), with its defaults."""
+
+    terms: tuple[str, ...] | None = None  # None: all five
+    n_reweight: int = 3
+    spacing: str = "octave"
+    method: str = "auto"
+    select: str = "significance"
+    significance: float = 2.0
+    exclude: str = "auto"
+    rolloff: str = "model"
+    tau_range: tuple[float | None, float | None] | None = None
+    bandwidth: float | None = None
+
+
+#: The defaults everywhere (read-only instances).
+CONTROLLER = ControllerSettings()
+FIT = FitSettings()
+
+_CONTROLLER_OPTIONS = {("segment" if k == "l" else k): v for k, v in asdict(CONTROLLER).items()}
+_FIT_OPTIONS = {("fit_method" if k == "method" else k): v for k, v in asdict(FIT).items()}
+
+#: Every analysis option of ``adavar report`` and ``adavar batch``, by the flags' names.
+ANALYSIS_DEFAULTS: dict[str, Any] = {
+    # the record (adavar.readers.read_record) and its preprocessing
+    "column": None, "rate": None, "tau0": None, "units": None, "data_type": "rate",
+    "time_column": None, "time_format": "auto", "gaps": "error", "gap_tolerance": 0.5,
+    "nan": "error", "lazy": None, "dataset": None, "topic": None, "preprocess": None,
+    # the analysis
+    "taus": "octave", "window": None, "adaptive": False, "step": 1,
+    **_CONTROLLER_OPTIONS,
+    **_FIT_OPTIONS,
+}  # fmt: skip
