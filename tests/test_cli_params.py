@@ -214,11 +214,13 @@ def test_deviation_gets_every_avar_flag(capsys, monkeypatch, record):
     code, _, err = run(capsys, ["avar", str(record), "--column", "x", "--rate", "4", "--units",
                                 "deg", "--data-type", "phase", "--stat", "mdev", "--taus",
                                 "decade", "--confidence", "0.9", "--points-per-decade", "7",
-                                "--chunk-size", "64"])  # fmt: skip
+                                "--chunk-size", "64", "--noise-id", "stable32", "--totdev-edf",
+                                "legacy", "--totdev-bias"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.deviation, {
         "stat": "mdev", "data_type": "phase", "taus": "decade", "confidence": 0.9,
         "points_per_decade": 7, "units": rate_unit("deg", "phase"), "chunk_size": 64,
+        "noise_id": "stable32", "totdev_edf": "legacy", "totdev_bias": True,
     })  # fmt: skip
     assert sample_interval(seen) == pytest.approx(0.25)
     seen.clear()
@@ -257,12 +259,13 @@ def test_davar_gets_every_flag(capsys, monkeypatch, record):
                                 "--units", "deg", "--data-type", "phase", "--window", "100",
                                 "--taus", "octave", "--edges", "valid", "--step", "3",
                                 "--confidence", "0.9", "--t0", "5", "--points-per-decade",
-                                "7", "--noise-type", "-1", "--chunk-size", "64"])  # fmt: skip
+                                "7", "--noise-type", "-1", "--chunk-size", "64",
+                                "--edge-edf", "interior"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.davar, {
         "window": 100, "data_type": "phase", "taus": "octave", "edges": "valid", "step": 3,
         "confidence": 0.9, "t0": 5.0, "points_per_decade": 7, "noise_type": -1,
-        "units": rate_unit("deg", "phase"), "chunk_size": 64,
+        "units": rate_unit("deg", "phase"), "chunk_size": 64, "edge_edf": "interior",
     })  # fmt: skip
     assert sample_interval(seen) == pytest.approx(0.25)
     seen.clear()
@@ -289,12 +292,13 @@ def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
                                 "50", *CONTROLLER_FLAGS, "--taus", "decade", "--edges",
                                 "valid", "--step", "2", "--confidence", "0.9", "--t0", "1",
                                 "--points-per-decade", "7", "--noise-type", "0",
-                                "--chunk-size", "64"])  # fmt: skip
+                                "--chunk-size", "64", "--edge-edf", "interior"])  # fmt: skip
     assert code == 1 and "Stop" in err
     expected = {
         "method": "oracle", "change_times": [50.0], **CONTROLLER, "taus": "decade",
         "edges": "valid", "step": 2, "confidence": 0.9, "t0": 1.0, "points_per_decade": 7,
         "noise_type": 0, "data_type": "rate", "units": "deg/s", "chunk_size": 64,
+        "edge_edf": "interior",
     }  # fmt: skip
     check(seen, adavar.adaptive_davar, expected)
     # adaptive_schedule (the controller alone) takes a subset of these, all passed on by

@@ -12,10 +12,10 @@ import xarray as xr
 from scipy.io import netcdf_file
 
 import adavar
-from adavar import io as adio
+from adavar import writers as adio
 from adavar import simulate
 from adavar.errors import AdavarInputError
-from adavar.io import SURFACE_FORMATS, check_surface_format, write_surface
+from adavar.writers import SURFACE_FORMATS, check_surface_format, write_surface
 
 RATE = 10.0
 

@@ -822,6 +822,7 @@ def adaptive_davar(
     noise_type: str | int | Sequence[int] = "record",
     units: str | None = None,
     chunk_size: int | None = None,
+    edge_edf: str = "distinct",
 ) -> AdaptiveResult:
     """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
 
@@ -873,6 +874,8 @@ def adaptive_davar(
         schedule, surface to rounding). Held in memory: a piece and its overlap, and the
         ``N / step`` rows of the result; never a per-sample array.
 
+    edge_edf : {"distinct", "interior"}
+        EDF of a window that reaches into the mirrored extension, see :func:`adavar.davar`.
     Returns
     -------
     AdaptiveResult
@@ -894,6 +897,7 @@ def adaptive_davar(
     surface_options = dict(
         rate=rate, data_type=dtype, taus=taus, edges=edges, confidence=confidence, tau0=tau0,
         t0=t0, points_per_decade=points_per_decade, noise_type=noise_type, units=units,
+        edge_edf=edge_edf,
     )  # fmt: skip
     step = int(step) if isinstance(step, (int, np.integer)) and not isinstance(step, bool) else 0
     if step < 1:

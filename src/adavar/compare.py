@@ -89,6 +89,7 @@ from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
 from adavar.results import DavarResult
 from adavar.statistics import as_samples
+from adavar.windows import window_overhang
 
 __all__ = [
     "NODE_NAMES",
@@ -770,14 +771,26 @@ class _EdfCache:
     def cells(self, result: DavarResult, alpha: np.ndarray) -> np.ndarray:
         ms = tuple(int(m) for m in result.m)
         al = tuple(int(a) for a in alpha)
-        lengths, inverse = np.unique(result.window, return_inverse=True)
-        missing = [int(L) for L in lengths if (int(L), ms, al) not in self._rows]
+        # a window reaching into the mirrored ends has fewer distinct terms (as in davar)
+        n = result.n_samples - (1 if result.data_type == "phase" else 0)
+        overhang = (
+            window_overhang(result.centre, result.window, n)
+            if result.edges == "mirror"
+            else np.zeros(np.size(result.window), dtype=np.int64)
+        )
+        keys, inverse = np.unique(
+            np.stack([np.asarray(result.window), overhang], axis=1), axis=0, return_inverse=True
+        )
+        missing = [(int(L), int(h)) for L, h in keys if (int(L), int(h), ms, al) not in self._rows]
         if missing:
-            table = edf_table(np.asarray(missing), np.asarray(ms), np.asarray(al))
-            for L, row in zip(missing, table, strict=True):
-                self._rows[(L, ms, al)] = row
-        rows = np.stack([self._rows[(int(L), ms, al)] for L in lengths])
-        return rows[inverse]
+            table = edf_table(
+                np.array([L for L, _ in missing]), np.asarray(ms), np.asarray(al),
+                overhang=np.array([h for _, h in missing]),
+            )  # fmt: skip
+            for (L, h), row in zip(missing, table, strict=True):
+                self._rows[(L, h, ms, al)] = row
+        rows = np.stack([self._rows[(int(L), int(h), ms, al)] for L, h in keys])
+        return rows[inverse.ravel()]
 
 
 def _as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:

@@ -33,7 +33,7 @@ from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.statistics import _DATA_TYPE_ALIASES, _noise_types, as_samples, resolve_tau0
 from adavar.taus import averaging_factors
-from adavar.windows import window_schedule
+from adavar.windows import window_overhang, window_schedule
 
 __all__ = ["davar", "edf_table"]
 
@@ -123,8 +123,7 @@ def _edge_classes(
     window_class: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Extra EDF rows for the windows that hold mirrored samples (few: near the two ends)."""
-    start = sched.start - sched.pad_before  # first sample in record coordinates
-    overhang = np.maximum(0, -start) + np.maximum(0, start + sched.length - n)
+    overhang = window_overhang(sched.centre, sched.length, n)
     edge = np.flatnonzero(overhang > 0)
     if edge.size == 0:
         return table, window_class

@@ -24,7 +24,14 @@ import numpy as np
 
 from adavar.errors import AdavarInputError
 
-__all__ = ["EDGES", "MIN_WINDOW", "WindowSchedule", "window_schedule", "window_start"]
+__all__ = [
+    "EDGES",
+    "MIN_WINDOW",
+    "WindowSchedule",
+    "window_overhang",
+    "window_schedule",
+    "window_start",
+]
 
 EDGES = ("mirror", "valid")
 MIN_WINDOW = 3  # the shortest window with one Allan-variance term at m = 1
@@ -33,6 +40,27 @@ MIN_WINDOW = 3  # the shortest window with one Allan-variance term at m = 1
 def window_start(centre: Any, length: Any) -> Any:
     """First sample of the window of ``length`` samples centred at ``centre``."""
     return centre - (length - 1) // 2
+
+
+def window_overhang(centre: Any, length: Any, n_samples: int) -> np.ndarray:
+    """Samples of each window that lie outside the record (in the mirrored extension).
+
+    Parameters
+    ----------
+    centre, length : array_like of int
+        Window centres and lengths (samples).
+    n_samples : int
+        Length of the record (rate samples).
+
+    Returns
+    -------
+    ndarray of int64
+        ``max(0, -start) + max(0, start + length - n_samples)`` per window.
+    """
+    centre = np.asarray(centre, dtype=np.int64)
+    length = np.asarray(length, dtype=np.int64)
+    start = window_start(centre, length)
+    return np.maximum(0, -start) + np.maximum(0, start + length - n_samples)
 
 
 @dataclass(frozen=True)

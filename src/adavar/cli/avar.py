@@ -136,6 +136,9 @@ def _avar_channel(
         confidence=args.confidence,
         points_per_decade=args.points_per_decade,
         units=rate_u,
+        noise_id=args.noise_id,
+        totdev_edf=args.totdev_edf,
+        totdev_bias=args.totdev_bias,
         **chunk_keywords(args),
     )
     fit = None
@@ -198,6 +201,20 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
     avar.add_argument(
         "--stat", default="oadev", choices=STATISTICS, help="statistic (default: oadev)"
     )
+    avar.add_argument(
+        "--noise-id", default="sp1065", choices=("sp1065", "stable32"),
+        help="noise identification for the intervals: SP 1065 (default; phase data on the "
+        "decimated phase, B1 + R(n) below 30 clusters) or Stable32's tables' rule",
+    )  # fmt: skip
+    avar.add_argument(
+        "--totdev-edf", default="sp1065", choices=("sp1065", "stable32", "legacy"),
+        help="EDF of totdev: SP 1065 for every noise type (default), Stable32's, or the "
+        "rule before 0.2",
+    )  # fmt: skip
+    avar.add_argument(
+        "--totdev-bias", action="store_true",
+        help="divide out totdev's bias for flicker and random-walk FM (SP 1065)",
+    )  # fmt: skip
     avar.add_argument(
         "--data-type", default="rate", choices=("rate", "phase"),
         help="rate samples (gyro rate, acceleration, fractional frequency) or their "

@@ -326,6 +326,7 @@ def _davar_channel(
         noise_type=args.noise_type,
         t0=args.t0,
         units=rate_u,
+        edge_edf=args.edge_edf,
         **chunk_keywords(args),
     )
     if adaptive:

@@ -508,6 +508,11 @@ def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
         "ends) or valid (only windows inside the record)",
     )  # fmt: skip
     cmd.add_argument(
+        "--edge-edf", default="distinct", choices=("distinct", "interior"),
+        help="EDF of a window that reaches into the mirrored ends: its distinct terms "
+        "(default) or the full window's (before 0.2)",
+    )  # fmt: skip
+    cmd.add_argument(
         "--data-type", default="rate", choices=("rate", "phase"),
         help="rate samples (gyro rate, acceleration, fractional frequency) or their "
         "integral (angle, velocity, time error); default: rate",
