@@ -12,8 +12,8 @@ import xarray as xr
 from scipy.io import netcdf_file
 
 import adavar
-from adavar import writers as adio
 from adavar import simulate
+from adavar import writers as adio
 from adavar.errors import AdavarInputError
 from adavar.writers import SURFACE_FORMATS, check_surface_format, write_surface
 

@@ -16,7 +16,7 @@ from adavar import edf as edf_mod
 from adavar import simulate, stream
 from adavar.davar import davar
 from adavar.errors import AdavarInputError
-from adavar.statistics import _noise_types
+from adavar.statistics import record_noise_types
 
 davar_mod = importlib.import_module("adavar.davar")  # the package's `davar` is the function
 
@@ -198,7 +198,7 @@ def _check_statistics(u, ms, chunk, dmax=2):
             np.testing.assert_array_equal(got[2], n)
             np.testing.assert_allclose(got[3], zmax, rtol=1e-12)
         else:  # the B1 series: the cluster sums themselves (relative to the shift)
-            want = diff._cluster_differences(phase.r, phase.hh, phase.hl, int(m), u.size // m)
+            want = diff.cluster_differences(phase.r, phase.hh, phase.hl, int(m), u.size // m)
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-12 * np.abs(want).max())
 
 
@@ -207,7 +207,7 @@ def _check_statistics(u, ms, chunk, dmax=2):
 def test_noise_types_equal_in_memory(kind, chunk):
     u = _signals(20_000)[kind]
     _check_statistics(u, MS, chunk)
-    want, notes = _noise_types(diff.anchored_phase(u, cluster_stats=True), MS, 2)
+    want, notes = record_noise_types(diff.anchored_phase(u, cluster_stats=True), MS, 2)
     got, got_notes = stream.noise_types(stream.ArraySource(u), MS, 2, chunk_size=chunk)
     np.testing.assert_array_equal(got, want)
     assert got.dtype == np.int64 and got_notes == notes
@@ -219,7 +219,7 @@ def test_noise_types_streamed_or_collected(chunk, small, monkeypatch):
     monkeypatch.setattr(stream, "SMALL_SERIES", small)
     u = _signals(20_000)["mixed"]
     _check_statistics(u, MS, chunk)
-    want, _ = _noise_types(diff.anchored_phase(u, cluster_stats=True), MS, 2)
+    want, _ = record_noise_types(diff.anchored_phase(u, cluster_stats=True), MS, 2)
     np.testing.assert_array_equal(stream.noise_types(u, MS, chunk_size=chunk)[0], want)
 
 
@@ -237,7 +237,7 @@ def test_noise_types_tiny_pieces(chunk):
     u = _signals(600)["mixed"]
     ms = np.arange(1, 200, 7)
     _check_statistics(u, ms, chunk)
-    want, _ = _noise_types(diff.anchored_phase(u, cluster_stats=True), ms, 2)
+    want, _ = record_noise_types(diff.anchored_phase(u, cluster_stats=True), ms, 2)
     got, _ = stream.noise_types(u, ms, chunk_size=chunk)
     np.testing.assert_array_equal(got, want)
 
@@ -246,12 +246,12 @@ def test_noise_types_dmax3_and_constant_record():
     u = _signals(5000)["random walk"]
     ms = np.array([1, 4, 16, 64, 200])
     _check_statistics(u, ms, 999, dmax=3)
-    want = _noise_types(diff.anchored_phase(u, cluster_stats=True), ms, 3)
+    want = record_noise_types(diff.anchored_phase(u, cluster_stats=True), ms, 3)
     got = stream.noise_types(u, ms, 3, chunk_size=999)
     np.testing.assert_array_equal(got[0], want[0])
     # nothing to identify anywhere: white noise assumed, with the in-memory note
     flat = np.full(3000, 2.5)
-    want = _noise_types(diff.anchored_phase(flat, cluster_stats=True), ms, 2)
+    want = record_noise_types(diff.anchored_phase(flat, cluster_stats=True), ms, 2)
     got = stream.noise_types(flat, ms, chunk_size=128)
     np.testing.assert_array_equal(got[0], want[0])
     assert got[1] == want[1] and got[1]
@@ -431,7 +431,7 @@ def test_noise_types_phase_data_equal_in_memory(chunk, dmax):
     rng = np.random.default_rng(7)
     for u in (np.diff(rng.standard_normal(6001)), np.diff(np.cumsum(rng.standard_normal(6001)))):
         ms = np.array([1, 2, 4, 8, 16, 64, 150, 256, 500])
-        want, _ = _noise_types(
+        want, _ = record_noise_types(
             diff.anchored_phase(u, cluster_stats=True), ms, dmax, data_type="phase"
         )
         got, _ = stream.noise_types(u, ms, dmax, chunk_size=chunk, data_type="phase")

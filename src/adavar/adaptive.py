@@ -42,11 +42,11 @@ from scipy import stats
 
 from adavar import stream
 from adavar._jit import get_num_threads, jit, parallel_jit, prange
+from adavar._kernels.double_double import two_sum
 from adavar.davar import davar
-from adavar.differences import _two_sum
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
-from adavar.statistics import _DATA_TYPE_ALIASES, as_samples, resolve_tau0
+from adavar.statistics import DATA_TYPE_ALIASES, as_samples, resolve_tau0
 from adavar.stream import ChunkedSource
 
 __all__ = [
@@ -78,7 +78,7 @@ _S_TEST_CODE = {"upper": 0, "band": 1, "abs": 2}
 @jit(inline="always")
 def _acc(h, lo, v):  # pragma: no cover - compiled
     """Double-double accumulation; only ``h + v`` is on the loop-carried path."""
-    s, e = _two_sum(h, v)
+    s, e = two_sum(h, v)
     return s, lo + e
 
 
@@ -109,7 +109,7 @@ def _central(inv_n, s1, s2, s3, s4):  # pragma: no cover - compiled
 @jit(inline="always")
 def _minus(h, lo, hs, ls):  # pragma: no cover - compiled
     """``(h + lo) - (hs + ls)`` rounded once the leading parts have cancelled exactly."""
-    s, e = _two_sum(h, -hs)
+    s, e = two_sum(h, -hs)
     return s + (e + (lo - ls))
 
 
@@ -462,7 +462,7 @@ def calibrated_thresholds(
     return Thresholds(k1=k1, k2=k2, s2=s2, source=f"calibrated, false alarm {false_alarm:g}")
 
 
-def _fixed_thresholds(lmax: int, k1: float, k2: float, s2: float) -> Thresholds:
+def fixed_thresholds(lmax: int, k1: float, k2: float, s2: float) -> Thresholds:
     size = lmax + 1
     return Thresholds(
         k1=np.full(size, float(k1)), k2=np.full(size, float(k2)), s2=np.full(size, float(s2)),
@@ -681,7 +681,7 @@ def adaptive_schedule(
     if thresholds == "calibrated":
         th = calibrated_thresholds(lmin, lmax, seg, false_alarm=float(false_alarm))
     else:
-        th = _fixed_thresholds(lmax, k1, k2, s2)
+        th = fixed_thresholds(lmax, k1, k2, s2)
 
     changes = None
     if method == "oracle":
@@ -886,7 +886,7 @@ def adaptive_davar(
     The controller is an O(N) sequential pass; the surface is :func:`adavar.davar` with
     ``window`` = the schedule, so it costs what a fixed window costs.
     """
-    dtype = _DATA_TYPE_ALIASES.get(str(data_type).lower())
+    dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
     controller = dict(

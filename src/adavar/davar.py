@@ -31,7 +31,7 @@ from adavar import stream
 from adavar._jit import get_num_threads, jit
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
-from adavar.statistics import _DATA_TYPE_ALIASES, _noise_types, as_samples, resolve_tau0
+from adavar.statistics import DATA_TYPE_ALIASES, as_samples, record_noise_types, resolve_tau0
 from adavar.taus import averaging_factors
 from adavar.windows import window_overhang, window_schedule
 
@@ -258,7 +258,7 @@ def _chunked_avar(
             per = _chunk_size(c1 - c0, int(lengths.max()), sched.step)
             workers = int(min(get_num_threads(), -(-(c1 - c0) // per)))
             # the kernel writes straight into this group's rows: no per-group output copy
-            diff._window_avar(
+            diff.window_avar_kernel(
                 phase.r, phase.hh, phase.hl, ms, centre[c0:c1], lengths, pad - lo, per, workers,
                 float(scale), out[c0:c1], diff.SECOND,
             )  # fmt: skip
@@ -443,7 +443,7 @@ def davar(
     windows: only their spans, so a sparse ``step`` reads little) and the cost is that of
     the in-memory path plus the reads.
     """
-    dtype = _DATA_TYPE_ALIASES.get(str(data_type).lower())
+    dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
     if confidence is not None and not (0.0 < float(confidence) < 1.0):
@@ -459,8 +459,8 @@ def davar(
     scale = 1.0 if dtype == "rate" else 1.0 / dt**2
     chunked = chunk_size is not None or stream.is_chunked(data)
     if lazy is None:
-        lazy = stream._is_dask(data)
-    elif lazy and not stream._is_dask(data):
+        lazy = stream.is_dask(data)
+    elif lazy and not stream.is_dask(data):
         raise AdavarInputError("lazy=True needs a dask array as data: leave lazy out")
     if chunked:
         chunk = stream.DEFAULT_CHUNK if chunk_size is None else stream.check_chunk_size(chunk_size)
@@ -483,7 +483,9 @@ def davar(
     def identify() -> tuple[np.ndarray, tuple[str, ...]]:
         if chunked:
             return stream.noise_types(increments, ms, 2, chunk_size=chunk, data_type=dtype)
-        return _noise_types(diff.anchored_phase(u, cluster_stats=True), ms, 2, data_type=dtype)
+        return record_noise_types(
+            diff.anchored_phase(u, cluster_stats=True), ms, 2, data_type=dtype
+        )
 
     bounds = table = window_class = None
     if confidence is None:

@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from adavar._jit import get_num_threads, jit, parallel_jit, prange
+from adavar._kernels.double_double import dd_add, dd_scaled_add, two_sum
 
 __all__ = [
     "BLOCK",
@@ -41,38 +42,6 @@ SECOND = np.array([1, -2, 1], dtype=np.int64)  # coefficients of the Allan diffe
 THIRD = np.array([-1, 3, -3, 1], dtype=np.int64)  # and of the Hadamard one
 BLOCK = 1 << SHIFT  # anchor spacing, samples
 SUPERBLOCK = 1 << 14  # terms per parallel work item; each touches a few 128 KiB chunks
-
-
-# ---------------------------------------------------------------------------------------
-# double-double helpers (must not be compiled with fast-math: they rely on exact rounding)
-
-
-@jit(inline="always")
-def _two_sum(a: float, b: float) -> tuple[float, float]:
-    s = a + b
-    bb = s - a
-    e = (a - (s - bb)) + (b - bb)
-    return s, e
-
-
-@jit(inline="always")
-def _dd_add(ah: float, al: float, bh: float, bl: float) -> tuple[float, float]:
-    s, e = _two_sum(ah, bh)
-    e += al + bl
-    h = s + e
-    return h, e - (h - s)
-
-
-@jit(inline="always")
-def _dd_scaled_add(ah: float, al: float, c: int, bh: float, bl: float) -> tuple[float, float]:
-    """``a + c * b`` for a small integer ``c``, by repeated exact additions."""
-    if c < 0:
-        bh = -bh
-        bl = -bl
-        c = -c
-    for _ in range(c):
-        ah, al = _dd_add(ah, al, bh, bl)
-    return ah, al
 
 
 # ---------------------------------------------------------------------------------------
@@ -141,11 +110,11 @@ def _anchored_prefix(u, shift, nlev):  # pragma: no cover - compiled
         c = 0.0
         r[j0] = 0.0
         for k in range(out.size):
-            s, e = _two_sum(s, seg[k] - shift)
+            s, e = two_sum(s, seg[k] - shift)
             c += e
             out[k] = s + c
         if seg.size > out.size:
-            s, e = _two_sum(s, seg[seg.size - 1] - shift)
+            s, e = two_sum(s, seg[seg.size - 1] - shift)
             c += e
         h = s + c
         tot_h[b] = h
@@ -165,7 +134,7 @@ def _anchored_prefix(u, shift, nlev):  # pragma: no cover - compiled
     for b in range(nb):
         hh[b] = ah
         hl[b] = al
-        ah, al = _dd_add(ah, al, tot_h[b], tot_l[b])
+        ah, al = dd_add(ah, al, tot_h[b], tot_l[b])
     return r, hh, hl, stats
 
 
@@ -245,13 +214,13 @@ def anchored_phase(
 
 
 @jit
-def _anchor_combo(hh, hl, i, m, coefs):  # pragma: no cover - compiled
+def anchor_combo(hh, hl, i, m, coefs):  # pragma: no cover - compiled
     """Round-to-double of ``sum_k coefs[k] * H[(i + k m) // BLOCK]`` computed in double-double."""
     ah = 0.0
     al = 0.0
     for k in range(coefs.size):
         b = (i + k * m) >> SHIFT
-        ah, al = _dd_scaled_add(ah, al, coefs[k], hh[b], hl[b])
+        ah, al = dd_scaled_add(ah, al, coefs[k], hh[b], hl[b])
     return ah + al
 
 
@@ -261,11 +230,11 @@ def _difference(r, hh, hl, i, m, coefs):  # pragma: no cover - compiled
     local = 0.0
     for k in range(coefs.size):
         local += coefs[k] * r[i + k * m]
-    return _anchor_combo(hh, hl, i, m, coefs) + local
+    return anchor_combo(hh, hl, i, m, coefs) + local
 
 
 @jit
-def _segment_end(i, hi, m, npts_k):  # pragma: no cover - compiled
+def segment_end(i, hi, m, npts_k):  # pragma: no cover - compiled
     """First index after ``i`` (capped at ``hi``) where some ``i + k m`` enters a new block."""
     end = hi
     for k in range(npts_k):
@@ -317,7 +286,7 @@ def _run_fill2(r, c, lo, hi, m, out):  # pragma: no cover - compiled
 
 
 @parallel_jit
-def _overlapping_sums(r, hh, hl, ms, starts, counts, coefs):  # pragma: no cover - compiled
+def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs):  # pragma: no cover - compiled
     """``sum_{i=start}^{start+count-1} (sum_k coefs[k] S[i + k m])^2`` for every tau.
 
     Fused over taus: each work item takes one superblock of ``i`` and runs every tau over
@@ -342,8 +311,8 @@ def _overlapping_sums(r, hh, hl, ms, starts, counts, coefs):  # pragma: no cover
             acc = 0.0
             i = lo
             while i < hi:
-                e = _segment_end(i, hi, m, kp)
-                c = _anchor_combo(hh, hl, i, m, coefs)
+                e = segment_end(i, hi, m, kp)
+                c = anchor_combo(hh, hl, i, m, coefs)
                 if kp == 3:
                     acc += _run_sq2(r, c, i, e, m)
                 else:
@@ -377,8 +346,8 @@ def _fill_second_differences(r, hh, hl, m, lo, hi, out):  # pragma: no cover - c
     coefs = SECOND
     i = lo
     while i < hi:
-        e = _segment_end(i, hi, m, 3)
-        c = _anchor_combo(hh, hl, i, m, coefs)
+        e = segment_end(i, hi, m, 3)
+        c = anchor_combo(hh, hl, i, m, coefs)
         _run_fill2(r, c, i, e, m, out[i - lo :])
         i = e
 
@@ -404,7 +373,7 @@ def _modified_sums(r, hh, hl, ms, counts):  # pragma: no cover - compiled
         s = 0.0
         c = 0.0
         for k in range(m):
-            s, e = _two_sum(s, first[k])
+            s, e = two_sum(s, first[k])
             c += e
         total = s + c
         acc = total * total
@@ -416,9 +385,9 @@ def _modified_sums(r, hh, hl, ms, counts):  # pragma: no cover - compiled
             _fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + n, enter)
             _fill_second_differences(r, hh, hl, m, j - 1, j - 1 + n, leave)
             for q in range(n):
-                s, e = _two_sum(s, enter[q])
+                s, e = two_sum(s, enter[q])
                 c += e
-                s, e = _two_sum(s, -leave[q])
+                s, e = two_sum(s, -leave[q])
                 c += e
                 v = s + c
                 acc += v * v
@@ -428,23 +397,23 @@ def _modified_sums(r, hh, hl, ms, counts):  # pragma: no cover - compiled
 
 
 @jit
-def _cluster_sum(r, hh, hl, j0, m):  # pragma: no cover - compiled
+def cluster_sum(r, hh, hl, j0, m):  # pragma: no cover - compiled
     """``S[j0 + m] - S[j0]``; plain difference when both ends share an anchor block."""
     j1 = j0 + m
     b0 = j0 >> SHIFT
     b1 = j1 >> SHIFT
     if b0 == b1:
         return r[j1] - r[j0]
-    dh, dl = _dd_add(hh[b1], hl[b1], -hh[b0], -hl[b0])
+    dh, dl = dd_add(hh[b1], hl[b1], -hh[b0], -hl[b0])
     return (dh + (r[j1] - r[j0])) + dl
 
 
 @jit
-def _cluster_differences(r, hh, hl, m, count):  # pragma: no cover - compiled
+def cluster_differences(r, hh, hl, m, count):  # pragma: no cover - compiled
     """``S[(k+1) m] - S[k m]`` for ``k = 0..count-1`` (sums over non-overlapping clusters)."""
     out = np.empty(count)
     for q in range(count):
-        out[q] = _cluster_sum(r, hh, hl, q * m, m)
+        out[q] = cluster_sum(r, hh, hl, q * m, m)
     return out
 
 
@@ -466,7 +435,7 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
         stz = 0.0
         zmax = 0.0
         for k in range(k0, k1):
-            z = _cluster_sum(r, hh, hl, k * m, m)
+            z = cluster_sum(r, hh, hl, k * m, m)
             sz += z
             stz += (k - kc) * z
             zmax = max(zmax, abs(z))
@@ -493,7 +462,7 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
         b0 = b1 = b2 = b3 = 0.0
         c0 = c1 = c2 = c3 = 0.0
         for k in range(max(0, k0 - 4), k1):
-            x0 = _cluster_sum(r, hh, hl, k * m, m) - (a + b * (k - kc))
+            x0 = cluster_sum(r, hh, hl, k * m, m) - (a + b * (k - kc))
             x1 = x0 - q0
             x2 = x1 - q1
             x3 = x2 - q2
@@ -537,9 +506,9 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
     h = np.empty(4)
     t = np.empty(4)
     for q in range(4):
-        h[q] = _cluster_sum(r, hh, hl, q * m, m) - (a + b * (q - kc))
+        h[q] = cluster_sum(r, hh, hl, q * m, m) - (a + b * (q - kc))
         k = count - 4 + q
-        t[q] = _cluster_sum(r, hh, hl, k * m, m) - (a + b * (k - kc))
+        t[q] = cluster_sum(r, hh, hl, k * m, m) - (a + b * (k - kc))
     first = np.array(
         [h[0], h[1] - h[0], (h[2] - h[1]) - (h[1] - h[0]), h[3] - 3 * h[2] + 3 * h[1] - h[0]]
     )
@@ -595,7 +564,7 @@ def _prefix_squares(d, n, ph, pl):  # pragma: no cover - compiled
 @jit
 def _window_sum(ph, pl, a, b):  # pragma: no cover - compiled
     """``P[b] - P[a]`` from the compensated prefix, with the leading difference exact."""
-    s, e = _two_sum(ph[b], -ph[a])
+    s, e = two_sum(ph[b], -ph[a])
     return s + (e + (pl[b] - pl[a]))
 
 
@@ -717,8 +686,8 @@ def _window_chunk(
                 acc = 0.0
                 i = a
                 while i < a + n:
-                    e = _segment_end(i, a + n, m, 3)
-                    acc += _run_sq2(r, _anchor_combo(hh, hl, i, m, coefs), i, e, m)
+                    e = segment_end(i, a + n, m, 3)
+                    acc += _run_sq2(r, anchor_combo(hh, hl, i, m, coefs), i, e, m)
                     i = e
                 res[k] = max(acc, 0.0) * (norm / n)
         for k in range(size):
@@ -727,7 +696,7 @@ def _window_chunk(
 
 
 @parallel_jit
-def _window_avar(
+def window_avar_kernel(
     r,
     hh,
     hl,
@@ -809,7 +778,7 @@ def overlapping_sums(
         raise ValueError("internal: empty or out-of-range difference sum")
     if np.any(starts + counts - 1 + order * ms >= phase.n_points):
         raise ValueError("internal: difference sum runs past the data")
-    return _overlapping_sums(phase.r, phase.hh, phase.hl, ms, starts, counts, coefs)
+    return overlapping_sums_kernel(phase.r, phase.hh, phase.hl, ms, starts, counts, coefs)
 
 
 def strided_sums(phase: AnchoredPhase, ms: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
@@ -893,7 +862,7 @@ def fused_lag1(phase: AnchoredPhase, m: int):
 def cluster_sums(phase: AnchoredPhase, m: int) -> np.ndarray:
     """Sums of the increments over non-overlapping clusters of ``m`` (shift added back)."""
     count = (phase.n_points - 1) // m
-    out = _cluster_differences(phase.r, phase.hh, phase.hl, int(m), count)
+    out = cluster_differences(phase.r, phase.hh, phase.hl, int(m), count)
     return out + phase.shift * m
 
 
@@ -956,7 +925,7 @@ def window_avar(
     out = np.empty((nc, nt))
     chunk = int(max(chunk, 1))
     workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
-    _window_avar(
+    window_avar_kernel(
         phase.r, phase.hh, phase.hl, ms, centres, lengths, int(offset), chunk, workers,
         float(scale), out, SECOND,
     )  # fmt: skip

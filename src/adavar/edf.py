@@ -44,7 +44,6 @@ from adavar.noise_id import (  # noqa: F401
     _b1_alpha,
     _b1_theory,
     _detrend,
-    _rn_theory_pm,
     alpha_from_lag1,
     alpha_from_phase_lag1,
     clamp_alpha,
@@ -53,6 +52,7 @@ from adavar.noise_id import (  # noqa: F401
     identify_noise,
     identify_noise_b1,
     identify_noise_lag1,
+    rn_theory_pm,
 )
 
 __all__ = [

@@ -54,11 +54,17 @@ import math
 from typing import Any
 
 import numpy as np
-from llvmlite import ir
-from numba import types
-from numba.extending import intrinsic
 
 from adavar._jit import get_num_threads, jit, parallel_jit, prange
+from adavar._kernels.double_double import (
+    dd_add,
+    dd_div_d,
+    dd_mul,
+    dd_mul_d,
+    fast_two_sum,
+    fma,
+    two_sum,
+)
 from adavar.errors import AdavarInputError
 from adavar.statistics import as_samples
 from adavar.windows import window_schedule
@@ -86,67 +92,6 @@ _TOL = 2.0**-40
 
 # ---------------------------------------------------------------------------------------
 # double-double arithmetic (never compiled with fast-math: it relies on exact rounding)
-
-
-@intrinsic
-def _fma(typingctx, a, b, c):  # pragma: no cover - compile-time
-    """``a * b + c`` with one rounding (``llvm.fma``; a library call on CPUs without FMA)."""
-    if not all(isinstance(t, types.Float) for t in (a, b, c)):
-        return None
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        args = [
-            context.cast(builder, v, t, types.float64)
-            for v, t in zip(args, signature.args, strict=True)
-        ]
-        d = ir.DoubleType()
-        fn = builder.module.declare_intrinsic("llvm.fma", [d], ir.FunctionType(d, [d, d, d]))
-        return builder.call(fn, args)
-
-    return sig, codegen
-
-
-@jit(inline="always")
-def _two_sum(a, b):  # pragma: no cover - compiled
-    s = a + b
-    bb = s - a
-    return s, (a - (s - bb)) + (b - bb)
-
-
-@jit(inline="always")
-def _fast_two_sum(a, b):  # pragma: no cover - compiled
-    """``a + b`` as (high, low), for ``|a| >= |b|`` (or a == 0)."""
-    s = a + b
-    return s, b - (s - a)
-
-
-@jit(inline="always")
-def _dd_add(ah, al, bh, bl):  # pragma: no cover - compiled
-    s, e = _two_sum(ah, bh)
-    return _fast_two_sum(s, e + (al + bl))
-
-
-@jit(inline="always")
-def _dd_mul(ah, al, bh, bl):  # pragma: no cover - compiled
-    p = ah * bh
-    e = _fma(ah, bh, -p)
-    return _fast_two_sum(p, e + (ah * bl + al * bh))
-
-
-@jit(inline="always")
-def _dd_mul_d(ah, al, b):  # pragma: no cover - compiled
-    p = ah * b
-    e = _fma(ah, b, -p)
-    return _fast_two_sum(p, e + al * b)
-
-
-@jit(inline="always")
-def _dd_div_d(ah, al, b):  # pragma: no cover - compiled
-    q = ah / b
-    p = q * b
-    e = _fma(q, b, -p)
-    return _fast_two_sum(q, (((ah - p) - e) + al) / b)
 
 
 # ---------------------------------------------------------------------------------------
@@ -198,11 +143,11 @@ def _dd_accumulate(s, e, y, q):  # pragma: no cover - compiled
 def _add_powers(s1, e1, s2, e2, s3, e3, s4, e4, d):  # pragma: no cover - compiled
     """Add ``d, d**2, d**3, d**4`` (exact to eps**2: FMAs keep the products' errors)."""
     p2 = d * d
-    q2 = _fma(d, d, -p2)
+    q2 = fma(d, d, -p2)
     p3 = p2 * d
-    q3 = _fma(p2, d, -p3) + q2 * d
+    q3 = fma(p2, d, -p3) + q2 * d
     p4 = p2 * p2
-    q4 = _fma(p2, p2, -p4) + 2.0 * p2 * q2
+    q4 = fma(p2, p2, -p4) + 2.0 * p2 * q2
     s1, e1 = _dd_accumulate(s1, e1, d, 0.0)
     s2, e2 = _dd_accumulate(s2, e2, p2, q2)
     s3, e3 = _dd_accumulate(s3, e3, p3, q3)
@@ -268,8 +213,8 @@ def _suffix_moments(y, lo, hi, anchor, scale, Q):  # pragma: no cover - compiled
 @jit(inline="always")
 def _raw_dd(P, a, b, k):  # pragma: no cover - compiled
     """``sum d[a:b]**(k+1)`` as a normalised double-double."""
-    s, e = _two_sum(P[b, k], -P[a, k])
-    return _fast_two_sum(s, e + (P[b, k + 4] - P[a, k + 4]))
+    s, e = two_sum(P[b, k], -P[a, k])
+    return fast_two_sum(s, e + (P[b, k + 4] - P[a, k + 4]))
 
 
 @jit
@@ -285,23 +230,23 @@ def _central_dd(P, a, b, n):  # pragma: no cover - compiled
     s2h, s2l = _raw_dd(P, a, b, 1)
     s3h, s3l = _raw_dd(P, a, b, 2)
     s4h, s4l = _raw_dd(P, a, b, 3)
-    dh, dl = _dd_div_d(s1h, s1l, float(n))
+    dh, dl = dd_div_d(s1h, s1l, float(n))
     # delta * S1
-    th, tl = _dd_mul(dh, dl, s1h, s1l)
-    m2h, _ = _dd_add(s2h, s2l, -th, -tl)
+    th, tl = dd_mul(dh, dl, s1h, s1l)
+    m2h, _ = dd_add(s2h, s2l, -th, -tl)
     # M3 (products by 3 and 6 are not exact in double: done in double-double)
-    ah, al = _dd_mul_d(s2h, s2l, 3.0)
-    uh, ul = _dd_add(ah, al, -2.0 * th, -2.0 * tl)
-    uh, ul = _dd_mul(dh, dl, uh, ul)
-    m3h, _ = _dd_add(s3h, s3l, -uh, -ul)
+    ah, al = dd_mul_d(s2h, s2l, 3.0)
+    uh, ul = dd_add(ah, al, -2.0 * th, -2.0 * tl)
+    uh, ul = dd_mul(dh, dl, uh, ul)
+    m3h, _ = dd_add(s3h, s3l, -uh, -ul)
     # M4
-    ah, al = _dd_mul_d(s2h, s2l, 6.0)
-    bh, bl = _dd_mul_d(th, tl, 3.0)
-    uh, ul = _dd_add(ah, al, -bh, -bl)
-    uh, ul = _dd_mul(dh, dl, uh, ul)
-    uh, ul = _dd_add(4.0 * s3h, 4.0 * s3l, -uh, -ul)
-    uh, ul = _dd_mul(dh, dl, uh, ul)
-    m4h, _ = _dd_add(s4h, s4l, -uh, -ul)
+    ah, al = dd_mul_d(s2h, s2l, 6.0)
+    bh, bl = dd_mul_d(th, tl, 3.0)
+    uh, ul = dd_add(ah, al, -bh, -bl)
+    uh, ul = dd_mul(dh, dl, uh, ul)
+    uh, ul = dd_add(4.0 * s3h, 4.0 * s3l, -uh, -ul)
+    uh, ul = dd_mul(dh, dl, uh, ul)
+    m4h, _ = dd_add(s4h, s4l, -uh, -ul)
     return dh, m2h, m3h, m4h
 
 
@@ -312,7 +257,7 @@ def _direct_kurtosis(y, first, n, scale):  # pragma: no cover - compiled
     s = 0.0
     c = 0.0
     for j in range(first, first + n):
-        s, e = _two_sum(s, (y[j] - x0) * scale)
+        s, e = two_sum(s, (y[j] - x0) * scale)
         c += e
     mean = (s + c) / n
     r = 0.0

@@ -9,7 +9,6 @@ per averaging time and exactly (a few ulps), even on records with large offsets 
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -19,6 +18,7 @@ from adavar import edf as edf_mod
 from adavar import stream
 from adavar import stream_statistics as sstat
 from adavar.errors import AdavarInputError
+from adavar.noise_id import NOISE_ID_RULES, b1_with_rn, pm_with_rn, rn_ratio
 from adavar.results import DeviationResult
 from adavar.taus import averaging_factors
 
@@ -26,7 +26,7 @@ __all__ = ["DATA_TYPES", "NOISE_ID_RULES", "STATISTICS", "as_samples", "deviatio
 
 STATISTICS = ("adev", "oadev", "mdev", "hdev", "ohdev", "tdev", "totdev")
 DATA_TYPES = ("rate", "phase")
-_DATA_TYPE_ALIASES = {"rate": "rate", "freq": "rate", "frequency": "rate", "phase": "phase"}
+DATA_TYPE_ALIASES = {"rate": "rate", "freq": "rate", "frequency": "rate", "phase": "phase"}
 
 
 def resolve_tau0(rate: float | None, tau0: float | None) -> float:
@@ -85,15 +85,6 @@ def _m_max(stat: str, n_points: int) -> int:
     return (n_points - 1) // 3  # hdev, ohdev
 
 
-#: noise identification rules of :func:`deviation` (``noise_id=``)
-NOISE_ID_RULES = ("sp1065", "stable32")
-
-
-def rn_ratio(avar: float, mvar: float) -> float | None:
-    """R(n) = MVAR / AVAR, or None where it is undefined."""
-    return mvar / avar if avar > 0 and np.isfinite(mvar) else None
-
-
 def _rn_in_memory(phase: diff.AnchoredPhase, m: int) -> float | None:
     ms = np.array([m], dtype=np.int64)
     n_avar = phase.n_points - 2 * m
@@ -102,46 +93,7 @@ def _rn_in_memory(phase: diff.AnchoredPhase, m: int) -> float | None:
     return rn_ratio(float(avar), float(sums[0] / (2.0 * m**4 * n[0])))
 
 
-def pm_with_rn(alpha: int, m: int, rn) -> int:
-    """Lag-1 "white PM" checked by R(n) (SP 1065 5.5.5): flicker PM if R(n) says so.
-
-    On short decimated phase series (tens of points, detrended) the lag-1 test reads
-    flicker PM as white PM often (delta of the finite-filter flicker phase falls below
-    0.25: coverage 31-58 % at m = 16-128, N = 4096); R(n) = MVAR/AVAR, from every
-    overlapping term, separates the two by a factor ~m/8.
-    """
-    if alpha != 2 or m < 4:
-        return alpha
-    ratio = rn()
-    if ratio is None:
-        return alpha
-    white, flicker = edf_mod._rn_theory_pm(m)
-    return 1 if ratio > math.sqrt(white * flicker) else 2
-
-
-def b1_with_rn(z: np.ndarray, m: int, dmax: int, rn, *, strict: bool = False) -> float:
-    """B1 on the cluster means; R(n) (``rn()``, computed only if needed) splits PM / white FM.
-
-    SP 1065 consults R(n) when B1 says PM; it is consulted here when B1 says white FM too,
-    where a short-series B1 of PM noise lands as often (at 8-16 clusters, N = 4096: 15-20
-    % of white or flicker PM records): R(n) of white FM (0.5) is far from both PM values.
-    ``strict`` keeps to SP 1065 (and Stable32's tables): R(n) only where B1 says PM.
-    """
-    alpha = edf_mod.identify_noise_b1(z, data_type="rate", dmax=dmax)
-    if alpha == 1:
-        alpha = edf_mod.identify_noise_b1(z, data_type="rate", dmax=dmax, rn_ratio=rn(), m=m)
-    elif alpha == 0 and m >= 4 and not strict:
-        ratio = rn()
-        if ratio is not None:
-            white, flicker = edf_mod._rn_theory_pm(m)
-            if ratio < math.sqrt(white * flicker):
-                alpha = 2
-            elif ratio < math.sqrt(flicker * edf_mod.RN_WHITE_FM):
-                alpha = 1
-    return edf_mod.clamp_alpha(alpha, dmax)
-
-
-def _noise_types(
+def record_noise_types(
     phase: diff.AnchoredPhase,
     ms: np.ndarray,
     dmax: int,
@@ -167,7 +119,7 @@ def _noise_types(
             if count >= edf_mod.MIN_POINTS_LAG1:
                 pstats = None
                 if on_phase:
-                    z = diff._cluster_differences(phase.r, phase.hh, phase.hl, m, count)
+                    z = diff.cluster_differences(phase.r, phase.hh, phase.hl, m, count)
                     pstats = edf_mod.decimated_phase_lag1(z)
                     got = edf_mod.alpha_from_phase_lag1(pstats, None, dmax=dmax)
                     if got is not None:
@@ -312,7 +264,7 @@ def deviation(
         raise AdavarInputError(
             f"unknown totdev_edf {totdev_edf!r}: use one of {edf_mod.TOTDEV_EDF_METHODS}"
         )
-    dtype = _DATA_TYPE_ALIASES.get(str(data_type).lower())
+    dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
     if confidence is not None and not (0.0 < float(confidence) < 1.0):
@@ -390,7 +342,9 @@ def deviation(
                 increments, ms, dmax, chunk_size=chunk, data_type=dtype, noise_id=noise_id
             )
         else:
-            alpha, id_notes = _noise_types(phase, ms, dmax, data_type=dtype, noise_id=noise_id)
+            alpha, id_notes = record_noise_types(
+                phase, ms, dmax, data_type=dtype, noise_id=noise_id
+            )
         notes = notes + id_notes
         edf_values = np.array(
             [

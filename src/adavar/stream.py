@@ -32,7 +32,8 @@ import numpy as np
 from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar._jit import jit
-from adavar.differences import SHIFT, _cluster_sum, _dd_add
+from adavar._kernels.double_double import dd_add
+from adavar.differences import SHIFT, cluster_sum
 from adavar.errors import AdavarInputError
 from adavar.noise_id import (
     decimated_phase_lag1,
@@ -345,13 +346,13 @@ def _check_numeric(arr: np.ndarray, name: str) -> None:
         raise AdavarInputError(f"{name} is complex: pass real samples")
 
 
-def _is_dask(data: Any) -> bool:
+def is_dask(data: Any) -> bool:
     return type(data).__module__.startswith("dask.") and hasattr(data, "compute")
 
 
 def is_chunked(data: Any) -> bool:
     """Whether ``data`` is read piece by piece: a source, a dask array or a file memory map."""
-    return isinstance(data, ChunkedSource) or _is_dask(data) or _memmap_file(data) is not None
+    return isinstance(data, ChunkedSource) or is_dask(data) or _memmap_file(data) is not None
 
 
 def _memmap_file(data: Any) -> NpyFileSource | None:
@@ -407,7 +408,7 @@ def as_source(data: Any, *, name: str = "record") -> ChunkedSource:
     """
     if isinstance(data, ChunkedSource):
         return data
-    if _is_dask(data):
+    if is_dask(data):
         return DaskSource(data, name=name)
     mapped = _memmap_file(data)
     if mapped is not None:
@@ -501,8 +502,8 @@ def _straddling_sum(r, hh, hl, j1, carry):  # pragma: no cover - compiled
     """A cluster that began in an earlier piece and ends at ``j1``: the carry plus ``S[j1]``
     of the piece's own anchored phase (``S[0] = 0``)."""
     b = j1 >> SHIFT
-    zh, zl = _dd_add(carry[0], carry[1], hh[b], hl[b])
-    zh, zl = _dd_add(zh, zl, r[j1], 0.0)
+    zh, zl = dd_add(carry[0], carry[1], hh[b], hl[b])
+    zh, zl = dd_add(zh, zl, r[j1], 0.0)
     return zh + zl
 
 
@@ -518,11 +519,11 @@ def _carry_to_end(r, hh, hl, p0, p1, m, k, count, carry):  # pragma: no cover - 
     if k * m >= p0:  # it began in this piece
         j0 = k * m - p0
         b0 = j0 >> SHIFT
-        dh, dl = _dd_add(hh[b1], hl[b1], -hh[b0], -hl[b0])
-        ch, cl = _dd_add(dh, dl, r[npl] - r[j0], 0.0)
+        dh, dl = dd_add(hh[b1], hl[b1], -hh[b0], -hl[b0])
+        ch, cl = dd_add(dh, dl, r[npl] - r[j0], 0.0)
     else:
-        ch, cl = _dd_add(carry[0], carry[1], hh[b1], hl[b1])
-        ch, cl = _dd_add(ch, cl, r[npl], 0.0)
+        ch, cl = dd_add(carry[0], carry[1], hh[b1], hl[b1])
+        ch, cl = dd_add(ch, cl, r[npl], 0.0)
     carry[0] = ch
     carry[1] = cl
 
@@ -630,7 +631,7 @@ def _cluster_pass(
             k += 1
         full = max(0, min(count, p1 // m) - k)
         for i in range(full):  # the clusters wholly inside the piece
-            zs[nz + i] = _cluster_sum(r, hh, hl, (k + i) * m - p0, m)
+            zs[nz + i] = cluster_sum(r, hh, hl, (k + i) * m - p0, m)
         nz += full
         _carry_to_end(r, hh, hl, p0, p1, m, k + full, count, carry[t])
         if nz == 0:
@@ -868,7 +869,7 @@ def noise_types(
     taus that read "PM" costs one more streamed pass (overlapping and modified sums).
     """
     from adavar import stream_statistics as sstat
-    from adavar.statistics import b1_with_rn, pm_with_rn, rn_ratio
+    from adavar.noise_id import b1_with_rn, pm_with_rn, rn_ratio
 
     src = as_source(source)
     ms = np.atleast_1d(np.asarray(ms, dtype=np.int64))

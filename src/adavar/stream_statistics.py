@@ -28,6 +28,8 @@ import numpy as np
 
 from adavar import differences as diff
 from adavar._jit import jit, parallel_jit, prange
+from adavar._kernels.double_double import dd_add, two_sum
+from adavar.differences import anchor_combo, segment_end
 from adavar.stream import DEFAULT_CHUNK, ChunkedSource, read_extended
 
 __all__ = [
@@ -46,11 +48,6 @@ _MASK = BLOCK - 1
 _SUPERBLOCK = 1 << 14  # terms per parallel work item, as in differences
 _PARALLEL_MIN = 4 * _SUPERBLOCK  # shorter runs are not worth waking the thread pool
 
-_two_sum = diff._two_sum
-_dd_add = diff._dd_add
-_anchor_combo = diff._anchor_combo
-_segment_end = diff._segment_end
-
 
 # ---------------------------------------------------------------------------------------
 # the anchored phase, piece by piece (exact rounding: no fast-math here)
@@ -68,7 +65,7 @@ def _block_totals(u, u_first, shift, s, c, tot_h, tot_l):  # pragma: no cover - 
         if i & _MASK == 0:
             s = 0.0
             c = 0.0
-        s, e = _two_sum(s, u[q] - shift)
+        s, e = two_sum(s, u[q] - shift)
         c += e
         if (i + 1) & _MASK == 0:
             h = s + c
@@ -84,7 +81,7 @@ def _anchors(tot_h, tot_l, hh, hl):  # pragma: no cover - compiled
     for b in range(hh.size):
         hh[b] = ah
         hl[b] = al
-        ah, al = _dd_add(ah, al, tot_h[b], tot_l[b])
+        ah, al = dd_add(ah, al, tot_h[b], tot_l[b])
 
 
 @jit
@@ -100,7 +97,7 @@ def _advance(u, u_first, p, q, shift, s, c, out, out_first):  # pragma: no cover
             c = 0.0
             v = 0.0
         else:
-            s, e = _two_sum(s, u[j - 1 - u_first] - shift)
+            s, e = two_sum(s, u[j - 1 - u_first] - shift)
             c += e
             v = s + c
         if j >= out_first:
@@ -285,8 +282,8 @@ def _sq_range(x0, x1, x2, x3, lo, hi, q0, q1, m, hh, hl, coefs):  # pragma: no c
     i = lo + q0
     end = lo + q1
     while i < end:
-        e = _segment_end(i, end, m, coefs.size)
-        c = _anchor_combo(hh, hl, i, m, coefs)
+        e = segment_end(i, end, m, coefs.size)
+        c = anchor_combo(hh, hl, i, m, coefs)
         if coefs.size == 3:
             acc += _run_sq2(x0, x1, x2, c, i - lo, e - lo)
         else:
@@ -319,8 +316,8 @@ def _fill2(x0, x1, x2, lo, hi, m, hh, hl, out):  # pragma: no cover - compiled
     coefs = diff.SECOND
     i = lo
     while i < hi:
-        e = _segment_end(i, hi, m, 3)
-        c = _anchor_combo(hh, hl, i, m, coefs)
+        e = segment_end(i, hi, m, 3)
+        c = anchor_combo(hh, hl, i, m, coefs)
         _run_fill2(x0, x1, x2, c, i - lo, e - lo, out)
         i = e
 
@@ -373,7 +370,7 @@ def overlapping_sums(
             x = window.get(base, min(b + reach, npts))
             if b - a >= _SUPERBLOCK:
                 blk = base >> SHIFT
-                sums[small[live]] += diff._overlapping_sums(
+                sums[small[live]] += diff.overlapping_sums_kernel(
                     x, phase.hh[blk:], phase.hl[blk:], ms[small][live],
                     i0[live] - base, (i1 - i0)[live], coefs,
                 )  # fmt: skip
@@ -409,7 +406,7 @@ def _strided_run(vals, q_first, q_end, m, hh, hl, coefs, acc):  # pragma: no cov
         local = 0.0
         for k in range(coefs.size):
             local += coefs[k] * vals[q - q_first + k]
-        v = _anchor_combo(hh, hl, q * m, m, coefs) + local
+        v = anchor_combo(hh, hl, q * m, m, coefs) + local
         acc += v * v
     return acc
 
@@ -479,7 +476,7 @@ def strided_sums(phase: StreamedPhase, ms: np.ndarray, order: int) -> tuple[np.n
 @jit
 def _accumulate(d, n, s, c):  # pragma: no cover - compiled
     for k in range(n):
-        s, e = _two_sum(s, d[k])
+        s, e = two_sum(s, d[k])
         c += e
     return s, c
 
@@ -488,9 +485,9 @@ def _accumulate(d, n, s, c):  # pragma: no cover - compiled
 def _slide(enter, leave, n, s, c, acc):  # pragma: no cover - compiled
     """The sliding step of :func:`adavar.differences._modified_sums`, for ``n`` starts."""
     for q in range(n):
-        s, e = _two_sum(s, enter[q])
+        s, e = two_sum(s, enter[q])
         c += e
-        s, e = _two_sum(s, -leave[q])
+        s, e = two_sum(s, -leave[q])
         c += e
         v = s + c
         acc += v * v

@@ -202,13 +202,13 @@ def _davar_summary(
 
 def _schedule_of(result: Any) -> Any:
     """The controller record of an AdaptiveResult as a Schedule (for the Fig. 10 panels)."""
-    from adavar.adaptive import Schedule, _fixed_thresholds, calibrated_thresholds
+    from adavar.adaptive import Schedule, calibrated_thresholds, fixed_thresholds
 
     p = result.parameters
     if p.get("thresholds") == "calibrated":
         th = calibrated_thresholds(p["lmin"], p["lmax"], p["l"], false_alarm=p["false_alarm"])
     else:
-        th = _fixed_thresholds(p["lmax"], p["k1"], p["k2"], p["s2"])
+        th = fixed_thresholds(p["lmax"], p["k1"], p["k2"], p["s2"])
     return Schedule(
         window=result.window, kurtosis=result.kurtosis, s=result.s, f1=result.f1,
         f2=result.f2, f=result.f, centre=result.centre, method=result.method,

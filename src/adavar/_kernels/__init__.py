@@ -1,0 +1,1 @@
+"""Building blocks of the compiled (numba) kernels, shared by the modules that use them."""
