@@ -59,6 +59,7 @@ import numpy as np
 
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES
+from adavar.terms import LETTERS
 
 __all__ = [
     "BATCH_MARKER",
@@ -75,15 +76,6 @@ __all__ = [
 #: File that marks a folder as an ``adavar batch`` output (only such a folder is reused).
 BATCH_MARKER = ".adavar-batch"
 
-#: Letter of each noise term in the summary's column names.
-_LETTERS = {
-    "quantization": "Q",
-    "angle_random_walk": "N",
-    "bias_instability": "B",
-    "rate_random_walk": "K",
-    "rate_ramp": "R",
-}
-
 #: Columns of ``summary.csv`` / ``summary.parquet``, in order. ``status`` is ``ok``
 #: (computed now), ``done`` (skipped: the stored result of an earlier run) or ``error``
 #: (``error_type`` ``input``: a problem with the file or the options; ``internal``: a bug
@@ -94,7 +86,7 @@ _LETTERS = {
 SUMMARY_COLUMNS: tuple[str, ...] = (
     "file", "name", "status", "error_type", "error", "n_samples", "rate_hz", "units",
     "column",
-    *(f"{letter}{suffix}" for letter in _LETTERS.values()
+    *(f"{letter}{suffix}" for letter in LETTERS.values()
       for suffix in ("", "_uncertainty", "_unit")),
     "reduced_chi2", "n_events", "event_times_s", "elapsed_s", "worker",
 )  # fmt: skip
@@ -102,7 +94,7 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
 _INT_COLUMNS = frozenset({"n_samples", "n_events"})
 _FLOAT_COLUMNS = frozenset(
     {"rate_hz", "reduced_chi2", "elapsed_s"}
-    | {f"{letter}{suffix}" for letter in _LETTERS.values() for suffix in ("", "_uncertainty")}
+    | {f"{letter}{suffix}" for letter in LETTERS.values() for suffix in ("", "_uncertainty")}
 )
 #: Names an output folder must not take (the summary files sit next to the folders).
 _RESERVED = frozenset({"summary.csv", "summary.parquet"})
@@ -596,7 +588,7 @@ def _summary_row(
                rate_hz=1.0 / analysis.tau0, units=analysis.units,
                column=str(analysis.meta["column"]),
                reduced_chi2=fit_json.get("reduced_chi2"))  # fmt: skip
-    for term, letter in _LETTERS.items():
+    for term, letter in LETTERS.items():
         source = conventional[term] if conventional else fit_json[term]
         row[letter] = source["value"]
         row[f"{letter}_uncertainty"] = source["uncertainty"]

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from adavar.errors import AdavarInputError
+from adavar.terms import LETTERS
 from adavar.units import (
     TERM_TIME_POWER,
     conventional_units,
@@ -69,20 +70,9 @@ KALIBR_KEYS: tuple[str, ...] = (
     "update_rate",
 )
 
-_SYMBOLS = {
-    "quantization": "Q",
-    "angle_random_walk": "N",
-    "bias_instability": "B",
-    "rate_random_walk": "K",
-    "rate_ramp": "R",
-}
-_NATURAL_SUFFIX = {
-    "quantization": "*s",
-    "angle_random_walk": "*sqrt(s)",
-    "bias_instability": "",
-    "rate_random_walk": "/sqrt(s)",
-    "rate_ramp": "/s",
-}
+_SUFFIX_OF_POWER = {1.0: "*s", 0.5: "*sqrt(s)", 0.0: "", -0.5: "/sqrt(s)", -1.0: "/s"}
+#: The coefficient's unit: the rate's unit and this (``deg/s*sqrt(s)``, ...).
+_NATURAL_SUFFIX = {name: _SUFFIX_OF_POWER[p] for name, p in TERM_TIME_POWER.items()}
 
 
 def _fail(message: str) -> AdavarInputError:
@@ -328,7 +318,7 @@ def coefficient_rows(fit: Any, *, units: str | None = None) -> list[dict[str, An
         unc = _scalar(t.uncertainty, f"the fit's {term}")
         row: dict[str, Any] = {
             "term": term,
-            "symbol": _SYMBOLS[term],
+            "symbol": LETTERS[term],
             "value": _none_if_nan(value),
             "uncertainty": _none_if_nan(unc),
             "unit": base + _NATURAL_SUFFIX[term],
@@ -413,7 +403,7 @@ def _fit_unit(fits: list[Any], given: str | None, what: str, sensor: str, defaul
 def _axis_values(fits: list[Any], term: str, unit: str, what: str, pinned: str) -> list[float]:
     sensor = rate_unit_info(unit).sensor
     target, _ = _KALIBR_TARGET[(sensor, term)]
-    symbol = _SYMBOLS[term]
+    symbol = LETTERS[term]
     values: list[float] = []
     for f in fits:
         t = getattr(f, term)

@@ -31,7 +31,8 @@ import numpy as np
 
 from adavar.noise_model import TERM_NAMES
 from adavar.results import DavarResult, DeviationResult
-from adavar.units import conventional_units, convert_coefficient
+from adavar.terms import TERMS
+from adavar.units import TERM_TIME_POWER, conventional_units, convert_coefficient
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI start-up)
     from matplotlib.figure import Figure
@@ -72,21 +73,7 @@ STAT_NAMES: dict[str, str] = {
 }
 
 #: IEEE Std 952 letter and readable name of each noise term.
-TERM_LABELS: dict[str, tuple[str, str]] = {
-    "quantization": ("Q", "quantization"),
-    "angle_random_walk": ("N", "angle random walk"),
-    "bias_instability": ("B", "bias instability"),
-    "rate_random_walk": ("K", "rate random walk"),
-    "rate_ramp": ("R", "rate ramp"),
-}
-
-_TERM_POWER = {
-    "quantization": 1.0,
-    "angle_random_walk": 0.5,
-    "bias_instability": 0.0,
-    "rate_random_walk": -0.5,
-    "rate_ramp": -1.0,
-}
+TERM_LABELS: dict[str, tuple[str, str]] = {t.name: (t.letter, t.label) for t in TERMS}
 
 
 # --------------------------------------------------------------------------------------
@@ -185,11 +172,11 @@ def term_unit(term: str, units: str | None) -> str | None:
         ``units/s`` (R), simplified (``deg/s -> deg, deg/sqrt(s), deg/s, deg/s/sqrt(s),
         deg/s^2``); None if ``units`` is None.
     """
-    if term not in _TERM_POWER:
+    if term not in TERM_TIME_POWER:
         raise ValueError(f"unknown noise term {term!r}; valid names: {', '.join(TERM_NAMES)}")
     if units is None:
         return None
-    return _times_seconds(units, _TERM_POWER[term])
+    return _times_seconds(units, TERM_TIME_POWER[term])
 
 
 def format_pm(value: Any, uncertainty: Any, unit: str | None = None, *, digits: int = 2) -> str:

@@ -3,11 +3,29 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from functools import cached_property
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-__all__ = ["DavarResult", "DeviationResult"]
+from adavar.terms import AVAR_FACTORS as _K
+from adavar.terms import POWERS as _POWERS
+from adavar.terms import TERM_NAMES, term_index
+from adavar.units import (
+    ConvertedNoise,
+    ConvertedTerm,
+    conventional_units,
+    convert_coefficient,
+    rate_unit_info,
+)
+
+if TYPE_CHECKING:
+    from adavar.slopes import SlopeReadoff
+
+__all__ = ["ADEQUATE_P", "DavarResult", "DeviationResult", "NoiseFit", "NoiseTerm"]
+
+#: ``p_value`` below which a full-covariance fit is flagged as not describing the data.
+ADEQUATE_P = 1e-3
 
 
 @dataclass(frozen=True)
@@ -276,3 +294,359 @@ class DavarResult:
             "window_convention": "samples p-(L-1)//2 .. p-(L-1)//2+L-1 around centre p",
             "notes": "; ".join(self.notes),
         }
+
+
+@dataclass(frozen=True)
+class NoiseTerm:
+    """One fitted noise coefficient.
+
+    Attributes
+    ----------
+    value : float or ndarray
+        The coefficient, in the data's own units (see :class:`NoiseFit`); an array over the
+        leading shape for a stack of curves.
+    uncertainty : float or ndarray
+        1-sigma uncertainty (a 1-sigma upper bound where ``value`` is pinned at 0; NaN for a
+        term that was not in the model).
+    """
+
+    value: Any
+    uncertainty: Any
+
+
+@dataclass(frozen=True, eq=False)
+class NoiseFit:
+    """The result of :func:`fit_noise` / :func:`fit_avar`.
+
+    All per-curve arrays have the leading shape of the input (``()`` for a single curve,
+    ``(T,)`` for T DAVAR windows, ...).
+
+    Attributes
+    ----------
+    quantization : NoiseTerm
+        Q, in ``unit*s`` (an angle for a gyro, a velocity for an accelerometer).
+    angle_random_walk : NoiseTerm
+        N, in ``unit*sqrt(s)`` (the velocity random walk for an accelerometer).
+    bias_instability : NoiseTerm
+        B, in ``unit``.
+    rate_random_walk : NoiseTerm
+        K, in ``unit/sqrt(s)``.
+    rate_ramp : NoiseTerm
+        R, in ``unit/s``.
+    coefficients : ndarray, shape (..., 5)
+        ``C_-2 .. C_2`` (0 for a term not in the model or pinned by the constraint).
+    coefficient_uncertainty : ndarray, shape (..., 5)
+        1-sigma of each ``C_n`` (scaled as described in the module docstring; from the
+        unconstrained covariance for pinned terms; NaN for terms not in the model).
+    tau : ndarray, shape (M,)
+        The averaging times of the input.
+    fitted_avar : ndarray, shape (..., M)
+        The model at ``tau`` (also at points that were ignored).
+    chi2 : ndarray or float
+        Weighted residual sum of squares of the final pass.
+    dof : ndarray or int or float
+        ``n_points - len(terms)`` (clipped at 0); with ``spacing="octave"`` on a dense tau
+        grid, the effective number of points (each tau counted by its octave share) minus
+        ``len(terms)``.
+    reduced_chi2 : ndarray or float
+        ``chi2 / dof`` (NaN when ``dof == 0``): the goodness-of-fit figure, about 1 for
+        independent taus when the model and the edf are right (below 1, about 0.6, on the
+        positively correlated octave taus of an overlapping statistic).
+    n_points : ndarray or int
+        Valid points per curve.
+    active : ndarray of bool, shape (..., 5)
+        Terms with a strictly positive coefficient.
+    terms : tuple of str
+        The terms of the model.
+    units : str or None
+        Declared unit of the input rate samples.
+    n_reweight : int
+        Reweighting passes used.
+    weighted : bool
+        False when the fit used ``edf=None`` (relative weights only).
+    time : ndarray or None
+        For a DAVAR result: the window-centre times (the leading axis), else None.
+    spacing : str
+        The tau-spacing weighting used (see :func:`fit_avar`).
+    method : str
+        ``"gls"`` (full covariance, one curve), ``"wls"`` (diagonal weights) or
+        ``"slopes"`` (slope-line read-offs), see :func:`fit_noise`.
+    used : ndarray of bool, shape (..., M), or None
+        The points that entered the fit.
+    exclusions : tuple of str
+        For one curve, per tau: why the point did not enter the fit ("" where it did):
+        undefined, outside ``tau_range``, below ``2 / bandwidth``, a short-tau roll-off
+        the model cannot describe, a thinned dense grid.
+    residuals : ndarray, shape (..., M), or None
+        Standardised residuals ``(avar - model) / sigma`` at every valid tau (excluded ones
+        too, so a figure can show them), ``sigma`` the model's standard error of the
+        estimate (full covariance for ``"gls"``, ``sqrt(2/edf)`` for ``"wls"``).
+    dropped : tuple of str
+        Terms removed by the term selection (value 0, uncertainty a 1-sigma upper bound).
+    coefficient_covariance : ndarray, shape (5, 5), or None
+        Covariance of ``C_-2 .. C_2`` (``"gls"``; NaN rows for terms not selected).
+    slopes : SlopeReadoff or None
+        The classical slope-line read-offs of the curve (one curve only), see
+        :mod:`adavar.slopes`.
+
+    Notes
+    -----
+    A term not in ``terms`` has value 0 and uncertainty NaN.
+    """
+
+    coefficients: np.ndarray
+    coefficient_uncertainty: np.ndarray
+    tau: np.ndarray
+    chi2: Any
+    dof: Any
+    reduced_chi2: Any
+    n_points: Any
+    terms: tuple[str, ...]
+    units: str | None
+    n_reweight: int
+    weighted: bool = True
+    time: np.ndarray | None = None
+    spacing: str = "octave"
+    method: str = "wls"
+    used: np.ndarray | None = None
+    exclusions: tuple[str, ...] = ()
+    residuals: np.ndarray | None = None
+    dropped: tuple[str, ...] = ()
+    coefficient_covariance: np.ndarray | None = None
+    slopes: SlopeReadoff | None = None
+
+    @property
+    def rolloff(self) -> Any:
+        """The negative ``tau^-2`` coefficient that models a filter's roll-off (else 0).
+
+        In ``unit^2 s^2`` like ``C_-2``: the model's variance holds ``rolloff / tau^2``
+        (see :mod:`adavar.gls_fit`, ``rolloff="model"``).
+        """
+        c = np.minimum(self.coefficients[..., 0], 0.0)
+        return c[()] if c.ndim == 0 else c
+
+    @property
+    def excluded(self) -> np.ndarray | None:
+        """Valid points that the fit left out (tau range, bandwidth, roll-off), or None."""
+        if self.used is None or self.residuals is None:
+            return None
+        return np.isfinite(self.residuals) & ~self.used
+
+    @property
+    def p_value(self) -> Any:
+        """Probability of a chi2 at least this large if the model is right (NaN: no dof)."""
+        from scipy.stats import chi2 as chi2_dist
+
+        dof = np.asarray(self.dof, dtype=float)
+        with np.errstate(invalid="ignore"):
+            p = np.where(dof > 0, chi2_dist.sf(np.asarray(self.chi2, float), np.maximum(dof, 1)),
+                         np.nan)  # fmt: skip
+        return p[()] if p.ndim == 0 else p
+
+    @property
+    def adequate(self) -> Any:
+        """True where the model describes the points it fitted (``p_value >= 1e-3``).
+
+        Judged only for the full-covariance fit, whose chi-square has its nominal
+        distribution; the diagonal fit's chi-square ignores the correlation of the taus, so
+        there it is ``reduced_chi2 <= 3``.
+        """
+        if self.method == "gls":
+            p = np.asarray(self.p_value, dtype=float)
+            out = ~(p < ADEQUATE_P)
+        else:
+            out = ~(np.asarray(self.reduced_chi2, dtype=float) > 3.0)
+        return out[()] if out.ndim == 0 else out
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """One line per thing a user must know about this fit (one curve; else empty)."""
+        if np.ndim(self.chi2) != 0:
+            return ()
+        out = []
+        if not bool(self.adequate):
+            out.append(
+                f"the noise model does not describe the data (reduced chi2 = "
+                f"{float(self.reduced_chi2):.3g}, p = {float(self.p_value):.2g}): read the "
+                "per-tau residuals, restrict tau_range, or give the sensor's bandwidth"
+            )
+        rolled = [j for j, r in enumerate(self.exclusions) if r.startswith("short-tau")]
+        if rolled:
+            top = self.tau[max(rolled)]
+            out.append(
+                f"{len(rolled)} taus up to {top:.3g} s excluded: the curve rolls off below "
+                "the model there (sensor filter or correlated noise)"
+            )
+        if float(self.rolloff) < 0:
+            out.append(
+                f"a negative tau^-2 term ({float(self.rolloff):.3g}) models the roll-off of "
+                "a sensor filter or correlated short-tau noise; Q reads 0 (rolloff='none' "
+                "keeps Q >= 0)"
+            )
+        if self.dropped:
+            out.append(
+                "not supported by the data, left out: " + ", ".join(self.dropped)
+                + " (value 0, 1-sigma upper bound given)"
+            )  # fmt: skip
+        return tuple(out)
+
+    def _term(self, k: int) -> NoiseTerm:
+        c = self.coefficients[..., k]
+        sig = self.coefficient_uncertainty[..., k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # a negative tau^-2 coefficient is the roll-off term (see `rolloff`): Q is 0
+            value = np.sqrt(np.maximum(c, 0.0) / _K[k])
+            # sigma_value = sigma_C * dvalue/dC; pinned at 0: sqrt of the 1-sigma bound on C
+            unc = np.where(c > 0, sig / (2.0 * np.sqrt(_K[k] * c)), np.sqrt(sig / _K[k]))
+        return NoiseTerm(value[()], unc[()])
+
+    @cached_property
+    def quantization(self) -> NoiseTerm:
+        """Q, in ``unit*s``."""
+        return self._term(0)
+
+    @cached_property
+    def angle_random_walk(self) -> NoiseTerm:
+        """N, in ``unit*sqrt(s)``."""
+        return self._term(1)
+
+    @cached_property
+    def bias_instability(self) -> NoiseTerm:
+        """B, in ``unit``."""
+        return self._term(2)
+
+    @cached_property
+    def rate_random_walk(self) -> NoiseTerm:
+        """K, in ``unit/sqrt(s)``."""
+        return self._term(3)
+
+    @cached_property
+    def rate_ramp(self) -> NoiseTerm:
+        """R, in ``unit/s``."""
+        return self._term(4)
+
+    @cached_property
+    def fitted_avar(self) -> np.ndarray:
+        """The model variance at :attr:`tau`, shape (..., M)."""
+        return self.model_avar(self.tau)
+
+    @property
+    def fitted_dev(self) -> np.ndarray:
+        """The model deviation at :attr:`tau`, ``sqrt(fitted_avar)`` (NaN where negative)."""
+        return self.model_dev(self.tau)
+
+    @property
+    def active(self) -> np.ndarray:
+        """Terms with a strictly positive coefficient, shape (..., 5) (order of TERM_NAMES)."""
+        return self.coefficients > 0
+
+    def model_avar(self, tau: Any) -> np.ndarray:
+        """Evaluate the fitted variance ``sum C_n tau^n``.
+
+        Parameters
+        ----------
+        tau : float or array_like
+            Averaging times in seconds.
+
+        Returns
+        -------
+        ndarray
+            Shape ``leading_shape + np.shape(tau)``.
+        """
+        t = np.asarray(tau, dtype=float)
+        basis = t.reshape(-1, 1) ** _POWERS  # (K, 5)
+        out = self.coefficients @ basis.T  # (..., K)
+        return out.reshape(self.coefficients.shape[:-1] + t.shape)
+
+    def model_dev(self, tau: Any) -> np.ndarray:
+        """Evaluate the fitted deviation ``sqrt(sum C_n tau^n)``.
+
+        Parameters
+        ----------
+        tau : float or array_like
+            Averaging times in seconds.
+
+        Returns
+        -------
+        ndarray
+            Shape ``leading_shape + np.shape(tau)``.
+        """
+        avar = self.model_avar(tau)
+        # a negative roll-off term makes the model negative below its validity: NaN there
+        return np.sqrt(np.where(avar >= 0, avar, np.nan))
+
+    def term_dev(self, name: str, tau: Any) -> np.ndarray:
+        """The deviation asymptote of one term, ``sqrt(C_n tau^n)``.
+
+        Parameters
+        ----------
+        name : str
+            One of :data:`TERM_NAMES`.
+        tau : float or array_like
+            Averaging times in seconds.
+
+        Returns
+        -------
+        ndarray
+            Shape ``leading_shape + np.shape(tau)``.
+        """
+        k = term_index(name)
+        t = np.asarray(tau, dtype=float)
+        c = np.maximum(self.coefficients[..., k], 0.0)
+        return np.sqrt(np.multiply.outer(c, t ** _POWERS[k]))
+
+    def term(self, name: str) -> NoiseTerm:
+        """The :class:`NoiseTerm` called ``name``."""
+        term_index(name)
+        return getattr(self, name)
+
+    def to_units(
+        self, unit: str | None = None, *, output_units: dict[str, str] | None = None
+    ) -> ConvertedNoise:
+        """Convert the coefficients to the units the inertial community reports.
+
+        Parameters
+        ----------
+        unit : str, optional
+            Unit of the *input* rate samples. Defaults to the fit's declared :attr:`units`;
+            if given as well it must agree with them.
+        output_units : dict, optional
+            Term name -> reporting unit, overriding the conventional units of
+            :data:`adavar.units.CONVENTIONAL_UNITS` (e.g. ``{"bias_instability": "m/s^2"}``).
+
+        Returns
+        -------
+        ConvertedNoise
+            Each term's value and uncertainty converted with the same factor, with its unit.
+
+        Raises
+        ------
+        ValueError
+            If no input unit is declared, the two declarations disagree, or a unit is unknown.
+        """
+        if unit is None:
+            unit = self.units
+        elif self.units is not None and unit != self.units:
+            raise ValueError(
+                f"the fit's data were declared in {self.units!r}, not {unit!r}; "
+                "to_units() takes the *input* unit, choose reporting units with output_units="
+            )
+        if unit is None:
+            raise ValueError(
+                "declare the unit of the input rate samples: fit_noise(..., units='deg/s') "
+                "or fit.to_units('deg/s')"
+            )
+        info = rate_unit_info(unit)
+        targets = conventional_units(unit)
+        for name, target in (output_units or {}).items():
+            term_index(name)
+            targets[name] = target
+        converted = {}
+        for name in TERM_NAMES:
+            t = getattr(self, name)
+            converted[name] = ConvertedTerm(
+                convert_coefficient(t.value, name, unit, targets[name]),
+                convert_coefficient(t.uncertainty, name, unit, targets[name]),
+                targets[name],
+            )
+        return ConvertedNoise(**converted, input_unit=unit, sensor=info.sensor)

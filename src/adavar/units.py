@@ -37,6 +37,8 @@ from typing import Any
 
 import numpy as np
 
+from adavar.terms import TERMS
+
 __all__ = [
     "CONVENTIONAL_UNITS",
     "RATE_UNITS",
@@ -141,13 +143,7 @@ _ALIASES = {
 RATE_UNITS: tuple[str, ...] = tuple(u for u, i in _UNITS.items() if i.time_power == 0.0)
 
 #: Power of time that each noise coefficient carries on top of the rate unit.
-TERM_TIME_POWER: dict[str, float] = {
-    "quantization": 1.0,
-    "angle_random_walk": 0.5,
-    "bias_instability": 0.0,
-    "rate_random_walk": -0.5,
-    "rate_ramp": -1.0,
-}
+TERM_TIME_POWER: dict[str, float] = {t.name: t.unit_power for t in TERMS}
 
 #: The conventional reporting unit of each term, per sensor kind.
 CONVENTIONAL_UNITS: dict[str, dict[str, str]] = {

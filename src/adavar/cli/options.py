@@ -11,6 +11,7 @@ from typing import NoReturn
 from adavar.noise_model import TERM_NAMES
 from adavar.settings import CONTROLLER, FIT
 from adavar.taus import TAU_KEYWORDS
+from adavar.terms import ALIASES, TERMS
 from adavar.windows import EDGES, MIN_WINDOW
 from adavar.writers import (
     SURFACE_FORMATS,
@@ -28,37 +29,8 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 
 
-_TERM_ALIASES = {
-    "q": "quantization",
-    "n": "angle_random_walk",
-    "arw": "angle_random_walk",
-    "vrw": "angle_random_walk",
-    "b": "bias_instability",
-    "bi": "bias_instability",
-    "k": "rate_random_walk",
-    "rrw": "rate_random_walk",
-    "r": "rate_ramp",
-    "rr": "rate_ramp",
-}
-
-
 #: File name (without suffix) of the coefficient figure of each term in a davar --out folder.
-TERM_FILES = {
-    "quantization": "q",
-    "angle_random_walk": "arw",
-    "bias_instability": "bi",
-    "rate_random_walk": "rrw",
-    "rate_ramp": "rr",
-}
-
-
-_TERM_LETTERS = {
-    "quantization": "Q",
-    "angle_random_walk": "N",
-    "bias_instability": "B",
-    "rate_random_walk": "K",
-    "rate_ramp": "R",
-}
+TERM_FILES = {t.name: t.short for t in TERMS}
 
 
 class UsageError(Exception):
@@ -254,7 +226,7 @@ def parse_terms(text: str) -> tuple[str, ...]:
         key = part.strip()
         if not key:
             continue
-        name = key if key in TERM_NAMES else _TERM_ALIASES.get(key.lower())
+        name = key if key in TERM_NAMES else ALIASES.get(key.lower())
         if name is None:
             raise argparse.ArgumentTypeError(
                 f"unknown noise term {key!r}: use {', '.join(TERM_NAMES)} or the letters "

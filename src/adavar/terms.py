@@ -1,0 +1,100 @@
+"""The five IEEE Std 952 noise terms: one table of their names, letters, labels and powers.
+
+=====================  ======  =====================  =========  =====================
+name                   letter  label                  power n    avar = k value^2 tau^n
+=====================  ======  =====================  =========  =====================
+quantization           Q       quantization           -2         k = 3
+angle_random_walk      N       angle random walk      -1         k = 1
+bias_instability       B       bias instability       0          k = 2 ln 2 / pi
+rate_random_walk       K       rate random walk       1          k = 1/3
+rate_ramp              R       rate ramp              2          k = 1/2
+=====================  ======  =====================  =========  =====================
+
+(docs/method.md sections 1 and 4.) The coefficient of a term is in ``unit * s**unit_power``
+of the rate's unit: Q ``unit*s``, N ``unit*sqrt(s)``, B ``unit``, K ``unit/sqrt(s)``,
+R ``unit/s``. Every module that names, orders or labels the terms takes them from here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "ALIASES",
+    "AVAR_FACTORS",
+    "LETTERS",
+    "POWERS",
+    "TERMS",
+    "TERM_NAMES",
+    "Term",
+    "term_index",
+]
+
+
+@dataclass(frozen=True)
+class Term:
+    """One noise term of the IEEE model.
+
+    Attributes
+    ----------
+    name : str
+        The long name used as an attribute (``fit.angle_random_walk``).
+    letter : str
+        IEEE Std 952 letter.
+    label : str
+        Words for tables and figures.
+    power : int
+        Power of tau in the Allan variance.
+    factor : float
+        ``k`` in ``avar = k value**2 tau**power``.
+    unit_power : float
+        The coefficient's unit is the rate's unit times ``s**unit_power``.
+    short : str
+        Short name, used for file names (``arw.png``).
+    """
+
+    name: str
+    letter: str
+    label: str
+    power: int
+    factor: float
+    unit_power: float
+    short: str
+
+
+#: The five terms in the order of the powers of tau, -2 .. 2.
+TERMS: tuple[Term, ...] = (
+    Term("quantization", "Q", "quantization", -2, 3.0, 1.0, "q"),
+    Term("angle_random_walk", "N", "angle random walk", -1, 1.0, 0.5, "arw"),
+    Term("bias_instability", "B", "bias instability", 0, 2.0 * math.log(2.0) / math.pi, 0.0, "bi"),
+    Term("rate_random_walk", "K", "rate random walk", 1, 1.0 / 3.0, -0.5, "rrw"),
+    Term("rate_ramp", "R", "rate ramp", 2, 0.5, -1.0, "rr"),
+)
+#: Their names, in that order.
+TERM_NAMES: tuple[str, ...] = tuple(t.name for t in TERMS)
+#: Powers of tau, ``-2 .. 2``.
+POWERS = np.array([t.power for t in TERMS])
+#: ``k`` of each term: ``avar = k value**2 tau**n``.
+AVAR_FACTORS = np.array([t.factor for t in TERMS])
+#: Name -> IEEE letter.
+LETTERS: dict[str, str] = {t.name: t.letter for t in TERMS}
+#: Lower-case spellings users type (``--terms N,K``, ``arw``, ``rrw``, ...) -> name.
+ALIASES: dict[str, str] = {
+    **{t.letter.lower(): t.name for t in TERMS},
+    **{t.short: t.name for t in TERMS},
+    "vrw": "angle_random_walk",
+    "bi": "bias_instability",
+}
+
+
+def term_index(name: str) -> int:
+    """Position of the term ``name`` in :data:`TERM_NAMES` (ValueError for another name)."""
+    try:
+        return TERM_NAMES.index(name)
+    except ValueError:
+        raise ValueError(
+            f"unknown noise term {name!r}; valid names: {', '.join(TERM_NAMES)}"
+        ) from None
