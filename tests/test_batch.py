@@ -26,7 +26,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar import batch, cli, simulate, writers
+from adavar import analysis, batch, cli, simulate, writers
 from adavar.batch import (
     BATCH_MARKER,
     SUMMARY_COLUMNS,
@@ -570,7 +570,7 @@ def _slow_runs(mask):
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.booleans(), max_size=60))
 def test_runs_equal_a_plain_loop(mask):
-    assert batch._runs(np.array(mask, dtype=bool)) == _slow_runs(mask)
+    assert analysis._runs(np.array(mask, dtype=bool)) == _slow_runs(mask)
 
 
 def test_events_are_the_node_times_of_the_schedule(records):

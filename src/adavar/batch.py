@@ -2,8 +2,9 @@
 
 :func:`run_batch` analyses many logs (a production line's static gyro recordings, a fleet's
 daily files) the way ``adavar report FILE`` analyses one: every file is one task that runs
-:func:`analyse_file` (the function behind ``adavar report``, so a file's numbers in a batch
-are those of running it alone) and writes ``OUT/<name>/`` atomically:
+:func:`adavar.analysis.analyse_file` (the pipeline of ``adavar report``, :mod:`adavar.analysis`:
+the same load and channel analysis, so a file's numbers in a batch are those of running
+``adavar report`` on it alone) and writes ``OUT/<name>/`` atomically:
 
 - ``report.html``: the self-contained interactive report of ``adavar report``;
 - ``result.json``: the input (file, column, rate, unit, samples, preprocessing, the size and
@@ -38,10 +39,8 @@ the L-sample window. With the paper's thresholds this test fires on stationary n
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import datetime as _dt
-import functools
 import glob
 import hashlib
 import json
@@ -51,14 +50,14 @@ import re
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from adavar.analysis import ReportAnalysis, analyse_file, report_options
 from adavar.errors import AdavarInputError
-from adavar.noise_model import TERM_NAMES
 from adavar.terms import LETTERS
 
 __all__ = [
@@ -98,317 +97,8 @@ _FLOAT_COLUMNS = frozenset(
 )
 #: Names an output folder must not take (the summary files sit next to the folders).
 _RESERVED = frozenset({"summary.csv", "summary.parquet"})
-#: Keys of the ``adavar report`` namespace that are not analysis options.
-_CLI_ONLY = frozenset(
-    {"command", "handler", "file", "output", "json", "force", "title", "config", "debug",
-     "help"}
-)  # fmt: skip
-_ALIASES = {"l": "segment"}
 #: A scheduler address: optional protocol, host (name, IPv4 or [IPv6]) and port.
 _ADDRESS = re.compile(r"^(?:[a-z][a-z0-9+]*://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]]+):\d{1,5}$")
-
-
-# --------------------------------------------------------------------------------------
-# Options: those of adavar report
-# --------------------------------------------------------------------------------------
-
-
-@functools.cache
-def _report_defaults() -> tuple[tuple[str, Any], ...]:
-    """The analysis options of ``adavar report`` and their defaults (one definition:
-    :data:`adavar.settings.ANALYSIS_DEFAULTS`, which the command line's parser agrees with)."""
-    from adavar.settings import ANALYSIS_DEFAULTS
-
-    return tuple(sorted(ANALYSIS_DEFAULTS.items()))
-
-
-def report_options(
-    options: Mapping[str, Any] | argparse.Namespace | None = None, *, ignore_unknown: bool = False
-) -> dict[str, Any]:
-    """Every analysis option of ``adavar report``: its defaults, updated with ``options``.
-
-    Parameters
-    ----------
-    options : mapping or argparse.Namespace, optional
-        Option values by the destination names of the flags of ``adavar report`` (``units``,
-        ``rate``, ``tau0``, ``column``, ``data_type``, ``preprocess``, ``window``,
-        ``adaptive``, ``taus``, ``step``, ``terms``, ``lmax``, ``lmin``, ``k1``, ``k2``,
-        ``s2``, ``segment`` (or ``l``), ``thresholds``, ``nan``, ``gaps``, ...); dashes may
-        be written as underscores or dashes.
-    ignore_unknown : bool
-        Skip keys that are not analysis options (for a command-line namespace) instead of
-        raising.
-
-    Returns
-    -------
-    dict
-        Name -> value for every analysis option.
-
-    Raises
-    ------
-    AdavarInputError
-        An unknown option name (unless ``ignore_unknown``).
-    """
-    defaults = dict(_report_defaults())
-    if options is None:
-        given: dict[str, Any] = {}
-    elif isinstance(options, argparse.Namespace):
-        given = dict(vars(options))
-    else:
-        given = dict(options)
-    out = dict(defaults)
-    for key, value in given.items():
-        name = _ALIASES.get(str(key), str(key).replace("-", "_"))
-        if name in defaults:
-            out[name] = value
-        elif not ignore_unknown:
-            raise AdavarInputError(
-                f"unknown analysis option {key!r}: use the names of the flags of 'adavar "
-                f"report' ({', '.join(sorted(defaults))})"
-            )
-    return out
-
-
-# --------------------------------------------------------------------------------------
-# One file: what adavar report computes
-# --------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class ReportAnalysis:
-    """Everything ``adavar report`` computes for one file (from :func:`analyse_file`).
-
-    Attributes
-    ----------
-    path : str
-        The file as given.
-    title : str
-        Title of the report.
-    samples : ndarray
-        The samples analysed (after preprocessing).
-    meta : dict
-        How they were read (``path``, ``column``, ``kind``, ``rate_from``, ``reader``,
-        ``preprocessing``, ...).
-    units : str
-        Declared unit of the samples.
-    rate_units : str
-        Unit of the rate samples (the integrated unit per second for phase data).
-    tau0 : float
-        Sample interval, seconds.
-    rate_options : dict
-        The ``rate``/``tau0`` keywords given to the analysis functions.
-    options : dict
-        Every analysis option (:func:`report_options`).
-    deviation : DeviationResult
-        The whole-record overlapping Allan deviation.
-    fit : NoiseFit
-        Its noise fit.
-    surface, adaptive : DavarResult, AdaptiveResult or None
-        The DAVAR surface (``window``) or the adaptive one (``adaptive``; then both are it).
-    coefficients : NoiseFit or None
-        The fit of every window of the surface.
-    parameters : dict
-        The parameter table of the report.
-    preprocessing : list of str
-        The preprocessing steps, in order.
-    """
-
-    path: str
-    title: str
-    samples: np.ndarray
-    meta: dict[str, Any]
-    units: str
-    rate_units: str
-    tau0: float
-    rate_options: dict[str, Any]
-    options: dict[str, Any]
-    deviation: Any
-    fit: Any
-    surface: Any = None
-    adaptive: Any = None
-    coefficients: Any = None
-    parameters: dict[str, Any] = field(default_factory=dict)
-    preprocessing: list[str] = field(default_factory=list)
-
-    @property
-    def n_samples(self) -> int:
-        """Number of samples analysed."""
-        return int(self.samples.size)
-
-    def html(self) -> str:
-        """The report (:func:`adavar.report.build_report`) of ``adavar report``."""
-        from adavar.report import build_report
-
-        return build_report(
-            title=self.title,
-            source={"file": self.meta["path"], "column": self.meta["column"],
-                    "format": self.meta["kind"], "samples": self.n_samples},
-            deviation=self.deviation, fit=self.fit, surface=self.surface,
-            coefficients=self.coefficients, adaptive=self.adaptive,
-            parameters=self.parameters, preprocessing=self.preprocessing,
-            units=self.rate_units,
-        )  # fmt: skip
-
-    def events(self) -> dict[str, Any] | None:
-        """The events the window detected: None without ``window`` or ``adaptive``.
-
-        Returns
-        -------
-        dict or None
-            ``{"method", "rule", "count", "items", "note"}``; every item has ``start_s``
-            (the Beginning node: first centre of the run, seconds from the first sample),
-            ``end_s`` (adaptive: the End node, the start of the last regrowth; fixed: the
-            last flagged centre), ``restore_s`` (adaptive: back at Lmax, None if the record
-            ends first), ``leading_edge_s`` (the newest sample of the window at
-            ``start_s``: the event began at or before it) and ``min_window`` (samples).
-        """
-        if self.surface is None:
-            return None
-        if self.adaptive is not None:
-            lmax = int(self.adaptive.parameters["lmax"])
-            window = np.asarray(self.adaptive.window)
-            time_s = np.asarray(self.adaptive.time, dtype=float)
-            items = []
-            for a, b in _runs(window < lmax):
-                e = b
-                while e > a and window[e - 1] < window[e]:
-                    e -= 1
-                items.append({
-                    "start_s": float(time_s[a]), "end_s": float(time_s[e]),
-                    "restore_s": float(time_s[b + 1]) if b + 1 < window.size else None,
-                    "leading_edge_s": float(time_s[a] + self._seconds(lmax // 2)),
-                    "min_window": int(window[a : b + 1].min()),
-                })  # fmt: skip
-            return {
-                "method": self.adaptive.method,
-                "rule": f"runs of window centres where the window is shorter than Lmax = {lmax}",
-                "count": len(items), "items": items, "note": None,
-            }  # fmt: skip
-        return self._fixed_window_events()
-
-    def _seconds(self, samples: Any) -> Any:
-        """Sample counts as seconds, as the DAVAR times are (``n / rate`` or ``n * tau0``)."""
-        n = np.asarray(samples, dtype=float)
-        if self.rate_options.get("tau0") is None:
-            return n / float(self.rate_options["rate"])
-        return n * float(self.rate_options["tau0"])
-
-    def _fixed_window_events(self) -> dict[str, Any]:
-        from adavar.adaptive import adaptive_schedule
-        from adavar.analysis import controller_settings
-
-        length = int(self.options["window"])
-        settings = controller_settings(argparse.Namespace(**self.options))
-        settings.update(lmax=length, lmin=length)
-        rule = (f"runs of window centres where the adaptive controller's test flags the "
-                f"fixed {length}-sample window")  # fmt: skip
-        if settings["l"] > length - 4:
-            note = (
-                f"no events: the S test needs a window of more than l + 3 = "
-                f"{settings['l'] + 3} samples (give a longer --window or a smaller --l)"
-            )
-            return {"method": "fixed", "rule": rule, "count": None, "items": None, "note": note}
-        u = self.samples if self.options["data_type"] == "rate" else np.diff(self.samples)
-        sched = adaptive_schedule(u, method="fixed", **settings, **self.rate_options)
-        time_s = self._seconds(sched.centre)
-        items = [
-            {"start_s": float(time_s[a]), "end_s": float(time_s[b]), "restore_s": None,
-             "leading_edge_s": float(self._seconds(sched.centre[a] + length // 2)),
-             "min_window": length}
-            for a, b in _runs(np.asarray(sched.f))
-        ]  # fmt: skip
-        return {"method": "fixed", "rule": rule, "count": len(items), "items": items,
-                "note": None}  # fmt: skip
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """First and last index of every run of True in a 1-D boolean array."""
-    edges = np.diff(np.concatenate(([0], np.asarray(mask, dtype=np.int8), [0])))
-    starts = np.flatnonzero(edges == 1)
-    stops = np.flatnonzero(edges == -1) - 1
-    return list(zip(starts.tolist(), stops.tolist(), strict=True))
-
-
-def analyse_file(
-    path: str | os.PathLike[str],
-    options: Mapping[str, Any] | argparse.Namespace | None = None,
-    *,
-    title: str | None = None,
-) -> ReportAnalysis:
-    """Read, preprocess and analyse one file exactly as ``adavar report FILE`` does.
-
-    ``adavar report`` and every task of :func:`run_batch` call this, so a file's numbers are
-    the same in both.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The record (any format of :func:`adavar.readers.read_record`).
-    options : mapping or argparse.Namespace, optional
-        Analysis options (:func:`report_options`); ``units`` and ``rate`` or ``tau0`` (unless
-        the file has time stamps) are needed.
-    title : str, optional
-        Title of the report (default: the file and column).
-
-    Returns
-    -------
-    ReportAnalysis
-
-    Raises
-    ------
-    AdavarInputError
-        An unreadable or bad file, or bad options (a missing unit, both rate and tau0,
-        ...).
-    """
-    from adavar.analysis import analyse_channel, load_input
-
-    opts = report_options(options, ignore_unknown=isinstance(options, argparse.Namespace))
-    args = argparse.Namespace(file=os.fspath(path), **opts)
-    # as adavar report: read (sets args.rate / args.tau0 as every command does), then the
-    # channel's deviation, fit and surface by the report's own function
-    chosen = args.column is not None
-    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False)
-    if chosen:
-        if len(loaded) != 1:
-            raise AdavarInputError(
-                f"{path}: --column {args.column} selects {len(loaded)} channels; a batch "
-                "analyses one column per file: run one batch per column (e.g. --column "
-                f"{next(iter(loaded))}) with its own --out"
-            )
-        name = next(iter(loaded))
-        samples, units = loaded[name], units_of[name]
-    else:
-        samples, units = loaded, units_of
-    run = analyse_channel(args, samples, units, tau0, lambda what: None, "")
-    rate_kw = dict(
-        rate=args.rate if args.rate is not None else 1.0,
-        tau0=None if args.rate is not None else tau0,
-    )  # fmt: skip
-    terms = args.terms or TERM_NAMES
-    parameters: dict[str, Any] = {
-        "statistic": "oadev", "data type": args.data_type, "units": units,
-        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
-    }  # fmt: skip
-    if args.n_reweight != 3 or args.spacing != "octave":
-        parameters.update({"fit reweighting passes": args.n_reweight,
-                           "fit tau spacing": args.spacing})  # fmt: skip
-    surface, adaptive = run["surface"], run["adaptive"]
-    if surface is not None:
-        parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
-        if adaptive is not None:
-            parameters.update({f"controller {k}": v for k, v in adaptive.parameters.items()
-                               if v is not None})  # fmt: skip
-        else:
-            parameters["DAVAR window [samples]"] = args.window
-    steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
-    return ReportAnalysis(
-        path=os.fspath(path),
-        title=title or f"{Path(meta['path']).name}, column {meta['column']}",
-        samples=samples, meta=meta, units=units, rate_units=run["rate_units"],
-        tau0=float(tau0), rate_options=rate_kw, options=opts, deviation=run["result"],
-        fit=run["fit"], surface=surface, adaptive=adaptive,
-        coefficients=run["coefficients"], parameters=parameters, preprocessing=steps,
-    )  # fmt: skip
 
 
 # --------------------------------------------------------------------------------------

@@ -32,7 +32,14 @@ import numpy as np
 from adavar.noise_model import TERM_NAMES
 from adavar.results import DavarResult, DeviationResult
 from adavar.terms import TERMS
-from adavar.units import TERM_TIME_POWER, conventional_units, convert_coefficient
+from adavar.units import (
+    conventional_units,
+    convert_coefficient,
+    deviation_unit,
+    format_pm,
+    rate_unit,
+    term_unit,
+)
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI start-up)
     from matplotlib.figure import Figure
@@ -74,150 +81,6 @@ STAT_NAMES: dict[str, str] = {
 
 #: IEEE Std 952 letter and readable name of each noise term.
 TERM_LABELS: dict[str, tuple[str, str]] = {t.name: (t.letter, t.label) for t in TERMS}
-
-
-# --------------------------------------------------------------------------------------
-# Units and numbers
-# --------------------------------------------------------------------------------------
-
-
-def _times_seconds(unit: str, power: float) -> str:
-    """``unit * s**power`` written simply (``deg/s * s -> deg``, ``m/s^2 * sqrt(s) ->
-    m/s/sqrt(s)``); ``""`` is dimensionless."""
-    if power == 0.0:
-        return unit
-    per_s = unit.endswith("/s")
-    per_s2 = unit.endswith("/s^2")
-    base = unit[:-2] if per_s else unit[:-4] if per_s2 else unit
-    if power == 1.0:
-        if per_s:
-            return base
-        if per_s2:
-            return f"{base}/s"
-        return f"{unit}*s" if unit else "s"
-    if power == 0.5:
-        if per_s:
-            return f"{base}/sqrt(s)"
-        if per_s2:
-            return f"{base}/s/sqrt(s)"
-        return f"{unit}*sqrt(s)" if unit else "sqrt(s)"
-    if power == -0.5:
-        return f"{unit}/sqrt(s)" if unit else "1/sqrt(s)"
-    if power == -1.0:
-        if per_s:
-            return f"{base}/s^2"
-        if per_s2:
-            return f"{base}/s^3"
-        return f"{unit}/s" if unit else "1/s"
-    raise ValueError(f"unsupported power of seconds: {power}")
-
-
-def rate_unit(units: str | None, data_type: str = "rate") -> str | None:
-    """Unit of the rate whose deviation is computed, from the unit of the input samples.
-
-    Parameters
-    ----------
-    units : str or None
-        Declared unit of the samples in the file (None if not declared).
-    data_type : {"rate", "phase"}
-        For ``"rate"`` the samples are the rate (unit unchanged); for ``"phase"`` they are
-        its integral and the rate is ``units/s`` (``deg -> deg/s``, ``m/s -> m/s^2``; a time
-        error in ``s`` gives a dimensionless fractional frequency, ``""``).
-
-    Returns
-    -------
-    str or None
-    """
-    if units is None or data_type == "rate":
-        return units
-    if units.strip() == "s":
-        return ""
-    return _times_seconds(units, -1.0)
-
-
-def deviation_unit(stat: str, units: str | None) -> str | None:
-    """Unit of a deviation of rate data declared in ``units``.
-
-    Parameters
-    ----------
-    stat : str
-        The statistic; ``"tdev"`` is in the integrated (phase) unit ``units*s``, every other
-        statistic in ``units``.
-    units : str or None
-        Unit of the rate (see :func:`rate_unit`).
-
-    Returns
-    -------
-    str or None
-    """
-    if units is None:
-        return None
-    return _times_seconds(units, 1.0) if stat == "tdev" else units
-
-
-def term_unit(term: str, units: str | None) -> str | None:
-    """Natural unit of a noise coefficient of rate data declared in ``units``.
-
-    Parameters
-    ----------
-    term : str
-        One of :data:`adavar.noise_model.TERM_NAMES`.
-    units : str or None
-        Unit of the rate.
-
-    Returns
-    -------
-    str or None
-        ``units*s`` (Q), ``units*sqrt(s)`` (N), ``units`` (B), ``units/sqrt(s)`` (K),
-        ``units/s`` (R), simplified (``deg/s -> deg, deg/sqrt(s), deg/s, deg/s/sqrt(s),
-        deg/s^2``); None if ``units`` is None.
-    """
-    if term not in TERM_TIME_POWER:
-        raise ValueError(f"unknown noise term {term!r}; valid names: {', '.join(TERM_NAMES)}")
-    if units is None:
-        return None
-    return _times_seconds(units, TERM_TIME_POWER[term])
-
-
-def format_pm(value: Any, uncertainty: Any, unit: str | None = None, *, digits: int = 2) -> str:
-    """A value with its 1-sigma uncertainty, rounded to the uncertainty's digits.
-
-    Parameters
-    ----------
-    value, uncertainty : float
-        NaN value: the term was not fitted. Value 0 with a finite uncertainty: a coefficient
-        pinned at 0 by the non-negativity constraint, printed as ``0 (< bound)``.
-    unit : str, optional
-        Appended after a space.
-    digits : int
-        Significant digits of the uncertainty.
-
-    Returns
-    -------
-    str
-        E.g. ``"0.30131 ± 0.00056 deg/sqrt(h)"``, ``"(9.75 ± 0.26)e-05 deg"``.
-    """
-    v, u = float(value), float(uncertainty)
-    suffix = f" {unit}" if unit else ""
-    if not math.isfinite(v):
-        return "not fitted"
-    if not math.isfinite(u) or u <= 0.0:
-        return f"{v:.6g}{suffix}"
-    if v == 0.0:
-        return f"0 (< {u:.{digits}g}){suffix}"
-    if u >= abs(v):
-        return f"{v:.{digits}g} ± {u:.{digits}g}{suffix}"
-    exp_u = math.floor(math.log10(u))
-    exp_v = math.floor(math.log10(abs(v)))
-    if -3 <= exp_v < 5:
-        decimals = digits - 1 - exp_u
-        if decimals < 0:  # round to tens, hundreds, ...
-            return f"{round(v, decimals):.0f} ± {round(u, decimals):.0f}{suffix}"
-        return f"{v:.{decimals}f} ± {u:.{decimals}f}{suffix}"
-    decimals = max(digits - 1 - (exp_u - exp_v), 0)
-    scale = 10.0**exp_v
-    body = f"({v / scale:.{decimals}f} ± {u / scale:.{decimals}f})e{exp_v:+03d}"
-    return body + suffix
 
 
 # --------------------------------------------------------------------------------------

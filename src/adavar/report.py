@@ -34,15 +34,15 @@ from typing import Any
 import numpy as np
 
 from adavar.noise_model import TERM_NAMES
-from adavar.plots import (
-    STAT_NAMES,
-    TERM_LABELS,
+from adavar.plots import STAT_NAMES, TERM_LABELS
+from adavar.units import (
+    conventional_units,
+    convert_coefficient,
     deviation_unit,
     format_pm,
     rate_unit,
     term_unit,
 )
-from adavar.units import conventional_units, convert_coefficient
 from adavar.writers import atomic_file
 
 __all__ = [

@@ -534,7 +534,7 @@ def conventional(fit: NoiseFit) -> Any:
 def fit_json(fit: NoiseFit) -> dict[str, Any]:
     """The ``fit`` object of the JSON output: every term in data and conventional units."""
     from adavar.noise_model import TERM_NAMES
-    from adavar.plots import term_unit
+    from adavar.units import term_unit
 
     out: dict[str, Any] = {}
     for name in TERM_NAMES:

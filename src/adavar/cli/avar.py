@@ -122,7 +122,8 @@ def _avar_channel(
     tau0: float, do_fit: bool, status: Status | None = None, tag: str = "",
 ) -> dict[str, Any]:  # fmt: skip
     """The deviation (and fit) of one channel: results, JSON payload and printed lines."""
-    from adavar.plots import STAT_NAMES, deviation_unit, rate_unit
+    from adavar.plots import STAT_NAMES
+    from adavar.units import deviation_unit, rate_unit
 
     status = status or Status()
     rate_u = rate_unit(units, args.data_type)

@@ -49,7 +49,7 @@ class _BatchProgress(ProgressBar):
 
 
 def _batch_row_line(row: dict[str, Any]) -> list[str]:
-    from adavar.plots import format_pm
+    from adavar.units import format_pm
 
     n_value = row.get("N")
     coefficient = (

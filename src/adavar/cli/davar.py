@@ -71,7 +71,7 @@ def _fitted_windows(fit: NoiseFit) -> np.ndarray:
 
 
 def _davar_fit_json(fit: NoiseFit, times: np.ndarray) -> dict[str, Any]:
-    from adavar.plots import term_unit
+    from adavar.units import term_unit
 
     conv = conventional(fit)
     fitted = _fitted_windows(fit)
@@ -122,7 +122,8 @@ def _davar_summary(
     result: DavarResult, fit: NoiseFit | None, meta: dict[str, Any], units: str,
     data_type: str, written: list[str], out: str | None,
 ) -> list[str]:  # fmt: skip
-    from adavar.plots import TERM_LABELS, term_unit
+    from adavar.plots import TERM_LABELS
+    from adavar.units import term_unit
 
     tau0 = float(result.tau0)
     window = np.asarray(result.window)
@@ -307,7 +308,7 @@ def _davar_channel(
 ) -> dict[str, Any]:  # fmt: skip
     """The (adaptive) DAVAR surface and its noise fit of one channel, with its JSON payload
     and the names of the files its output folder ``out`` gets."""
-    from adavar.plots import rate_unit
+    from adavar.units import rate_unit
 
     adaptive = args.command == "adaptive"
     rate_u = rate_unit(units, args.data_type)
@@ -419,8 +420,8 @@ def _write_davar_channel(
         davar_heatmap_figure,
         davar_surface_figure,
         save_figure,
-        term_unit,
     )
+    from adavar.units import term_unit
 
     adaptive = args.command == "adaptive"
     result, fit, meta, tau0 = run["result"], run["fit"], run["meta"], run["tau0"]

@@ -62,7 +62,8 @@ def deviation_table(result: DeviationResult, indent: str = "") -> str:
 
 
 def fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = None) -> list[str]:
-    from adavar.plots import TERM_LABELS, format_pm, term_unit
+    from adavar.plots import TERM_LABELS
+    from adavar.units import format_pm, term_unit
 
     conv = conventional(fit)
     red = float(fit.reduced_chi2)
