@@ -351,12 +351,14 @@ def test_bad_chunked_inputs():
 
 
 def test_short_pieces_run_on_one_thread():
-    before = stream.numba.get_num_threads()
+    import numba
+
+    before = numba.get_num_threads()
     with stream.threads_for(stream.PARALLEL_MIN - 1):
-        assert stream.numba.get_num_threads() == 1
-    assert stream.numba.get_num_threads() == before
+        assert numba.get_num_threads() == 1
+    assert numba.get_num_threads() == before
     with stream.threads_for(stream.PARALLEL_MIN):
-        assert stream.numba.get_num_threads() == before
+        assert numba.get_num_threads() == before
 
 
 # --------------------------------------------------------------------------------------
