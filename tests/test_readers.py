@@ -612,12 +612,12 @@ def test_lazy_parquet_refuses_a_time_column(tmp_path):
 
 def test_lazy_is_automatic_above_the_size_limit(tmp_path, monkeypatch):
     h5py = pytest.importorskip("h5py")
-    from adavar import readers
+    from adavar.readers import lazy
 
     with h5py.File(tmp_path / "a.h5", "w") as f:
         f["x"] = np.arange(1000.0)
     assert isinstance(read_record(tmp_path / "a.h5", rate=1.0).channel(), np.ndarray)
-    monkeypatch.setattr(readers, "LAZY_BYTES", 4000)
+    monkeypatch.setattr(lazy, "LAZY_BYTES", 4000)
     assert isinstance(read_record(tmp_path / "a.h5", rate=1.0).channel(), stream.HDF5Source)
     # other NaN policies need the whole record: read into memory
     got = read_record(tmp_path / "a.h5", rate=1.0, nan="drop").channel()

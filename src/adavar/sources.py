@@ -85,6 +85,11 @@ class ChunkedSource:
     def _read_raw(self, start: int, stop: int) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def read_unchecked(self, start: int, stop: int) -> np.ndarray:
+        """Samples ``start .. stop - 1`` in the source's own dtype, NaN and Inf included
+        (for a scan that looks for them: :func:`adavar.readers.read_record`)."""
+        return self._read_raw(int(start), int(stop))
+
     def read(self, start: int, stop: int) -> np.ndarray:
         """Samples ``start .. stop - 1`` as a new float64 array (finite, checked)."""
         start, stop = int(start), int(stop)

@@ -1,0 +1,248 @@
+"""The entry point: :func:`read_record` checks its options and chooses the reader.
+
+The file name's suffix (:data:`SUFFIXES`), or a folder with ``metadata.yaml`` (a ROS 2
+bag), chooses the format module (:mod:`~adavar.readers.text`,
+:mod:`~adavar.readers.stable32`, :mod:`~adavar.readers.npy`, :mod:`~adavar.readers.hdf5`,
+:mod:`~adavar.readers.parquet`, :mod:`~adavar.readers.rosbag`); what it read is finished
+into a :class:`~adavar.readers.record.Record` by
+:func:`~adavar.readers.record.finish_record`, the same for every format.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from adavar.readers.errors import fail
+from adavar.readers.hdf5 import read_hdf5
+from adavar.readers.npy import read_npy, read_npz
+from adavar.readers.parquet import read_parquet
+from adavar.readers.record import GAP_POLICIES, NAN_POLICIES, Record, finish_record
+from adavar.readers.rosbag import read_rosbag
+from adavar.readers.stable32 import read_stable32
+from adavar.readers.table import TIME_FORMATS, as_list
+from adavar.readers.text import read_text
+
+#: File-name suffix -> reader kind (ROS 2 bags are also recognised as folders).
+SUFFIXES: dict[str, str] = {
+    ".csv": "csv",
+    ".tsv": "csv",
+    ".txt": "csv",
+    ".dat": "csv",
+    ".phd": "stable32",
+    ".frd": "stable32",
+    ".npy": "npy",
+    ".npz": "npz",
+    ".h5": "hdf5",
+    ".hdf5": "hdf5",
+    ".he5": "hdf5",
+    ".parquet": "parquet",
+    ".pq": "parquet",
+    ".bag": "ros1",
+    ".db3": "ros2",
+    ".mcap": "ros2",
+}
+
+
+def _kind_of(path: Path) -> str:
+    if path.is_dir():
+        if (path / "metadata.yaml").is_file():
+            return "ros2"
+        raise fail(
+            f"{path} is a folder without metadata.yaml (not a ROS 2 bag): give the path of a "
+            "data file"
+        )
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        known = " ".join(sorted(SUFFIXES))
+        raise fail(
+            f"{path}: unknown file type {suffix or '(no suffix)'!r}: use one of {known} "
+            "(rename the file if its content is one of these)"
+        )
+    return SUFFIXES[suffix]
+
+
+def read_record(
+    path: str | os.PathLike[str],
+    *,
+    columns: str | int | Sequence[str | int] | None = None,
+    rate: float | None = None,
+    time_column: str | int | None = None,
+    time_format: str = "auto",
+    gaps: str = "error",
+    nan: str = "error",
+    dataset: str | None = None,
+    topic: str | None = None,
+    gap_tolerance: float = 0.5,
+    lazy: bool | None = None,
+) -> Record:
+    """Read the channels of a record, with its sampling rate and time base.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file (or ROS 2 bag folder); its suffix chooses the reader (see
+        :data:`SUFFIXES`). Text files: UTF-8, blank lines and lines starting with ``#`` or
+        ``%`` skipped, delimiter sniffed among tab, semicolon, comma and whitespace, a
+        header row when the first line is not numbers (Stable32 ``.phd``/``.frd`` and
+        single-column files may have several header lines), empty / ``NA`` / ``nan``
+        cells read as missing samples.
+    columns : str, int or sequence of them, optional
+        The channels: names (case-insensitive if unique) or 0-based indices, as a list or a
+        comma-separated string (``"gx,gy,gz"``). By default every numeric column except the
+        time column. Columns of a file without header are named ``"0"``, ``"1"``...;
+        a 1-D ``.npy`` array is ``"0"``; ``.npz`` keys and HDF5 dataset names are used as
+        they are; ROS IMU channels are ``gx gy gz`` (rad/s) and ``ax ay az`` (m/s^2);
+        a Stable32 file gives ``"phase"`` (``.phd``) or ``"frequency"`` (``.frd``).
+    rate : float, optional
+        The sampling rate (Hz). Needed when the file has no time column; when it has one,
+        the two must agree within 1 % (median interval), and the declared rate is used.
+    time_column : str or int, optional
+        The time column (name or index). By default a column named like ``t``, ``time``,
+        ``timestamp``, ``stamp``, ``datetime``, ``epoch``, ``mjd`` (optionally with a unit:
+        ``time_s``, ``t [ms]``, ``stamp_ns``), else the only column of ISO 8601 or datetime
+        values; none otherwise. For a two-column Stable32 file, the first column (MJD time
+        tags). For ROS bags: ``"header"`` (header stamps; the default unless they are all
+        zero) or ``"bag"`` (recording time stamps).
+    time_format : {"auto", "s", "ms", "us", "ns", "iso", "mjd"}
+        The time column's unit: ``"auto"`` reads strings as ISO 8601 (naive times as UTC)
+        and numbers in the unit written in the column name, else in seconds (recorded in
+        ``meta["time_unit_source"]`` as assumed).
+    gaps : {"error", "split", "interpolate"}
+        What to do when an interval between time stamps is longer than
+        ``(1 + gap_tolerance)`` times the median (a gap) or shorter than
+        ``(1 - gap_tolerance)`` times it (non-uniform sampling). ``"error"`` names the
+        first one. ``"split"`` keeps every sample and sets :attr:`Record.segments` to the
+        gap-free pieces (non-uniform sampling is still an error). ``"interpolate"`` fills
+        each gap with evenly spaced, linearly interpolated samples (the samples read are
+        kept as they are); with non-uniform sampling, every channel is linearly resampled
+        onto the uniform grid ``k / rate``. Without a time base there is nothing to check.
+    nan : {"error", "drop", "interpolate"}
+        What to do with NaN, infinite or missing samples (and missing time stamps).
+        ``"error"`` names the first bad row and column. ``"drop"`` removes those rows: with
+        a time base, a hole left behind is then a gap like any other (handled by ``gaps``);
+        without one only leading and trailing rows may be dropped, since dropping an
+        inner row would shift every later sample in time (use ``"interpolate"``).
+        ``"interpolate"`` replaces each bad value by linear interpolation over time (or
+        sample index) between its finite neighbours; leading and trailing rows where a
+        channel has no finite value yet are trimmed.
+    dataset : str, optional
+        HDF5 only: the dataset (a 1-D array, a 2-D samples x channels array, a compound
+        dataset whose fields are columns) or a group of equal-length 1-D datasets. By
+        default the only numeric dataset, or the group holding all of them if they are
+        1-D, of equal length and in the same group.
+    topic : str, optional
+        ROS bags only: the ``sensor_msgs/msg/Imu`` topic, needed when there are several.
+    gap_tolerance : float
+        Relative tolerance on the sampling interval, in (0, 1).
+    lazy : bool, optional
+        HDF5 datasets and Parquet columns: ``True`` returns each channel as a
+        :class:`adavar.stream.ChunkedSource` that is read piece by piece (by the
+        out-of-core analyses; ``np.asarray`` loads it whole), ``False`` reads it into
+        memory. By default (None) lazily when the numeric data exceed 1 GiB or a quarter
+        of the available memory and there is no time column and ``nan="error"`` (NaN/Inf
+        are then reported, with their sample, when the analysis reads them). A time column
+        needs every stamp in memory, so ``lazy=True`` with one is an error. ``.npy`` and
+        uncompressed ``.npz`` columns are always memory-mapped and read piece by piece.
+
+    Returns
+    -------
+    Record
+        ``meta`` lists the options and everything done (see :class:`Record`).
+
+    Raises
+    ------
+    AdavarInputError
+        A missing, unreadable, corrupt or unknown file; a missing optional package (the
+        message names it); no numeric column, an unknown or non-numeric column; no rate and
+        no time column, or a declared rate disagreeing with the time stamps; time stamps
+        that repeat or go back; a gap, non-uniform sampling or a NaN/infinite sample under
+        the ``"error"`` policies (naming the row, time and size); invalid options.
+    """
+    if gaps not in GAP_POLICIES:
+        raise fail(f"unknown gaps policy {gaps!r}: use one of {', '.join(GAP_POLICIES)}")
+    if nan not in NAN_POLICIES:
+        raise fail(f"unknown nan policy {nan!r}: use one of {', '.join(NAN_POLICIES)}")
+    fmt = str(time_format).strip().lower()
+    fmt = {"sec": "s", "seconds": "s", "µs": "us"}.get(fmt, fmt)
+    if fmt not in TIME_FORMATS:
+        raise fail(f"unknown time format {time_format!r}: use one of {', '.join(TIME_FORMATS)}")
+    if isinstance(gap_tolerance, bool) or not (
+        isinstance(gap_tolerance, numbers.Real) and 0 < gap_tolerance < 1
+    ):
+        raise fail(f"gap tolerance must be a number between 0 and 1, got {gap_tolerance!r}")
+    if rate is not None:
+        if (
+            isinstance(rate, bool)
+            or not isinstance(rate, numbers.Real)
+            or not (math.isfinite(rate) and rate > 0)
+        ):
+            raise fail(f"rate must be a positive number of Hz, got {rate!r}")
+        rate = float(rate)
+    target = Path(path)
+    src = str(target)
+    if not target.exists():
+        raise fail(f"{src}: no such file: check the path")
+    kind = _kind_of(target)
+    if kind == "ros2" and not target.is_dir():
+        if not (target.parent / "metadata.yaml").is_file():
+            raise fail(
+                f"{src} is not in a ROS 2 bag folder (no metadata.yaml next to it): give the "
+                "bag folder"
+            )
+        target = target.parent
+    if lazy and kind not in ("hdf5", "parquet", "npy", "npz"):
+        raise fail(
+            f"{src} is read whole (lazy reading is for .npy, HDF5 and Parquet files): leave "
+            "out lazy=True / --lazy, or convert the file to .npy"
+        )
+    if lazy and nan != "error":
+        raise fail(
+            f"nan={nan!r} needs the whole record in memory, so it cannot be read lazily: "
+            "leave out lazy=True / --lazy, or remove the bad samples first"
+        )
+    if dataset is not None and kind != "hdf5":
+        raise fail(f"--dataset applies to HDF5 files only, not to {src}: leave it out")
+    if topic is not None and kind not in ("ros1", "ros2"):
+        raise fail(f"--topic applies to ROS bags only, not to {src}: leave it out")
+    cols = as_list(columns)
+    opts = {
+        "columns": cols,
+        "time_column": time_column,
+        "time_format": fmt,
+        "dataset": dataset,
+        "topic": topic,
+        "lazy": lazy,
+        "nan": nan,
+    }
+    meta: dict[str, Any] = {
+        "path": src,
+        "kind": kind,
+        "options": {
+            "columns": cols, "rate": rate, "time_column": time_column, "time_format": fmt,
+            "gaps": gaps, "nan": nan, "dataset": dataset, "topic": topic,
+            "gap_tolerance": float(gap_tolerance),
+        },
+    }  # fmt: skip
+    if kind == "csv":
+        raw = read_text(target, src, opts)
+    elif kind == "stable32":
+        raw = read_stable32(target, src, opts)
+    elif kind == "npy":
+        raw = read_npy(target, src, opts)
+    elif kind == "npz":
+        raw = read_npz(target, src, opts)
+    elif kind == "hdf5":
+        raw = read_hdf5(target, src, opts)
+    elif kind == "parquet":
+        raw = read_parquet(target, src, opts)
+    else:
+        raw = read_rosbag(target, src, opts, ros2=kind == "ros2")
+    return finish_record(
+        raw, rate=rate, gaps=gaps, nan=nan, tol=float(gap_tolerance), src=src, kind=kind,
+        meta=meta,
+    )  # fmt: skip

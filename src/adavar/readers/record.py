@@ -1,0 +1,385 @@
+"""The record a reader returns, and the steps every format shares after reading.
+
+A format reader returns a :class:`RawRecord` (its channels, time stamps with NaN where
+missing, and what it read); :func:`finish_record` applies the NaN policy
+(:data:`NAN_POLICIES`), infers the sampling rate from the time stamps (or checks a declared
+one against them), finds gaps and non-uniform sampling and applies the gap policy
+(:data:`GAP_POLICIES`), and returns the :class:`Record` that :func:`adavar.readers.read_record`
+hands to the analyses, every step listed in its ``meta``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from adavar.errors import AdavarInputError
+from adavar.readers.errors import fail, locate
+from adavar.readers.table import resolve
+from adavar.stream import DEFAULT_CHUNK, ChunkedSource, memmap_source
+
+#: Values of ``gaps``: what to do with gaps and non-uniform sampling in a time base.
+GAP_POLICIES = ("error", "split", "interpolate")
+#: Values of ``nan``: what to do with NaN / infinite / empty samples.
+NAN_POLICIES = ("error", "drop", "interpolate")
+
+_RATE_AGREEMENT = 0.01  # a declared rate and a time column must agree within 1 %
+_MAX_LISTED = 50  # gaps / dropped rows listed one by one in meta
+
+
+@dataclass
+class Record:
+    """Channels of a uniformly sampled record, with where they came from.
+
+    Attributes
+    ----------
+    channels : dict of str to ndarray
+        Samples per channel (all the same length, in file order): float64, except columns
+        of ``.npy``/uncompressed ``.npz`` files, which stay read-only memory-mapped views
+        in the file's dtype (the analyses read them piece by piece; ``np.asarray(...,
+        dtype=float)`` loads one).
+    rate : float
+        Sampling rate (Hz).
+    time : ndarray or None
+        Time of every sample in seconds from the first one (float64), when the file has a
+        time base; None when the rate was only declared.
+    t0 : float or None
+        Absolute time of the first sample, in the time column's own scale: seconds since
+        1970-01-01 UTC for ISO 8601, MJD, datetime and ROS time stamps (naive ISO times are
+        read as UTC), otherwise the first value of the numeric time column in seconds.
+        None without a time base.
+    source : str
+        The path read.
+    kind : str
+        The reader: ``"csv"``, ``"stable32"``, ``"npy"``, ``"npz"``, ``"hdf5"``,
+        ``"parquet"``, ``"ros2"`` or ``"ros1"``.
+    meta : dict
+        What was read and done (JSON-serialisable): the options, the time source, rate
+        source, units declared by the format, NaN rows dropped or values interpolated,
+        gaps found and how they were handled...
+    segments : list of slice or None
+        With ``gaps="split"``: the contiguous gap-free pieces, as slices into every
+        channel (and ``time``); None otherwise.
+    """
+
+    channels: dict[str, np.ndarray]
+    rate: float
+    time: np.ndarray | None = None
+    t0: float | None = None
+    source: str = ""
+    kind: str = ""
+    meta: dict[str, Any] = field(default_factory=dict)
+    segments: list[slice] | None = None
+
+    @property
+    def names(self) -> list[str]:
+        """The channel names, in order."""
+        return list(self.channels)
+
+    @property
+    def n_samples(self) -> int:
+        """Number of samples per channel."""
+        return len(next(iter(self.channels.values()))) if self.channels else 0
+
+    def __len__(self) -> int:
+        return self.n_samples
+
+    def channel(self, name: str | None = None) -> np.ndarray:
+        """One channel's samples.
+
+        Parameters
+        ----------
+        name : str, optional
+            The channel (exact, or case-insensitive if that is unique); may be omitted when
+            the record has only one channel.
+
+        Returns
+        -------
+        ndarray of float64
+
+        Raises
+        ------
+        AdavarInputError
+            An unknown name, or no name with several channels.
+        """
+        if name is None:
+            if len(self.channels) == 1:
+                return next(iter(self.channels.values()))
+            raise fail(
+                f"{self.source} has {len(self.channels)} channels ({', '.join(self.names)}): "
+                "choose one with --column NAME"
+            )
+        return self.channels[resolve(name, self.names, self.source, "channel")]
+
+    def pieces(self, name: str | None = None) -> list[np.ndarray]:
+        """The channel cut into its gap-free segments (one piece when not split)."""
+        values = self.channel(name)
+        if self.segments is None:
+            return [values]
+        return [values[s] for s in self.segments]
+
+
+@dataclass
+class RawRecord:
+    """What a format reader read, before the NaN and gap policies and the rate."""
+
+    channels: dict[str, np.ndarray]
+    time: np.ndarray | None  # seconds from the first valid stamp (NaN where missing)
+    t0: float | None
+    rows: np.ndarray | None  # file line numbers, for messages
+    word: str  # "row", "sample", "message": how a sample is named without line numbers
+    meta: dict[str, Any]
+
+
+def _fmt_t(value: float) -> str:
+    return f"{value:.6g} s"
+
+
+def _all_finite_by_file(raw: RawRecord) -> bool:
+    """Whether every channel is a file memory map with only finite samples, checked piece by
+    piece with file reads: a large ``.npy`` is scanned without its pages piling up in the
+    process's resident memory (and without an N-sample mask)."""
+    if raw.time is not None or not raw.channels:
+        return False
+    sources = [memmap_source(v) for v in raw.channels.values()]
+    if any(s is None for s in sources):
+        return False
+    for source in sources:
+        for start in range(0, source.size, DEFAULT_CHUNK):
+            piece = source.read_unchecked(start, min(source.size, start + DEFAULT_CHUNK))
+            if not np.isfinite(piece).all():
+                return False
+    return True
+
+
+def _handle_nan(raw: RawRecord, policy: str, src: str, meta: dict[str, Any]) -> RawRecord:
+    if all(isinstance(v, ChunkedSource) for v in raw.channels.values()):
+        meta["lazy"] = True  # each piece is checked as it is read (the error names the sample)
+        return raw
+    if _all_finite_by_file(raw):
+        return raw
+    names = list(raw.channels)
+    n = len(raw.channels[names[0]])
+    bad_t = None if raw.time is None else ~np.isfinite(raw.time)
+    bad = np.zeros(n, dtype=bool)
+    for values in raw.channels.values():
+        bad |= ~np.isfinite(values)
+    any_t = bad_t is not None and bool(bad_t.any())
+    if not bad.any() and not any_t:
+        return raw
+
+    def where(i: int) -> str:
+        return locate(raw.rows, i, raw.word)
+
+    def first_bad_cell(i: int) -> tuple[str, str]:
+        for name in names:
+            v = raw.channels[name][i]
+            if not np.isfinite(v):
+                return name, ("NaN or empty" if np.isnan(v) else str(v).replace("inf", "Inf"))
+        return names[0], "?"
+
+    tname = meta.get("time_column", "time")
+    if policy == "error":
+        if any_t and (not bad.any() or np.argmax(bad_t) <= np.argmax(bad)):
+            i = int(np.argmax(bad_t))
+            raise fail(
+                f"{src}: {where(i)}, time column {tname!r} is missing or not finite: fix or "
+                "remove that row, or use --nan drop"
+            )
+        i = int(np.argmax(bad))
+        name, value = first_bad_cell(i)
+        raise fail(
+            f"{src}: {where(i)}, column {name!r} is {value}: fix or remove that row, or use "
+            "--nan drop or --nan interpolate"
+        )
+    rows_bad = bad | bad_t if bad_t is not None else bad
+    if policy == "drop":
+        idx = np.flatnonzero(rows_bad)
+        if raw.time is None:
+            good = np.flatnonzero(~rows_bad)
+            if good.size == 0:
+                raise fail(f"{src}: every row has a NaN or infinite sample: nothing is left")
+            inner = idx[(idx > good[0]) & (idx < good[-1])]
+            if inner.size:
+                i = int(inner[0])
+                name, value = first_bad_cell(i)
+                raise fail(
+                    f"{src}: {where(i)}, column {name!r} is {value}, and dropping it would "
+                    "shift every later sample in time (there is no time column): use --nan "
+                    "interpolate, or give a time column"
+                )
+        keep = ~rows_bad
+        if not keep.any():
+            raise fail(f"{src}: every row has a NaN or infinite sample: nothing is left")
+        meta["nan_rows_dropped"] = int(idx.size)
+        meta["nan_dropped_at"] = [where(int(i)) for i in idx[:_MAX_LISTED]]
+        return RawRecord(
+            {k: v[keep] for k, v in raw.channels.items()},
+            None if raw.time is None else raw.time[keep],
+            raw.t0,
+            None if raw.rows is None else raw.rows[keep],
+            raw.word,
+            raw.meta,
+        )
+    # interpolate: first the time stamps over the index, then the channels over time
+    columns = dict(raw.channels)
+    series = ({"__time__": raw.time} if raw.time is not None else {}) | columns
+    start, stop = 0, n
+    for name, values in series.items():
+        ok = np.flatnonzero(np.isfinite(values))
+        if ok.size == 0:
+            label = tname if name == "__time__" else name
+            raise fail(f"{src}: column {label!r} has no finite value: choose another column")
+        start, stop = max(start, int(ok[0])), min(stop, int(ok[-1]) + 1)
+    if start >= stop:
+        raise fail(f"{src}: no row where every column is finite: nothing to interpolate from")
+    sl = slice(start, stop)
+    time = None
+    counts: dict[str, int] = {}
+    index = np.arange(start, stop, dtype=np.float64)
+    if raw.time is not None:
+        time = np.array(raw.time[sl], dtype=np.float64)
+        miss = ~np.isfinite(time)
+        if miss.any():
+            time[miss] = np.interp(index[miss], index[~miss], time[~miss])
+            counts[tname] = int(miss.sum())
+    axis = index if time is None else time
+    for name, values in columns.items():
+        part = values[sl]
+        miss = ~np.isfinite(part)
+        if miss.any():
+            part = np.array(part, dtype=np.float64)
+            part[miss] = np.interp(axis[miss], axis[~miss], part[~miss])
+            counts[name] = int(miss.sum())
+        columns[name] = part
+    meta["nan_values_interpolated"] = counts
+    meta["nan_rows_trimmed"] = int(n - (stop - start))
+    return RawRecord(
+        columns, time, raw.t0, None if raw.rows is None else raw.rows[sl], raw.word, raw.meta
+    )
+
+
+def finish_record(
+    raw: RawRecord,
+    *,
+    rate: float | None,
+    gaps: str,
+    nan: str,
+    tol: float,
+    src: str,
+    kind: str,
+    meta: dict[str, Any],
+) -> Record:
+    """The :class:`Record` of ``raw``: NaN policy, rate, gaps; every step in ``meta``."""
+    meta.update(raw.meta)
+    raw = _handle_nan(raw, nan, src, meta)
+    names = list(raw.channels)
+    n = len(raw.channels[names[0]])
+    if n == 0:
+        raise fail(f"{src} has no samples: give a file with data")
+    t = raw.time
+    t0 = raw.t0
+
+    def where(i: int) -> str:
+        return locate(raw.rows, i, raw.word)
+
+    if t is None:
+        if rate is None:
+            raise fail(
+                f"{src} has no time column, so the sampling rate is unknown: declare it with "
+                "--rate HZ, or name the time column with --time-column NAME"
+            )
+        meta.update(rate_source="declared", time_source=meta.get("time_source", "none"))
+        return Record(dict(raw.channels), float(rate), None, None, src, kind, meta)
+    if n < 2:
+        raise fail(f"{src} has a single sample: at least two are needed to find the rate")
+    meta.setdefault("time_source", f"column {meta.get('time_column')!r}")
+    t0 = t0 + float(t[0]) if t0 is not None else None
+    t = t - t[0]
+    dt = np.diff(t)
+    back = np.flatnonzero(dt <= 0)
+    if back.size:
+        i = int(back[0])
+        what = "repeats" if dt[i] == 0 else "goes back"
+        raise fail(
+            f"{src}: time {what} at {where(i + 1)} (t = {_fmt_t(t[i + 1])} after "
+            f"{_fmt_t(t[i])}): sort the rows by time and remove duplicates"
+        )
+    step = float(np.median(dt))
+    found = 1.0 / step
+    if rate is not None:
+        if abs(found - rate) > _RATE_AGREEMENT * rate:
+            raise fail(
+                f"{src}: the declared rate {rate:g} Hz disagrees with the time stamps "
+                f"({found:.6g} Hz from the median interval {step:.6g} s): leave out --rate, "
+                "or correct it"
+            )
+        meta["rate_source"] = "declared, agrees with the time stamps"
+        grid_step = 1.0 / rate
+    else:
+        rate = found
+        meta["rate_source"] = "median time interval"
+        grid_step = step
+    meta["median_interval"] = step
+    long_ = np.flatnonzero(dt > (1.0 + tol) * step)
+    short = np.flatnonzero(dt < (1.0 - tol) * step)
+    jitter = np.abs(dt - step) / step
+    meta["max_jitter"] = float(jitter.max())
+    meta["n_gaps"] = int(long_.size)
+    meta["gap_list"] = [
+        {"after": where(int(i)), "t": float(t[i]), "size": float(dt[i])}
+        for i in long_[:_MAX_LISTED]
+    ]
+
+    def gap_error() -> AdavarInputError:
+        i = int(long_[0])
+        more = f" and {long_.size - 1} more" if long_.size > 1 else ""
+        return fail(
+            f"{src}: gap of {dt[i]:.4g} s after {where(i)} (t = {_fmt_t(t[i])}; the median "
+            f"interval is {step:.4g} s){more}: use --gaps split or --gaps interpolate"
+        )
+
+    def uneven_error() -> AdavarInputError:
+        i = int(short[0])
+        more = f" and {short.size - 1} more" if short.size > 1 else ""
+        return fail(
+            f"{src}: non-uniform sampling: interval of {dt[i]:.4g} s after {where(i)} "
+            f"(t = {_fmt_t(t[i])}) is more than {tol:.0%} shorter than the median "
+            f"{step:.4g} s{more}: use --gaps interpolate to resample onto a uniform grid"
+        )
+
+    channels = dict(raw.channels)
+    segments = None
+    if gaps == "error" or (gaps == "split" and short.size):
+        if short.size and (not long_.size or short[0] < long_[0]):
+            raise uneven_error()
+        if long_.size:
+            raise gap_error()
+    elif gaps == "split" and long_.size:
+        cuts = [0, *(long_ + 1).tolist(), n]
+        segments = [slice(a, b) for a, b in itertools.pairwise(cuts)]
+        meta["gaps"] = "split"
+        meta["segment_lengths"] = [b - a for a, b in itertools.pairwise(cuts)]
+    elif gaps == "interpolate" and (long_.size or short.size):
+        if short.size:  # non-uniform: resample everything onto the uniform grid
+            count = math.floor(t[-1] / grid_step + 1e-9) + 1
+            new_t = np.arange(count) * grid_step
+            meta["resampled"] = True
+        else:  # only gaps: keep every sample, fill each gap with evenly spaced points
+            per = np.ones(n - 1, dtype=np.int64)
+            per[long_] = np.maximum(1, np.rint(dt[long_] / grid_step)).astype(np.int64)
+            starts = np.repeat(t[:-1], per)
+            offsets = np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)
+            new_t = np.append(starts + np.repeat(dt / per, per) * offsets, t[-1])
+            meta["resampled"] = False
+        channels = {k: np.interp(new_t, t, v) for k, v in channels.items()}
+        meta["gaps"] = "interpolate"
+        meta["n_samples_read"] = int(n)
+        meta["n_interpolated"] = int(new_t.size - n) if not short.size else int(new_t.size)
+        t = new_t
+    meta["n_samples"] = len(t)
+    return Record(channels, float(rate), t, t0, src, kind, meta, segments)
