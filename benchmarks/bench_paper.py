@@ -2,9 +2,9 @@
 
 Usage: python benchmarks/bench_paper.py [--seeds 200] [--fa-samples 200000]
 
-1. Scenario 1 (:func:`adavar.simulate.paper_scenario`, std-3 disturbance at 3000-4000 s):
+1. Scenario 1 (:func:`adavar.paper.paper_scenario`, std-3 disturbance at 3000-4000 s):
    the node times of DAVAR-400, DAVAR-600, DAVAR-K-3.3, A-DAVAR and the oracle schedule,
-   median and quartiles over ``--seeds`` realisations (:func:`adavar.compare.compare_seeds`,
+   median and quartiles over ``--seeds`` realisations (:func:`adavar.paper.compare_seeds`,
    octave taus), beside the paper's Table 1; the ARW interval means and their ratios; the
    ground-truth confidence and tracking metrics per method.
 2. The same nodes for the literal "variance 3" reading of the disturbance.
@@ -33,9 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe, timed
 
 from adavar.adaptive import false_alarm_rate
-from adavar.compare import PAPER_LABELS, PAPER_REFERENCE, compare_seeds
-
-TITLES = {"beginning": "Beginning", "end": "End", "restore": "Restore"}
+from adavar.paper import NODE_TITLES, PAPER_LABELS, PAPER_REFERENCE, compare_seeds, paper_arw
 
 
 def table(headers: list[str], rows: list[list[str]], indent: str = "  ") -> str:
@@ -67,7 +65,7 @@ def node_table(study, methods=None) -> str:
                *(f"paper {PAPER_LABELS[m]}" for m in cols)]  # fmt: skip
     rows = []
     for r in study.node_rows():
-        rows.append([f"{TITLES[r['node']]}({r['change']:g})",
+        rows.append([f"{NODE_TITLES[r['node']]}({r['change']:g})",
                      *(fmt_stats(r["stats"][m]) for m in methods),
                      *(fmt_time(r["paper"].get(m, math.nan)) for m in cols)])  # fmt: skip
     return table(headers, rows)
@@ -82,7 +80,7 @@ def spread_table(study, methods=None) -> str:
     for r in study.node_rows():
         rows.append(
             [
-                f"{TITLES[r['node']]}({r['change']:g})",
+                f"{NODE_TITLES[r['node']]}({r['change']:g})",
                 *(
                     f"{r['stats'][m]['p05']:.0f} .. {r['stats'][m]['p95']:.0f}"
                     if math.isfinite(r["stats"][m]["p05"])
@@ -95,9 +93,7 @@ def spread_table(study, methods=None) -> str:
 
 
 def arw_table(study) -> str:
-    from adavar.compare import PAPER_TABLE1_ARW
-
-    paper = PAPER_TABLE1_ARW if study.scenario == 1 else {}
+    paper = paper_arw(study.scenario)
     methods = list(study.methods)
     cols = [m for m in methods if m in paper]
     rows_in = study.arw_rows()

@@ -13,15 +13,15 @@ from adavar.adaptive import adaptive_schedule, oracle_schedule
 from adavar.compare import (
     PAPER_TABLE1_NODES,
     Comparison,
+    EdfCache,
     Nodes,
-    _compare,
-    _EdfCache,
     compare,
     compare_seeds,
     default_methods,
     fixed_nodes,
     interval_means,
     kurtosis_study,
+    run_comparison,
     schedule_nodes,
     threshold_study,
     tracking_metrics,
@@ -299,13 +299,13 @@ def test_oracle_needs_change_times():
 
 def test_fast_path_matches_compare_for_white_noise_edfs(scenario):
     full = compare(scenario, taus="octave", noise_type=0)
-    fast = _compare(
+    fast = run_comparison(
         scenario, methods=None, rate=None, change_times=None, truth=None, intervals=None,
         controller=dict(lmax=600, lmin=400, k1=2.5, k2=3.3, s1=0.0, s2=0.07, l=100, dl0=2,
                         dl1=2, s_test="upper", combine="or", thresholds="paper",
                         false_alarm=0.01),
         taus="octave", terms=adavar.noise_model.TERM_NAMES, confidence=0.683, noise_type=0,
-        points_per_decade=10, units=None, description=None, edf_cache=_EdfCache(),
+        points_per_decade=10, units=None, description=None, edf_cache=EdfCache(),
     )  # fmt: skip
     for name in full.methods:
         np.testing.assert_allclose(fast.methods[name].arw, full.methods[name].arw, rtol=1e-9)

@@ -14,6 +14,8 @@ The public entry points:
 - :func:`compare` / :func:`compare_seeds`: DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR on
   one signal (or the paper's scenarios, :func:`adavar.simulate.paper_scenario`, over many
   seeds): node tables beside the paper's, ground-truth tracking metrics;
+- :mod:`adavar.paper`: the A-DAVAR paper's scenarios, published values, node rules and
+  studies;
 - :func:`fit_noise`: the IEEE-952 noise coefficients (Q, N, B, K, R) of a deviation curve, or
   of every DAVAR window at once (N(t), B(t), ...);
 - :mod:`adavar.simulate`: seeded generators of the noise processes.
@@ -21,11 +23,12 @@ The public entry points:
 
 from adavar import simulate
 from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
-from adavar.compare import compare, compare_seeds
+from adavar.compare import compare
 from adavar.davar import davar
 from adavar.errors import AdavarInputError
 from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
 from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
+from adavar.paper.studies import compare_seeds
 from adavar.results import DavarResult, DeviationResult
 from adavar.statistics import deviation
 

@@ -1,42 +1,21 @@
-"""DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR on the same signal: the paper's Table 1 and more.
+"""DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR on the same signal: methods side by side.
 
 :func:`compare` runs several window strategies on one record (a fixed window of ``Lmin`` and
 of ``Lmax`` samples, the kurtosis-only controller DAVAR-K, the adaptive A-DAVAR, optionally
 the oracle schedule), fits the noise model to every window and returns, per method, the
-window schedule, ``N(t)``, the node times around every change (docs/method.md section 9), the
-interval means ``ARW(a~b)`` and, when the true noise level is known (the paper's simulations,
-:func:`adavar.simulate.paper_scenario`), ground-truth metrics of confidence and tracking.
-:func:`compare_seeds` repeats this over many realisations of a scenario and sets the node
-medians beside the paper's Table 1 (:data:`PAPER_TABLE1_NODES`); :func:`threshold_study` is
-the paper's Fig. 8 (where the kurtosis of a fixed window crosses a threshold) and
-:func:`kurtosis_study` its Figs. 6-7.
+window schedule, ``N(t)``, the node times around every change (:mod:`adavar.paper.nodes`,
+docs/method.md section 9), the interval means ``ARW(a~b)`` and, when the true noise level is
+known (the paper's simulations, :func:`adavar.paper.scenarios.paper_scenario`), ground-truth
+metrics of confidence and tracking. :func:`run_comparison` is the engine behind it and
+behind the paper's many-seed study.
 
-Node times (all are window-centre times, seconds)
--------------------------------------------------
-For a fixed window of ``L`` samples, by definition: ``Beginning(X) = X - L tau0 / 2`` (the
-window's leading edge reaches the change), ``End(X) = X + L tau0 / 2`` (its trailing edge
-leaves it); ``Restore`` does not apply (NaN).
-
-For a window schedule ``L(p)`` (A-DAVAR, DAVAR-K, oracle) the paper's wording ("the first
-``p`` where ``L`` drops / starts to increase") is fragile on one realisation: a random false
-alarm anywhere before the change would count. The rule used here anchors every node on the
-regrowth that follows the change:
-
-1. ``Restore(X)``: the first centre ``p >= X`` with ``L(p) == Lmax``.
-2. ``End(X)``: the first centre of the final regrowth run before ``Restore(X)``, its
-   lowest point (the last centre before ``L`` grows): walk back from ``Restore(X)`` while
-   ``L`` keeps increasing (``L(p - 1) < L(p)``).
-3. ``Beginning(X)``: the first centre of the run of ``L < Lmax`` that contains ``End(X)``
-   (walk back from ``End(X)`` while ``L(p - 1) < Lmax``), i.e. where ``L`` dropped below
-   ``Lmax`` before the change.
-
-If ``L`` is already ``Lmax`` just before ``Restore(X)`` (no shrinking around ``X`` at all, a
-missed change) or never returns to ``Lmax`` after ``X``, the three nodes are NaN. A false
-alarm whose shrinking has not recovered when the change is sensed merges with it and moves
-``Beginning`` earlier; a false alarm during the regrowth restarts the regrowth run and moves
-``End`` later: both are what the schedule did, and the spread over seeds shows them. With
-this rule, the A-DAVAR medians over 200 seeds of scenario 1 are 2702 / 3172 / 3748 /
-4198 s against the paper's 2703 / 3156 / 3740 / 4200 s (``benchmarks/bench_paper.py``).
+The paper's part lives in :mod:`adavar.paper`: its published values
+(:mod:`adavar.paper.reference`), the node rules (:mod:`adavar.paper.nodes`) and its studies
+(:mod:`adavar.paper.studies`: :func:`~adavar.paper.studies.compare_seeds`, which sets the
+node medians over many realisations beside the paper's Table 1,
+:func:`~adavar.paper.studies.threshold_study`, the paper's Fig. 8, and
+:func:`~adavar.paper.studies.kurtosis_study`, its Figs. 6-7). Their names are importable from
+here too.
 
 Ground-truth metrics
 --------------------
@@ -63,7 +42,8 @@ Speed
 -----
 On records shorter than :data:`SMALL_RECORD` samples the numba kernels run on one thread
 within these functions: their parallel launch costs 10-30 ms per call on a busy 2-core
-machine, more than the work on 6000 samples. :func:`compare_seeds` also computes each
+machine, more than the work on 6000 samples. :func:`~adavar.paper.studies.compare_seeds`
+(through :func:`run_comparison` with an :class:`EdfCache`) also computes each
 surface without confidence bounds and weights the fit with equivalent degrees of freedom
 computed once per (window length, tau) for white rate noise (``alpha = 0``, the scenarios'
 truth) instead of identifying the noise type of every realisation; its default
@@ -76,10 +56,9 @@ from __future__ import annotations
 import contextlib
 import itertools
 import math
-import time as _time
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -87,9 +66,30 @@ from adavar.adaptive import Schedule, adaptive_schedule
 from adavar.davar import davar, edf_table
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
+from adavar.paper.nodes import NODE_NAMES, Nodes, change_index, fixed_nodes, schedule_nodes
+from adavar.paper.reference import (
+    PAPER_FIG8_CROSSINGS,
+    PAPER_LABELS,
+    PAPER_REFERENCE,
+    PAPER_TABLE1_ARW,
+    PAPER_TABLE1_NODES,
+    PAPER_TABLE3_NODES,
+    paper_nodes,
+)
 from adavar.results import DavarResult
 from adavar.statistics import as_samples
 from adavar.windows import window_overhang
+from adavar.writers import jsonable
+
+if TYPE_CHECKING:  # defined in adavar.paper.studies, re-exported by __getattr__ below
+    from adavar.paper.studies import (
+        KurtosisStudy,
+        SeedStudy,
+        ThresholdStudy,
+        compare_seeds,
+        kurtosis_study,
+        threshold_study,
+    )
 
 __all__ = [
     "NODE_NAMES",
@@ -118,74 +118,6 @@ __all__ = [
     "threshold_study",
     "tracking_metrics",
 ]
-
-#: The paper all the reference values below come from.
-PAPER_REFERENCE = (
-    "Micromachines 2018, 9(8), 373: 'Random Error Analysis of MEMS Gyroscope Based on an "
-    "Improved DAVAR Algorithm'"
-)
-
-#: The paper's names of the methods of its tables (its DAVAR-K used K2 = 3.3).
-PAPER_LABELS: dict[str, str] = {
-    "davar-400": "DAVAR-400", "davar-600": "DAVAR-600", "davar-k": "DAVAR-K-3.3",
-    "a-davar": "A-DAVAR",
-}  # fmt: skip
-
-#: The node names, in table order.
-NODE_NAMES = ("beginning", "end", "restore")
-
-#: Table 1 of the paper (simulation 1), node times in seconds (window centres):
-#: method -> {(node, change time): value}. Reproduced by scenario 1 with a std-3 disturbance.
-PAPER_TABLE1_NODES: dict[str, dict[tuple[str, float], float]] = {
-    "davar-400": {("beginning", 3000.0): 2800.0, ("end", 3000.0): 3200.0,
-                  ("beginning", 4000.0): 3800.0, ("end", 4000.0): 4200.0},
-    "davar-600": {("beginning", 3000.0): 2702.0, ("end", 3000.0): 3300.0,
-                  ("beginning", 4000.0): 3700.0, ("end", 4000.0): 4300.0},
-    "a-davar": {("beginning", 3000.0): 2703.0, ("end", 3000.0): 3156.0,
-                ("beginning", 4000.0): 3740.0, ("end", 4000.0): 4200.0},
-}  # fmt: skip
-
-#: Table 1 of the paper, ARW interval means in 1e-3 deg/sqrt(h): method -> {(a, b): value}.
-#: The absolute scale cannot be reproduced from the paper's text (docs/method.md section 9):
-#: compare ratios between intervals and methods.
-PAPER_TABLE1_ARW: dict[str, dict[tuple[float, float], float]] = {
-    "davar-400": {(0.0, 2000.0): 4.03, (3000.0, 4000.0): 10.97},
-    "davar-600": {(0.0, 2000.0): 3.87, (3000.0, 4000.0): 10.32},
-    "a-davar": {(0.0, 2000.0): 3.83, (3000.0, 4000.0): 9.45},
-}
-
-#: Table 3 of the paper: the *measured* gyroscope of its experiment 2 (disturbances at
-#: 1000-2000 s and 4000-5000 s), not a simulation; scenario 2 has its shape only.
-PAPER_TABLE3_NODES: dict[str, dict[tuple[str, float], float]] = {
-    "davar-400": {("beginning", 1000.0): 800.0, ("end", 1000.0): 1200.0,
-                  ("beginning", 2000.0): 1800.0, ("end", 2000.0): 2200.0,
-                  ("beginning", 4000.0): 3800.0, ("end", 4000.0): 4200.0,
-                  ("beginning", 5000.0): 4800.0, ("end", 5000.0): 5200.0},
-    "davar-600": {("beginning", 1000.0): 700.0, ("end", 1000.0): 1300.0,
-                  ("beginning", 2000.0): 1700.0, ("end", 2000.0): 2300.0,
-                  ("beginning", 4000.0): 3700.0, ("end", 4000.0): 4300.0,
-                  ("beginning", 5000.0): 4700.0, ("end", 5000.0): 5300.0},
-    "davar-k": {("beginning", 1000.0): 738.0, ("end", 1000.0): 1288.0,
-                ("restore", 1000.0): 1616.0,
-                ("beginning", 2000.0): 1616.0, ("end", 2000.0): 2297.0,
-                ("beginning", 4000.0): 3760.0, ("end", 4000.0): 4167.0,
-                ("beginning", 5000.0): 4713.0, ("end", 5000.0): 5301.0},
-    "a-davar": {("beginning", 1000.0): 738.0, ("end", 1000.0): 1209.0,
-                ("restore", 1000.0): 1388.0,
-                ("beginning", 2000.0): 1697.0, ("end", 2000.0): 2215.0,
-                ("beginning", 4000.0): 3760.0, ("end", 4000.0): 4128.0,
-                ("beginning", 5000.0): 4739.0, ("end", 5000.0): 5126.0},
-}  # fmt: skip
-
-#: The paper's Fig. 8 (section 4.2): where the kurtosis of a fixed 600-sample window on
-#: simulation 1 crosses a threshold: threshold -> {change: (rises above, falls back below)}
-#: in seconds. For 3.3 the text gives 3228 s and 3840 s only; the 2700 s rise is the one it
-#: gives for the other thresholds (the leading edge meets 3000 s).
-PAPER_FIG8_CROSSINGS: dict[float, dict[float, tuple[float, float]]] = {
-    4.0: {3000.0: (2700.0, 3115.0), 4000.0: (3963.0, 4300.0)},
-    3.45: {3000.0: (2700.0, 3201.0), 4000.0: (3868.0, 4300.0)},
-    3.3: {3000.0: (2700.0, 3228.0), 4000.0: (3840.0, math.nan)},
-}
 
 #: Records shorter than this run the numba kernels on one thread here (see "Speed").
 SMALL_RECORD = 100_000
@@ -243,133 +175,6 @@ def _parse_method(name: str, k2: float, thresholds: str = "paper") -> _Method:
         f"unknown method {name!r}: use davar-<L> (a fixed window of L >= 3 samples), davar-k, "
         "a-davar or oracle"
     )
-
-
-# ---------------------------------------------------------------------------------------
-# nodes
-
-
-@dataclass(frozen=True)
-class Nodes:
-    """The node times of one method around one change (window-centre times, seconds).
-
-    Attributes
-    ----------
-    change : float
-        The change time ``X``.
-    beginning : float
-        ``Beginning(X)``: the window starts to sense ``X`` (and shrinks).
-    end : float
-        ``End(X)``: the window has lost ``X`` (and starts to regrow).
-    restore : float
-        ``Restore(X)``: back at ``Lmax`` (NaN for a fixed window).
-    """
-
-    change: float
-    beginning: float
-    end: float
-    restore: float
-
-    def get(self, node: str) -> float:
-        """The time of ``node`` (one of :data:`NODE_NAMES`)."""
-        if node not in NODE_NAMES:
-            raise KeyError(f"unknown node {node!r}: use one of {', '.join(NODE_NAMES)}")
-        return float(getattr(self, node))
-
-
-_NAN_NODE = (math.nan, math.nan, math.nan)
-
-
-def _change_index(time: np.ndarray, change: float, tau0: float) -> int:
-    """Index of the first centre at or after ``change`` (seconds)."""
-    return int(np.searchsorted(time, change - 1e-6 * tau0, side="left"))
-
-
-def schedule_nodes(
-    window: Sequence[int] | np.ndarray,
-    change_times: Iterable[float],
-    *,
-    lmax: int,
-    rate: float = 1.0,
-    time: Sequence[float] | np.ndarray | None = None,
-) -> tuple[Nodes, ...]:
-    """Node times of a window schedule around each change (the module's rule).
-
-    ``Restore(X)`` is the first centre at or after ``X`` with ``L == lmax``; ``End(X)`` the
-    start (lowest point) of the regrowth run that ends there; ``Beginning(X)`` the first
-    centre of the run
-    of ``L < lmax`` that contains ``End(X)``. NaN for all three when the schedule does not
-    shrink around ``X`` or never returns to ``lmax`` after it.
-
-    Parameters
-    ----------
-    window : array_like of int, shape (T,)
-        Window length at each centre.
-    change_times : iterable of float
-        Change times ``X``, seconds.
-    lmax : int
-        The longest window of the schedule.
-    rate : float
-        Sample rate in Hz; the centres are at ``p / rate`` unless ``time`` is given.
-    time : array_like, optional
-        Time of each centre (increasing), seconds.
-
-    Returns
-    -------
-    tuple of Nodes
-        One per change, in the order given.
-    """
-    w = np.asarray(window, dtype=np.int64)
-    if w.ndim != 1 or w.size == 0:
-        raise AdavarInputError("window must be a non-empty 1-D schedule")
-    tau0 = 1.0 / float(rate)
-    t = np.arange(w.size) * tau0 if time is None else np.asarray(time, dtype=float)
-    if t.shape != w.shape:
-        raise AdavarInputError(f"time has {t.size} values for {w.size} windows")
-    at_max = w == int(lmax)
-    out = []
-    for change in change_times:
-        start = _change_index(t, float(change), tau0)
-        hits = np.flatnonzero(at_max[start:])
-        if hits.size == 0:
-            out.append(Nodes(float(change), *_NAN_NODE))
-            continue
-        r = start + int(hits[0])
-        e = r
-        while e > 0 and w[e - 1] < w[e]:
-            e -= 1
-        if e == r:  # L == lmax just before: no shrinking around X
-            out.append(Nodes(float(change), *_NAN_NODE))
-            continue
-        b = e
-        while b > 0 and w[b - 1] < lmax:
-            b -= 1
-        out.append(Nodes(float(change), float(t[b]), float(t[e]), float(t[r])))
-    return tuple(out)
-
-
-def fixed_nodes(
-    change_times: Iterable[float], window: int, *, rate: float = 1.0
-) -> tuple[Nodes, ...]:
-    """Node times of a fixed window of ``window`` samples: ``X -/+ window tau0 / 2``.
-
-    Parameters
-    ----------
-    change_times : iterable of float
-        Change times, seconds.
-    window : int
-        Window length, samples.
-    rate : float
-        Sample rate, Hz.
-
-    Returns
-    -------
-    tuple of Nodes
-        ``restore`` is NaN (a fixed window has nothing to restore).
-    """
-    half = 0.5 * int(window) / float(rate)
-    return tuple(Nodes(float(x), float(x) - half, float(x) + half, math.nan)
-                 for x in change_times)  # fmt: skip
 
 
 # ---------------------------------------------------------------------------------------
@@ -528,7 +333,7 @@ def tracking_metrics(
     tau0 = float(np.median(np.diff(t))) if t.size > 1 else 1.0
     changes = []
     for x in change_times:
-        i = _change_index(t, float(x), tau0)
+        i = change_index(t, float(x), tau0)
         before = float(true[max(i - 1, 0)])
         after = float(true[min(i, t.size - 1)])
         sel = np.abs(t - x) <= span
@@ -652,7 +457,7 @@ class Comparison:
 
     def paper_nodes(self) -> dict[str, dict[tuple[str, float], float]]:
         """The paper's node values for this record's scenario ({} for other records)."""
-        return _paper_nodes(self.scenario)
+        return paper_nodes(self.scenario)
 
     def node_rows(self) -> list[dict[str, Any]]:
         """The node table: one row per (change, node) with every method's time.
@@ -679,7 +484,7 @@ class Comparison:
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready summary (no per-window arrays; NaN as None)."""
-        return _clean({
+        return jsonable({
             "description": self.description,
             "scenario": self.scenario,
             "rate": self.rate,
@@ -703,14 +508,6 @@ class Comparison:
         })  # fmt: skip
 
 
-def _paper_nodes(scenario: int | None) -> dict[str, dict[tuple[str, float], float]]:
-    if scenario == 1:
-        return PAPER_TABLE1_NODES
-    if scenario == 2:
-        return PAPER_TABLE3_NODES
-    return {}
-
-
 def _paper_rows(table: Mapping[str, Mapping[tuple[str, float], float]]) -> dict[str, Any]:
     return {m: [{"node": k[0], "change": k[1], "value": v} for k, v in vals.items()]
             for m, vals in table.items()}  # fmt: skip
@@ -729,26 +526,16 @@ def _metrics_dict(m: Metrics) -> dict[str, Any]:
     }  # fmt: skip
 
 
-def _clean(obj: Any) -> Any:
-    """Plain Python for JSON: numpy scalars and arrays converted, NaN/inf as None."""
-    if isinstance(obj, dict):
-        return {str(k): _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _clean(obj.tolist())
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    return obj
-
-
 @contextlib.contextmanager
-def _threads_for(n_samples: int) -> Iterator[None]:
-    """One numba thread for small records (parallel launch costs more than the work)."""
+def threads_for(n_samples: int) -> Iterator[None]:
+    """One numba thread for small records (parallel launch costs more than the work).
+
+    Parameters
+    ----------
+    n_samples : int
+        Length of the record; below :data:`SMALL_RECORD` the context runs numba on one
+        thread and restores the previous count on exit.
+    """
     if n_samples >= SMALL_RECORD:
         yield
         return
@@ -762,13 +549,26 @@ def _threads_for(n_samples: int) -> Iterator[None]:
         numba.set_num_threads(old)
 
 
-class _EdfCache:
+class EdfCache:
     """EDF rows per (window length, taus, alpha), computed once (white-noise fast path)."""
 
     def __init__(self) -> None:
         self._rows: dict[tuple[int, tuple[int, ...], tuple[int, ...]], np.ndarray] = {}
 
     def cells(self, result: DavarResult, alpha: np.ndarray) -> np.ndarray:
+        """The EDF of every cell of ``result`` for the noise exponents ``alpha`` (per tau).
+
+        Parameters
+        ----------
+        result : DavarResult
+            A surface computed without bounds.
+        alpha : ndarray of int, shape (n_taus,)
+            Noise exponent of each tau.
+
+        Returns
+        -------
+        ndarray, shape (n_windows, n_taus)
+        """
         ms = tuple(int(m) for m in result.m)
         al = tuple(int(a) for a in alpha)
         # a window reaching into the mirrored ends has fewer distinct terms (as in davar)
@@ -793,8 +593,23 @@ class _EdfCache:
         return rows[inverse.ravel()]
 
 
-def _as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:
-    """Samples and what a scenario object knows (rate, changes, truth, intervals, ...)."""
+def as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:
+    """Samples and what a scenario object knows (rate, changes, truth, intervals, ...).
+
+    Parameters
+    ----------
+    data : array_like or PaperScenario
+        Rate samples, or an object with ``data``, ``rate``, ``change_times`` and ``arw``
+        (and optionally ``intervals``, ``description``, ``number``).
+
+    Returns
+    -------
+    samples : ndarray
+        At least 3 of them.
+    known : dict
+        ``rate``, ``change_times``, ``truth``, ``intervals``, ``description``, ``scenario``
+        of a scenario; ``{}`` for plain samples.
+    """
     known: dict[str, Any] = {}
     if hasattr(data, "data") and hasattr(data, "change_times"):
         known = {
@@ -809,7 +624,14 @@ def _as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:
     return as_samples(data, min_length=3), known
 
 
-def _check_rate(rate: Any) -> float:
+def check_rate(rate: Any) -> float:
+    """``rate`` as a positive, finite float (Hz).
+
+    Raises
+    ------
+    AdavarInputError
+        For anything else.
+    """
     try:
         value = float(rate)
     except (TypeError, ValueError):
@@ -898,7 +720,7 @@ def compare(
         Bad data, an unknown method, ``"oracle"`` without change times, a truth of the
         wrong length, or bad controller settings.
     """
-    return _compare(
+    return run_comparison(
         data, methods=methods, rate=rate, change_times=change_times, truth=truth,
         intervals=intervals, controller=dict(
             lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0, dl1=dl1,
@@ -909,7 +731,7 @@ def compare(
     )  # fmt: skip
 
 
-def _compare(
+def run_comparison(
     data: Any,
     *,
     methods: Sequence[str] | None,
@@ -925,11 +747,30 @@ def _compare(
     points_per_decade: int,
     units: str | None,
     description: str | None,
-    edf_cache: _EdfCache | None,
+    edf_cache: EdfCache | None,
 ) -> Comparison:
-    x, known = _as_record(data)
+    """:func:`compare` with the controller settings as one dict, and an optional fast path.
+
+    Parameters
+    ----------
+    data, methods, rate, change_times, truth, intervals, taus, terms, confidence
+        As in :func:`compare` (every one required here).
+    noise_type, points_per_decade, units, description
+        As in :func:`compare`.
+    controller : dict
+        The controller keywords of :func:`compare` (``lmax``, ``lmin``, ``k1``, ...).
+    edf_cache : EdfCache or None
+        None: every surface with its confidence bounds and a fit weighted by their EDF (what
+        :func:`compare` does). An :class:`EdfCache`: surfaces without bounds, the fit
+        weighted by the cached EDF of noise exponent ``noise_type`` (the many-seed study).
+
+    Returns
+    -------
+    Comparison
+    """
+    x, known = as_record(data)
     n = x.size
-    fs = _check_rate(rate if rate is not None else known.get("rate", 1.0))
+    fs = check_rate(rate if rate is not None else known.get("rate", 1.0))
     tau0 = 1.0 / fs
     changes = tuple(float(c) for c in (change_times if change_times is not None
                                         else known.get("change_times", ())))  # fmt: skip
@@ -978,7 +819,7 @@ def _compare(
             )
 
     runs: dict[str, MethodRun] = {}
-    with _threads_for(n):
+    with threads_for(n):
         for spec in specs:
             sched = None
             if spec.kind == "fixed":
@@ -1044,534 +885,22 @@ def _compare(
 
 
 # ---------------------------------------------------------------------------------------
-# the paper's Fig. 6-8: kurtosis of fixed windows
+# the paper's studies, defined in adavar.paper.studies (which imports this module)
+
+_STUDY_NAMES = frozenset({
+    "KurtosisStudy", "SeedStudy", "ThresholdStudy", "compare_seeds", "kurtosis_study",
+    "threshold_study",
+})  # fmt: skip
 
 
-@dataclass(frozen=True, eq=False)
-class KurtosisStudy:
-    """The paper's Figs. 6-7: the kurtosis of fixed windows and the record-form S.
+def __getattr__(name: str) -> Any:
+    """The studies of :mod:`adavar.paper.studies`, imported on first use."""
+    if name in _STUDY_NAMES:
+        from adavar.paper import studies
 
-    Attributes
-    ----------
-    time : ndarray, shape (N,)
-        Time of every sample (and window centre), seconds.
-    data : ndarray, shape (N,)
-        The record.
-    kurtosis : dict
-        Window length -> kurtosis of the window centred at every sample (Fig. 6).
-    segment : int
-        Window of the contribution coefficient (11 in the paper's Fig. 7).
-    contribution : ndarray, shape (N,)
-        ``S`` of the ``segment``-sample window against the whole record (Fig. 7).
-    change_times : tuple of float
-        Known changes, for the figures.
-    """
-
-    time: np.ndarray
-    data: np.ndarray
-    kurtosis: dict[int, np.ndarray]
-    segment: int
-    contribution: np.ndarray
-    change_times: tuple[float, ...] = ()
+        return getattr(studies, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def kurtosis_study(
-    data: Any,
-    *,
-    rate: float = 1.0,
-    windows: Sequence[int] = (11, 201, 601),
-    segment: int = 11,
-    change_times: Sequence[float] = (),
-) -> KurtosisStudy:
-    """Sliding kurtosis at a few window lengths and the record-form contribution ``S``.
-
-    Parameters
-    ----------
-    data : array_like or PaperScenario
-        The record (a scenario brings its rate and change times).
-    rate : float
-        Sample rate, Hz.
-    windows : sequence of int
-        Window lengths of the kurtosis (the paper's Fig. 6: 11, 201, 601).
-    segment : int
-        Window of ``S`` against the whole record (the paper's Fig. 7: 11).
-    change_times : sequence of float
-        Known changes (s), carried to the figures.
-
-    Returns
-    -------
-    KurtosisStudy
-    """
-    from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
-
-    x, known = _as_record(data)
-    fs = _check_rate(known.get("rate", rate))
-    changes = tuple(change_times) or known.get("change_times", ())
-    with _threads_for(x.size):
-        kurt = {int(w): np.asarray(sliding_kurtosis(x, window=int(w))) for w in windows}
-        s = np.asarray(kurtosis_contribution(x, window=int(segment), reference="record"))
-    return KurtosisStudy(
-        time=np.arange(x.size) / fs, data=x, kurtosis=kurt, segment=int(segment),
-        contribution=s, change_times=tuple(float(c) for c in changes),
-    )  # fmt: skip
-
-
-@dataclass(frozen=True, eq=False)
-class ThresholdStudy:
-    """The paper's Fig. 8: where the kurtosis of a fixed window crosses each threshold.
-
-    Attributes
-    ----------
-    time : ndarray, shape (T,)
-        Window-centre times, seconds.
-    kurtosis : ndarray, shape (T,)
-        Kurtosis of the fixed window at every centre.
-    window : int
-        The window length (600 in the paper).
-    thresholds : tuple of float
-        The upper kurtosis thresholds ``K2`` studied.
-    change_times : tuple of float
-        The changes.
-    crossings : dict
-        Threshold -> ndarray (n_changes, 2): for each change, the time the kurtosis rises
-        above the threshold and the time it falls back to or below it (seconds; NaN if
-        the kurtosis never exceeds the threshold near that change).
-    expected : ndarray or None
-        Kurtosis of the window under the true noise levels (Gaussian mixture), if known.
-    expected_crossings : dict or None
-        The same crossings of ``expected``.
-    """
-
-    time: np.ndarray
-    kurtosis: np.ndarray
-    window: int
-    thresholds: tuple[float, ...]
-    change_times: tuple[float, ...]
-    crossings: dict[float, np.ndarray]
-    expected: np.ndarray | None = None
-    expected_crossings: dict[float, np.ndarray] | None = None
-
-
-def _crossings(
-    t: np.ndarray,
-    k: np.ndarray,
-    changes: Sequence[float],
-    threshold: float,
-    window: int,
-    tau0: float,
-) -> np.ndarray:
-    """(rise, fall) per change: the run above ``threshold`` holding the peak near the change.
-
-    The peak is the largest kurtosis among the centres whose window holds the change
-    (``|t - X| <= window tau0 / 2``); the run is the maximal stretch of centres above the
-    threshold around it; rise = its first centre, fall = the first centre after it.
-    """
-    out = np.full((len(changes), 2), np.nan)
-    above = k > threshold
-    for j, x in enumerate(changes):
-        near = np.flatnonzero(np.abs(t - x) <= 0.5 * window * tau0)
-        if near.size == 0:
-            continue
-        vals = np.where(np.isfinite(k[near]), k[near], -np.inf)
-        peak = int(near[np.argmax(vals)])
-        if not above[peak]:
-            continue
-        a = peak
-        while a > 0 and above[a - 1]:
-            a -= 1
-        b = peak
-        while b + 1 < k.size and above[b + 1]:
-            b += 1
-        out[j, 0] = t[a]
-        out[j, 1] = t[b + 1] if b + 1 < t.size else np.nan
-    return out
-
-
-def _expected_kurtosis(std: np.ndarray, window: int) -> np.ndarray:
-    """Kurtosis of a window of zero-mean Gaussian samples with these stds (mirror edges)."""
-    pad = window // 2 + 1
-    s = np.pad(np.asarray(std, dtype=float), pad, mode="symmetric")
-    c2 = np.concatenate([[0.0], np.cumsum(s**2)])
-    c4 = np.concatenate([[0.0], np.cumsum(s**4)])
-    start = np.arange(std.size) + pad - (window - 1) // 2
-    m2 = (c2[start + window] - c2[start]) / window
-    m4 = 3.0 * (c4[start + window] - c4[start]) / window
-    return m4 / m2**2
-
-
-def threshold_study(
-    data: Any,
-    *,
-    change_times: Sequence[float] | None = None,
-    window: int = 600,
-    thresholds: Sequence[float] = (3.3, 3.45, 4.0),
-    rate: float | None = None,
-    std: Sequence[float] | np.ndarray | None = None,
-) -> ThresholdStudy:
-    """Crossing times of a fixed window's kurtosis (the paper's Fig. 8).
-
-    For each change ``X``, the kurtosis of the fixed window peaks while the window holds a
-    little of the other level; the run of centres above a threshold ``K2`` around that peak
-    starts when a kurtosis controller would start shrinking and ends when it would regrow.
-    On scenario 1 the paper reads 2700 s and 3228 s for ``K2 = 3.3`` (the first run) and
-    3840 s for the second (:data:`PAPER_FIG8_CROSSINGS`).
-
-    Parameters
-    ----------
-    data : array_like or PaperScenario
-        The record (a scenario brings its rate, changes and true std).
-    change_times : sequence of float, optional
-        The changes, seconds (required for a plain array).
-    window : int
-        The fixed window, samples.
-    thresholds : sequence of float
-        The thresholds ``K2``.
-    rate : float, optional
-        Sample rate, Hz.
-    std : array_like, optional
-        True standard deviation of every sample: adds the expected kurtosis (a Gaussian
-        mixture) and its crossings.
-
-    Returns
-    -------
-    ThresholdStudy
-    """
-    from adavar.kurtosis import sliding_kurtosis
-
-    x, known = _as_record(data)
-    fs = _check_rate(rate if rate is not None else known.get("rate", 1.0))
-    changes = tuple(float(c) for c in (change_times if change_times is not None
-                                        else known.get("change_times", ())))  # fmt: skip
-    if not changes:
-        raise AdavarInputError("threshold_study needs the change times")
-    if std is None and "truth" in known:
-        std = known["truth"] * math.sqrt(fs)
-    window = int(window)
-    if not 3 <= window <= x.size:
-        raise AdavarInputError(f"window must lie in 3 .. {x.size} samples, got {window}")
-    with _threads_for(x.size):
-        k = np.asarray(sliding_kurtosis(x, window=window))
-    t = np.arange(x.size) / fs
-    ths = tuple(float(v) for v in thresholds)
-    crossings = {th: _crossings(t, k, changes, th, window, 1.0 / fs) for th in ths}
-    expected = expected_crossings = None
-    if std is not None:
-        sd = np.asarray(std, dtype=float)
-        if sd.shape != x.shape:
-            raise AdavarInputError(f"std must hold one value per sample ({x.size})")
-        expected = _expected_kurtosis(sd, window)
-        expected_crossings = {th: _crossings(t, expected, changes, th, window, 1.0 / fs)
-                              for th in ths}  # fmt: skip
-    return ThresholdStudy(
-        time=t, kurtosis=k, window=window, thresholds=ths, change_times=changes,
-        crossings=crossings, expected=expected, expected_crossings=expected_crossings,
-    )  # fmt: skip
-
-
-# ---------------------------------------------------------------------------------------
-# many seeds
-
-
-@dataclass(frozen=True, eq=False)
-class SeedStudy:
-    """:func:`compare` over many realisations of a paper scenario.
-
-    Attributes
-    ----------
-    scenario : int
-        1 or 2.
-    variance_reading : bool
-        The disturbance's reading (see :func:`adavar.simulate.paper_scenario`).
-    seeds : tuple of int
-        The realisations.
-    methods : tuple of str
-        Method names, in table order.
-    labels : dict
-        Method name -> label.
-    change_times : tuple of float
-        The scenario's changes.
-    intervals : tuple of (float, float)
-        The ARW intervals.
-    nodes : dict
-        Method -> ndarray (n_seeds, n_changes, 3) of Beginning, End, Restore (seconds).
-    arw : dict
-        Method -> ndarray (n_seeds, n_intervals) of ``ARW(a~b)``.
-    confidence : dict
-        Method -> ndarray (n_seeds, 3): bias, std, mad of ``N / N_true - 1``.
-    tracking : dict
-        Method -> ndarray (n_seeds, n_changes, 3): error, delay, rise.
-    crossings : dict
-        Threshold -> ndarray (n_seeds, n_changes, 2): the Fig. 8 rise and fall times.
-    expected_crossings : dict
-        Threshold -> ndarray (n_changes, 2): the same for the expected kurtosis.
-    crossing_window : int
-        The fixed window of the Fig. 8 study.
-    parameters : dict
-        Every setting used.
-    elapsed : float
-        Wall-clock seconds.
-    """
-
-    scenario: int
-    variance_reading: bool
-    seeds: tuple[int, ...]
-    methods: tuple[str, ...]
-    labels: dict[str, str]
-    change_times: tuple[float, ...]
-    intervals: tuple[tuple[float, float], ...]
-    nodes: dict[str, np.ndarray]
-    arw: dict[str, np.ndarray]
-    confidence: dict[str, np.ndarray]
-    tracking: dict[str, np.ndarray]
-    crossings: dict[float, np.ndarray]
-    expected_crossings: dict[float, np.ndarray]
-    crossing_window: int
-    parameters: dict[str, Any] = field(default_factory=dict)
-    elapsed: float = 0.0
-
-    def paper_nodes(self) -> dict[str, dict[tuple[str, float], float]]:
-        """The paper's node values for this scenario (Table 1, or Table 3: measured)."""
-        return _paper_nodes(self.scenario)
-
-    def node_rows(self) -> list[dict[str, Any]]:
-        """The node table over seeds: median, quartiles and missed count per method.
-
-        Returns
-        -------
-        list of dict
-            ``{"node", "change", "stats": {method: {"median", "q25", "q75", "p05", "p95",
-            "missed"}}, "paper": {method: s}}``; the Restore row only where some method has
-            one.
-        """
-        paper = self.paper_nodes()
-        rows = []
-        for j, change in enumerate(self.change_times):
-            for k, node in enumerate(NODE_NAMES):
-                stats = {m: _summary(self.nodes[m][:, j, k]) for m in self.methods}
-                if node == "restore" and all(s["missed"] == len(self.seeds)
-                                             for s in stats.values()):  # fmt: skip
-                    continue
-                rows.append({
-                    "node": node, "change": change, "stats": stats,
-                    "paper": {m: v[(node, change)] for m, v in paper.items()
-                              if (node, change) in v},
-                })  # fmt: skip
-        return rows
-
-    def metric_rows(self) -> list[dict[str, Any]]:
-        """Ground-truth metrics, the median over seeds per method.
-
-        Returns
-        -------
-        list of dict
-            ``{"metric", "change" (or None), "unit", "values": {method: median}}``.
-        """
-        rows = []
-        for k, name in enumerate(("bias", "std", "mad")):
-            rows.append({"metric": name, "change": None, "unit": "1",
-                         "values": {m: _median(self.confidence[m][:, k])
-                                    for m in self.methods}})  # fmt: skip
-        for j, change in enumerate(self.change_times):
-            for k, (name, unit) in enumerate((("error", "1"), ("delay", "s"), ("rise", "s"))):
-                rows.append({"metric": name, "change": change, "unit": unit,
-                             "values": {m: _median(self.tracking[m][:, j, k])
-                                        for m in self.methods}})  # fmt: skip
-        return rows
-
-    def arw_rows(self) -> list[dict[str, Any]]:
-        """``ARW(a~b)`` per interval: the median over seeds per method, and the paper's.
-
-        Returns
-        -------
-        list of dict
-            ``{"interval": (a, b), "values": {method: median}, "paper": {method: value}}``
-            (paper values in 1e-3 deg/sqrt(h), scenario 1 only).
-        """
-        paper = PAPER_TABLE1_ARW if self.scenario == 1 else {}
-        return [
-            {"interval": iv, "values": {m: _median(self.arw[m][:, j]) for m in self.methods},
-             "paper": {m: v[iv] for m, v in paper.items() if iv in v}}
-            for j, iv in enumerate(self.intervals)
-        ]  # fmt: skip
-
-    def crossing_rows(self) -> list[dict[str, Any]]:
-        """Fig. 8: median crossing times per threshold and change, expected and paper.
-
-        Returns
-        -------
-        list of dict
-            ``{"threshold", "change", "rise": {median, q25, q75, missed}, "fall": {...},
-            "expected": (rise, fall), "paper": (rise, fall) or None}``.
-        """
-        rows = []
-        for th, values in self.crossings.items():
-            paper = PAPER_FIG8_CROSSINGS.get(th, {}) if self.scenario == 1 else {}
-            for j, change in enumerate(self.change_times):
-                rows.append({
-                    "threshold": th, "change": change,
-                    "rise": _summary(values[:, j, 0]), "fall": _summary(values[:, j, 1]),
-                    "expected": tuple(float(v) for v in self.expected_crossings[th][j]),
-                    "paper": paper.get(change),
-                })  # fmt: skip
-        return rows
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-ready summary (NaN as None)."""
-        return _clean({
-            "scenario": self.scenario, "variance_reading": self.variance_reading,
-            "n_seeds": len(self.seeds), "seeds": [self.seeds[0], self.seeds[-1]],
-            "methods": {m: self.labels[m] for m in self.methods},
-            "change_times": list(self.change_times),
-            "nodes": self.node_rows(), "metrics": self.metric_rows(),
-            "arw": [dict(r, interval=list(r["interval"])) for r in self.arw_rows()],
-            "crossings": self.crossing_rows(), "crossing_window": self.crossing_window,
-            "parameters": self.parameters, "elapsed_s": self.elapsed,
-            "paper": {"reference": PAPER_REFERENCE},
-        })  # fmt: skip
-
-
-def _median(values: np.ndarray) -> float:
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v)]
-    return float(np.median(v)) if v.size else math.nan
-
-
-def _summary(values: np.ndarray) -> dict[str, float]:
-    v = np.asarray(values, dtype=float)
-    ok = v[np.isfinite(v)]
-    if ok.size == 0:
-        return {"median": math.nan, "q25": math.nan, "q75": math.nan, "p05": math.nan,
-                "p95": math.nan, "missed": int(v.size)}  # fmt: skip
-    q = np.percentile(ok, [50, 25, 75, 5, 95])
-    return {"median": float(q[0]), "q25": float(q[1]), "q75": float(q[2]), "p05": float(q[3]),
-            "p95": float(q[4]), "missed": int(v.size - ok.size)}  # fmt: skip
-
-
-def compare_seeds(
-    scenario: int = 1,
-    seeds: Iterable[int] = range(100),
-    *,
-    variance_reading: bool = False,
-    methods: Sequence[str] | None = None,
-    taus: str | Sequence[float] = "octave",
-    terms: Sequence[str] = TERM_NAMES,
-    crossing_window: int | None = None,
-    crossing_thresholds: Sequence[float] = (3.3, 3.45, 4.0),
-    lmax: int = 600,
-    lmin: int = 400,
-    k1: float = 2.5,
-    k2: float = 3.3,
-    s1: float = 0.0,
-    s2: float = 0.07,
-    l: int = 100,  # noqa: E741 - the paper's name
-    dl0: int = 2,
-    dl1: int = 2,
-    s_test: str = "upper",
-    combine: str = "or",
-    thresholds: str = "paper",
-    false_alarm: float = 0.01,
-    progress: Callable[[int, int], None] | None = None,
-) -> SeedStudy:
-    """:func:`compare` on many realisations of a paper scenario, and the Fig. 8 crossings.
-
-    Per seed: the scenario (:func:`adavar.simulate.paper_scenario`), every method's
-    schedule, surface and ``N(t)``, its nodes, ``ARW(a~b)`` and ground-truth metrics, and
-    the crossings of the fixed window's kurtosis (:func:`threshold_study`). See the module
-    notes ("Speed") for what is done differently from :func:`compare` to keep 100 seeds
-    within seconds: one numba thread, surfaces without bounds, EDFs for white noise
-    computed once, octave taus by default. ``thresholds="calibrated"`` is much slower
-    (about 1 s per adaptive method and seed): :func:`adavar.adaptive.adaptive_schedule`
-    recomputes the calibrated thresholds on every call.
-
-    Parameters
-    ----------
-    scenario : {1, 2}
-        The paper scenario.
-    seeds : iterable of int
-        Seeds of the realisations.
-    variance_reading : bool
-        Disturbance of variance 3 instead of standard deviation 3.
-    methods : sequence of str, optional
-        As in :func:`compare`.
-    taus : str or sequence of float
-        Taus of the surfaces (``"octave"`` by default).
-    terms : sequence of str
-        Terms of the noise fit.
-    crossing_window : int, optional
-        Fixed window of the Fig. 8 study (default ``lmax``).
-    crossing_thresholds : sequence of float
-        Its thresholds.
-    lmax, lmin, k1, k2, s1, s2, l, dl0, dl1, s_test, combine, thresholds, false_alarm
-        Controller settings, as in :func:`compare`.
-
-    progress : callable, optional
-        Called as ``progress(done, total)`` before each realisation (the command line draws
-        a progress bar with it).
-
-    Returns
-    -------
-    SeedStudy
-    """
-    from adavar.simulate import paper_scenario
-
-    start = _time.perf_counter()
-    seed_list = tuple(int(s) for s in seeds)
-    if not seed_list:
-        raise AdavarInputError("give at least one seed")
-    if isinstance(scenario, bool) or scenario not in (1, 2):
-        raise AdavarInputError(f"scenario must be 1 or 2, got {scenario!r}")
-    controller = dict(
-        lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0, dl1=dl1,
-        s_test=s_test, combine=combine, thresholds=thresholds, false_alarm=false_alarm,
-    )  # fmt: skip
-    cwin = int(lmax if crossing_window is None else crossing_window)
-    cache = _EdfCache()
-    nodes: dict[str, list] = {}
-    arw: dict[str, list] = {}
-    conf: dict[str, list] = {}
-    track: dict[str, list] = {}
-    cross: dict[float, list] = {}
-    expected: dict[float, np.ndarray] = {}
-    labels: dict[str, str] = {}
-    changes: tuple[float, ...] = ()
-    intervals: tuple[tuple[float, float], ...] = ()
-    for done, seed in enumerate(seed_list):
-        if progress is not None:
-            progress(done, len(seed_list))
-        sc = paper_scenario(scenario, seed=seed, variance_reading=variance_reading)
-        comp = _compare(
-            sc, methods=methods, rate=None, change_times=None, truth=None, intervals=None,
-            controller=controller, taus=taus, terms=terms, confidence=0.683, noise_type=0,
-            points_per_decade=10, units=None, description=None, edf_cache=cache,
-        )  # fmt: skip
-        changes, intervals = comp.change_times, comp.intervals
-        for name, run in comp.methods.items():
-            labels[name] = run.label
-            nodes.setdefault(name, []).append([[n.beginning, n.end, n.restore] for n in run.nodes])
-            arw.setdefault(name, []).append([run.intervals[iv] for iv in intervals])
-            m = run.metrics
-            assert m is not None  # the scenario brings its truth
-            conf.setdefault(name, []).append([m.bias, m.std, m.mad])
-            track.setdefault(name, []).append([[c.error, c.delay, c.rise] for c in m.changes])
-        study = threshold_study(sc, window=cwin, thresholds=crossing_thresholds)
-        for th, values in study.crossings.items():
-            cross.setdefault(th, []).append(values)
-        if not expected and study.expected_crossings is not None:
-            expected = study.expected_crossings
-    names = tuple(labels)
-    return SeedStudy(
-        scenario=int(scenario), variance_reading=bool(variance_reading), seeds=seed_list,
-        methods=names, labels=labels, change_times=changes, intervals=intervals,
-        nodes={m: np.asarray(v, dtype=float).reshape(len(seed_list), len(changes), 3)
-               for m, v in nodes.items()},
-        arw={m: np.asarray(v, dtype=float) for m, v in arw.items()},
-        confidence={m: np.asarray(v, dtype=float) for m, v in conf.items()},
-        tracking={m: np.asarray(v, dtype=float).reshape(len(seed_list), len(changes), 3)
-                  for m, v in track.items()},
-        crossings={th: np.asarray(v, dtype=float) for th, v in cross.items()},
-        expected_crossings=expected, crossing_window=cwin,
-        parameters=dict(methods=list(names), taus=taus if isinstance(taus, str)
-                        else list(map(float, taus)), terms=list(terms),
-                        noise_type="white (alpha = 0), EDF cached", **controller),
-        elapsed=_time.perf_counter() - start,
-    )  # fmt: skip
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_STUDY_NAMES})

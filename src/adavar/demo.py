@@ -11,11 +11,11 @@ Three parts:
    walk: its overlapping Allan deviation with confidence intervals, the fit of the five
    IEEE Std 952 terms, and the known true values to compare with.
 
-3. The A-DAVAR paper's scenario 1 (:func:`adavar.simulate.paper_scenario`): DAVAR-400,
-   DAVAR-600, DAVAR-K and A-DAVAR on one realisation (:func:`adavar.compare.compare`, with
-   the kurtosis studies of the paper's Figs. 6-8), and the node times over
-   :data:`PAPER_SEEDS` realisations next to the paper's Table 1
-   (:func:`adavar.compare.compare_seeds`).
+3. The A-DAVAR paper's scenario 1 (:func:`adavar.paper.scenarios.paper_scenario`):
+   DAVAR-400, DAVAR-600, DAVAR-K and A-DAVAR on one realisation
+   (:func:`adavar.compare.compare`, with the kurtosis studies of the paper's Figs. 6-8,
+   :mod:`adavar.paper.studies`), and the node times over :data:`PAPER_SEEDS` realisations
+   next to the paper's Table 1 (:func:`adavar.paper.studies.compare_seeds`).
 
 :func:`run_demo` returns a :class:`DemoResult`; the command line prints it and draws the
 figures.
@@ -29,18 +29,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from adavar import simulate
-from adavar.compare import (
-    Comparison,
+from adavar.compare import Comparison, compare
+from adavar.datasets import nist_1000
+from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
+from adavar.paper.scenarios import paper_scenario
+from adavar.paper.studies import (
     KurtosisStudy,
     SeedStudy,
     ThresholdStudy,
-    compare,
     compare_seeds,
     kurtosis_study,
     threshold_study,
 )
-from adavar.datasets import nist_1000
-from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
 from adavar.results import DeviationResult
 from adavar.statistics import deviation
 from adavar.units import ConvertedNoise, conventional_units, convert_coefficient
@@ -276,7 +276,7 @@ def _gyro(seed: int) -> GyroDemo:
 
 
 def _paper(seed: int) -> PaperDemo:
-    scenario = simulate.paper_scenario(1, seed=seed)
+    scenario = paper_scenario(1, seed=seed)
     return PaperDemo(
         comparison=compare(scenario),
         kurtosis=kurtosis_study(scenario),

@@ -41,17 +41,21 @@ from adavar.cli.output import (
 )
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES
+from adavar.paper.nodes import NODE_TITLES
+from adavar.paper.reference import (
+    PAPER_FIG6_WINDOWS,
+    PAPER_FIG8_THRESHOLDS,
+    PAPER_LABELS,
+    PAPER_REFERENCE,
+    paper_arw,
+    paper_crossings,
+)
+from adavar.paper.studies import finite_median
 from adavar.writers import (
     atomic_directory,
     check_output_directory,
     dumps,
 )
-
-_NODE_TITLES = {"beginning": "Beginning", "end": "End", "restore": "Restore"}
-
-
-#: Thresholds of the Fig. 8 study (the paper's), plus --k2 when it differs.
-_FIG8_THRESHOLDS = (3.3, 3.45, 4.0)
 
 
 def _fmt_time(value: float) -> str:
@@ -70,8 +74,6 @@ def _paper_columns(comp: Any, paper: dict[str, Any]) -> list[str]:
 
 
 def _compare_node_lines(comp: Any, study: Any) -> list[str]:
-    from adavar.compare import PAPER_LABELS
-
     if not comp.change_times:
         return ["Nodes: no change times (give --change-times T,... for a data file)"]
     labels = comp.labels
@@ -85,7 +87,7 @@ def _compare_node_lines(comp: Any, study: Any) -> list[str]:
     headers = ["node [s]", *labels.values(), *(f"paper {PAPER_LABELS[m]}" for m in cols)]
     rows = []
     for r in rows_in:
-        name = f"{_NODE_TITLES[r['node']]}({r['change']:g})"
+        name = f"{NODE_TITLES[r['node']]}({r['change']:g})"
         if study is None:
             cells = [_fmt_time(r["values"][m]) for m in labels]
         else:
@@ -107,10 +109,8 @@ def _compare_node_lines(comp: Any, study: Any) -> list[str]:
 
 
 def _compare_interval_lines(comp: Any, study: Any) -> list[str]:
-    from adavar.compare import PAPER_LABELS, PAPER_TABLE1_ARW
-
     labels = comp.labels
-    paper = PAPER_TABLE1_ARW if comp.scenario == 1 else {}
+    paper = paper_arw(comp.scenario)
     cols = _paper_columns(comp, paper)
     if study is None:
         values = {m: [run.intervals[iv] for iv in comp.intervals]
@@ -195,14 +195,12 @@ def _compare_metric_lines(comp: Any, study: Any) -> list[str]:
 
 
 def _crossing_lines(thr: Any, study: Any, scenario: int | None) -> list[str]:
-    from adavar.compare import PAPER_FIG8_CROSSINGS
-
     if thr is None:
         return []
     rows = []
     if study is None:
         for th in thr.thresholds:
-            paper = PAPER_FIG8_CROSSINGS.get(th, {}) if scenario == 1 else {}
+            paper = paper_crossings(scenario, th)
             for j, change in enumerate(thr.change_times):
                 exp = (thr.expected_crossings[th][j] if thr.expected_crossings is not None
                        else (math.nan, math.nan))  # fmt: skip
@@ -255,8 +253,6 @@ def compare_report(comp: Any, study: Any, thr: Any) -> list[str]:
 
 def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
     """CSV file name -> text."""
-    from adavar.compare import PAPER_FIG8_CROSSINGS, PAPER_REFERENCE, PAPER_TABLE1_ARW
-
     head = f"adavar {__version__}: {comp.description}"
     names = list(comp.methods)
     files: dict[str, str] = {}
@@ -290,8 +286,8 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
             f"{head}; node times (window centres) in s; paper_*: {PAPER_REFERENCE}",
             [*columns, *(f"paper_{m}" for m in cols)], rows,
         )  # fmt: skip
-    paper_arw = PAPER_TABLE1_ARW if comp.scenario == 1 else {}
-    cols = _paper_columns(comp, paper_arw)
+    paper_means = paper_arw(comp.scenario)
+    cols = _paper_columns(comp, paper_means)
     if study is None:
         vals = {m: [run.intervals[iv] for iv in comp.intervals] for m, run in comp.methods.items()}
     else:
@@ -301,7 +297,7 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
         + ("" if study is None else f", median over {len(study.seeds)} realisations")
         + "; paper_* in 1e-3 deg/sqrt(h) (scale not reproducible: compare ratios)",
         ["a_s", "b_s", *names, *(f"paper_{m}" for m in cols)],
-        [[a, b, *(vals[m][j] for m in names), *(paper_arw[m].get((a, b), math.nan) for m in cols)]
+        [[a, b, *(vals[m][j] for m in names), *(paper_means[m].get((a, b), math.nan) for m in cols)]
          for j, (a, b) in enumerate(comp.intervals)],
     )  # fmt: skip
     if study is not None or comp.truth is not None:
@@ -340,13 +336,13 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
     if thr is not None:
         rows = []
         for th in thr.thresholds:
-            paper = PAPER_FIG8_CROSSINGS.get(th, {}) if comp.scenario == 1 else {}
+            paper = paper_crossings(comp.scenario, th)
             for j, change in enumerate(thr.change_times):
                 if study is None:
                     rise, fall = thr.crossings[th][j]
                 else:
-                    rise = _median_of(study.crossings[th][:, j, 0])
-                    fall = _median_of(study.crossings[th][:, j, 1])
+                    rise = finite_median(study.crossings[th][:, j, 0])
+                    fall = finite_median(study.crossings[th][:, j, 1])
                 exp = (thr.expected_crossings[th][j] if thr.expected_crossings is not None
                        else (math.nan, math.nan))  # fmt: skip
                 pp = paper.get(change, (math.nan, math.nan))
@@ -369,12 +365,6 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
             ["seed", "method", "change_s", "beginning_s", "end_s", "restore_s"], rows,
         )  # fmt: skip
     return files
-
-
-def _median_of(values: np.ndarray) -> float:
-    v = np.asarray(values, dtype=float)
-    v = v[np.isfinite(v)]
-    return float(np.median(v)) if v.size else math.nan
 
 
 def compare_figures(comp: Any, kurt: Any, thr: Any) -> dict[str, Any]:
@@ -456,7 +446,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if args.crossing_thresholds is not None:
         fig8 = tuple(sorted(set(args.crossing_thresholds)))
     else:
-        fig8 = tuple(sorted({*_FIG8_THRESHOLDS, float(args.k2)}))
+        fig8 = tuple(sorted({*PAPER_FIG8_THRESHOLDS, float(args.k2)}))
     crossing_window = args.crossing_window or args.lmax
     start = time.perf_counter()
     status = Status()
@@ -515,7 +505,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     kurt = None
     if args.out is not None:
         status("kurtosis study")
-        windows = tuple(w for w in (11, 201, 601) if w <= comp.data.size)
+        windows = tuple(w for w in PAPER_FIG6_WINDOWS if w <= comp.data.size)
         kurt = kurtosis_study(data, rate=comp.rate, windows=windows,
                               change_times=comp.change_times)  # fmt: skip
     elapsed = time.perf_counter() - start
