@@ -3,7 +3,7 @@
 :func:`davar` is the one place where a DAVAR surface is computed, for a fixed window
 (DAVAR-L) or any per-centre schedule (the adaptive controllers feed theirs in here).
 
-How it works (METHOD.md sections 2-3): the rate record is extended at both ends by time
+How it works (docs/method.md sections 5-6): the rate record is extended at both ends by time
 reversal (``edges="mirror"``), integrated once into the anchored double-double form of
 :mod:`adavar.differences`, and handed to a parallel kernel that, per chunk of consecutive
 centres and per averaging factor ``m``, computes the second differences ``d_m[i]`` over the
@@ -362,7 +362,7 @@ def davar(
         Averaging times. ``"all"`` (the paper): ``m = 1 .. floor(Lmax / 3)``. Taus beyond a
         third of a window are NaN for that window.
     edges : {"mirror", "valid"}
-        ``"mirror"`` (METHOD.md section 3, the paper): every ``step``-th sample is a centre
+        ``"mirror"`` (docs/method.md section 6, the paper): every ``step``-th sample is a centre
         and windows at the ends run into the time-reversed record; ``"valid"``: only
         centres whose whole window lies inside the record.
     step : int
