@@ -77,6 +77,7 @@ from adavar.paper.reference import (
     paper_nodes,
 )
 from adavar.results import DavarResult
+from adavar.settings import CONTROLLER
 from adavar.statistics import as_samples
 from adavar.windows import window_overhang
 from adavar.writers import jsonable
@@ -649,19 +650,19 @@ def compare(
     change_times: Sequence[float] | None = None,
     truth: Sequence[float] | np.ndarray | None = None,
     intervals: Sequence[tuple[float, float]] | None = None,
-    lmax: int = 600,
-    lmin: int = 400,
-    k1: float = 2.5,
-    k2: float = 3.3,
-    s1: float = 0.0,
-    s2: float = 0.07,
-    l: int = 100,  # noqa: E741 - the paper's name
-    dl0: int = 2,
-    dl1: int = 2,
-    s_test: str = "upper",
-    combine: str = "or",
-    thresholds: str = "paper",
-    false_alarm: float = 0.01,
+    lmax: int = CONTROLLER.lmax,
+    lmin: int = CONTROLLER.lmin,
+    k1: float = CONTROLLER.k1,
+    k2: float = CONTROLLER.k2,
+    s1: float = CONTROLLER.s1,
+    s2: float = CONTROLLER.s2,
+    l: int = CONTROLLER.l,  # noqa: E741 - the paper's name
+    dl0: int = CONTROLLER.dl0,
+    dl1: int = CONTROLLER.dl1,
+    s_test: str = CONTROLLER.s_test,
+    combine: str = CONTROLLER.combine,
+    thresholds: str = CONTROLLER.thresholds,
+    false_alarm: float = CONTROLLER.false_alarm,
     taus: str | Sequence[float] = "all",
     terms: Sequence[str] = TERM_NAMES,
     confidence: float = 0.683,

@@ -34,6 +34,7 @@ from adavar.paper.reference import (
     paper_nodes,
 )
 from adavar.paper.scenarios import paper_scenario
+from adavar.settings import CONTROLLER
 from adavar.writers import jsonable
 
 __all__ = [
@@ -471,19 +472,19 @@ def compare_seeds(
     terms: Sequence[str] = TERM_NAMES,
     crossing_window: int | None = None,
     crossing_thresholds: Sequence[float] = PAPER_FIG8_THRESHOLDS,
-    lmax: int = 600,
-    lmin: int = 400,
-    k1: float = 2.5,
-    k2: float = 3.3,
-    s1: float = 0.0,
-    s2: float = 0.07,
-    l: int = 100,  # noqa: E741 - the paper's name
-    dl0: int = 2,
-    dl1: int = 2,
-    s_test: str = "upper",
-    combine: str = "or",
-    thresholds: str = "paper",
-    false_alarm: float = 0.01,
+    lmax: int = CONTROLLER.lmax,
+    lmin: int = CONTROLLER.lmin,
+    k1: float = CONTROLLER.k1,
+    k2: float = CONTROLLER.k2,
+    s1: float = CONTROLLER.s1,
+    s2: float = CONTROLLER.s2,
+    l: int = CONTROLLER.l,  # noqa: E741 - the paper's name
+    dl0: int = CONTROLLER.dl0,
+    dl1: int = CONTROLLER.dl1,
+    s_test: str = CONTROLLER.s_test,
+    combine: str = CONTROLLER.combine,
+    thresholds: str = CONTROLLER.thresholds,
+    false_alarm: float = CONTROLLER.false_alarm,
     progress: Callable[[int, int], None] | None = None,
 ) -> SeedStudy:
     """:func:`~adavar.compare.compare` on many realisations of a paper scenario, and Fig. 8.
