@@ -25,6 +25,7 @@ from adavar import simulate
 from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
 from adavar.compare import compare
 from adavar.davar import davar
+from adavar.durations import Duration, seconds
 from adavar.errors import AdavarInputError
 from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
 from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
@@ -37,6 +38,7 @@ __all__ = [
     "AdavarInputError",
     "DavarResult",
     "DeviationResult",
+    "Duration",
     "NoiseFit",
     "NoiseTerm",
     "adaptive_davar",
@@ -48,6 +50,7 @@ __all__ = [
     "fit_avar",
     "fit_noise",
     "kurtosis_contribution",
+    "seconds",
     "simulate",
     "sliding_kurtosis",
 ]

@@ -44,6 +44,7 @@ from adavar import stream
 from adavar._jit import get_num_threads, jit, parallel_jit, prange
 from adavar._kernels.double_double import two_sum
 from adavar.davar import davar
+from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.settings import CONTROLLER
@@ -59,6 +60,7 @@ __all__ = [
     "calibrated_thresholds",
     "false_alarm_rate",
     "oracle_schedule",
+    "window_lengths",
 ]
 
 METHODS = ("adaptive", "kurtosis", "oracle", "fixed")
@@ -573,6 +575,28 @@ def _outputs(m: int) -> tuple[np.ndarray, ...]:
     return (np.empty(m, dtype=np.int64), np.empty(m), np.empty(m), *flags)
 
 
+def window_lengths(
+    dt: float,
+    *,
+    lmax: Any,
+    lmin: Any,
+    l: Any,  # noqa: E741 - the paper's name
+    step: Any,
+) -> tuple[int, int, int, int]:
+    """The window-like parameters in samples (durations converted, docs/method.md section 8).
+
+    A duration rounds to the nearest sample; a duration ``lmin`` then takes the nearest
+    length of ``lmax``'s parity (the window keeps the parity of its length).
+    """
+    big = _check_int("lmax", to_samples(lmax, dt, "lmax"), 5)
+    small = _check_int("lmin", to_samples(lmin, dt, "lmin"), 5)
+    if is_duration(lmin) and (big - small) % 2:
+        small = small + 1 if small + 1 <= big else small - 1
+    seg = _check_int("l", to_samples(l, dt, "l"), 1)
+    every = _check_int("step", to_samples(step, dt, "step"), 1)
+    return big, small, seg, every
+
+
 def _check_int(name: str, value: Any, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise AdavarInputError(f"{name} must be an integer >= {minimum}, got {value!r}")
@@ -583,13 +607,13 @@ def adaptive_schedule(
     data: Sequence[float] | np.ndarray | ChunkedSource,
     *,
     method: str = "adaptive",
-    lmax: int = CONTROLLER.lmax,
-    lmin: int = CONTROLLER.lmin,
+    lmax: Length = CONTROLLER.lmax,
+    lmin: Length = CONTROLLER.lmin,
     k1: float = CONTROLLER.k1,
     k2: float = CONTROLLER.k2,
     s1: float = CONTROLLER.s1,
     s2: float = CONTROLLER.s2,
-    l: int = CONTROLLER.l,  # noqa: E741 - the paper's name
+    l: Length = CONTROLLER.l,  # noqa: E741 - the paper's name
     dl0: int = CONTROLLER.dl0,
     dl1: int = CONTROLLER.dl1,
     s_test: str = CONTROLLER.s_test,
@@ -600,7 +624,7 @@ def adaptive_schedule(
     false_alarm: float = CONTROLLER.false_alarm,
     rate: float = 1.0,
     tau0: float | None = None,
-    step: int = 1,
+    step: Length = 1,
     chunk_size: int | None = None,
 ) -> Schedule:
     """The window schedule of A-DAVAR, DAVAR-K, the oracle or a fixed window.
@@ -613,9 +637,11 @@ def adaptive_schedule(
     data : array_like, ChunkedSource, numpy.memmap or dask.array.Array
         The rate record. A source, a memory map of a file or a dask array is streamed
         (see ``chunk_size``).
-    step : int
+    step : int, str, Duration or timedelta
         Keep the controller's outputs at the centres that are multiples of ``step`` only
         (the centres of ``davar(..., step=step)``); the controller still visits every centre.
+        Samples or a duration. (``lmax``, ``lmin`` and ``l`` take durations as well, see
+        :func:`adaptive_davar`.)
     chunk_size : int, optional
         Run out of core: the mirror-extended record is read about ``chunk_size`` centres at a
         time (rounded up to a multiple of :data:`REANCHOR`, plus ``lmax // 2 + 1`` samples
@@ -642,12 +668,10 @@ def adaptive_schedule(
         raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
     if thresholds not in ("paper", "calibrated"):
         raise AdavarInputError(f"unknown thresholds {thresholds!r}: use 'paper' or 'calibrated'")
-    lmax = _check_int("lmax", lmax, 5)
-    lmin = _check_int("lmin", lmin, 5)
-    seg = _check_int("l", l, 1)
+    dt = resolve_tau0(rate, tau0)
+    lmax, lmin, seg, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)
     dl0 = _check_int("dl0", dl0, 0)
     dl1 = _check_int("dl1", dl1, 0)
-    step = _check_int("step", step, 1)
     chunked = chunk_size is not None or stream.is_chunked(data)
     chunk = stream.DEFAULT_CHUNK
     if chunk_size is not None:
@@ -669,7 +693,6 @@ def adaptive_schedule(
             raise AdavarInputError(f"{name} must be a finite number, got {value!r}")
     if float(k1) > float(k2):
         raise AdavarInputError(f"k1 ({k1}) must not exceed k2 ({k2})")
-    dt = resolve_tau0(rate, tau0)
     if chunked:
         source = stream.as_source(data)
         n = source.size
@@ -798,13 +821,13 @@ def adaptive_davar(
     *,
     rate: float = 1.0,
     method: str = "adaptive",
-    lmax: int = CONTROLLER.lmax,
-    lmin: int = CONTROLLER.lmin,
+    lmax: Length = CONTROLLER.lmax,
+    lmin: Length = CONTROLLER.lmin,
     k1: float = CONTROLLER.k1,
     k2: float = CONTROLLER.k2,
     s1: float = CONTROLLER.s1,
     s2: float = CONTROLLER.s2,
-    l: int = CONTROLLER.l,  # noqa: E741 - the paper's name
+    l: Length = CONTROLLER.l,  # noqa: E741 - the paper's name
     dl0: int = CONTROLLER.dl0,
     dl1: int = CONTROLLER.dl1,
     s_test: str = CONTROLLER.s_test,
@@ -814,7 +837,7 @@ def adaptive_davar(
     change_times: Sequence[float] | None = None,
     thresholds: str = CONTROLLER.thresholds,
     false_alarm: float = CONTROLLER.false_alarm,
-    step: int = 1,
+    step: Length = 1,
     confidence: float | None = 0.683,
     data_type: str = "rate",
     tau0: float | None = None,
@@ -839,14 +862,16 @@ def adaptive_davar(
         ``"adaptive"``: A-DAVAR, docs/method.md section 8 (``f = f1 combine f2``);
         ``"kurtosis"``: DAVAR-K (``f = f1``); ``"oracle"``: the ideal schedule for
         ``change_times``; ``"fixed"``: DAVAR-``lmax`` (kurtosis and flags recorded along).
-    lmax, lmin : int
-        Longest (start) and shortest window, samples (paper: 600, 400).
+    lmax, lmin : int, str, Duration or timedelta
+        Longest (start) and shortest window: samples (paper: 600, 400), or durations
+        (``"10min"``, :func:`adavar.seconds`), rounded to whole samples of this record (a
+        duration ``lmin`` to the nearest length of ``lmax``'s parity).
     k1, k2 : float
         Kurtosis band of a stationary window (Eq. 16; paper: 2.5, 3.3).
     s1, s2 : float
         S thresholds (Eq. 17; paper: 0, 0.07); ``s1`` is used by ``s_test="band"`` only.
-    l : int
-        Leading segment of the S test, samples (paper: 100).
+    l : int, str, Duration or timedelta
+        Leading segment of the S test: samples (paper: 100) or a duration.
     dl0, dl1 : int
         Regrow and shrink steps (paper: 2, 2); even, so the parity of ``L`` is kept.
     s_test : {"upper", "band", "abs"}
@@ -890,6 +915,10 @@ def adaptive_davar(
     dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
+    # durations (``"10min"``) become samples once, with this record's sample interval
+    lmax, lmin, l, step = window_lengths(  # noqa: E741 - the paper's name
+        resolve_tau0(rate, tau0), lmax=lmax, lmin=lmin, l=l, step=step
+    )
     controller = dict(
         method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0,
         dl1=dl1, s_test=s_test, combine=combine, edges=edges, change_times=change_times,

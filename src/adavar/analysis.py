@@ -29,8 +29,9 @@ from typing import Any
 import numpy as np
 
 from adavar import stream
-from adavar.adaptive import adaptive_davar
+from adavar.adaptive import adaptive_davar, window_lengths
 from adavar.davar import davar
+from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, fit_noise
 from adavar.settings import ControllerSettings
@@ -45,6 +46,7 @@ __all__ = [
     "fit_keywords",
     "load_input",
     "report_options",
+    "resolve_lengths",
 ]
 
 _ALIASES = {"l": "segment"}
@@ -152,6 +154,20 @@ def load_input(
     return samples, meta, units, tau0
 
 
+def resolve_lengths(args: Any, tau0: float) -> None:
+    """The window-like options (``window``, ``lmax``, ``lmin``, ``segment`` = ``l``,
+    ``step``) in samples of this record: durations (``"10min"``) converted in place."""
+    if getattr(args, "window", None) is not None:
+        args.window = to_samples(args.window, tau0, "--window")
+    if hasattr(args, "lmax"):
+        args.lmax, args.lmin, args.segment, args.step = window_lengths(
+            tau0, lmax=args.lmax, lmin=args.lmin, l=args.segment,
+            step=getattr(args, "step", 1),
+        )  # fmt: skip
+    elif hasattr(args, "step"):
+        args.step = to_samples(args.step, tau0, "--step")
+
+
 def analyse_channel(
     args: Any, samples: np.ndarray, units: str, tau0: float, status: Callable[[str], None],
     tag: str = "",
@@ -164,6 +180,7 @@ def analyse_channel(
     from adavar.units import rate_unit
 
     rate_u = rate_unit(units, args.data_type)
+    resolve_lengths(args, tau0)
     rate_kw = dict(
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,

@@ -29,6 +29,7 @@ from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import stream
 from adavar._jit import get_num_threads, jit
+from adavar.durations import Length, to_samples
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.statistics import DATA_TYPE_ALIASES, as_samples, record_noise_types, resolve_tau0
@@ -321,12 +322,12 @@ def _lazy_avar(array: Any, dtype: str, sched: Any, ms: np.ndarray, scale: float,
 def davar(
     data: Sequence[float] | np.ndarray | stream.ChunkedSource | Any,
     *,
-    window: int | Sequence[int] | np.ndarray,
+    window: Length | Sequence[int] | np.ndarray,
     rate: float = 1.0,
     data_type: str = "rate",
     taus: str | Sequence[float] | np.ndarray = "all",
     edges: str = "mirror",
-    step: int = 1,
+    step: Length = 1,
     confidence: float | None = 0.683,
     tau0: float | None = None,
     t0: float = 0.0,
@@ -346,8 +347,10 @@ def davar(
         ``dask.array`` or a memory map of a ``.npy`` file (``numpy.load(path,
         mmap_mode="r")``, read back with file reads, not through the map) is processed out
         of core (see ``chunk_size``).
-    window : int or array_like of int
-        Window length in samples: an int for a fixed window (DAVAR-L), or one length per
+    window : int, str, Duration, timedelta or array_like of int
+        Window length in samples, or a duration for a fixed window (``"10min"``,
+        :func:`adavar.seconds`; rounded to whole samples): an int for a fixed window
+        (DAVAR-L), or one length per
         sample of the record (any schedule, e.g. the adaptive controller's), or one per
         computed centre (``ceil(N / step)`` values). At least 3 and at most the record
         length. For even ``L`` the window holds ``L/2 - 1`` samples before its centre and
@@ -365,8 +368,8 @@ def davar(
         ``"mirror"`` (docs/method.md section 6, the paper): every ``step``-th sample is a centre
         and windows at the ends run into the time-reversed record; ``"valid"``: only
         centres whose whole window lies inside the record.
-    step : int
-        Compute every ``step``-th centre only.
+    step : int, str, Duration or timedelta
+        Compute every ``step``-th centre only (samples, or a duration).
     confidence : float or None
         Two-sided level of the per-cell chi-square bounds (default 0.683, 1 sigma). The
         EDF is the Greenhall-Riley EDF of an overlapping Allan variance of ``L + 1`` phase
@@ -473,6 +476,9 @@ def davar(
         u = x if dtype == "rate" else np.diff(x)
         n_samples, n = x.size, u.size
 
+    # a duration (``"10min"``, ``adavar.seconds(600)``) is samples of this record
+    window = to_samples(window, dt, "window")
+    step = to_samples(step, dt, "step")
     sched = window_schedule(n, window, edges=edges, step=step)
     longest = int(sched.length.max())
     ms, notes = averaging_factors(taus, longest // 3, dt, points_per_decade=points_per_decade)

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from adavar import __version__
-from adavar.analysis import load_input
+from adavar.analysis import load_input, resolve_lengths
 from adavar.cli.options import (
     EXIT_OK,
     UsageError,
@@ -437,21 +437,16 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         check_output_directory(args.out, replace=args.force)
         guard_replacement(args.out, [Path(args.file)] if args.file is not None else [])
 
-    controller = dict(
-        lmax=args.lmax, lmin=args.lmin, k1=args.k1, k2=args.k2, s1=args.s1, s2=args.s2,
-        l=args.segment, dl0=args.dl0, dl1=args.dl1, s_test=args.s_test,
-        combine=args.combine, thresholds=args.thresholds, false_alarm=args.false_alarm,
-    )  # fmt: skip
     terms = args.terms or TERM_NAMES
     if args.crossing_thresholds is not None:
         fig8 = tuple(sorted(set(args.crossing_thresholds)))
     else:
         fig8 = tuple(sorted({*PAPER_FIG8_THRESHOLDS, float(args.k2)}))
-    crossing_window = args.crossing_window or args.lmax
     start = time.perf_counter()
     status = Status()
     truth = None
     if args.scenario is not None:
+        resolve_lengths(args, 1.0)  # the paper's scenarios are at 1 Hz
         status(f"simulating scenario {args.scenario}")
         data: Any = simulate.paper_scenario(
             args.scenario, seed=args.seed, variance_reading=args.variance_reading
@@ -466,6 +461,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     else:
         status(f"reading {args.file}")
         samples, meta, units, tau0 = load_input(args)
+        resolve_lengths(args, tau0)
         if args.truth_column is not None:
             truth = _truth_column(args, samples.size, tau0)
         data = samples
@@ -477,6 +473,12 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         }  # fmt: skip
         description = (f"{meta['path']}, column {meta['column']!r}: {samples.size} samples at "
                        f"{1.0 / tau0:g} Hz in {units}")  # fmt: skip
+    controller = dict(
+        lmax=args.lmax, lmin=args.lmin, k1=args.k1, k2=args.k2, s1=args.s1, s2=args.s2,
+        l=args.segment, dl0=args.dl0, dl1=args.dl1, s_test=args.s_test,
+        combine=args.combine, thresholds=args.thresholds, false_alarm=args.false_alarm,
+    )  # fmt: skip
+    crossing_window = args.crossing_window or args.lmax
     status("running " + ", ".join(args.methods) if args.methods else "running the methods")
     comp = compare(
         data, methods=args.methods, rate=rate, change_times=changes, taus=args.taus or "all",

@@ -12,7 +12,13 @@ import numpy as np
 
 from adavar import __version__
 from adavar.adaptive import adaptive_davar
-from adavar.analysis import chunk_keywords, controller_settings, fit_keywords, load_input
+from adavar.analysis import (
+    chunk_keywords,
+    controller_settings,
+    fit_keywords,
+    load_input,
+    resolve_lengths,
+)
 from adavar.cli.options import (
     EXIT_OK,
     TERM_FILES,
@@ -239,6 +245,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     # (a temperature too) is too costly to be a default
     chosen = args.column is not None
     loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False, out_of_core=True)
+    resolve_lengths(args, tau0)
     if not chosen:
         loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
     names = list(loaded)
@@ -476,8 +483,8 @@ def add_davar_parser(sub: Any) -> argparse.ArgumentParser:
     add_input_arguments(dav)
     dav.add_argument(
         "--window", metavar="L", type=window_length, required=True,
-        help=f"window length in samples (at least {MIN_WINDOW}, at most the record); taus "
-        "up to a third of it",
+        help=f"window length: samples (at least {MIN_WINDOW}, at most the record) or a "
+        "duration such as 600s or 10min; taus up to a third of it",
     )  # fmt: skip
     add_surface_arguments(dav)
     dav.add_argument("--json", action="store_true", help="print one JSON object (a summary)")

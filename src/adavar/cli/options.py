@@ -8,6 +8,8 @@ import math
 from collections.abc import Callable
 from typing import NoReturn
 
+from adavar.durations import parse_duration
+from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES
 from adavar.settings import CONTROLLER, FIT
 from adavar.taus import TAU_KEYWORDS
@@ -95,17 +97,39 @@ def _confidence_or_none(text: str) -> float | None:
     return value
 
 
-def window_length(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < MIN_WINDOW:
-        raise argparse.ArgumentTypeError(
-            f"must be a whole number of samples, at least {MIN_WINDOW} (one Allan-variance "
-            f"term at m = 1), got {text!r}"
-        )
-    return value
+def window_length(text: str) -> int | str:
+    """Samples (at least MIN_WINDOW), or a duration (``600s``, ``10min``) kept as text until
+    the record's rate is known."""
+    return length_arg(MIN_WINDOW, "(one Allan-variance term at m = 1)")(text)
+
+
+def length_arg(minimum: int, why: str = "") -> Callable[[str], int | str]:
+    """A window-like flag: whole samples (at least ``minimum``) or a duration string."""
+
+    def parse(text: str) -> int | str:
+        stripped = text.strip()
+        whole = stripped.isdigit()
+        if not whole:
+            try:
+                float(stripped)
+            except ValueError:  # not a number: a duration, or nothing we know
+                try:
+                    parse_duration(stripped)
+                except AdavarInputError as exc:
+                    raise argparse.ArgumentTypeError(str(exc)) from None
+                return stripped
+        if not whole or int(stripped) < minimum:
+            samples = (
+                "a positive integer (samples)"
+                if minimum == 1
+                else f"a whole number of samples, at least {minimum}{' ' + why if why else ''}"
+            )
+            raise argparse.ArgumentTypeError(
+                f"must be {samples}, or a duration such as 600s or 10min; got {text!r}"
+            )
+        return int(stripped)
+
+    return parse
 
 
 def parse_taus(text: str) -> str | list[float]:
@@ -321,10 +345,12 @@ def add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
 
 def add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
     """The adaptive window's settings (docs/method.md section 8; the paper's values by default)."""
-    cmd.add_argument("--lmax", type=positive_int, default=CONTROLLER.lmax, metavar="L",
-                      help="longest window, samples (default: 600)")  # fmt: skip
-    cmd.add_argument("--lmin", type=positive_int, default=CONTROLLER.lmin, metavar="L",
-                      help="shortest window, samples (default: 400)")  # fmt: skip
+    cmd.add_argument("--lmax", type=length_arg(5), default=CONTROLLER.lmax, metavar="L",
+                      help="longest window: samples, or a duration such as 6s or 10min "
+                      "(default: 600 samples)")  # fmt: skip
+    cmd.add_argument("--lmin", type=length_arg(5), default=CONTROLLER.lmin, metavar="L",
+                      help="shortest window: samples or a duration (default: 400 "
+                      "samples)")  # fmt: skip
     cmd.add_argument("--k1", type=finite_float, default=CONTROLLER.k1, metavar="K",
                       help="lower kurtosis threshold (default: 2.5)")  # fmt: skip
     cmd.add_argument("--k2", type=finite_float, default=CONTROLLER.k2, metavar="K",
@@ -333,9 +359,10 @@ def add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
                       help="lower S threshold, --s-test band only (default: 0)")  # fmt: skip
     cmd.add_argument("--s2", type=finite_float, default=CONTROLLER.s2, metavar="S",
                       help="upper S threshold (default: 0.07)")  # fmt: skip
-    cmd.add_argument("--l", type=positive_int, default=CONTROLLER.l, metavar="N",
+    cmd.add_argument("--l", type=length_arg(1), default=CONTROLLER.l, metavar="N",
                       dest="segment",
-                      help="leading segment of the S test, samples (default: 100)")  # fmt: skip
+                      help="leading segment of the S test: samples or a duration (default: "
+                      "100 samples)")  # fmt: skip
     cmd.add_argument("--dl0", type=parse_seed, default=CONTROLLER.dl0, metavar="N",
                       help="regrow step, samples (default: 2)")  # fmt: skip
     cmd.add_argument("--dl1", type=parse_seed, default=CONTROLLER.dl1, metavar="N",
@@ -466,8 +493,9 @@ def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
         help="time of the first sample (default: 0); window times are t0 + centre / rate",
     )  # fmt: skip
     cmd.add_argument(
-        "--step", metavar="S", type=positive_int, default=1,
-        help="centre a window on every S-th sample only (default: 1, every sample)",
+        "--step", metavar="S", type=length_arg(1), default=1,
+        help="centre a window on every S-th sample only; samples or a duration such as 10s "
+        "(default: 1, every sample)",
     )  # fmt: skip
     cmd.add_argument(
         "--taus", default="all", type=parse_taus, metavar="SPEC",

@@ -15,9 +15,9 @@ from adavar.cli.options import (
     add_controller_arguments,
     add_fit_arguments,
     add_input_arguments,
+    length_arg,
     parse_taus,
     parse_terms,
-    positive_int,
     window_length,
 )
 from adavar.cli.output import Status, check_output_file, fit_lines, output_error
@@ -229,7 +229,8 @@ def add_report_parser(sub: Any) -> argparse.ArgumentParser:
     )  # fmt: skip
     rep.add_argument(
         "--window", metavar="L", type=window_length,
-        help="also a fixed-window DAVAR of L samples (surface and coefficients over time)",
+        help="also a fixed-window DAVAR of L samples, or of a duration such as 10min "
+        "(surface and coefficients over time)",
     )  # fmt: skip
     rep.add_argument(
         "--adaptive", action="store_true",
@@ -241,7 +242,7 @@ def add_report_parser(sub: Any) -> argparse.ArgumentParser:
         help="taus of the DAVAR surface: octave (default), all, decade, log or seconds",
     )  # fmt: skip
     rep.add_argument(
-        "--step", metavar="S", type=positive_int, default=1,
+        "--step", metavar="S", type=length_arg(1), default=1,
         help="DAVAR centres every S samples (default: 1)",
     )  # fmt: skip
     rep.add_argument(
