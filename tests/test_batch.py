@@ -27,6 +27,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from adavar import analysis, batch, cli, simulate, writers
+from adavar.adaptive import record_windows
 from adavar.batch import (
     BATCH_MARKER,
     SUMMARY_COLUMNS,
@@ -257,9 +258,11 @@ def _check_result_json(out, rows, records):
     assert stored["file"] == str(records["g2"])
     st_ = records["g2"].stat()
     assert stored["input"]["fingerprint"] == {"size": st_.st_size, "mtime_ns": st_.st_mtime_ns}
-    assert stored["options"]["adaptive"] is True and stored["options"]["lmax"] == 600
+    # no window flags: the options say so, the windows follow the record's length
+    assert stored["options"]["adaptive"] is True and stored["options"]["lmax"] is None
     assert stored["input"]["preprocessing"] == []
-    assert stored["parameters"]["controller lmax"] == 600
+    n_samples = stored["input"]["n_samples"]
+    assert stored["parameters"]["controller lmax"] == record_windows(n_samples)[0]
     events = stored["events"]
     assert events["method"] == "adaptive" and events["count"] == len(events["items"]) >= 1
     assert rows["g2"]["n_events"] == events["count"]
@@ -574,7 +577,9 @@ def test_runs_equal_a_plain_loop(mask):
 
 
 def test_events_are_the_node_times_of_the_schedule(records):
-    options = {"units": "deg/s", "rate": RATE, "adaptive": True}
+    # the paper's windows (without them the windows follow the record's length)
+    options = {"units": "deg/s", "rate": RATE, "adaptive": True, "lmax": 600, "lmin": 400,
+               "l": 100}  # fmt: skip
     analysis = analyse_file(records["g2"], options)
     events = analysis.events()
     window = np.asarray(analysis.adaptive.window)
@@ -598,13 +603,17 @@ def test_events_are_the_node_times_of_the_schedule(records):
 def test_fixed_window_events_follow_the_controller_flags(records):
     from adavar.adaptive import adaptive_schedule
 
-    analysis = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 1000})
+    analysis = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 1000,
+                                            "l": 100})  # fmt: skip
     events = analysis.events()
     sched = adaptive_schedule(np.load(records["g2"]), method="fixed", lmax=1000, lmin=1000,
                               rate=RATE)  # fmt: skip
     assert events["method"] == "fixed" and events["count"] == len(_slow_runs(sched.f)) >= 1
     assert [i["start_s"] for i in events["items"]] == [
         a / RATE for a, _ in _slow_runs(sched.f)]  # fmt: skip
-    short = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 90})
+    short = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 90, "l": 100})
     assert short.events()["items"] is None and "l + 3" in short.events()["note"]
+    # without --l, l is a sixth of the fixed window (the paper's proportion): events again
+    fitting = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 90})
+    assert fitting.events()["items"] is not None
     assert analyse_file(records["g2"], {"units": "deg/s", "rate": RATE}).events() is None

@@ -102,6 +102,7 @@ def test_json_summarises_without_the_surface(capsys, gyro_csv, expected):
     assert payload["parameters"] == {
         "window": WINDOW, "window_s": 40.0, "step": 1, "edges": "mirror", "taus": "all",
         "points_per_decade": 10, "confidence": 0.683, "terms": list(adavar.noise_model.TERM_NAMES),
+        "resolution": None,  # every centre and every tau fit the default --max-memory
     }  # fmt: skip
     assert payload["shape"] == {"time": N_SAMPLES, "tau": result.tau.size}
     np.testing.assert_array_equal(payload["tau"], result.tau)

@@ -575,6 +575,30 @@ def _outputs(m: int) -> tuple[np.ndarray, ...]:
     return (np.empty(m, dtype=np.int64), np.empty(m), np.empty(m), *flags)
 
 
+def record_windows(n_samples: int, lmax: int | None = None) -> tuple[int, int, int]:
+    """Lmax, Lmin and l in the paper's proportions (600, 400, 100 of a 6000-sample record).
+
+    ``Lmax`` is a tenth of the record (even; at least 12 samples), ``Lmin = Lmax - 2
+    round(Lmax / 6)`` (two thirds of it, of the same parity) and ``l = round(Lmax / 6)``.
+    Given ``lmax``, only Lmin and l are derived from it.
+
+    Parameters
+    ----------
+    n_samples : int
+        Length of the record (samples).
+    lmax : int, optional
+        The longest window, if chosen.
+
+    Returns
+    -------
+    lmax, lmin, l : int
+    """
+    if lmax is None:
+        lmax = max(12, 2 * round(int(n_samples) / 20))
+    sixth = max(1, round(lmax / 6))
+    return int(lmax), int(lmax - 2 * sixth), int(sixth)
+
+
 def window_lengths(
     dt: float,
     *,

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import math
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -29,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from adavar import stream
-from adavar.adaptive import adaptive_davar, window_lengths
+from adavar.adaptive import adaptive_davar, record_windows, window_lengths
 from adavar.davar import davar
 from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
@@ -47,9 +48,11 @@ __all__ = [
     "load_input",
     "report_options",
     "resolve_lengths",
+    "resolve_resolution",
 ]
 
 _ALIASES = {"l": "segment"}
+_LENGTHS = ("window", "lmax", "lmin", "segment", "step")
 
 
 def load_input(
@@ -154,18 +157,79 @@ def load_input(
     return samples, meta, units, tau0
 
 
-def resolve_lengths(args: Any, tau0: float) -> None:
+def resolve_lengths(args: Any, tau0: float, n_samples: int | None = None) -> None:
     """The window-like options (``window``, ``lmax``, ``lmin``, ``segment`` = ``l``,
-    ``step``) in samples of this record: durations (``"10min"``) converted in place."""
+    ``step``) in samples of this record, in place.
+
+    Durations (``"10min"``) are converted with ``tau0``. An adaptive window not given
+    (``lmax``, ``lmin`` or ``segment`` None) takes the paper's proportions
+    (:func:`adavar.adaptive.record_windows`): Lmax a tenth of the ``n_samples``-sample
+    record, Lmin two thirds and l a sixth of Lmax. ``args.windows_from`` says which:
+    ``"flags"``, ``"lmax"`` (Lmin and l from it) or ``"record"``.
+    """
     if getattr(args, "window", None) is not None:
         args.window = to_samples(args.window, tau0, "--window")
     if hasattr(args, "lmax"):
-        args.lmax, args.lmin, args.segment, args.step = window_lengths(
+        chosen = args.lmax, args.lmin, args.segment
+        if None in chosen:
+            if args.lmax is None and n_samples is None:  # pragma: no cover - callers pass it
+                raise AdavarInputError("the record's length is needed to choose the windows")
+            given = None if args.lmax is None else to_samples(args.lmax, tau0, "--lmax")
+            lmax, lmin, seg = record_windows(n_samples or 0, given)
+            args.windows_from = "record" if args.lmax is None else "lmax"
+            args.lmax = lmax if args.lmax is None else args.lmax
+            args.lmin = lmin if args.lmin is None else args.lmin
+            args.segment = seg if args.segment is None else args.segment
+        else:
+            args.windows_from = "flags"
+        step = getattr(args, "step", None)
+        args.lmax, args.lmin, args.segment, chosen_step = window_lengths(
             tau0, lmax=args.lmax, lmin=args.lmin, l=args.segment,
-            step=getattr(args, "step", 1),
+            step=1 if step is None else step,
         )  # fmt: skip
-    elif hasattr(args, "step"):
+        if step is not None:  # None: resolve_resolution chooses it
+            args.step = chosen_step
+    elif getattr(args, "step", None) is not None:
         args.step = to_samples(args.step, tau0, "--step")
+
+
+#: Default budget of ``--max-memory``: the surface and what is computed from it.
+DEFAULT_MAX_MEMORY_MB = 200
+#: Bytes per surface cell a command holds: the variance, its two bounds and the fit's arrays.
+CELL_BYTES = 8 * 4
+#: More taus than this from ``taus="all"`` and the default becomes ``"log"`` (10 a decade).
+MAX_ALL_TAUS = 200
+
+
+def resolve_resolution(args: Any, tau0: float, n_samples: int) -> str | None:
+    """Taus and centres of a surface the user left to adavar (``taus`` / ``step`` None).
+
+    ``taus``: ``"all"`` (the paper's) while that is at most :data:`MAX_ALL_TAUS` averaging
+    times, else ``"log"`` (10 per decade). ``step``: every centre while the surface fits
+    ``args.max_memory`` MB at :data:`CELL_BYTES` a cell, else every ``step``-th. Returns
+    a sentence saying what was chosen and why (None when nothing was).
+    """
+    from adavar.taus import averaging_factors
+
+    longest = args.lmax if getattr(args, "command", None) == "adaptive" else args.window
+    why = []
+    if args.taus is None:
+        args.taus = "all" if int(longest) // 3 <= MAX_ALL_TAUS else "log"
+        if args.taus == "log":
+            why.append(f"taus log (10 per decade) instead of all {int(longest) // 3}")
+    if args.step is None:
+        ms, _ = averaging_factors(args.taus, max(1, int(longest) // 3), tau0,
+                                  points_per_decade=args.points_per_decade)  # fmt: skip
+        budget = float(args.max_memory) * 2**20
+        args.step = max(1, math.ceil(n_samples * ms.size * CELL_BYTES / budget))
+        if args.step > 1:
+            why.append(f"one centre in {args.step} ({math.ceil(n_samples / args.step)} windows)")
+    if not why:
+        return None
+    return (
+        "resolution: " + ", ".join(why) + f", to keep the surface within --max-memory "
+        f"{args.max_memory:g} MB (give --taus / --step to choose)"
+    )
 
 
 def analyse_channel(
@@ -180,7 +244,7 @@ def analyse_channel(
     from adavar.units import rate_unit
 
     rate_u = rate_unit(units, args.data_type)
-    resolve_lengths(args, tau0)
+    resolve_lengths(args, tau0, int(np.size(samples)))
     rate_kw = dict(
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,
@@ -424,6 +488,8 @@ class ReportAnalysis:
         length = int(self.options["window"])
         settings = controller_settings(argparse.Namespace(**self.options))
         settings.update(lmax=length, lmin=length)
+        if not self.options.get("segment_given", True):  # l in proportion to this window
+            settings["l"] = record_windows(0, length)[2]
         rule = (f"runs of window centres where the adaptive controller's test flags the "
                 f"fixed {length}-sample window")  # fmt: skip
         if settings["l"] > length - 4:
@@ -501,7 +567,11 @@ def analyse_file(
         samples, units = loaded[name], units_of[name]
     else:
         samples, units = loaded, units_of
+    segment_given = opts.get("segment") is not None
     run = analyse_channel(args, samples, units, tau0, lambda what: None, "")
+    # the lengths as used (durations and the record's windows resolved), for the events
+    opts = {**opts, **{k: getattr(args, k) for k in _LENGTHS if hasattr(args, k)}}
+    opts["segment_given"] = segment_given
     rate_kw = dict(
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,

@@ -102,5 +102,7 @@ ANALYSIS_DEFAULTS: dict[str, Any] = {
     # the analysis
     "taus": "octave", "window": None, "adaptive": False, "step": 1,
     **_CONTROLLER_OPTIONS,
+    # the windows follow the record (adavar.analysis.resolve_lengths) unless given
+    "lmax": None, "lmin": None, "segment": None,
     **_FIT_OPTIONS,
 }  # fmt: skip

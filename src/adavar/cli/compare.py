@@ -51,6 +51,7 @@ from adavar.paper.reference import (
     paper_crossings,
 )
 from adavar.paper.studies import finite_median
+from adavar.settings import CONTROLLER
 from adavar.writers import (
     atomic_directory,
     check_output_directory,
@@ -600,6 +601,8 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
         "(default: davar-LMIN,davar-LMAX,davar-k,a-davar)",
     )  # fmt: skip
     add_controller_arguments(cmp_)
+    # the paper's windows stay the default of compare (its scenarios are the paper's)
+    cmp_.set_defaults(lmax=CONTROLLER.lmax, lmin=CONTROLLER.lmin, segment=CONTROLLER.l)
     cmp_.add_argument(
         "--taus", type=parse_taus, metavar="SPEC",
         help="taus of every surface: all (default for one realisation, the paper's), octave "

@@ -18,6 +18,7 @@ from adavar.analysis import (
     fit_keywords,
     load_input,
     resolve_lengths,
+    resolve_resolution,
 )
 from adavar.cli.options import (
     EXIT_OK,
@@ -158,6 +159,18 @@ def _davar_summary(
         f"{result.time[-1]:g} s) x {n_tau} tau{'s' if n_tau != 1 else ''} "
         f"({result.tau[0]:g} s .. {result.tau[-1]:g} s), {bounds}",
     ]
+    origin = meta.get("windows_from")
+    if origin in ("record", "lmax"):
+        p = result.parameters
+        lines.append(
+            f"windows: Lmax {p['lmax']} samples ({p['lmax'] * tau0:g} s), Lmin {p['lmin']}, "
+            f"l {p['l']}: "
+            + ("a tenth of the record" if origin == "record" else "from --lmax")
+            + " in the paper's proportions (600/400/100 of 6000 samples); give --lmax, "
+            "--lmin, --l (samples or durations) to choose"
+        )
+    if meta.get("resolution"):
+        lines.append(meta["resolution"])
     lines += [f"note: {note}" for note in result.notes]
     if fit is None:
         lines.append("(no noise fit: --confidence none computes no EDF to weight it)")
@@ -245,7 +258,10 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     # (a temperature too) is too costly to be a default
     chosen = args.column is not None
     loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False, out_of_core=True)
-    resolve_lengths(args, tau0)
+    first = next(iter(loaded.values())) if chosen else loaded
+    n_samples = int(getattr(first, "size", np.size(first)))
+    resolve_lengths(args, tau0, n_samples)
+    resolution = resolve_resolution(args, tau0, n_samples)
     if not chosen:
         loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
     names = list(loaded)
@@ -255,7 +271,9 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     for k, name in enumerate(names):
         out = args.out if args.out is None or not several else f"{args.out}/{folders[name]}"
         tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
-        runs.append(_davar_channel(args, loaded[name], {**meta, "column": name}, units_of[name],
+        info = {**meta, "column": name, "windows_from": getattr(args, "windows_from", None),
+                "resolution": resolution}  # fmt: skip
+        runs.append(_davar_channel(args, loaded[name], info, units_of[name],
                                    tau0, fmt, out, status, tag))  # fmt: skip
     if several:
         payload: dict[str, Any] = {
@@ -405,8 +423,10 @@ def _davar_channel(
         payload["input"]["preprocessing"] = [
             step.get("spec", str(step)) for step in meta["preprocessing"]
         ]
+    payload["parameters"]["resolution"] = meta.get("resolution")
     if adaptive:
         payload["parameters"]["controller"] = result.parameters
+        payload["parameters"]["windows_from"] = getattr(args, "windows_from", "flags")
         payload["window"] = {
             "min": int(np.min(result.window)), "max": int(np.max(result.window)),
             "shrunk_fraction": float(np.mean(result.window < result.parameters["lmax"])),

@@ -8,6 +8,7 @@ import math
 from collections.abc import Callable
 from typing import NoReturn
 
+from adavar.analysis import DEFAULT_MAX_MEMORY_MB, MAX_ALL_TAUS
 from adavar.durations import parse_duration
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES
@@ -345,12 +346,13 @@ def add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
 
 def add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
     """The adaptive window's settings (docs/method.md section 8; the paper's values by default)."""
-    cmd.add_argument("--lmax", type=length_arg(5), default=CONTROLLER.lmax, metavar="L",
+    cmd.add_argument("--lmax", type=length_arg(5), metavar="L",
                       help="longest window: samples, or a duration such as 6s or 10min "
-                      "(default: 600 samples)")  # fmt: skip
-    cmd.add_argument("--lmin", type=length_arg(5), default=CONTROLLER.lmin, metavar="L",
-                      help="shortest window: samples or a duration (default: 400 "
+                      "(default: a tenth of the record, as the paper's 600 of 6000 "
                       "samples)")  # fmt: skip
+    cmd.add_argument("--lmin", type=length_arg(5), metavar="L",
+                      help="shortest window: samples or a duration (default: two thirds of "
+                      "Lmax)")  # fmt: skip
     cmd.add_argument("--k1", type=finite_float, default=CONTROLLER.k1, metavar="K",
                       help="lower kurtosis threshold (default: 2.5)")  # fmt: skip
     cmd.add_argument("--k2", type=finite_float, default=CONTROLLER.k2, metavar="K",
@@ -359,10 +361,10 @@ def add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
                       help="lower S threshold, --s-test band only (default: 0)")  # fmt: skip
     cmd.add_argument("--s2", type=finite_float, default=CONTROLLER.s2, metavar="S",
                       help="upper S threshold (default: 0.07)")  # fmt: skip
-    cmd.add_argument("--l", type=length_arg(1), default=CONTROLLER.l, metavar="N",
+    cmd.add_argument("--l", type=length_arg(1), metavar="N",
                       dest="segment",
-                      help="leading segment of the S test: samples or a duration (default: "
-                      "100 samples)")  # fmt: skip
+                      help="leading segment of the S test: samples or a duration (default: a "
+                      "sixth of Lmax)")  # fmt: skip
     cmd.add_argument("--dl0", type=parse_seed, default=CONTROLLER.dl0, metavar="N",
                       help="regrow step, samples (default: 2)")  # fmt: skip
     cmd.add_argument("--dl1", type=parse_seed, default=CONTROLLER.dl1, metavar="N",
@@ -493,14 +495,20 @@ def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
         help="time of the first sample (default: 0); window times are t0 + centre / rate",
     )  # fmt: skip
     cmd.add_argument(
-        "--step", metavar="S", type=length_arg(1), default=1,
+        "--step", metavar="S", type=length_arg(1),
         help="centre a window on every S-th sample only; samples or a duration such as 10s "
-        "(default: 1, every sample)",
+        "(default: every sample, or as few as keep the surface within --max-memory)",
     )  # fmt: skip
     cmd.add_argument(
-        "--taus", default="all", type=parse_taus, metavar="SPEC",
-        help="all (default: every multiple of tau0 up to a third of the window), octave, "
-        "decade, log, or comma-separated taus in seconds",
+        "--taus", type=parse_taus, metavar="SPEC",
+        help="all (every multiple of tau0 up to a third of the window; the default up to "
+        f"{MAX_ALL_TAUS} taus, log beyond), octave, decade, log, or comma-separated taus in "
+        "seconds",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--max-memory", type=positive_float("MB"), default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
+        help="budget of the surface when --step is not given: every centre while it fits, "
+        f"else every S-th (default: {DEFAULT_MAX_MEMORY_MB} MB)",
     )  # fmt: skip
     cmd.add_argument(
         "--edges", default="mirror", choices=EDGES,
