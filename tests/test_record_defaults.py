@@ -70,3 +70,18 @@ def test_surface_resolution_follows_the_memory_budget(capsys, gyro):
 def test_compare_keeps_the_papers_windows():
     args = cli.build_parser().parse_args(["compare", "--scenario", "1"])
     assert (args.lmax, args.lmin, args.segment) == (600, 400, 100)
+
+
+def test_s_quantile_draws_in_bounded_batches(monkeypatch):
+    """The S simulation behind calibrated thresholds: batches give the numbers of one array."""
+    from scipy import stats
+
+    from adavar import thresholds
+
+    rng = np.random.default_rng(4)
+    x = rng.standard_normal((500, 300))
+    kx = stats.kurtosis(x, axis=1, fisher=False)
+    kc = stats.kurtosis(x[:, :250], axis=1, fisher=False)
+    whole = float(np.quantile((kx - kc) / kx, 0.99))
+    monkeypatch.setattr(thresholds, "_DRAW_BATCH", 7 * 300 + 5)  # 7 rows a batch
+    assert thresholds._s_quantile(0.99, 300, 50, 500, 4) == whole

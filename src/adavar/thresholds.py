@@ -58,13 +58,25 @@ def _kurtosis_quantile(q: float, n: int) -> float:
     return float(brentq(lambda b: _kurtosis_z(b, n) - z, lo, e + 40 * sd, xtol=1e-12))
 
 
+#: Gaussian values drawn at a time by the S simulation (32 MiB): bounded memory for any L.
+_DRAW_BATCH = 1 << 22
+
+
 def _s_quantile(q: float, length: int, seg: int, draws: int, seed: int) -> float:
-    """Quantile of S (last ``seg`` of ``length`` Gaussian samples) by simulation."""
+    """Quantile of S (last ``seg`` of ``length`` Gaussian samples) by simulation.
+
+    The windows are drawn a batch of rows at a time from one stream: the same numbers as
+    one ``(draws, length)`` array, in at most :data:`_DRAW_BATCH` values of memory.
+    """
     rng = np.random.default_rng(seed)
-    x = rng.standard_normal((draws, length))
-    kx = stats.kurtosis(x, axis=1, fisher=False)
-    kc = stats.kurtosis(x[:, : length - seg], axis=1, fisher=False)
-    return float(np.quantile((kx - kc) / kx, q))
+    rows = max(1, _DRAW_BATCH // length)
+    s = np.empty(draws)
+    for a in range(0, draws, rows):
+        x = rng.standard_normal((min(draws, a + rows) - a, length))
+        kx = stats.kurtosis(x, axis=1, fisher=False)
+        kc = stats.kurtosis(x[:, : length - seg], axis=1, fisher=False)
+        s[a : a + x.shape[0]] = (kx - kc) / kx
+    return float(np.quantile(s, q))
 
 
 @dataclass(frozen=True)
