@@ -85,3 +85,22 @@ def test_s_quantile_draws_in_bounded_batches(monkeypatch):
     whole = float(np.quantile((kx - kc) / kx, 0.99))
     monkeypatch.setattr(thresholds, "_DRAW_BATCH", 7 * 300 + 5)  # 7 rows a batch
     assert thresholds._s_quantile(0.99, 300, 50, 500, 4) == whole
+
+
+def test_compare_refuses_what_does_not_fit_in_memory(monkeypatch, capsys, tmp_path):
+    """Before any work: a one-line error and exit 2, not the kernel's OOM killer."""
+    import adavar
+    from adavar import sources
+
+    from .cli_helpers import assert_one_line_error
+
+    x = simulate.white(6000, seed=1)
+    monkeypatch.setattr(sources, "available_memory", lambda: 1 << 20)  # 1 MiB free
+    with pytest.raises(adavar.AdavarInputError, match=r"keeps .* GiB of surfaces"):
+        adavar.compare(x, taus="all")
+    path = tmp_path / "x.npy"
+    np.save(path, x)
+    code, out, err = run(capsys, ["compare", str(path), "--rate", "1", "--units", "deg/s"])
+    assert_one_line_error(code, out, err, "of surfaces", "--taus octave")
+    monkeypatch.undo()
+    assert adavar.compare(x, taus="octave").methods  # with the memory there, it runs

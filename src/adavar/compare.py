@@ -732,6 +732,29 @@ def compare(
     )  # fmt: skip
 
 
+#: Bytes a method's run holds per surface cell: the variance and the per-window fit.
+_RUN_CELL_BYTES = 8 * 2
+
+
+def _check_memory(
+    n_methods: int, n: int, taus: Any, longest: int, tau0: float, points_per_decade: int
+) -> None:
+    """A one-line error, before any work, when the runs would not fit in free memory."""
+    from adavar.sources import available_memory
+    from adavar.taus import averaging_factors
+
+    ms, _ = averaging_factors(taus, max(1, longest // 3), tau0,
+                              points_per_decade=points_per_decade)  # fmt: skip
+    need = n_methods * n * ms.size * _RUN_CELL_BYTES
+    free = available_memory()
+    if free is not None and need > 0.8 * free:
+        raise AdavarInputError(
+            f"comparing {n_methods} methods on {n} samples at {ms.size} taus keeps "
+            f"{need / 2**30:.1f} GiB of surfaces but {free / 2**30:.1f} GiB is free: use "
+            "taus='octave' (--taus octave), fewer methods, or a shorter record"
+        )
+
+
 def run_comparison(
     data: Any,
     *,
@@ -819,6 +842,8 @@ def run_comparison(
                 f"{s.label}: a window of {s.window} samples is longer than the record ({n})"
             )
 
+    _check_memory(len(specs), n, taus, max(lmax, *(s.window or 0 for s in specs)), tau0,
+                  points_per_decade)  # fmt: skip
     runs: dict[str, MethodRun] = {}
     with threads_for(n):
         for spec in specs:
