@@ -52,6 +52,8 @@ NOT_FLAGS = {
     # davar: a lazy dask surface is for dask arrays in Python; the CLI reads files (it
     # streams them out of core, and writes the surface it computed)
     "lazy",
+    # fit_noise(reference=): the whole-record fit, which the command makes itself
+    "reference",
 }
 
 #: (function, commands that call it with the user's settings)

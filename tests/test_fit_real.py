@@ -363,3 +363,20 @@ def test_cli_avar_fit_warns_and_reports_exclusions(capsys, tmp_path):
     code, out, _ = run(capsys, ["avar", str(path), "--rate", "100", "--units", "deg/s",
                                 "--fit", "--json", "--fit-method", "wls"])  # fmt: skip
     assert code == 0 and json.loads(out)["fit"]["method"] == "wls"
+
+
+def test_window_fits_take_the_sensor_rolloff_from_the_whole_record():
+    """N(t) of DAVAR windows on a bandwidth-limited record: right with the whole-record
+    fit as reference, about half the truth without (the windows' short taus roll off)."""
+    w = simulate.sensor(360_000, rate=200.0, bandwidth=40.0, lsb=1 / 131, seed=2, **MEMS)
+    whole = adavar.fit_noise(adavar.deviation(w, rate=200.0))
+    surface = adavar.davar(w, rate=200.0, window="2min", step="10s", taus="octave")
+    fixed = adavar.fit_noise(surface, reference=whole)
+    plain = adavar.fit_noise(surface)
+    n_true = MEMS["angle_random_walk"]
+    assert np.median(fixed.angle_random_walk.value) == pytest.approx(n_true, rel=0.03)
+    assert np.median(plain.angle_random_walk.value) < 0.8 * n_true
+    with pytest.raises(ValueError, match="whole-record curve"):
+        adavar.fit_noise(surface, reference=fixed)
+    with pytest.raises(ValueError, match="DAVAR windows"):
+        adavar.fit_noise(adavar.deviation(w, rate=200.0), reference=whole)

@@ -49,6 +49,7 @@ __all__ = [
     "report_options",
     "resolve_lengths",
     "resolve_resolution",
+    "window_fit_keywords",
 ]
 
 _ALIASES = {"l": "segment"}
@@ -268,7 +269,7 @@ def analyse_channel(
     if surface is not None:
         status(f"{tag}noise coefficients of every window")
         try:
-            coefficients = fit_noise(surface, **fit_keywords(args))
+            coefficients = fit_noise(surface, **window_fit_keywords(args, fit))
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
     return {
@@ -289,6 +290,19 @@ def fit_keywords(args: Any) -> dict[str, Any]:
                 spacing=args.spacing, method=args.fit_method, select=args.select,
                 significance=args.significance, exclude=args.exclude, rolloff=args.rolloff,
                 tau_range=args.tau_range, bandwidth=args.bandwidth)  # fmt: skip
+
+
+def window_fit_keywords(args: Any, whole: Any) -> dict[str, Any]:
+    """:func:`fit_keywords` for a surface's windows, with the whole-record fit ``whole`` as
+    the reference of the sensor's roll-off when it is a full-covariance fit."""
+    keywords = fit_keywords(args)
+    if (
+        whole is not None
+        and getattr(whole, "method", None) == "gls"
+        and (keywords["method"] in ("auto", "wls"))
+    ):
+        keywords["reference"] = whole
+    return keywords
 
 
 def chunk_keywords(args: Any) -> dict[str, Any]:

@@ -151,6 +151,7 @@ def fit_avar(
     tau_range: tuple[float | None, float | None] | None = None,
     bandwidth: float | None = None,
     rolloff: str = "model",
+    reference: NoiseFit | None = None,
 ) -> NoiseFit:
     """Fit the noise model to raw Allan-variance arrays.
 
@@ -193,6 +194,8 @@ def fit_avar(
         ``edf`` only for their uncertainties).
     select, significance, exclude, rolloff
         See :func:`fit_noise` (full-covariance fit only; not applied here).
+    reference : NoiseFit, optional
+        See :func:`fit_noise`.
     tau_range : (float or None, float or None), optional
         Fit only the taus in ``[min, max]`` seconds (None: open).
     bandwidth : float, optional
@@ -222,8 +225,27 @@ def fit_avar(
         dev = np.sqrt(np.asarray(avar, dtype=float))
         return _slopes_fit(tau_a, dev, None, None, terms, units)
     avar = np.where(keep, np.asarray(avar, dtype=float), np.nan)
+    avar = _apply_reference(tau_a, avar, reference, reasons)
     return _fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
                 reasons=reasons)  # fmt: skip
+
+
+def _apply_reference(
+    tau: np.ndarray, avar: np.ndarray, reference: NoiseFit | None, reasons: list[str]
+) -> np.ndarray:
+    """Leave out the taus below ``reference``'s shortest fitted one, take out its roll-off."""
+    if reference is None:
+        return avar
+    if not isinstance(reference, NoiseFit) or np.ndim(reference.coefficients) != 1:
+        raise ValueError("reference must be the NoiseFit of one whole-record curve")
+    used = reference.used
+    shortest = float(np.min(reference.tau[np.asarray(used)])) if used is not None else 0.0
+    low = tau < shortest * (1.0 - 1e-9)
+    for j in np.flatnonzero(low):
+        reasons[j] = reasons[j] or f"below the whole-record fit's shortest tau {shortest:.3g} s"
+    out = np.where(low, np.nan, avar)
+    roll = float(reference.rolloff)
+    return out - roll / tau**2 if roll < 0 else out
 
 
 def _check_options(
@@ -445,6 +467,7 @@ def fit_noise(
     tau_range: tuple[float | None, float | None] | None = None,
     bandwidth: float | None = None,
     rolloff: str = "model",
+    reference: NoiseFit | None = None,
 ) -> NoiseFit:
     """Fit the IEEE noise model (docs/method.md section 4) to an Allan-deviation result.
 
@@ -503,6 +526,13 @@ def fit_noise(
         ``NoiseFit.rolloff`` and Q as 0. Without it the filter's deficit just above the
         excluded taus biases N low (4 % on the 100 Hz simulator with a 10 Hz filter).
         ``"none"``: Q >= 0 like every term.
+    reference : NoiseFit, optional
+        ``"wls"`` (stacks of windows): the full-covariance fit of the whole record. The
+        sensor's filter is the same in every window, so each window's fit leaves out the
+        taus below the reference's shortest fitted tau and has the reference's roll-off
+        term (``reference.rolloff / tau^2``) taken out of its variance first. On the
+        bandwidth-limited simulator (200 Hz, 40 Hz filter) the median N(t) of 12-minute
+        windows is 0.995 of the truth with it, 0.48 without (B 0.99 and 13x).
 
     Returns
     -------
@@ -579,9 +609,14 @@ def fit_noise(
             "data_type): a DeviationResult; use method='wls' for stacks or raw arrays"
         )
     if method == "wls" or record is None:
-        masked = np.where(keep, avar, np.nan)
+        masked = _apply_reference(tau, np.where(keep, avar, np.nan), reference, reasons)
         return _fit(tau, masked, edf, terms, units, n_reweight, spacing=spacing, time=time,
                     reasons=reasons, slopes=slopes)  # fmt: skip
+    if reference is not None:
+        raise ValueError(
+            "reference is for the fit of DAVAR windows (method='wls'); a whole-record curve "
+            "is fitted with its own exclusions and roll-off"
+        )
     return _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
                 float(significance), exclude, rolloff, slopes)  # fmt: skip
 

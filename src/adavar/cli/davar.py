@@ -19,6 +19,7 @@ from adavar.analysis import (
     load_input,
     resolve_lengths,
     resolve_resolution,
+    window_fit_keywords,
 )
 from adavar.cli.options import (
     EXIT_OK,
@@ -36,6 +37,7 @@ from adavar.davar import davar
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
 from adavar.results import DavarResult
+from adavar.statistics import deviation
 from adavar.windows import MIN_WINDOW
 from adavar.writers import (
     SURFACE_FORMATS,
@@ -320,11 +322,27 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         print("\n".join(_davar_summary(run["result"], run["fit"], run["meta"], run["units"],
                                        args.data_type, [] if several else run["written"],
                                        args.out)))  # fmt: skip
+        if run.get("events") is not None:
+            print("\n".join(_event_lines(run["events"], run["fit"])))
     if several and args.out is not None:
         print()
         print(f"wrote {args.out}/ ({', '.join(written)}; in each folder: "
               f"{', '.join(runs[0]['written'])})")  # fmt: skip
     return EXIT_OK
+
+
+def _whole_record_fit(samples: Any, args: argparse.Namespace, rate_u: str, common: dict) -> Any:
+    """The full-covariance fit of the whole record: the reference of the windows' fits
+    (the sensor's roll-off is the same in every window). None if it cannot be made."""
+    if args.fit_method not in ("auto", "gls"):
+        return None
+    try:
+        whole = deviation(samples, data_type=args.data_type, taus="octave", units=rate_u,
+                          rate=common["rate"], tau0=common["tau0"],
+                          **chunk_keywords(args))  # fmt: skip
+        return fit_noise(whole, **{**fit_keywords(args), "method": "gls"})
+    except (ValueError, AdavarInputError):  # too short a record for the curve: no reference
+        return None
 
 
 def _davar_channel(
@@ -366,7 +384,8 @@ def _davar_channel(
     if args.confidence is not None:
         status(f"{tag}fitting the noise terms of every window")
         try:
-            fit = fit_noise(result, **fit_keywords(args))
+            fit = fit_noise(result, **window_fit_keywords(args, _whole_record_fit(
+                samples, args, rate_u, common)))  # fmt: skip
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
 
@@ -431,11 +450,70 @@ def _davar_channel(
             "min": int(np.min(result.window)), "max": int(np.max(result.window)),
             "shrunk_fraction": float(np.mean(result.window < result.parameters["lmax"])),
         }  # fmt: skip
+    events = None
+    if adaptive and fit is not None:
+        from adavar.events import find_events
+
+        events = find_events(
+            result.window, result.centre, result.time, int(result.parameters["lmax"]), tau0,
+            {name: fit.term(name).value for name in fit.terms}, t0=float(args.t0),
+            duration=float(args.t0) + result.n_samples * tau0,
+        )  # fmt: skip
+        payload["events"] = [e.as_dict() for e in events]
+        if out is not None:
+            written.insert(-1, "events.csv")
     return {
         "name": meta["column"], "result": result, "fit": fit, "meta": meta, "units": units,
         "tau0": tau0, "payload": payload, "text": dumps(payload), "written": written,
-        "tag": tag,
+        "tag": tag, "events": events,
     }  # fmt: skip
+
+
+def _write_events(path: Path, events: list[Any], fit: NoiseFit) -> None:
+    """events.csv: one row per stretch, each term's median before, during and after it."""
+    header = ["start_s", "end_s"]
+    for name in fit.terms:
+        for part in ("before", "during", "after"):
+            header += [f"{name}_{part}", f"{name}_{part}_low", f"{name}_{part}_high"]
+    rows = []
+    for e in events:
+        row = [e.start_s, e.end_s]
+        for name in fit.terms:
+            for part in (e.before, e.during, e.after):
+                row += [part[name]["median"], part[name]["low"], part[name]["high"]]
+        rows.append(["" if v is None else repr(float(v)) for v in row])
+    lines = [",".join(header), *(",".join(r) for r in rows)]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+def _event_lines(events: list[Any], fit: NoiseFit) -> list[str]:
+    """The events table of the printout: start, end, N before / during / after."""
+    from adavar.units import convert_coefficient, term_unit
+
+    name = "angle_random_walk"
+    unit = term_unit(name, fit.units) or ""
+    scale = 1.0
+    conv = conventional(fit)
+    if conv is not None:
+        unit = conv[name].unit
+        scale = float(convert_coefficient(1.0, name, fit.units, unit))
+    if not events:
+        return ["", "Events: none (the adaptive window never shortened)"]
+
+    def cell(part: dict[str, Any]) -> str:
+        v = part[name]
+        if v["median"] is None:
+            return "-"
+        return f"{v['median'] * scale:.4g} [{v['low'] * scale:.3g}, {v['high'] * scale:.3g}]"
+
+    rows = [
+        [f"{e.start_s:.6g}", "-" if e.end_s is None else f"{e.end_s:.6g}", cell(e.before),
+         cell(e.during), cell(e.after)]
+        for e in events
+    ]  # fmt: skip
+    head = ["start [s]", "end [s]", f"N before [{unit}]", "N during", "N after"]
+    return ["", "Events (non-stationary stretches; N median [16 %, 84 %] of the windows):",
+            text_table(head, rows, "  ")]  # fmt: skip
 
 
 def _write_davar_channel(
@@ -483,6 +561,8 @@ def _write_davar_channel(
             f"{units_text}; uncertainties 1 sigma (an upper bound where the value "
             "is 0); nan: window not fitted",
         )  # fmt: skip
+    if run.get("events") is not None:
+        _write_events(dest / "events.csv", run["events"], fit)
     for stem, fig in figures.items():
         save_figure(fig, dest / stem)
     (dest / "result.json").write_text(run["text"] + "\n", encoding="utf-8")
