@@ -6,8 +6,9 @@ rate, 1/131 deg/s LSB; N 0.3 deg/sqrt(h), B 7 deg/h, K 21 deg/h/sqrt(h)):
 * **stationary**: 2-hour records; the fraction of centres where the window shrank and the
   number of shrink episodes (false events) per hour;
 * **disturbed**: 1-hour records with the white noise x3 or x1.5 from 20 to 40 minutes; the
-  start of the change estimated by the window's leading edge at the first shrink of each
-  episode (``centre + Lmax/2``), its error against the truth and against ``Lmin/2``.
+  event's start and end (:func:`adavar.events.find_events`: the window's leading edge at
+  the first shrink of each episode, changes paired into stretches), their errors against
+  the truth and against ``Lmin/2``.
 
 The windows are :func:`adavar.adaptive.record_windows` of the record (Lmax a tenth of it),
 the thresholds the paper's (the per-hour calibration of issue 13 is not built yet). The
@@ -31,6 +32,7 @@ from _machine import describe
 import adavar
 from adavar import simulate
 from adavar.adaptive import record_windows
+from adavar.events import find_events
 
 NOISE = dict(angle_random_walk=0.005, bias_instability=0.002, rate_random_walk=1e-4, lsb=1 / 131)
 
@@ -68,22 +70,25 @@ def stationary(rate: float, seeds: int) -> str:
 def disturbed(rate: float, factor: float, seeds: int) -> str:
     n = int(3600 * rate)
     lmax, lmin, seg = record_windows(n)
-    errors, found = [], 0
+    starts, ends, found = [], [], 0
     for seed in range(seeds):
-        sched = adavar.adaptive_schedule(_record(n, rate, seed, factor), rate=rate, lmax=lmax,
-                                         lmin=lmin, l=seg, step=10)  # fmt: skip
-        centre = np.asarray(sched.centre)
-        starts = [centre[a] / rate + lmax / 2 / rate for a, _ in _episodes(sched.window, lmax)]
-        near = [s for s in starts if abs(s - 1200.0) < lmax / rate]
+        x = _record(n, rate, seed, factor)
+        sched = adavar.adaptive_schedule(x, rate=rate, lmax=lmax, lmin=lmin, l=seg, step=10)
+        events = find_events(sched.window, sched.centre, sched.centre / rate, lmax, 1 / rate,
+                             {}, duration=n / rate)  # fmt: skip
+        near = [e for e in events if abs(e.start_s - 1200.0) < lmax / rate]
         if near:
             found += 1
-            errors.append(near[0] - 1200.0)
+            starts.append(near[0].start_s - 1200.0)
+            if near[0].end_s is not None:
+                ends.append(near[0].end_s - 2400.0)
     half = lmin / 2 / rate
-    within = sum(abs(e) <= half for e in errors)
-    med = f"{np.median(errors):+.1f} s" if errors else "-"
-    return (f"| {rate:g} Hz | x{factor:g} for 20 min | Lmin/2 = {half:g} s | change at 1200 s "
-            f"found in {found}/{seeds}, start within Lmin/2 in {within}/{seeds} | median "
-            f"error {med} |")  # fmt: skip
+    both = sum(abs(a) <= half for a in starts) if starts else 0
+    good_end = sum(abs(b) <= half for b in ends)
+    med = lambda v: f"{np.median(v):+.1f} s" if v else "-"  # noqa: E731
+    return (f"| {rate:g} Hz | x{factor:g} for 20 min | Lmin/2 = {half:g} s | found {found}/"
+            f"{seeds}; start within Lmin/2 {both}/{seeds}, end {good_end}/{seeds} | median "
+            f"error start {med(starts)}, end {med(ends)} |")  # fmt: skip
 
 
 def cli_run() -> str:
