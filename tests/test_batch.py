@@ -37,7 +37,9 @@ from adavar.batch import (
     report_options,
     run_batch,
 )
+from adavar.batch_state import BATCH_STATE, folder_name
 from adavar.compare import schedule_nodes
+from adavar.writers import OUTPUT_MARKER
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -170,9 +172,17 @@ def _result(out, name):
 
 
 def _read_summary_csv(path):
-    lines = [line for line in path.read_text(encoding="utf-8").splitlines()
-             if not line.startswith("#")]  # fmt: skip
-    return list(csv.DictReader(lines))
+    return list(csv.DictReader(path.read_text(encoding="utf-8").splitlines()))  # plain CSV
+
+
+def _labelled(rows, records):
+    """The rows by the label of their file in ``records`` (its folder name is its own)."""
+    label = {str(path): name for name, path in records.items()}
+    return {label[row["file"]]: row for row in rows}
+
+
+def _by_stem(rows):
+    return {Path(row["file"]).stem: row for row in rows}
 
 
 # --------------------------------------------------------------------------------------
@@ -182,7 +192,7 @@ def _read_summary_csv(path):
 
 def _check_rows_equal_single_runs(out, rows, single_runs):
     for name, alone in single_runs.items():
-        stored = _result(out, name)
+        stored = _result(out, rows[name]["name"])
         # the same function as adavar report: every number of the fit is the same
         assert stored["fit"] == alone["report"]["fit"]
         assert stored["fit"] == alone["avar"]["fit"]
@@ -212,7 +222,10 @@ def _check_summary_files(out, payload):
     assert payload["summary"] == {
         "csv": str(out / "summary.csv"),
         "parquet": str(out / "summary.parquet"),
+        "json": str(out / "summary.json"),
     }
+    about = json.loads((out / "summary.json").read_text(encoding="utf-8"))
+    assert about["columns"] == list(SUMMARY_COLUMNS) and about["counts"] == payload["counts"]
     table = pq.read_table(out / "summary.parquet")
     assert table.column_names == list(SUMMARY_COLUMNS)
     assert table.to_pylist() == rows
@@ -236,17 +249,23 @@ def _check_broken_row(out, rows, err, records):
     for fragment in (str(records["bad"]), "NaN", "--nan"):
         assert fragment in bad["error"]
     assert bad["N"] is None and bad["n_samples"] is None
-    assert not (out / "bad").exists()
+    # the failed file's folder says so, and holds nothing else
+    assert sorted(p.name for p in (out / bad["name"]).iterdir()) == [OUTPUT_MARKER, "result.json"]
+    stored = _result(out, bad["name"])
+    assert stored["status"] == "error" and stored["error"] == bad["error"]
     # the other files are complete, and nothing half-written is left in OUT
     for name in ("g1", "sub__g1", "g2"):
-        assert sorted(p.name for p in (out / name).iterdir()) == [
-            "deviation.csv", "report.html", "result.json"]  # fmt: skip
-        html = (out / name / "report.html").read_text(encoding="utf-8")
+        folder = out / rows[name]["name"]
+        assert folder.name == folder_name(records[name])  # stem-hash, e.g. g1-3f2a9c
+        assert sorted(p.name for p in folder.iterdir()) == [
+            OUTPUT_MARKER, "deviation.csv", "report.html", "result.json"]  # fmt: skip
+        html = (folder / "report.html").read_text(encoding="utf-8")
         assert html.lower().startswith("<!doctype html>") and "plotly" in html
-        header = (out / name / "deviation.csv").read_text().splitlines()[1]
+        header = (folder / "deviation.csv").read_text().splitlines()[0]
         assert header == "tau_s,n,m,alpha,edf,dev,dev_low,dev_high"
-    assert sorted(p.name for p in out.iterdir()) == [
-        BATCH_MARKER, "g1", "g2", "sub__g1", "summary.csv", "summary.parquet"]  # fmt: skip
+    assert sorted(p.name for p in out.iterdir()) == sorted([
+        BATCH_MARKER, BATCH_STATE, *(row["name"] for row in rows.values()), "summary.csv",
+        "summary.json", "summary.parquet"])  # fmt: skip
     # one stderr line that names the file and the way out
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("adavar: error: 1 of 4 files failed")
@@ -254,7 +273,7 @@ def _check_broken_row(out, rows, err, records):
 
 
 def _check_result_json(out, rows, records):
-    stored = _result(out, "g2")
+    stored = _result(out, rows["g2"]["name"])
     assert stored["file"] == str(records["g2"])
     st_ = records["g2"].stat()
     assert stored["input"]["fingerprint"] == {"size": st_.st_size, "mtime_ns": st_.st_mtime_ns}
@@ -279,9 +298,9 @@ def test_batch_on_a_local_cluster_equals_each_file_alone(records, single_runs, t
     assert code == 2, err  # the broken file is a user error
     payload = json.loads(text)
     assert payload["counts"] == {"files": 4, "ok": 3, "done": 0, "error": 1, "input_errors": 1,
-                                 "internal_errors": 0}  # fmt: skip
+                                 "internal_errors": 0, "absent": 0}  # fmt: skip
     assert "LocalCluster of 2 worker processes" in payload["cluster"]
-    rows = {row["name"]: row for row in payload["rows"]}
+    rows = _labelled(payload["rows"], records)
     assert list(rows) == ["bad", "g1", "sub__g1", "g2"]  # the order given
     _check_rows_equal_single_runs(out, rows, single_runs)
     _check_summary_files(out, payload)
@@ -303,7 +322,7 @@ def test_batch_on_a_dask_scheduler_and_worker(dask_cluster, records, single_runs
     assert code == 2, err
     payload = json.loads(text)
     assert dask_cluster["address"] in payload["cluster"]
-    rows = {row["name"]: row for row in payload["rows"]}
+    rows = _labelled(payload["rows"], records)
     workers = {row["worker"] for row in payload["rows"]}
     assert len(workers) == 1 and workers.pop().startswith("tcp://127.0.0.1:")
     _check_rows_equal_single_runs(out, rows, single_runs)
@@ -314,7 +333,8 @@ def test_batch_on_a_dask_scheduler_and_worker(dask_cluster, records, single_runs
     code, text, err = _cli(["batch", records["g1"], *ANALYSIS, "--out", tmp_path / "again",
                             "--scheduler", dask_cluster["file"], "--json"])  # fmt: skip
     assert code == 0, err
-    assert _result(tmp_path / "again", "g1")["fit"] == _result(out, "g1")["fit"]
+    name = rows["g1"]["name"]  # the same folder name in every --out
+    assert _result(tmp_path / "again", name)["fit"] == _result(out, name)["fit"]
 
 
 # --------------------------------------------------------------------------------------
@@ -354,36 +374,39 @@ def test_rerun_skips_done_files_and_force_recomputes(small_records, tmp_path):
     out = tmp_path / "out"
     code, text, err = _batch_small(small_records, out)
     assert code == 2, err
-    first = {row["name"]: row for row in json.loads(text)["rows"]}
+    first = _by_stem(json.loads(text)["rows"])
     assert [first[n]["status"] for n in ("r0", "r1", "r9")] == ["ok", "ok", "error"]
     assert first["r9"]["error_type"] == "input" and "2 samples" in first["r9"]["error"]
-    stamps = {n: (out / n / "result.json").stat().st_mtime_ns for n in ("r0", "r1")}
+    names = {n: first[n]["name"] for n in first}
+    stamps = {n: (out / names[n] / "result.json").stat().st_mtime_ns for n in ("r0", "r1")}
 
     code, text, err = _batch_small(small_records, out)
     assert code == 2, err
-    second = {row["name"]: row for row in json.loads(text)["rows"]}
+    second = _by_stem(json.loads(text)["rows"])
     assert [second[n]["status"] for n in ("r0", "r1", "r9")] == ["done", "done", "error"]
     for name in ("r0", "r1"):
         assert {**second[name], "status": "ok"} == first[name]  # the stored numbers
-        assert (out / name / "result.json").stat().st_mtime_ns == stamps[name]
+        assert (out / names[name] / "result.json").stat().st_mtime_ns == stamps[name]
 
     # a changed input is recomputed, the others are not
     _write_csv(small_records / "r1.csv", simulate.white(3000, rate=RATE, seed=99))
     code, text, err = _batch_small(small_records, out)
-    third = {row["name"]: row for row in json.loads(text)["rows"]}
+    third = _by_stem(json.loads(text)["rows"])
     assert [third[n]["status"] for n in ("r0", "r1")] == ["done", "ok"]
     assert third["r1"]["N"] != first["r1"]["N"]
 
     # other options recompute every file (the stored ones no longer apply); --force too
     options = report_options({"units": "deg/s", "rate": RATE})
     r0 = str(small_records / "r0.csv")
-    assert batch._done_row(out, r0, "r0", options) is not None
-    assert batch._done_row(out, r0, "r0", {**options, "terms": ("angle_random_walk",)}) is None
-    assert batch._done_row(out, r0, "r1", options) is None  # another file's folder
+    assert batch._done_row(out, r0, names["r0"], options) is not None
+    assert batch._done_row(out, r0, names["r0"],
+                           {**options, "terms": ("angle_random_walk",)}) is None  # fmt: skip
+    assert batch._done_row(out, r0, names["r1"], options) is None  # another file's folder
     code, text, err = _batch_small(small_records, out, "--force")
     assert [row["status"] for row in json.loads(text)["rows"]] == ["ok", "ok", "error"]
-    assert (out / "r0" / "result.json").stat().st_mtime_ns != stamps["r0"]
-    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == [BATCH_MARKER]
+    assert (out / names["r0"] / "result.json").stat().st_mtime_ns != stamps["r0"]
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == [
+        BATCH_MARKER, BATCH_STATE]  # fmt: skip
 
 
 def test_all_ok_exits_0_and_prints_a_table(small_records, tmp_path):
@@ -400,7 +423,8 @@ def test_all_ok_exits_0_and_prints_a_table(small_records, tmp_path):
                          "deg/s", "-o", alone])  # fmt: skip
     assert code == 0, err
     stamp = re.compile(r"on \d{4}-\d\d-\d\d \d\d:\d\d:\d\d UTC")
-    batch_html = (tmp_path / "out" / "r0" / "report.html").read_text(encoding="utf-8")
+    folder = folder_name(small_records / "r0.csv")
+    batch_html = (tmp_path / "out" / folder / "report.html").read_text(encoding="utf-8")
     assert stamp.sub("", batch_html) == stamp.sub("", alone.read_text(encoding="utf-8"))
 
 
@@ -411,7 +435,8 @@ def test_no_html_keeps_the_numbers_and_drops_the_report(small_records, tmp_path)
     assert code == 0, err
     code, out2, err = _cli([*args, "--out", tmp_path / "without", "--no-html"])
     assert code == 0, err
-    for name in ("r0", "r1"):
+    for stem in ("r0", "r1"):
+        name = folder_name(small_records / f"{stem}.csv")  # the same in both folders
         assert (tmp_path / "with" / name / "report.html").is_file()
         assert not (tmp_path / "without" / name / "report.html").exists()
         assert (tmp_path / "without" / name / "deviation.csv").read_text() == (
@@ -434,12 +459,19 @@ def test_a_failed_write_leaves_no_half_written_folder(small_records, tmp_path, m
     code, text, _ = _batch_small(small_records, out)
     if failure is KeyboardInterrupt:
         assert code == 130 and not (out / "summary.csv").exists()
+        assert sorted(p.name for p in out.iterdir() if p.is_dir()) == []  # no folder, no temp
     else:
         assert code == 1  # an internal error in a task: its row, exit 1
         rows = json.loads(text)["rows"]
         assert [r["error_type"] for r in rows[:2]] == ["internal", "internal"]
         assert "disk full" in rows[0]["error"]
-    assert sorted(p.name for p in out.iterdir() if p.is_dir()) == []  # no folder, no temp
+        # no temporary; every file's folder holds its error, nothing half-written
+        folders = sorted(p.name for p in out.iterdir() if p.is_dir())
+        assert folders == sorted(r["name"] for r in rows)
+        for row in rows:
+            assert sorted(p.name for p in (out / row["name"]).iterdir()) == [
+                OUTPUT_MARKER, "result.json"]  # fmt: skip
+            assert _result(out, row["name"])["status"] == "error"
 
 
 # --------------------------------------------------------------------------------------
@@ -505,7 +537,8 @@ def test_run_batch_library_progress_and_no_pyarrow(small_records, tmp_path, monk
     assert result.summary_parquet is None and not (tmp_path / "out" / "summary.parquet").exists()
     assert any("pyarrow" in note for note in result.notes)
     assert result.rows[0]["N"] > 0 and result.rows[0]["n_events"] is None
-    assert [row["name"] for row in _read_summary_csv(result.summary_csv)] == ["r0", "r1", "r9"]
+    assert [Path(row["file"]).stem for row in _read_summary_csv(result.summary_csv)] == [
+        "r0", "r1", "r9"]  # fmt: skip
     with pytest.raises(batch.AdavarInputError, match="unknown analysis option 'widnow'"):
         run_batch([small_records / "r0.csv"], out=tmp_path / "x", options={"widnow": 3})
 
@@ -536,14 +569,21 @@ def test_collect_files_globs_lists_and_duplicates(tmp_path):
 
 
 def test_output_names_are_unique_and_readable():
-    assert output_names(["/d/a/gyro.csv", "/d/b/gyro.csv", "/d/c.csv"]) == [
-        "a__gyro", "b__gyro", "c"]  # fmt: skip
-    assert output_names(["/d/gyro.csv", "/d/gyro.npy"]) == ["gyro.csv", "gyro.npy"]
-    assert output_names(["/d/x/Gyro.csv", "/d/y/gyro.csv"]) == ["x__Gyro", "y__gyro"]
+    names = output_names(["/d/a/gyro.csv", "/d/b/gyro.csv", "/d/c.csv"])
+    assert [re.sub(r"-[0-9a-f]{6}$", "", n) for n in names] == ["gyro", "gyro", "c"]
+    assert len(set(names)) == 3
+    # a file's name is its own: the same whatever the other files
+    assert output_names(["/d/b/gyro.csv"]) == [names[1]] == [folder_name("/d/b/gyro.csv")]
+    assert len(set(output_names(["/d/gyro.csv", "/d/gyro.npy"]))) == 2
     names = output_names(["/d/a b.csv", "/d/a_b.csv"])
-    assert names[0] != names[1] and all(n.startswith("a_b") for n in names)
+    assert names[0] != names[1] and all(n.startswith("a_b-") for n in names)
     assert output_names(["/d/summary.csv.csv"])[0].startswith("summary.csv-")
-    assert output_names(["/d/.hidden.csv", "/d/<x>.csv"]) == ["hidden", "x"]
+    assert [n[:-7] for n in output_names(["/d/.hidden.csv", "/d/<x>.csv"])] == ["hidden", "x"]
+    # a recorded name is kept; a new name never takes a recorded one
+    taken = folder_name("/d/a/gyro.csv")
+    assert output_names(["/d/a/gyro.csv"], {"/d/a/gyro.csv": "gyro"}) == ["gyro"]
+    other = output_names(["/d/a/gyro.csv"], {"/d/z/gyro.csv": taken})[0]
+    assert other != taken and other.startswith(taken)
 
 
 @settings(max_examples=200, deadline=None)
@@ -591,8 +631,17 @@ def test_events_are_the_node_times_of_the_schedule(records):
         while e > a and window[e - 1] < window[e]:
             e -= 1
         expected.append((time_s[a], time_s[e], time_s[b + 1] if b + 1 < window.size else None))
-    got = [(i["start_s"], i["end_s"], i["restore_s"]) for i in events["items"]]
+    got = [(i["beginning_s"], i["end_node_s"], i["restore_s"]) for i in events["runs"]]
     assert got == expected
+    # the stretches start at a change (the leading edge before a shrink), not at a node
+    from adavar.events import find_events
+
+    fit = analysis.coefficients
+    stretches = find_events(window, analysis.adaptive.centre, time_s, 600, 1 / RATE,
+                            {n: fit.term(n).value for n in fit.terms},
+                            duration=analysis.n_samples / RATE)  # fmt: skip
+    assert [e.start_s for e in stretches] == [i["start_s"] for i in events["items"]]
+    assert events["count"] == len(events["items"])
     # the nodes compare.schedule_nodes finds around the end of the disturbance are an event's
     change = DISTURBED[1] / RATE
     nodes = schedule_nodes(window, [change], lmax=600, rate=RATE, time=time_s)[0]
@@ -606,11 +655,19 @@ def test_fixed_window_events_follow_the_controller_flags(records):
     analysis = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 1000,
                                             "l": 100})  # fmt: skip
     events = analysis.events()
+    # the report's thresholds: calibrated for 0.1 false events per stationary hour
     sched = adaptive_schedule(np.load(records["g2"]), method="fixed", lmax=1000, lmin=1000,
-                              rate=RATE)  # fmt: skip
-    assert events["method"] == "fixed" and events["count"] == len(_slow_runs(sched.f)) >= 1
-    assert [i["start_s"] for i in events["items"]] == [
+                              rate=RATE, thresholds="calibrated",
+                              false_alarm_per_hour=0.1)  # fmt: skip
+    assert events["method"] == "fixed" and len(events["runs"]) == len(_slow_runs(sched.f)) >= 1
+    assert [i["beginning_s"] for i in events["runs"]] == [
         a / RATE for a, _ in _slow_runs(sched.f)]  # fmt: skip
+    # one change per run of flags (runs closer than the window merged), at its leading edge
+    starts = [a for k, (a, _) in enumerate(_slow_runs(sched.f))
+              if k == 0 or a - _slow_runs(sched.f)[k - 1][1] >= 1000]  # fmt: skip
+    changes = [(a + 500) / RATE for a in starts]
+    assert [i["start_s"] for i in events["items"]] == changes[::2]
+    assert [i["end_s"] for i in events["items"]] == [*changes[1::2], None][: len(changes[::2])]
     short = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 90, "l": 100})
     assert short.events()["items"] is None and "l + 3" in short.events()["note"]
     # without --l, l is a sixth of the fixed window (the paper's proportion): events again

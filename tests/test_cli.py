@@ -15,6 +15,7 @@ import pytest
 import adavar
 from adavar import simulate
 from adavar.io import read_text
+from adavar.writers import OUTPUT_MARKER
 
 from .cli_helpers import assert_one_line_error, patch_cli, run
 
@@ -119,7 +120,7 @@ def test_avar_out_writes_files_atomically(capsys, white_csv, tmp_path):
     code, out, err = run(capsys, avar_args(white_csv, "--fit", "--json", "--out", str(out_dir)))
     assert code == 0
     assert sorted(p.name for p in out_dir.iterdir()) == [
-        "deviation.csv", "deviation.png", "deviation.svg", "result.json",
+        OUTPUT_MARKER, "deviation.csv", "deviation.png", "deviation.svg", "result.json",
     ]  # fmt: skip
     assert [p.name for p in tmp_path.iterdir()] == ["result"]  # no temporary left behind
     assert json.loads((out_dir / "result.json").read_text()) == json.loads(out)
@@ -140,9 +141,15 @@ def test_existing_out_dir_is_refused_and_untouched(capsys, white_csv, tmp_path):
     assert (out_dir / "keep.txt").read_text() == "precious"
     assert [p.name for p in tmp_path.iterdir()] == ["result"]
 
+    # --force replaces only a folder adavar wrote (tests/test_output_safety.py)
     code, out, err = run(capsys, avar_args(white_csv, "--out", str(out_dir), "--force"))
-    assert code == 0, err
-    assert "keep.txt" not in [p.name for p in out_dir.iterdir()]
+    assert_one_line_error(code, out, err, "not written by adavar", "remove it yourself")
+    assert [p.name for p in out_dir.iterdir()] == ["keep.txt"]
+    (out_dir / "keep.txt").unlink()
+    code, out, err = run(capsys, avar_args(white_csv, "--out", str(out_dir), "--force"))
+    assert code == 0, err  # an empty folder
+    code, out, err = run(capsys, avar_args(white_csv, "--out", str(out_dir), "--force"))
+    assert code == 0, err  # adavar's
     assert (out_dir / "result.json").is_file()
     assert [p.name for p in tmp_path.iterdir()] == ["result"]
 
@@ -392,7 +399,7 @@ def test_demo_refuses_foreign_folder(capsys, tmp_path):
     out_dir.mkdir()
     (out_dir / "thesis.tex").write_text("x")
     code, out, err = run(capsys, ["demo", "--out", str(out_dir)])
-    assert_one_line_error(code, out, err, "not written by adavar demo", "--force")
+    assert_one_line_error(code, out, err, "not written by adavar demo", "remove it yourself")
     assert [p.name for p in out_dir.iterdir()] == ["thesis.tex"]
 
 
@@ -456,5 +463,6 @@ def test_several_channels_at_once(capsys, white_csv, tmp_path):
     assert set(payload["channels"]) == {"gyro_x", "temp"}
     assert payload["channels"]["gyro_x"]["input"]["column"] == "gyro_x"
     assert (out / "gyro_x_deviation.csv").exists() and (out / "temp_deviation.png").exists()
-    code, stdout, _ = run(capsys, ["avar", str(white_csv), "--units", "deg/s"])
-    assert code == 0 and "column 'gyro_x'" in stdout and "column 'temp'" in stdout
+    # one --units for every numeric column (a temperature too) is refused: name them
+    code, stdout, err = run(capsys, ["avar", str(white_csv), "--units", "deg/s"])
+    assert code == 2 and "--column" in err and "gyro_x, temp" in err

@@ -22,7 +22,7 @@ RATE = 10.0
 N_SAMPLES = 2000
 STDS = {"gx": 0.1, "gy": 0.2, "gz": 0.4}
 SINGLE_KEYS = ["adavar_version", "input", "parameters", "units", "shape", "time", "tau", "m",
-               "alpha", "notes", "fit", "out"]  # fmt: skip
+               "alpha", "notes", "fit", "out", "events", "events_rule"]  # fmt: skip
 
 
 @pytest.fixture(scope="module")
@@ -66,7 +66,8 @@ def test_davar_several_channels_json_and_folders(capsys, imu_csv, tmp_path):
     assert without_out(payload["channels"]["gy"]) == without_out(alone)
     assert payload["channels"]["gy"]["out"]["dir"] == f"{out}/gy"
     assert payload["channels"]["gy"]["out"]["files"] == alone["out"]["files"]
-    assert sorted(p.name for p in out.iterdir()) == ["gx", "gy", "gz", "result.json"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        ".adavar-output", "gx", "gy", "gz", "result.json"]  # fmt: skip
     for name in ("gx", "gy", "gz"):
         assert sorted(p.name for p in (out / name).iterdir()) == sorted(
             p.name for p in single.iterdir()
@@ -92,7 +93,7 @@ def test_davar_several_channels_table(capsys, imu_csv, tmp_path):
     assert stdout.rstrip().endswith(
         f"wrote {out}/ (gx/, gz/, result.json; in each folder: surface.nc, coefficients.csv, "
         "davar_surface.png, davar_surface.svg, davar_heatmap.png, davar_heatmap.svg, arw.png, "
-        "arw.svg, result.json)"
+        "arw.svg, events.csv, result.json)"
     )
     # one channel: the table as before, with its own "wrote" line
     code, single, _ = run(capsys, davar_argv(imu_csv, "gx"))

@@ -69,7 +69,7 @@ def test_scenario_seeds_json_and_out(capsys, tmp_path):
     expected = ["arw.csv", "crossings.csv", "intervals.csv", "metrics.csv", "nodes.csv",
                 "result.json", "seeds_nodes.csv",
                 *(f"{s}.{e}" for s in FIGURES for e in ("png", "svg"))]  # fmt: skip
-    assert files == sorted(expected)
+    assert files == sorted([".adavar-output", *expected])  # the marker of adavar's folders
     assert payload["out"]["files"] and sorted(payload["out"]["files"]) == sorted(expected)
     assert json.loads((out_dir / "result.json").read_text()) == payload
     assert [p.name for p in tmp_path.iterdir()] == ["cmp"]  # no temporary left

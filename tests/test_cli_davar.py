@@ -18,6 +18,7 @@ from scipy.io import netcdf_file
 import adavar
 from adavar import simulate
 from adavar.io import read_text
+from adavar.writers import OUTPUT_MARKER
 
 from .cli_helpers import assert_one_line_error, patch_cli, run
 
@@ -29,7 +30,7 @@ WINDOW = 400
 
 FILES = [
     "arw.png", "arw.svg", "coefficients.csv", "davar_heatmap.png", "davar_heatmap.svg",
-    "davar_surface.png", "davar_surface.svg", "result.json", "surface.nc",
+    "davar_surface.png", "davar_surface.svg", "events.csv", "result.json", "surface.nc",
 ]  # fmt: skip
 
 
@@ -170,7 +171,7 @@ def test_out_folder(capsys, gyro_csv, expected, tmp_path):
     out_dir = tmp_path / "result"
     code, out, err = run(capsys, davar_args(gyro_csv, "--json", "--out", str(out_dir)))
     assert code == 0, err
-    assert sorted(p.name for p in out_dir.iterdir()) == FILES
+    assert sorted(p.name for p in out_dir.iterdir()) == [OUTPUT_MARKER, *FILES]
     assert [p.name for p in tmp_path.iterdir()] == ["result"]  # no temporary left behind
     assert "wrote" in err  # JSON mode keeps stdout clean
     payload = json.loads(out)
@@ -188,7 +189,7 @@ def test_out_folder(capsys, gyro_csv, expected, tmp_path):
         assert ds.attrs["units"] == "deg/s"
 
     csv_path = out_dir / "coefficients.csv"
-    assert csv_path.read_text().startswith("# adavar ")
+    assert csv_path.read_text().startswith("time_s,window,")  # plain CSV: the header first
     value, meta = read_text(csv_path, column="angle_random_walk")
     np.testing.assert_array_equal(value, fit.angle_random_walk.value)
     sigma, _ = read_text(csv_path, column="angle_random_walk_uncertainty")
@@ -211,8 +212,8 @@ def test_out_folder_parquet_without_fit(capsys, gyro_csv, tmp_path):
     code, out, err = run(capsys, argv)
     assert code == 0, err
     assert sorted(p.name for p in out_dir.iterdir()) == [
-        "davar_heatmap.png", "davar_heatmap.svg", "davar_surface.png", "davar_surface.svg",
-        "result.json", "surface.parquet",
+        OUTPUT_MARKER, "davar_heatmap.png", "davar_heatmap.svg", "davar_surface.png",
+        "davar_surface.svg", "result.json", "surface.parquet",
     ]  # fmt: skip
     assert "no noise fit" in out and "no confidence bounds" in out
     assert f"wrote {out_dir}/" in out
@@ -234,7 +235,7 @@ def test_coefficient_figure_of_another_term(capsys, gyro_csv, tmp_path):
     assert code == 0, err
     names = sorted(p.name for p in out_dir.iterdir())
     assert "rrw.png" in names and "arw.png" not in names
-    header = (out_dir / "coefficients.csv").read_text().splitlines()[1]
+    header = (out_dir / "coefficients.csv").read_text().splitlines()[0]
     assert header == "time_s,window,rate_random_walk,rate_random_walk_uncertainty,reduced_chi2"
 
 
@@ -248,9 +249,15 @@ def test_existing_out_dir_needs_force(capsys, gyro_csv, tmp_path):
     assert [p.name for p in out_dir.iterdir()] == ["keep.txt"]
     assert (out_dir / "keep.txt").read_text() == "precious"
 
+    # --force replaces only a folder adavar wrote (tests/test_output_safety.py)
     code, out, err = run(capsys, [*argv, "--force"])
-    assert code == 0, err
-    assert sorted(p.name for p in out_dir.iterdir()) == FILES
+    assert_one_line_error(code, out, err, "not written by adavar")
+    assert [p.name for p in out_dir.iterdir()] == ["keep.txt"]
+    (out_dir / "keep.txt").unlink()
+    for _ in range(2):  # an empty folder, then adavar's
+        code, out, err = run(capsys, [*argv, "--force"])
+        assert code == 0, err
+    assert sorted(p.name for p in out_dir.iterdir()) == [OUTPUT_MARKER, *FILES]
     assert [p.name for p in tmp_path.iterdir()] == ["result"]
 
     # --force never replaces the folder holding the input
@@ -461,7 +468,7 @@ def test_console_script(gyro_csv, tmp_path):
     assert done.returncode == 0, done.stderr
     payload = json.loads(done.stdout)
     assert payload["shape"]["time"] == N_SAMPLES // 20
-    assert sorted(p.name for p in out_dir.iterdir()) == FILES
+    assert sorted(p.name for p in out_dir.iterdir()) == [OUTPUT_MARKER, *FILES]
     assert done.stderr.startswith("adavar: wrote ")
 
     done = subprocess.run(

@@ -284,7 +284,12 @@ CONTROLLER_FLAGS = ["--lmax", "120", "--lmin", "60", "--k1", "2", "--k2", "4", "
                     "0.05"]  # fmt: skip
 CONTROLLER = {"lmax": 120, "lmin": 60, "k1": 2.0, "k2": 4.0, "s1": -0.1, "s2": 0.1, "l": 30,
               "dl0": 3, "dl1": 4, "s_test": "band", "combine": "and",
-              "thresholds": "calibrated", "false_alarm": 0.05}  # fmt: skip
+              "thresholds": "calibrated", "false_alarm": 0.05,
+              "false_alarm_per_hour": None}  # fmt: skip  # a per-step rate replaces it
+
+
+#: compare keeps the paper's controller (no per-hour calibration)
+COMPARE = {k: v for k, v in CONTROLLER.items() if k != "false_alarm_per_hour"}
 
 
 def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
@@ -303,6 +308,11 @@ def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
         "edge_edf": "interior",
     }  # fmt: skip
     check(seen, adavar.adaptive_davar, expected)
+    seen.clear()
+    code, _, err = run(capsys, ["adaptive", str(record), "--column", "x", "--rate", "4",
+                                "--units", "deg/s", "--false-alarm-per-hour", "0.5"])  # fmt: skip
+    assert code == 1 and seen["false_alarm_per_hour"] == 0.5
+    assert seen["thresholds"] == "calibrated"
     # adaptive_schedule (the controller alone) takes a subset of these, all passed on by
     # adaptive_davar
     assert set(keywords(adavar.adaptive_schedule)) <= set(keywords(adavar.adaptive_davar))
@@ -319,7 +329,7 @@ def test_compare_gets_every_flag(capsys, monkeypatch, record):
     assert code == 1 and "Stop" in err
     check(seen, compare_module.compare, {
         "methods": ["davar-100", "a-davar"], "change_times": [50.0],
-        "truth": np.full(400, 0.5), "intervals": [(0.0, 50.0), (50.0, 100.0)], **CONTROLLER,
+        "truth": np.full(400, 0.5), "intervals": [(0.0, 50.0), (50.0, 100.0)], **COMPARE,
         "taus": "octave", "terms": ("angle_random_walk",), "confidence": 0.9,
         "noise_type": 0, "points_per_decade": 7, "units": "deg/s",
     })  # fmt: skip
@@ -341,7 +351,7 @@ def test_compare_seeds_gets_every_flag(capsys, monkeypatch):
     assert code == 1 and "Stop" in err
     check(seen, compare_module.compare_seeds, {
         "scenario": 2, "seeds": range(5, 8), "variance_reading": True,
-        "methods": ["davar-400", "a-davar"], **CONTROLLER, "taus": "decade",
+        "methods": ["davar-400", "a-davar"], **COMPARE, "taus": "decade",
         "terms": ("angle_random_walk",), "crossing_window": 500,
         "crossing_thresholds": (3.5, 4.0),
     })  # fmt: skip

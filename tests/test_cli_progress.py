@@ -41,7 +41,7 @@ def commands(files, out):
     two, six = str(files["two"]), str(files["six"])
     gyro = ["--units", "deg/s"]
     return {
-        "avar": ([ "avar", two, *gyro, "--fit", "--out", str(out / "avar")],
+        "avar": ([ "avar", two, *gyro, "--column", "gx,gy", "--fit", "--out", str(out / "avar")],
                  ["reading", "gx (1/2): computing the oadev", "gy (2/2): fitting the noise",
                   "writing"]),
         "davar": (["davar", two, *gyro, "--column", "gx", "--window", "200", "--taus",

@@ -86,9 +86,9 @@ def test_deviation_csv_columns_are_the_golden_ones(capsys, record, tmp_path):
                                 "--fit", "--out", str(out)])  # fmt: skip
     assert code == 0, err
     lines = (out / "deviation.csv").read_text(encoding="utf-8").splitlines()
-    assert lines[0].startswith("# adavar ") and "oadev of" in lines[0]
-    assert lines[1] == "tau_s,n,m,alpha,edf,dev,dev_low,dev_high"
+    assert lines[0] == "tau_s,n,m,alpha,edf,dev,dev_low,dev_high"  # plain CSV: header first
     assert sorted(p.name for p in out.iterdir()) == [
+        ".adavar-output",
         "deviation.csv",
         "deviation.png",
         "deviation.svg",

@@ -7,6 +7,7 @@ import pytest
 
 from adavar.errors import AdavarInputError
 from adavar.io import atomic_directory, check_output_directory, read_text
+from adavar.writers import OUTPUT_MARKER, write_marker
 
 
 def write(tmp_path, name, text):
@@ -179,9 +180,14 @@ def test_empty_cell(tmp_path):
     assert "row 3" in message and "empty" in message
 
 
-def test_decimal_comma_hint(tmp_path):
-    message = one_line_error(write(tmp_path, "d.csv", "t;x\n0;1,5\n"), column="x")
-    assert "decimal comma" in message
+def test_decimal_comma_is_read_or_explained(tmp_path):
+    # semicolon-separated, no decimal point anywhere: the commas are decimal commas
+    values, meta = read_text(write(tmp_path, "d.csv", "t;x\n0;1,5\n1;-2,25e-1\n"), column="x")
+    np.testing.assert_array_equal(values, [1.5, -0.225])
+    assert meta["decimal"] == "comma"
+    # decimal points and commas mixed: ambiguous, so not read, and said so
+    message = one_line_error(write(tmp_path, "m.csv", "t;x\n0;1,5\n1;2.5\n"), column="x")
+    assert "decimal comma" in message and "row 2" in message
 
 
 @pytest.mark.parametrize("bad", ["nan", "NaN", "inf", "-inf"])
@@ -227,9 +233,14 @@ def test_atomic_directory_refuses_existing_and_replaces_with_flag(tmp_path):
     with pytest.raises(AdavarInputError, match="exists already"), atomic_directory(out):
         pass
     assert (out / "old.txt").read_text() == "old"
+    # a folder adavar did not write is never replaced (tests/test_output_safety.py)
+    with pytest.raises(AdavarInputError, match="not written by adavar"):
+        with atomic_directory(out, replace=True):
+            pass
+    write_marker(out)  # now it is adavar's
     with atomic_directory(out, replace=True) as tmp:
         (tmp / "new.txt").write_text("new")
-    assert sorted(p.name for p in out.iterdir()) == ["new.txt"]
+    assert sorted(p.name for p in out.iterdir()) == [OUTPUT_MARKER, "new.txt"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 

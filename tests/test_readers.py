@@ -56,7 +56,8 @@ def test_csv_header_iso_timestamps(tmp_path):
     assert rec.t0 == pytest.approx(np.datetime64("2024-03-01T12:00:00", "s").astype(float))
     assert rec.meta["time_column"] == "timestamp"
     assert rec.meta["time_format"] == "iso"
-    assert rec.meta["rate_source"] == "median time interval"
+    assert rec.meta["rate_source"].startswith("nominal rate of the time stamps")
+    assert rec.rate == 100.0  # exactly: the stamps are whole microseconds 10 000 apart
     assert rec.segments is None
     json.dumps(rec.meta)  # reproducible, serialisable
 

@@ -21,17 +21,78 @@ The public entry points:
 - :mod:`adavar.simulate`: seeded generators of the noise processes.
 """
 
-from adavar import simulate
-from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
-from adavar.compare import compare
-from adavar.davar import davar
-from adavar.durations import Duration, seconds
-from adavar.errors import AdavarInputError
-from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
-from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
-from adavar.paper.studies import compare_seeds
-from adavar.results import DavarResult, DeviationResult
-from adavar.statistics import deviation
+from __future__ import annotations
+
+import importlib
+import sys
+import types
+from typing import TYPE_CHECKING, Any
+
+# public names -> the module that defines them, imported on first use (PEP 562), so that
+# ``import adavar`` does not load NumPy's neighbours, SciPy and Numba before they are needed
+_LAZY = {
+    "AdaptiveResult": "adavar.adaptive",
+    "adaptive_davar": "adavar.adaptive",
+    "adaptive_schedule": "adavar.adaptive",
+    "compare": "adavar.compare",
+    "davar": "adavar.davar",
+    "Duration": "adavar.durations",
+    "seconds": "adavar.durations",
+    "AdavarInputError": "adavar.errors",
+    "kurtosis_contribution": "adavar.kurtosis",
+    "sliding_kurtosis": "adavar.kurtosis",
+    "NoiseFit": "adavar.noise_model",
+    "NoiseTerm": "adavar.noise_model",
+    "fit_avar": "adavar.noise_model",
+    "fit_noise": "adavar.noise_model",
+    "compare_seeds": "adavar.paper.studies",
+    "DavarResult": "adavar.results",
+    "DeviationResult": "adavar.results",
+    "deviation": "adavar.statistics",
+}
+_SUBMODULES = ("simulate",)
+
+if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
+    from adavar import simulate
+    from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
+    from adavar.compare import compare
+    from adavar.davar import davar
+    from adavar.durations import Duration, seconds
+    from adavar.errors import AdavarInputError
+    from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
+    from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
+    from adavar.paper.studies import compare_seeds
+    from adavar.results import DavarResult, DeviationResult
+    from adavar.statistics import deviation
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        value = getattr(importlib.import_module(_LAZY[name]), name)
+    elif name in _SUBMODULES:
+        value = importlib.import_module(f"adavar.{name}")
+    else:
+        raise AttributeError(f"module 'adavar' has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
+
+
+class _Package(types.ModuleType):
+    """``adavar.compare`` and ``adavar.davar`` are functions, as they always were, though
+    modules of those names exist: importing the module must not rebind the name."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name in _LAZY and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
+
 
 __all__ = [
     "AdaptiveResult",

@@ -45,9 +45,24 @@ from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.settings import CONTROLLER
-from adavar.statistics import DATA_TYPE_ALIASES, as_samples, resolve_tau0
+from adavar.statistics import (
+    DATA_TYPE_ALIASES,
+    as_samples,
+    refuse_masked,
+    resolve_tau0,
+    scaled,
+    scaled_source,
+)
 from adavar.stream import ChunkedSource
-from adavar.thresholds import Thresholds, calibrated_thresholds, fixed_thresholds
+from adavar.thresholds import (
+    DEPENDENCE_SAMPLES,
+    Thresholds,
+    calibrated_thresholds,
+    fixed_thresholds,
+    hourly_thresholds,
+    noise_dependence,
+    threshold_summary,
+)
 
 __all__ = [
     "METHODS",
@@ -512,6 +527,7 @@ def adaptive_schedule(
     tau0: float | None = None,
     step: Length = 1,
     chunk_size: int | None = None,
+    false_alarm_per_hour: float | None = None,
 ) -> Schedule:
     """The window schedule of A-DAVAR, DAVAR-K, the oracle or a fixed window.
 
@@ -579,25 +595,51 @@ def adaptive_schedule(
             raise AdavarInputError(f"{name} must be a finite number, got {value!r}")
     if float(k1) > float(k2):
         raise AdavarInputError(f"k1 ({k1}) must not exceed k2 ({k2})")
+    # the kurtosis is scale-free: the record is run at scale 1 (exact, a power of two), so
+    # its fourth powers neither overflow (data near 1e80) nor underflow (near 1e-80)
+    refuse_masked(data)
     if chunked:
-        source = stream.as_source(data)
+        source, _ = scaled_source(stream.as_source(data))
         n = source.size
         if n < lmax:
             raise AdavarInputError(f"the record has {n} samples; at least {lmax} are needed")
     else:
-        x = as_samples(data, min_length=lmax)
+        x, _ = scaled(as_samples(data, min_length=lmax))
         n = x.size
 
-    if thresholds == "calibrated":
+    dependence = None
+    if thresholds == "calibrated" and false_alarm_per_hour is not None:
+        if chunked:  # the head in pieces of the chunk size (bounded reads, as everywhere)
+            m = min(n, DEPENDENCE_SAMPLES)
+            head = np.concatenate([source.read(a, min(m, a + chunk)) for a in range(0, m, chunk)])
+        else:
+            head = x
+        dependence = tuple(round(c, 3) for c in noise_dependence(head))
+        th = hourly_thresholds(
+            lmin, lmax, seg, rate=1.0 / dt, per_hour=float(false_alarm_per_hour),
+            dependence=dependence, s_test=s_test,
+        )  # fmt: skip
+    elif thresholds == "calibrated":
         th = calibrated_thresholds(lmin, lmax, seg, false_alarm=float(false_alarm))
     else:
         th = fixed_thresholds(lmax, k1, k2, s2)
 
+    if s_test == "band" and not float(s1) < float(np.nanmin(th.s2)):
+        raise AdavarInputError(
+            f"s_test='band' flags S outside [s1, s2], but s1 {float(s1):g} is not below s2 "
+            f"{float(np.nanmin(th.s2)):g}: give s1 < s2"
+        )
     changes = None
     if method == "oracle":
         if change_times is None or len(change_times) == 0:
             raise AdavarInputError("method='oracle' needs change_times (seconds)")
-        changes = np.round(np.asarray(change_times, dtype=float) / dt).astype(np.int64)
+        times = np.asarray(change_times, dtype=float)
+        for c in times:
+            if not 0.0 < c < n * dt:
+                raise AdavarInputError(
+                    f"change time {c:g} s lies outside the record (0 .. {n * dt:g} s)"
+                )
+        changes = np.round(times / dt).astype(np.int64)
 
     # the controller's centre q is sample first + q; "valid": those whose lmax window fits
     first = (lmax - 1) // 2 if edges == "valid" else 0
@@ -662,7 +704,11 @@ def adaptive_schedule(
         method=method, lmax=lmax, lmin=lmin, k1=float(k1), k2=float(k2), s1=float(s1),
         s2=float(s2), l=seg, dl0=dl0, dl1=dl1, s_test=s_test, combine=combine, edges=edges,
         thresholds=thresholds, false_alarm=float(false_alarm) if thresholds == "calibrated"
-        else None, change_times=None if change_times is None else list(map(float, change_times)),
+        and dependence is None else None,
+        false_alarm_per_hour=None if dependence is None else float(false_alarm_per_hour),
+        dependence=None if dependence is None else list(dependence), sample_rate=1.0 / dt,
+        thresholds_used=threshold_summary(th, lmin, lmax),
+        change_times=None if change_times is None else list(map(float, change_times)),
     )  # fmt: skip
     return Schedule(
         window=window, kurtosis=kurt, s=scoef, f1=f1, f2=f2, f=f, centre=centres,
@@ -733,6 +779,7 @@ def adaptive_davar(
     units: str | None = None,
     chunk_size: int | None = None,
     edge_edf: str = "distinct",
+    false_alarm_per_hour: float | None = None,
 ) -> AdaptiveResult:
     """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
 
@@ -776,7 +823,13 @@ def adaptive_davar(
         sampling distribution of the kurtosis for a per-step false-alarm rate
         ``false_alarm`` on stationary Gaussian noise (:func:`calibrated_thresholds`).
     false_alarm : float
-        Target of ``thresholds="calibrated"``.
+        Target of ``thresholds="calibrated"``: false alarms per step.
+    false_alarm_per_hour : float, optional
+        With ``thresholds="calibrated"``: calibrate for this many false events per hour of
+        stationary data instead (:func:`adavar.thresholds.hourly_thresholds`, taking the
+        record's short-range correlation into account; ``adavar adaptive`` uses 0.1 by
+        default). ``parameters["thresholds_used"]`` records ``K1``, ``K2``, ``S2`` at
+        ``Lmax`` and ``Lmin``.
     chunk_size : int, optional
         Process the record out of core, about ``chunk_size`` samples at a time (default
         :data:`adavar.stream.DEFAULT_CHUNK` for a chunked input; give it to stream an
@@ -801,6 +854,7 @@ def adaptive_davar(
     dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
+    refuse_masked(data)
     # durations (``"10min"``) become samples once, with this record's sample interval
     lmax, lmin, l, step = window_lengths(  # noqa: E741 - the paper's name
         resolve_tau0(rate, tau0), lmax=lmax, lmin=lmin, l=l, step=step
@@ -809,6 +863,7 @@ def adaptive_davar(
         method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0,
         dl1=dl1, s_test=s_test, combine=combine, edges=edges, change_times=change_times,
         thresholds=thresholds, false_alarm=false_alarm, rate=rate, tau0=tau0,
+        false_alarm_per_hour=false_alarm_per_hour,
     )  # fmt: skip
     surface_options = dict(
         rate=rate, data_type=dtype, taus=taus, edges=edges, confidence=confidence, tau0=tau0,

@@ -100,9 +100,8 @@ def load_input(
             + ("" if getattr(args, "command", None) == "compare"
                else " (or several, comma-separated, e.g. --column a,b)")
         )  # fmt: skip
-    declared_units = record.meta.get("units") or {}
     given = args.units.strip() if args.units and args.units.strip() else None
-    units_of = {name: given or declared_units.get(name) for name in record.names}
+    units_of = record.units_of(given)  # --units must agree with the units the file declares
     if not all(units_of.values()):
         raise AdavarInputError(
             "declare the unit of the samples with --units (e.g. --units deg/s); adavar never "
@@ -202,13 +201,14 @@ CELL_BYTES = 8 * 4
 MAX_ALL_TAUS = 200
 
 
-def resolve_resolution(args: Any, tau0: float, n_samples: int) -> str | None:
+def resolve_resolution(args: Any, tau0: float, n_samples: int, channels: int = 1) -> str | None:
     """Taus and centres of a surface the user left to adavar (``taus`` / ``step`` None).
 
     ``taus``: ``"all"`` (the paper's) while that is at most :data:`MAX_ALL_TAUS` averaging
-    times, else ``"log"`` (10 per decade). ``step``: every centre while the surface fits
-    ``args.max_memory`` MB at :data:`CELL_BYTES` a cell, else every ``step``-th. Returns
-    a sentence saying what was chosen and why (None when nothing was).
+    times, else ``"log"`` (10 per decade). ``step``: every centre while the surfaces of the
+    ``channels`` channels fit ``args.max_memory`` MB together at :data:`CELL_BYTES` a cell,
+    else every ``step``-th. Returns a sentence saying what was chosen and why (None when
+    nothing was).
     """
     from adavar.taus import averaging_factors
 
@@ -221,15 +221,16 @@ def resolve_resolution(args: Any, tau0: float, n_samples: int) -> str | None:
     if args.step is None:
         ms, _ = averaging_factors(args.taus, max(1, int(longest) // 3), tau0,
                                   points_per_decade=args.points_per_decade)  # fmt: skip
-        budget = float(args.max_memory) * 2**20
+        budget = float(args.max_memory) * 2**20 / max(1, int(channels))
         args.step = max(1, math.ceil(n_samples * ms.size * CELL_BYTES / budget))
         if args.step > 1:
             why.append(f"one centre in {args.step} ({math.ceil(n_samples / args.step)} windows)")
     if not why:
         return None
+    shared = f" ({channels} channels' surfaces together)" if channels > 1 else ""
     return (
         "resolution: " + ", ".join(why) + f", to keep the surface within --max-memory "
-        f"{args.max_memory:g} MB (give --taus / --step to choose)"
+        f"{args.max_memory:g} MB{shared} (give --taus / --step to choose)"
     )
 
 
@@ -449,45 +450,63 @@ class ReportAnalysis:
             deviation=self.deviation, fit=self.fit, surface=self.surface,
             coefficients=self.coefficients, adaptive=self.adaptive,
             parameters=self.parameters, preprocessing=self.preprocessing,
-            units=self.rate_units,
+            units=self.rate_units, events=(self.events() or {}).get("items"),
         )  # fmt: skip
 
     def events(self) -> dict[str, Any] | None:
-        """The events the window detected: None without ``window`` or ``adaptive``.
+        """The non-stationary stretches the window detected: None without ``window`` or
+        ``adaptive``.
 
         Returns
         -------
         dict or None
-            ``{"method", "rule", "count", "items", "note"}``; every item has ``start_s``
-            (the Beginning node: first centre of the run, seconds from the first sample),
-            ``end_s`` (adaptive: the End node, the start of the last regrowth; fixed: the
-            last flagged centre), ``restore_s`` (adaptive: back at Lmax, None if the record
-            ends first), ``leading_edge_s`` (the newest sample of the window at
-            ``start_s``: the event began at or before it) and ``min_window`` (samples).
+            ``{"method", "rule", "count", "items", "runs", "note"}``. ``items`` are the
+            stretches of :func:`adavar.events.find_events` (``start_s``, ``end_s``: the
+            estimated times of the changes into and out of it, seconds from the first
+            sample; ``before``, ``during``, ``after``: each fitted term's median and 16-84 %
+            range over the windows wholly outside/inside it); ``count`` their number.
+            ``runs`` are the raw runs of shortened (adaptive) or flagged (fixed) windows,
+            with the window-centre nodes of the paper: ``beginning_s`` (first centre of
+            the run), ``end_node_s`` (adaptive: the start of the last regrowth; fixed: the
+            last flagged centre), ``restore_s`` (adaptive: back at Lmax), ``leading_edge_s``
+            and ``min_window``. (Before 0.2 ``items`` were these runs, with ``start_s`` the
+            Beginning node.)
         """
         if self.surface is None:
             return None
+        from adavar.events import find_events, flag_change_times
+
+        surface = self.adaptive if self.adaptive is not None else self.surface
+        time_s = np.asarray(surface.time, dtype=float)
+        centre = np.asarray(surface.centre, dtype=np.int64)
+        t0 = float(time_s[0] - self._seconds(centre[0])) if time_s.size else 0.0
+        fit = self.coefficients
+        terms = {} if fit is None else {name: fit.term(name).value for name in fit.terms}
+        duration = t0 + float(self._seconds(self.n_samples))
         if self.adaptive is not None:
             lmax = int(self.adaptive.parameters["lmax"])
             window = np.asarray(self.adaptive.window)
-            time_s = np.asarray(self.adaptive.time, dtype=float)
-            items = []
+            runs = []
             for a, b in _runs(window < lmax):
                 e = b
                 while e > a and window[e - 1] < window[e]:
                     e -= 1
-                items.append({
-                    "start_s": float(time_s[a]), "end_s": float(time_s[e]),
+                runs.append({
+                    "beginning_s": float(time_s[a]), "end_node_s": float(time_s[e]),
                     "restore_s": float(time_s[b + 1]) if b + 1 < window.size else None,
                     "leading_edge_s": float(time_s[a] + self._seconds(lmax // 2)),
                     "min_window": int(window[a : b + 1].min()),
                 })  # fmt: skip
+            found = find_events(window, centre, time_s, lmax, self.tau0, terms, t0=t0,
+                                duration=duration)  # fmt: skip
             return {
                 "method": self.adaptive.method,
-                "rule": f"runs of window centres where the window is shorter than Lmax = {lmax}",
-                "count": len(items), "items": items, "note": None,
+                "rule": "changes at the leading edge of the last full window before each "
+                f"run of windows shorter than Lmax = {lmax}, paired into stretches",
+                "count": len(found), "items": [e.as_dict() for e in found], "runs": runs,
+                "note": None,
             }  # fmt: skip
-        return self._fixed_window_events()
+        return self._fixed_window_events(find_events, flag_change_times, terms, t0, duration)
 
     def _seconds(self, samples: Any) -> Any:
         """Sample counts as seconds, as the DAVAR times are (``n / rate`` or ``n * tau0``)."""
@@ -496,7 +515,10 @@ class ReportAnalysis:
             return n / float(self.rate_options["rate"])
         return n * float(self.rate_options["tau0"])
 
-    def _fixed_window_events(self) -> dict[str, Any]:
+    def _fixed_window_events(
+        self, find_events: Any, flag_change_times: Any, terms: dict, t0: float,
+        duration: float,
+    ) -> dict[str, Any]:  # fmt: skip
         from adavar.adaptive import adaptive_schedule
 
         length = int(self.options["window"])
@@ -504,24 +526,34 @@ class ReportAnalysis:
         settings.update(lmax=length, lmin=length)
         if not self.options.get("segment_given", True):  # l in proportion to this window
             settings["l"] = record_windows(0, length)[2]
-        rule = (f"runs of window centres where the adaptive controller's test flags the "
-                f"fixed {length}-sample window")  # fmt: skip
+        rule = (f"changes at the leading edge of the first window of each run of centres "
+                f"where the adaptive controller's test flags the fixed {length}-sample "
+                "window, paired into stretches")  # fmt: skip
         if settings["l"] > length - 4:
             note = (
                 f"no events: the S test needs a window of more than l + 3 = "
                 f"{settings['l'] + 3} samples (give a longer --window or a smaller --l)"
             )
-            return {"method": "fixed", "rule": rule, "count": None, "items": None, "note": note}
+            return {"method": "fixed", "rule": rule, "count": None, "items": None,
+                    "runs": None, "note": note}  # fmt: skip
         u = self.samples if self.options["data_type"] == "rate" else np.diff(self.samples)
         sched = adaptive_schedule(u, method="fixed", **settings, **self.rate_options)
-        time_s = self._seconds(sched.centre)
-        items = [
-            {"start_s": float(time_s[a]), "end_s": float(time_s[b]), "restore_s": None,
-             "leading_edge_s": float(self._seconds(sched.centre[a] + length // 2)),
+        time_s = t0 + self._seconds(sched.centre)
+        runs = [
+            {"beginning_s": float(time_s[a]), "end_node_s": float(time_s[b]),
+             "restore_s": None,
+             "leading_edge_s": float(t0 + self._seconds(sched.centre[a] + length // 2)),
              "min_window": length}
             for a, b in _runs(np.asarray(sched.f))
         ]  # fmt: skip
-        return {"method": "fixed", "rule": rule, "count": len(items), "items": items,
+        changes = flag_change_times(sched.f, sched.centre, length, self.tau0, t0)
+        surface = self.surface
+        found = find_events(
+            surface.window, surface.centre, surface.time, length, self.tau0, terms, t0=t0,
+            duration=duration, changes=changes,
+        )  # fmt: skip
+        return {"method": "fixed", "rule": rule, "count": len(found),
+                "items": [e.as_dict() for e in found], "runs": runs,
                 "note": None}  # fmt: skip
 
 

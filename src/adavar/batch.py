@@ -4,28 +4,39 @@
 daily files) the way ``adavar report FILE`` analyses one: every file is one task that runs
 :func:`adavar.analysis.analyse_file` (the pipeline of ``adavar report``, :mod:`adavar.analysis`:
 the same load and channel analysis, so a file's numbers in a batch are those of running
-``adavar report`` on it alone) and writes ``OUT/<name>/`` atomically:
+``adavar report`` on it alone) and writes its own folder ``OUT/<name>/`` atomically, where
+``<name>`` is the file's stem and a short hash of its resolved path (``gyro-3f2a9c``), the
+same in every run whatever the other files (:mod:`adavar.batch_state`):
 
 - ``report.html``: the self-contained interactive report of ``adavar report``;
 - ``result.json``: the input (file, column, rate, unit, samples, preprocessing, the size and
   modification time of the file), every analysis option, the whole-record noise fit (Q, N,
   B, K, R with 1-sigma uncertainties, in the data's units and the conventional ones), the
-  events (with ``window`` or ``adaptive``), the time taken and the worker;
-- ``deviation.csv``: the overlapping Allan deviation with its confidence bounds.
+  events (with ``window`` or ``adaptive``), the time taken and the worker, and the
+  ``outputs`` it was written with;
+- ``deviation.csv``: the overlapping Allan deviation with its confidence bounds (plain CSV).
 
-Then ``OUT/summary.csv`` and ``OUT/summary.parquet`` (with pyarrow) hold one row per file
-(:data:`SUMMARY_COLUMNS`), rewritten atomically at the end of every run.
+A file that fails gets a folder with its ``result.json`` only (``status: "error"``, the
+message), which replaces its earlier results. Then ``OUT/summary.csv`` and
+``OUT/summary.parquet`` (with pyarrow) hold one row per file (:data:`SUMMARY_COLUMNS`), and
+``OUT/summary.json`` what the columns mean and how the run went, rewritten atomically at the
+end of every run (also when it gave up on a cluster without workers). The rows are keyed by
+the file's path: a file of an earlier run that is not among this run's inputs keeps its
+folder and its row, with status ``absent``.
 
 Where the tasks run: ``workers=N`` starts a ``distributed.LocalCluster`` of N single-threaded
 worker processes (each with ``NUMBA_NUM_THREADS=1``, so N files use N cores);
 ``scheduler="tcp://host:8786"`` (or the path of a ``--scheduler-file`` JSON) connects to an
 existing scheduler, whose workers must see the same files and ``OUT`` (a shared file
 system); neither runs the files one after another in this process (no cluster to start, the
-numba kernels use every core for each file).
+numba kernels use every core for each file). A cluster without any worker for
+``worker_timeout`` seconds (every worker died) ends the batch: the files not analysed are
+error rows, and the summary holds every row done so far.
 
 A bad file (unreadable, NaN, too short, ...) ends its own task with its one-line error in
 its row (``status="error"``) and does not stop the batch. A rerun skips every file whose
-``OUT/<name>/result.json`` exists with the same input size, modification time and options
+``OUT/<name>/result.json`` exists with the same input size, modification time and options,
+and every output this run needs (``report.html`` unless ``html=False``)
 (``status="done"``; its numbers are the stored ones); ``force=True`` recomputes them.
 
 Events (``result.json["events"]``, ``n_events`` and ``event_times_s`` of the summary): with
@@ -39,17 +50,13 @@ the L-sample window. With the paper's thresholds this test fires on stationary n
 
 from __future__ import annotations
 
-import contextlib
 import datetime as _dt
 import glob
-import hashlib
 import json
-import logging
 import os
-import re
 import time
-from collections import Counter, defaultdict
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections import Counter
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -57,11 +64,24 @@ from typing import Any
 import numpy as np
 
 from adavar.analysis import ReportAnalysis, analyse_file, report_options
+from adavar.batch_cluster import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, connect, gather
+from adavar.batch_state import (
+    STATUS_ABSENT,
+    BatchState,
+    file_key,
+    output_names,
+    outputs_complete,
+    outputs_record,
+    read_result,
+)
 from adavar.errors import AdavarInputError
 from adavar.terms import LETTERS
+from adavar.writers import BATCH_MARKER
 
 __all__ = [
     "BATCH_MARKER",
+    "DEFAULT_WORKER_TIMEOUT",
+    "STATUS_ABSENT",
     "SUMMARY_COLUMNS",
     "BatchResult",
     "ReportAnalysis",
@@ -72,16 +92,15 @@ __all__ = [
     "run_batch",
 ]
 
-#: File that marks a folder as an ``adavar batch`` output (only such a folder is reused).
-BATCH_MARKER = ".adavar-batch"
-
 #: Columns of ``summary.csv`` / ``summary.parquet``, in order. ``status`` is ``ok``
-#: (computed now), ``done`` (skipped: the stored result of an earlier run) or ``error``
-#: (``error_type`` ``input``: a problem with the file or the options; ``internal``: a bug
-#: or a lost worker). Coefficients are in their conventional unit (``N_unit``, e.g.
-#: deg/sqrt(h)) when the data's unit has one, else in the data's unit times a power of
-#: seconds; ``N_uncertainty`` is 1 sigma. ``event_times_s``: the Beginning node of every
-#: event, seconds from the first sample, separated by ``;``.
+#: (computed now), ``done`` (skipped: the stored result of an earlier run), ``error``
+#: (``error_type`` ``input``: a problem with the file or the options; ``internal``: a bug,
+#: a lost worker, a cluster left without workers) or ``absent`` (a file of an earlier run
+#: that is not among this run's inputs: its stored row). Coefficients are in their
+#: conventional unit (``N_unit``, e.g. deg/sqrt(h)) when the data's unit has one, else in
+#: the data's unit times a power of seconds; ``N_uncertainty`` is 1 sigma.
+#: ``event_times_s``: the Beginning node of every event, seconds from the first sample,
+#: separated by ``;``.
 SUMMARY_COLUMNS: tuple[str, ...] = (
     "file", "name", "status", "error_type", "error", "n_samples", "rate_hz", "units",
     "column",
@@ -95,10 +114,14 @@ _FLOAT_COLUMNS = frozenset(
     {"rate_hz", "reduced_chi2", "elapsed_s"}
     | {f"{letter}{suffix}" for letter in LETTERS.values() for suffix in ("", "_uncertainty")}
 )
-#: Names an output folder must not take (the summary files sit next to the folders).
-_RESERVED = frozenset({"summary.csv", "summary.parquet"})
-#: A scheduler address: optional protocol, host (name, IPv4 or [IPv6]) and port.
-_ADDRESS = re.compile(r"^(?:[a-z][a-z0-9+]*://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]]+):\d{1,5}$")
+#: What the summary's columns and statuses mean (``summary.json``).
+_SUMMARY_DESCRIPTION = (
+    "one row per file; status ok (computed), done (skipped: analysed earlier with the same "
+    "input, options and outputs), error (error_type input or internal) or absent (a file of "
+    "an earlier run, not among this run's inputs); coefficients in their *_unit, "
+    "uncertainties 1 sigma; event_times_s: Beginning node of every event (s from the first "
+    "sample), ';'-separated"
+)
 
 
 # --------------------------------------------------------------------------------------
@@ -176,53 +199,6 @@ def collect_files(
     return out
 
 
-def _safe(text: str) -> str:
-    cleaned = "".join(c if c.isalnum() or c in "-_." else "_" for c in text).strip("._")
-    return cleaned or "record"
-
-
-def output_names(paths: Sequence[str | os.PathLike[str]]) -> list[str]:
-    """The name of every file's output folder: its stem, made unique.
-
-    Files whose stems collide (``a/gyro.csv`` and ``b/gyro.csv``, case-insensitively) are
-    named after their path from the folder the colliding files share (``a__gyro``,
-    ``b__gyro``), keeping the suffix when that is what differs (``gyro.csv``,
-    ``gyro.npy``); characters other than letters, digits, ``-``, ``_`` and ``.`` become
-    ``_``; a name still not unique gets 8 hex digits of a hash of its path.
-
-    Parameters
-    ----------
-    paths : sequence of str or path-like
-
-    Returns
-    -------
-    list of str
-        One folder name per path, in order, unique case-insensitively.
-    """
-    items = [Path(os.path.abspath(p)) for p in paths]
-    names = [_safe(p.stem) for p in items]
-    groups: dict[str, list[int]] = defaultdict(list)
-    for i, name in enumerate(names):
-        groups[name.casefold()].append(i)
-    for members in groups.values():
-        if len(members) < 2:
-            continue
-        base = os.path.commonpath([str(items[i].parent) for i in members])
-        folders = {i: Path(os.path.relpath(items[i].parent, base)).parts for i in members}
-        for i in members:
-            names[i] = "__".join(_safe(s) for s in (*folders[i], items[i].stem) if s != ".")
-        again = Counter(names[i].casefold() for i in members)
-        for i in members:
-            if again[names[i].casefold()] > 1:
-                names[i] = "__".join(_safe(s) for s in (*folders[i], items[i].name) if s != ".")
-    counts = Counter(name.casefold() for name in names)
-    for i, name in enumerate(names):
-        if counts[name.casefold()] > 1 or name.casefold() in _RESERVED:
-            digest = hashlib.sha1(str(items[i]).encode("utf-8")).hexdigest()[:8]
-            names[i] = f"{name}-{digest}"
-    return names
-
-
 def _fingerprint(path: str) -> dict[str, Any] | None:
     """Size and modification time of a file (a ROS 2 bag folder: of its files), or None."""
     target = Path(path)
@@ -294,24 +270,46 @@ def _write_outputs(
     row: dict[str, Any], html: bool = True,
 ) -> None:  # fmt: skip
     """``report.html`` (if ``html``), ``deviation.csv`` and last ``result.json``, into one
-    new folder."""
-    from adavar import __version__
-    from adavar.writers import atomic_directory, dumps, write_deviation_csv
+    new folder (replacing the file's earlier one)."""
+    from adavar import writers
 
     page = analysis.html() if html else None
-    with atomic_directory(target, replace=True) as tmp:
+    files = ["deviation.csv", "result.json", *(["report.html"] if page is not None else [])]
+    with writers.atomic_directory(target, replace=True, sweep=False) as tmp:
         if page is not None:
             (tmp / "report.html").write_text(page, encoding="utf-8")
-        write_deviation_csv(
-            tmp / "deviation.csv", analysis.deviation,
-            f"adavar {__version__}: oadev of {analysis.meta['path']} column "
-            f"{analysis.meta['column']!r}; {analysis.options['data_type']} data, tau0 = "
-            f"{analysis.tau0:g} s, deviation in {analysis.rate_units or 'data units'}",
-        )  # fmt: skip
+        writers.write_deviation_csv(tmp / "deviation.csv", analysis.deviation)
         row["elapsed_s"] = time.perf_counter() - start
         payload["elapsed_s"] = row["elapsed_s"]
+        payload["outputs"] = outputs_record(html, files)
         payload["summary"] = row
-        (tmp / "result.json").write_text(dumps(payload) + "\n", encoding="utf-8")
+        (tmp / "result.json").write_text(writers.dumps(payload) + "\n", encoding="utf-8")
+
+
+def _write_error_folder(
+    out: Path, row: dict[str, Any], options: dict[str, Any], html: bool
+) -> dict[str, Any]:
+    """``OUT/<name>/`` of a file that failed: its ``result.json`` only (status error, the
+    message), in place of its earlier results. Returns the row (its error extended if even
+    that could not be written)."""
+    from adavar import __version__
+    from adavar.writers import atomic_directory, dumps
+
+    payload = {
+        "adavar_version": __version__, "status": "error", "file": row["file"],
+        "name": row["name"], "error_type": row["error_type"], "error": row["error"],
+        "input": {"fingerprint": _fingerprint(row["file"])}, "options": _plain(options),
+        "outputs": outputs_record(html, ["result.json"]), "worker": row["worker"],
+        "finished": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"), "summary": row,
+    }  # fmt: skip
+    try:
+        with atomic_directory(out / row["name"], replace=True, sweep=False) as tmp:
+            (tmp / "result.json").write_text(dumps(payload) + "\n", encoding="utf-8")
+    except Exception as exc:  # the row keeps its error; the folder could not say it
+        reason = _one_line(exc)
+        if reason not in row["error"]:
+            row = {**row, "error": f"{row['error']} (and its folder was not updated: {reason})"}
+    return row
 
 
 def _process_file(
@@ -336,6 +334,7 @@ def _process_file(
         row["worker"] = worker
         payload: dict[str, Any] = {
             "adavar_version": __version__,
+            "status": "ok",
             "file": path,
             "name": name,
             "input": {
@@ -364,24 +363,28 @@ def _process_file(
         error_type, message = "input", _one_line(exc)
     except Exception as exc:  # a bug in one file's task is that file's row, not the batch's
         error_type, message = "internal", f"{type(exc).__name__}: {_one_line(exc)}"
-    return _row(path, name, status="error", error_type=error_type, error=message,
-                elapsed_s=time.perf_counter() - start, worker=worker)  # fmt: skip
+    row = _row(path, name, status="error", error_type=error_type, error=message,
+               elapsed_s=time.perf_counter() - start, worker=worker)  # fmt: skip
+    return _write_error_folder(Path(out), row, options, html)
 
 
-def _done_row(out: Path, path: str, name: str, options: dict[str, Any]) -> dict[str, Any] | None:
-    """The stored row of a file already analysed with these options, or None."""
-    try:
-        stored = json.loads((out / name / "result.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    if not isinstance(stored, dict) or not isinstance(stored.get("summary"), dict):
+def _done_row(
+    out: Path, path: str, name: str, options: dict[str, Any], html: bool = True
+) -> dict[str, Any] | None:
+    """The stored row of a file already analysed with these options into every output this
+    run needs, or None."""
+    stored = read_result(out / name)
+    if stored is None or not isinstance(stored.get("summary"), dict):
         return None
     fingerprint = _fingerprint(path)
     if (
         fingerprint is None
-        or stored.get("file") != path
+        or stored["summary"].get("status") != "ok"
+        or not isinstance(stored.get("file"), str)
+        or file_key(stored["file"]) != file_key(path)
         or (stored.get("input") or {}).get("fingerprint") != fingerprint
         or stored.get("options") != _plain(options)
+        or not outputs_complete(stored, out / name, html)
     ):
         return None
     row = _row(path, name)
@@ -402,15 +405,19 @@ class BatchResult:
     Attributes
     ----------
     rows : list of dict
-        One summary row per file (keys :data:`SUMMARY_COLUMNS`), in input order.
+        One summary row per file (keys :data:`SUMMARY_COLUMNS`): this run's files in input
+        order, then those of earlier runs that are not among them (status ``absent``).
     counts : dict
-        ``{"files", "ok", "done", "error", "input_errors", "internal_errors"}``.
+        ``{"files", "ok", "done", "error", "input_errors", "internal_errors", "absent"}``
+        (``files``: this run's).
     out : Path
         The output folder.
     summary_csv : Path
         ``OUT/summary.csv``.
     summary_parquet : Path or None
         ``OUT/summary.parquet`` (None without pyarrow).
+    summary_json : Path or None
+        ``OUT/summary.json``: what the columns mean, the counts, the options, the notes.
     cluster : str
         Where the tasks ran.
     elapsed_s : float
@@ -427,6 +434,7 @@ class BatchResult:
     cluster: str
     elapsed_s: float
     notes: tuple[str, ...] = ()
+    summary_json: Path | None = None
 
 
 def _check_options(options: dict[str, Any], paths: Sequence[str]) -> None:
@@ -447,7 +455,7 @@ def _check_options(options: dict[str, Any], paths: Sequence[str]) -> None:
             )
     steps = options.get("preprocess")
     if steps:
-        Pipeline([s for s in (p.strip() for p in str(steps).split(",")) if s])
+        Pipeline(str(steps))
 
 
 def _check_out(out: str | os.PathLike[str]) -> Path:
@@ -483,101 +491,52 @@ def _open_out(target: Path) -> None:
         ) from None
 
 
-@contextlib.contextmanager
-def _cluster(
-    scheduler: str | None, workers: int | None, timeout: float
-) -> Iterator[tuple[Any, str]]:
-    """A ``distributed.Client`` (None: in process) and a description of where it runs."""
-    if scheduler is not None and workers is not None:
-        raise AdavarInputError(
-            "give --scheduler ADDRESS (an existing cluster) or --workers N (a local one), not both"
-        )
-    if scheduler is None and workers is None:
-        yield None, "in this process (no cluster)"
-        return
-    from distributed import Client, LocalCluster
-
-    if workers is not None:
-        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-            raise AdavarInputError(f"workers must be a positive integer, got {workers!r}")
-        # one single-threaded process per core: the numba kernels must not oversubscribe
-        with LocalCluster(
-            n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-            silence_logs=logging.ERROR, env={"NUMBA_NUM_THREADS": "1"},
-        ) as cluster, Client(cluster, set_as_default=False) as client:  # fmt: skip
-            yield (
-                client,
-                f"on a LocalCluster of {workers} worker process{'es' if workers > 1 else ''}",
-            )
-        return
-    address = str(scheduler)
-    by_file = address.lower().endswith(".json") and Path(address).is_file()
-    hint = (
-        "check that 'dask scheduler' runs there and that this machine can reach it (the "
-        "address it prints, e.g. tcp://HOST:8786, or its --scheduler-file), or use "
-        "--workers N for a local cluster"
-    )
-    if not by_file and not _ADDRESS.match(address):
-        raise AdavarInputError(
-            f"--scheduler {address!r} is not a scheduler address: give the address 'dask "
-            "scheduler' prints (tcp://HOST:PORT, e.g. tcp://10.0.0.5:8786) or the path of its "
-            "--scheduler-file JSON"
-        )
-    try:
-        if by_file:
-            client = Client(scheduler_file=address, timeout=timeout, set_as_default=False)
-        else:
-            client = Client(address, timeout=timeout, set_as_default=False)
-    except (OSError, TimeoutError, ValueError, TypeError) as exc:
-        raise AdavarInputError(
-            f"cannot connect to the dask scheduler at {address} ({_one_line(exc)}): {hint}"
-        ) from None
-    with client:
-        try:
-            client.wait_for_workers(1, timeout=timeout)
-        except (OSError, TimeoutError) as exc:
-            raise AdavarInputError(
-                f"the dask scheduler at {address} has no worker ({_one_line(exc) or 'timed out'}"
-                f"): start some with 'dask worker {address} --nthreads 1', or use --workers N"
-            ) from None
-        n = len(client.scheduler_info().get("workers", {}))
-        yield client, f"on the scheduler {address} ({n} worker{'s' if n != 1 else ''} at the start)"
-
-
 def _write_summary(
-    out: Path, rows: list[dict[str, Any]], notes: list[str]
+    out: Path, rows: list[dict[str, Any]], notes: list[str], about: dict[str, Any]
 ) -> tuple[Path, Path | None]:
+    """``summary.csv``, ``summary.parquet`` (with pyarrow) and ``summary.json`` (what the
+    columns mean, the counts, the notes), each atomically."""
     from adavar import __version__
-    from adavar.export import write_table_csv
+    from adavar.export import write_json, write_table_csv
     from adavar.writers import atomic_file
 
-    csv_path = write_table_csv(
-        out / "summary.csv", rows, SUMMARY_COLUMNS,
-        comment=f"adavar {__version__} batch: one row per file; status ok (computed), done "
-        "(skipped: analysed earlier with the same input and options) or error; "
-        "coefficients in their *_unit, uncertainties 1 sigma; event_times_s: Beginning "
-        "node of every event (s from the first sample), ';'-separated",
-    )  # fmt: skip
+    csv_path = Path(write_table_csv(out / "summary.csv", rows, SUMMARY_COLUMNS))
+    parquet: Path | None = None
     try:
         import pyarrow as pa
         import pyarrow.parquet as pq
     except ImportError:
         notes.append("pyarrow is not installed: wrote summary.csv only (pip install pyarrow "
                      "for summary.parquet)")  # fmt: skip
-        return Path(csv_path), None
+    else:
 
-    def kind(column: str) -> Any:
-        if column in _INT_COLUMNS:
-            return pa.int64()
-        return pa.float64() if column in _FLOAT_COLUMNS else pa.string()
+        def kind(column: str) -> Any:
+            if column in _INT_COLUMNS:
+                return pa.int64()
+            return pa.float64() if column in _FLOAT_COLUMNS else pa.string()
 
-    schema = pa.schema([pa.field(c, kind(c)) for c in SUMMARY_COLUMNS])
-    table = pa.Table.from_pylist([{c: row[c] for c in SUMMARY_COLUMNS} for row in rows],
-                                 schema=schema)  # fmt: skip
-    parquet = out / "summary.parquet"
-    with atomic_file(parquet) as handle:
-        pq.write_table(table, handle)
-    return Path(csv_path), parquet
+        schema = pa.schema([pa.field(c, kind(c)) for c in SUMMARY_COLUMNS])
+        table = pa.Table.from_pylist([{c: row[c] for c in SUMMARY_COLUMNS} for row in rows],
+                                     schema=schema)  # fmt: skip
+        parquet = out / "summary.parquet"
+        with atomic_file(parquet) as handle:
+            pq.write_table(table, handle)
+    write_json(out / "summary.json", {
+        "adavar_version": __version__, "description": _SUMMARY_DESCRIPTION,
+        "columns": list(SUMMARY_COLUMNS), **about, "notes": list(notes),
+        "finished": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
+    })  # fmt: skip
+    return csv_path, parquet
+
+
+def _absent_row(path: str, name: str, stored: dict[str, Any] | None) -> dict[str, Any]:
+    """The row of a file of an earlier run that is not among this run's inputs."""
+    row = _row(path, name, status=STATUS_ABSENT)
+    summary = (stored or {}).get("summary")
+    if isinstance(summary, dict):
+        row.update({k: v for k, v in summary.items()
+                    if k in row and k not in ("file", "name", "status")})  # fmt: skip
+    return row
 
 
 def run_batch(
@@ -591,6 +550,7 @@ def run_batch(
     progress: Callable[[int, int, dict[str, Any]], None] | None = None,
     timeout: float = 10.0,
     html: bool = True,
+    worker_timeout: float = DEFAULT_WORKER_TIMEOUT,
 ) -> BatchResult:
     """Analyse many files, one task per file, and write their results and a summary.
 
@@ -598,7 +558,7 @@ def run_batch(
     ----------
     files : sequence of str or path-like
         The records (see :func:`collect_files` for globs and list files). Files inside
-        ``out`` are left out.
+        ``out`` are left out; two paths of the same file (a symlink) count once.
     out : str or path-like
         Output folder: created if missing (its parent must exist); an existing one must be
         empty or an earlier batch's (it holds :data:`BATCH_MARKER`).
@@ -620,7 +580,11 @@ def run_batch(
     html : bool
         Write each file's ``report.html`` (default). It embeds plotly.js and weighs about
         5 MB; ``False`` keeps ``result.json`` and ``deviation.csv`` only, for fleets of
-        thousands of files.
+        thousands of files. A file done earlier without the report is redone with it.
+    worker_timeout : float
+        Seconds the batch waits while its cluster has no worker at all (every worker died
+        or left) before it gives up: the files not analysed become error rows (internal)
+        and the summary is written with every row done so far.
 
     Returns
     -------
@@ -632,15 +596,21 @@ def run_batch(
         Bad options, an unusable ``out``, both or a bad ``scheduler``/``workers``, a
         scheduler that cannot be reached or has no worker. Nothing is written then.
     """
+    from adavar.writers import sweep_stale_temporaries
+
     start = time.perf_counter()
     target = _check_out(out)
+    wait_s = check_worker_timeout(worker_timeout)
     paths = [os.path.abspath(os.fspath(p)) for p in files]
     notes: list[str] = []
     inside = [p for p in paths if Path(p) == target or target in Path(p).parents]
     if inside:
         notes.append(f"left out {len(inside)} file(s) inside --out {out}")
         paths = [p for p in paths if p not in inside]
-    paths = list(dict.fromkeys(paths))
+    by_key: dict[str, str] = {}
+    for p in paths:
+        by_key.setdefault(file_key(p), p)  # one task per file, whatever its path
+    paths = list(by_key.values())
     if not paths:
         raise AdavarInputError(
             "no input files: give files or glob patterns (e.g. 'logs/*.csv'), or "
@@ -648,7 +618,6 @@ def run_batch(
         )
     opts = report_options(options)
     _check_options(opts, paths)
-    names = output_names(paths)
     total = len(paths)
     rows: list[dict[str, Any] | None] = [None] * total
     done = 0
@@ -660,11 +629,21 @@ def run_batch(
         if progress is not None:
             progress(done, total, row)
 
-    with _cluster(scheduler, workers, float(timeout)) as (client, where):
+    with connect(scheduler, workers, float(timeout)) as (client, where):
         _open_out(target)
+        swept = sweep_stale_temporaries(target)
+        if swept:
+            notes.append(f"removed {len(swept)} temporary folder(s) that killed runs left in "
+                         f"--out {out}")  # fmt: skip
+        state = BatchState.load(target)
+        names = state.assign(paths)
+        absent = [_absent_row(*item) for item in state.absent(set(by_key))]
+        state.orphans()
+        state.save()  # before any task: a killed run's folders are found again
+        notes += state.notes
         pending = []
         for i, (path, name) in enumerate(zip(paths, names, strict=True)):
-            row = None if force else _done_row(target, path, name, opts)
+            row = None if force else _done_row(target, path, name, opts, html)
             if row is None:
                 pending.append(i)
             else:
@@ -673,32 +652,37 @@ def run_batch(
             for i in pending:
                 finished(i, _process_file(paths[i], names[i], str(target), opts, html))
         elif pending:
-            from distributed import as_completed
 
-            futures = {
-                client.submit(_process_file, paths[i], names[i], str(target), opts, html,
-                              pure=False): i
-                for i in pending
-            }  # fmt: skip
-            for future in as_completed(list(futures), loop=client.loop):
-                i = futures[future]
-                try:
-                    row = future.result()
-                except Exception as exc:  # a lost worker, a task the cluster gave up on
-                    row = _row(paths[i], names[i], status="error", error_type="internal",
-                               error=f"the task failed on the cluster: {type(exc).__name__}: "
-                               f"{_one_line(exc)}")  # fmt: skip
-                finished(i, row)
-                future.release()
+            def failed(i: int, message: str) -> dict[str, Any]:
+                row = _row(paths[i], names[i], status="error", error_type="internal",
+                           error=message)  # fmt: skip
+                return _write_error_folder(target, row, opts, html)
+
+            jobs = {i: (paths[i], names[i], str(target), opts, html) for i in pending}
+            left = gather(client, _process_file, jobs, finished, failed, wait_s)
+            if left:
+                message = (
+                    f"not analysed: the cluster ({where}) had no worker for {wait_s:g} s "
+                    "(every worker died or left): start workers and rerun with the same "
+                    "--out (the finished files are skipped), or wait longer with "
+                    "--worker-timeout SECONDS"
+                )
+                for i in left:
+                    finished(i, failed(i, message))
+                notes.append(f"gave up after {wait_s:g} s without any dask worker: "
+                             f"{len(left)} of {total} file(s) not analysed")  # fmt: skip
     final = [row for row in rows if row is not None]
-    csv_path, parquet = _write_summary(target, final, notes)
     counts = Counter(row["status"] for row in final)
     errors = Counter(row["error_type"] for row in final if row["status"] == "error")
+    summary_counts = {
+        "files": total, "ok": counts["ok"], "done": counts["done"], "error": counts["error"],
+        "input_errors": errors["input"], "internal_errors": errors["internal"],
+        "absent": len(absent),
+    }  # fmt: skip
+    about = {"counts": summary_counts, "cluster": where, "options": _plain(opts), "html": html}
+    csv_path, parquet = _write_summary(target, final + absent, notes, about)
     return BatchResult(
-        rows=final,
-        counts={"files": total, "ok": counts["ok"], "done": counts["done"],
-                "error": counts["error"], "input_errors": errors["input"],
-                "internal_errors": errors["internal"]},
-        out=target, summary_csv=csv_path, summary_parquet=parquet, cluster=where,
-        elapsed_s=time.perf_counter() - start, notes=tuple(notes),
+        rows=final + absent, counts=summary_counts, out=target, summary_csv=csv_path,
+        summary_parquet=parquet, cluster=where, elapsed_s=time.perf_counter() - start,
+        notes=tuple(notes), summary_json=target / "summary.json",
     )  # fmt: skip

@@ -4,14 +4,20 @@
 (DAVAR-L) or any per-centre schedule (the adaptive controllers feed theirs in here).
 
 How it works (docs/method.md sections 5-6): the rate record is extended at both ends by time
-reversal (``edges="mirror"``), integrated once into the anchored double-double form of
-:mod:`adavar.differences`, and handed to a parallel kernel that, per chunk of consecutive
-centres and per averaging factor ``m``, computes the second differences ``d_m[i]`` over the
-chunk's span exactly, prefix-sums their squares with compensation, and reads each window's
-sum as the difference of two prefix values. The cost is O(1) per (centre, tau) whatever the
-window length, and a window's variance is exact to a few ulps even on records with a bias of
-1e6 standard deviations, a drift, or a short burst of much larger noise next to a quiet
-window. Centres far apart (``step`` larger than the window) are summed directly instead.
+reversal (``edges="mirror"``) and handed to a parallel kernel
+(:mod:`adavar._kernels.window_avar`) that, per chunk of consecutive centres, re-centres the
+chunk's span on a local reference (the median of 65 of its samples) and integrates it in
+double-double; per averaging factor ``m`` it computes the second differences ``d_m[i]``
+over the span to an ulp, prefix-sums their squares with compensation, and reads each
+window's sum as the difference of two prefix values. The cost is O(1) per (centre, tau)
+whatever the window length, and a window's variance is exact to a few ulps even on records
+with a bias of 1e9 standard deviations, a drift, a level step of 1e6 sigma inside the span
+(2.2e-16 relative against an exact per-window computation; the single-double anchored
+phase used before gave 9.7e-9 there), or a burst of up to 1e12 times the noise next to a
+quiet window.
+Centres far apart (``step`` larger than the window) are summed window by window instead.
+A record far from 1 (beyond 2**±64) is computed at scale 1 and its variances scaled back by
+a power of four (exact); variances beyond the float64 range are an error, not inf.
 """
 
 from __future__ import annotations
@@ -28,12 +34,22 @@ from scipy.stats import chi2
 from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import stream
-from adavar._jit import get_num_threads, jit
+from adavar._jit import jit
 from adavar.durations import Length, to_samples
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
-from adavar.statistics import DATA_TYPE_ALIASES, as_samples, record_noise_types, resolve_tau0
-from adavar.taus import averaging_factors
+from adavar.statistics import (
+    DATA_TYPE_ALIASES,
+    as_samples,
+    check_confidence,
+    record_noise_types,
+    refuse_masked,
+    resolve_tau0,
+    scaled,
+    scaled_source,
+    tau_factors,
+    unscale,
+)
 from adavar.windows import window_overhang, window_schedule
 
 __all__ = ["davar", "edf_table"]
@@ -237,33 +253,25 @@ def _chunked_avar(
 ) -> np.ndarray:
     """:func:`adavar.differences.window_avar` over groups of centres read piece by piece.
 
-    Each group's span of the mirror-extended record, widened back to the anchor block it
-    starts in, is read and integrated with the shift of the in-memory integration (the
-    median of the extended record's first block): the local sums are those of the in-memory
-    integral, bit for bit, so even a level far from the shift costs the same digits. The
-    window kernel then writes the group's rows of the output in place.
+    Each group's span of the mirror-extended record is read and handed to the window
+    kernel, which writes the group's rows of the output in place. The kernel re-centres
+    every chunk of windows on its own reference and keeps its span in double-double, so a
+    cell does not depend on where a piece starts: the result is the in-memory one to an ulp
+    or so.
     """
     pad = sched.pad_before
-    n_ext = source.size + pad + sched.pad_after
-    shift = float(np.median(stream.read_extended(source, 0, min(diff.BLOCK, n_ext), pad)))
     centre, length = sched.centre, sched.length
     bounds, los, his = _centre_groups(centre, length, pad, int(chunk), GROUP_GAP)
     out = np.empty((centre.size, ms.size))
     for g in range(los.size):
-        c0, c1, hi = int(bounds[g]), int(bounds[g + 1]), int(his[g])
-        # from an anchor of the in-memory integration on: the same blocks, the same sums
-        lo = int(los[g]) // diff.BLOCK * diff.BLOCK
+        c0, c1, lo, hi = int(bounds[g]), int(bounds[g + 1]), int(los[g]), int(his[g])
         with stream.threads_for(max(hi - lo, (c1 - c0) * ms.size)):  # the group's work
-            phase = diff.anchored_phase(stream.read_extended(source, lo, hi, pad), shift=shift)
             lengths = length[c0:c1]
-            per = _chunk_size(c1 - c0, int(lengths.max()), sched.step)
-            workers = int(min(get_num_threads(), -(-(c1 - c0) // per)))
-            # the kernel writes straight into this group's rows: no per-group output copy
-            diff.window_avar_kernel(
-                phase.r, phase.hh, phase.hl, ms, centre[c0:c1], lengths, pad - lo, per, workers,
-                float(scale), out[c0:c1], diff.SECOND,
+            diff.window_avar(
+                stream.read_extended(source, lo, hi, pad), ms, centre[c0:c1], lengths,
+                offset=pad - lo, scale=scale, out=out[c0:c1],
+                chunk=_chunk_size(c1 - c0, int(lengths.max()), sched.step),
             )  # fmt: skip
-        del phase
     return out
 
 
@@ -272,21 +280,34 @@ LAZY_BLOCK_VALUES = 1 << 24
 
 
 def _group_rows(
-    piece: np.ndarray, shift: float, ms: np.ndarray, centres: np.ndarray,
-    lengths: np.ndarray, offset: int, scale: float, step: int,
+    piece: np.ndarray, ms: np.ndarray, centres: np.ndarray, lengths: np.ndarray,
+    offset: int, scale: float, step: int, exponent: int,
 ) -> np.ndarray:  # fmt: skip
-    """One block of a lazy surface: the rows of ``centres`` from their span of the record."""
-    phase = diff.anchored_phase(np.asarray(piece, dtype=np.float64), shift=float(shift))
+    """One block of a lazy surface: the rows of ``centres`` from their span of the record.
+
+    The piece is computed at scale 1 (:func:`adavar.statistics.scaled`) and its rows scaled
+    back by ``4**k * 2**exponent``.
+    """
+    piece = np.asarray(piece, dtype=np.float64)
+    finite = np.isfinite(piece)
+    if not finite.all():
+        raise AdavarInputError(
+            f"the record holds a non-finite value ({piece[np.argmin(finite)]!r}): remove or "
+            "interpolate non-finite samples first"
+        )
+    piece, k = scaled(piece)
     per = _chunk_size(centres.size, int(lengths.max()), step)
-    return diff.window_avar(phase, ms, centres, lengths, offset=offset, scale=scale, chunk=per)
+    rows = diff.window_avar(piece, ms, centres, lengths, offset=offset, scale=scale, chunk=per)
+    return unscale(rows, 2 * k + exponent, "Allan variances", underflow=False)
 
 
-def _lazy_avar(array: Any, dtype: str, sched: Any, ms: np.ndarray, scale: float, chunk: int) -> Any:
+def _lazy_avar(
+    array: Any, dtype: str, sched: Any, ms: np.ndarray, scale: float, chunk: int, exponent: int
+) -> Any:
     """The surface of a dask array as a dask array: one task per group of centres.
 
-    Each task integrates its span of the mirror-extended record from the anchor block it
-    starts in, with the shift of the in-memory integration, as :func:`_chunked_avar` does;
-    nothing is read until the result is computed.
+    Each task reads its span of the mirror-extended record and computes its rows as
+    :func:`_chunked_avar` does; nothing is read until the result is computed.
     """
     import dask
     import dask.array as da
@@ -301,7 +322,6 @@ def _lazy_avar(array: Any, dtype: str, sched: Any, ms: np.ndarray, scale: float,
     if after:
         parts.append(u[n - after :][::-1])
     ext = da.concatenate(parts) if len(parts) > 1 else u
-    shift = dask.delayed(np.median)(ext[: min(diff.BLOCK, int(ext.shape[0]))])
     centre, length = sched.centre, sched.length
     # blocks of at most LAZY_BLOCK_VALUES output values, at least one window each
     rows = max(1, LAZY_BLOCK_VALUES // max(1, ms.size))
@@ -309,11 +329,10 @@ def _lazy_avar(array: Any, dtype: str, sched: Any, ms: np.ndarray, scale: float,
     bounds, los, his = _centre_groups(centre, length, pad, span, GROUP_GAP)
     blocks = []
     for g in range(los.size):
-        c0, c1 = int(bounds[g]), int(bounds[g + 1])
-        lo = int(los[g]) // diff.BLOCK * diff.BLOCK
+        c0, c1, lo = int(bounds[g]), int(bounds[g + 1]), int(los[g])
         task = dask.delayed(_group_rows, pure=True)(
-            ext[lo : int(his[g])], shift, ms, centre[c0:c1], length[c0:c1], pad - lo,
-            float(scale), sched.step,
+            ext[lo : int(his[g])], ms, centre[c0:c1], length[c0:c1], pad - lo,
+            float(scale), sched.step, int(exponent),
         )  # fmt: skip
         blocks.append(da.from_delayed(task, shape=(c1 - c0, ms.size), dtype=np.float64))
     return da.concatenate(blocks, axis=0)
@@ -404,13 +423,13 @@ def davar(
         input. Consecutive centres are grouped so that their windows span about
         ``chunk_size`` samples of the mirror-extended record (one window when a window is
         longer; centres further apart than 65536 samples are read window by window); each
-        group's span is read, integrated with the shift of the in-memory integration and
-        handed to the same kernel. The noise identification (``noise_type="record"``)
+        group's span is read and handed to the same kernel. The noise identification
+        (``noise_type="record"``)
         reads the record twice more in pieces of ``chunk_size``
         (:func:`adavar.stream.noise_types`). The result equals the in-memory one to
         rounding (1e-15 relative in practice), with the same schedule, alpha and EDFs, for
         any ``chunk_size``. Held in memory: the output (``N_centres x M`` values and the
-        per-centre centres, lengths and classes), one piece and its integral (about 4 x 8
+        per-centre centres, lengths and classes), one piece and its integral (about 6 x 8
         bytes per sample of ``max(chunk_size, longest window)``), and for phase input one
         more copy of the piece.
     lazy : bool, optional
@@ -434,8 +453,11 @@ def davar(
     Raises
     ------
     AdavarInputError
-        Bad data, a window shorter than 3 or longer than the record, a non-positive rate,
-        unknown options, or a surface too large for the free memory.
+        Bad data (non-finite, or a masked array with masked samples), a window shorter
+        than 3 or longer than the record, a rate that is not a positive number (or whose
+        taus overflow), unknown options, a surface too large for the free memory, or
+        variances beyond the float64 range (data near 1e154 and above, or near 1e-154 and
+        below: rescale the data).
 
     Notes
     -----
@@ -449,8 +471,7 @@ def davar(
     dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
-    if confidence is not None and not (0.0 < float(confidence) < 1.0):
-        raise AdavarInputError(f"confidence must lie strictly between 0 and 1, got {confidence}")
+    check_confidence(confidence)
     if edge_edf not in ("distinct", "interior"):
         raise AdavarInputError(f"unknown edge_edf {edge_edf!r}: use 'distinct' or 'interior'")
     try:
@@ -459,7 +480,11 @@ def davar(
         raise AdavarInputError(f"t0 must be a number of seconds, got {t0!r}") from None
     dt = resolve_tau0(rate, tau0)
     min_length = 4 if dtype == "phase" else 3
-    scale = 1.0 if dtype == "rate" else 1.0 / dt**2
+    refuse_masked(data)
+    # computed at scale 1 (exact: powers of two), the variances scaled back by 2**exponent
+    dt_mantissa, dt_exponent = math.frexp(dt)
+    scale = 1.0 if dtype == "rate" else 1.0 / dt_mantissa**2
+    exponent = 0 if dtype == "rate" else -2 * dt_exponent
     chunked = chunk_size is not None or stream.is_chunked(data)
     if lazy is None:
         lazy = stream.is_dask(data)
@@ -469,10 +494,19 @@ def davar(
         chunk = stream.DEFAULT_CHUNK if chunk_size is None else stream.check_chunk_size(chunk_size)
         source = stream.open_record(data, min_length)
         n_samples = source.size
-        increments = source if dtype == "rate" else stream.DifferencedSource(source)
-        n = increments.size
+        n = n_samples - 1 if dtype == "phase" else n_samples
+        scaled_increments: list[tuple[stream.ChunkedSource, int]] = []
+
+        def increments() -> tuple[stream.ChunkedSource, int]:
+            """The scaled increments (read only when needed: a lazy surface reads nothing)."""
+            if not scaled_increments:
+                src, k = scaled_source(source)
+                inc = src if dtype == "rate" else stream.DifferencedSource(src)
+                scaled_increments.append((inc, k))
+            return scaled_increments[0]
+
     else:
-        x = as_samples(data, min_length=min_length)
+        x, k = scaled(as_samples(data, min_length=min_length))
         u = x if dtype == "rate" else np.diff(x)
         n_samples, n = x.size, u.size
 
@@ -481,14 +515,14 @@ def davar(
     step = to_samples(step, dt, "step")
     sched = window_schedule(n, window, edges=edges, step=step)
     longest = int(sched.length.max())
-    ms, notes = averaging_factors(taus, longest // 3, dt, points_per_decade=points_per_decade)
+    ms, notes = tau_factors(taus, longest // 3, dt, points_per_decade)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     if not lazy:
         _check_memory(sched.centre.size, ms.size, 1)
 
     def identify() -> tuple[np.ndarray, tuple[str, ...]]:
         if chunked:
-            return stream.noise_types(increments, ms, 2, chunk_size=chunk, data_type=dtype)
+            return stream.noise_types(increments()[0], ms, 2, chunk_size=chunk, data_type=dtype)
         return record_noise_types(
             diff.anchored_phase(u, cluster_stats=True), ms, 2, data_type=dtype
         )
@@ -509,18 +543,27 @@ def davar(
         bounds = np.stack(_bound_factors(table, float(confidence)))
 
     if lazy:
-        avar = _lazy_avar(data, dtype, sched, ms, scale, chunk)
-    elif chunked:
-        avar = _chunked_avar(increments, sched, ms, scale, chunk)
+        avar = _lazy_avar(data, dtype, sched, ms, scale, chunk, exponent)
     else:
-        phase = diff.anchored_phase(sched.extend(u))
-        avar = diff.window_avar(
-            phase, ms, sched.centre, sched.length, offset=sched.pad_before, scale=scale,
-            chunk=_chunk_size(sched.centre.size, longest, sched.step),
-        )  # fmt: skip
-    return DavarResult(
+        if chunked:
+            inc, k = increments()
+            avar = _chunked_avar(inc, sched, ms, scale, chunk)
+        else:
+            avar = diff.window_avar(
+                sched.extend(u), ms, sched.centre, sched.length, offset=sched.pad_before,
+                scale=scale, chunk=_chunk_size(sched.centre.size, longest, sched.step),
+            )  # fmt: skip
+        avar = unscale(avar, 2 * k + exponent, "Allan variances", underflow=False)
+    with np.errstate(over="ignore"):
         # dividing by an integral rate rounds once: 3999 / 10 is 399.9, 3999 * 0.1 is not
-        time=t0 + (sched.centre * dt if tau0 is not None else sched.centre / float(rate)),
+        time = t0 + (sched.centre * dt if tau0 is not None else sched.centre / float(rate))
+    if not np.isfinite(time[-1]):
+        raise AdavarInputError(
+            f"the time of the last centre ({int(sched.centre[-1])} samples of {dt:g} s after "
+            f"t0 = {t0:g} s) overflows float64: check the rate (Hz), tau0 (s) and t0 (s)"
+        )
+    return DavarResult(
+        time=time,
         tau=ms * dt,
         avar=avar,
         window=sched.length,

@@ -14,14 +14,17 @@ compensated sum. ``r`` never exceeds one block's worth of data, so a difference
 ulps of the difference itself, whatever the offset, drift or length of the record.
 
 The kernels here know nothing about statistics; :mod:`adavar.statistics` builds on them.
+The DAVAR engine's window kernel, :func:`window_avar`, lives in
+:mod:`adavar._kernels.window_avar` (it keeps a window's span in double-double instead).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import get_num_threads, jit, parallel_jit, prange
+from adavar._jit import jit, parallel_jit, prange
 from adavar._kernels.double_double import dd_add, dd_scaled_add, two_sum
+from adavar._kernels.window_avar import window_avar
 
 __all__ = [
     "BLOCK",
@@ -194,10 +197,13 @@ def anchored_phase(
         block, which removes a constant offset exactly (the subtraction rounds relative to
         the residual only) and is not dragged away by a spike. The local sums ``r`` grow
         with the distance of the data's level from ``shift``, so two excursions cost
-        digits (measured on unit white noise, tests/test_davar.py): a level step of ``D``
-        standard deviations (not a drift, which the anchors absorb) about ``1e-13 * D``
-        relative in the differences after it (1e3 sigma: 1e-10; 1e6 sigma: 1e-7); a spike
-        of ``D`` sigma about ``1e-16 * D`` in the rest of its 1024-sample block.
+        digits (measured on unit white noise): a level step of ``D`` standard deviations
+        (not a drift, which the anchors absorb) about ``1e-13 * D`` relative in the
+        differences after it (1e3 sigma: 1e-10; 1e6 sigma: 1e-7); a spike of ``D`` sigma
+        about ``1e-16 * D`` in the rest of its 1024-sample block. A whole-record statistic
+        across such a step is dominated by the step's own terms; the DAVAR windows, which
+        need not hold it, are computed from a double-double span instead
+        (:mod:`adavar._kernels.window_avar`) and lose nothing.
     cluster_stats : bool
         Also gather, in the same pass, the moments that the lag-1 noise identification
         needs for ``m = 1, 2, 4, ..., 2**(FUSED_LEVELS-1)`` (see :func:`fused_lag1`).
@@ -536,222 +542,6 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
 
 
 # ---------------------------------------------------------------------------------------
-# every window at once (the DAVAR engine's kernel)
-
-
-@jit
-def _prefix_squares(d, n, ph, pl):  # pragma: no cover - compiled
-    """Compensated prefix sums of ``d[k]**2``: ``P[k] = ph[k] + pl[k]`` to ~eps**2 * P.
-
-    Only ``s`` is on the loop-carried critical path (one add); the rounding errors gather
-    in a separate running sum, so the compensation costs throughput, not latency. No
-    fast-math: the error terms rely on exact IEEE rounding.
-    """
-    s = 0.0
-    c = 0.0
-    ph[0] = 0.0
-    pl[0] = 0.0
-    for k in range(n):
-        y = d[k] * d[k]
-        t = s + y
-        bb = t - s
-        c += (s - (t - bb)) + (y - bb)
-        s = t
-        ph[k + 1] = s
-        pl[k + 1] = c
-
-
-@jit
-def _window_sum(ph, pl, a, b):  # pragma: no cover - compiled
-    """``P[b] - P[a]`` from the compensated prefix, with the leading difference exact."""
-    s, e = two_sum(ph[b], -ph[a])
-    return s + (e + (pl[b] - pl[a]))
-
-
-@jit
-def _eval_uniform(ph, pl, first, n, count, norm, res, at):  # pragma: no cover - compiled
-    """Windows ``[first + k, first + k + n)`` into ``res[at + k]``, ``k < count``: vectorises."""
-    p0 = ph[first : first + count]
-    p1 = ph[first + n : first + n + count]
-    q0 = pl[first : first + count]
-    q1 = pl[first + n : first + n + count]
-    out = res[at : at + count]
-    f = norm / n
-    for k in range(count):
-        s = p1[k] - p0[k]
-        bb = s - p1[k]
-        e = (p1[k] - (s - bb)) + (-p0[k] - bb)
-        out[k] = max(s + (e + (q1[k] - q0[k])), 0.0) * f
-
-
-@jit
-def _eval_runs(ph, pl, aloc, lens, runs, n_runs, m, norm, res):  # pragma: no cover - compiled
-    """Any windows, as runs of one length with consecutive starts (``runs[j]`` .. next).
-
-    An adaptive schedule holds its length for long stretches (at ``Lmax`` most of the
-    time): each such run takes the contiguous, vectorised path.
-    """
-    for j in range(n_runs):
-        k0 = runs[j]
-        k1 = runs[j + 1]
-        L = lens[k0]
-        if 3 * m > L:
-            for k in range(k0, k1):
-                res[k] = np.nan
-            continue
-        n = L - 2 * m + 1
-        if k1 - k0 == 1:
-            a = aloc[k0]
-            res[k0] = max(_window_sum(ph, pl, a, a + n), 0.0) * (norm / n)
-        else:
-            _eval_uniform(ph, pl, aloc[k0], n, k1 - k0, norm, res, k0)
-
-
-@jit
-def _window_chunk(
-    r,
-    hh,
-    hl,
-    ms,
-    centres,
-    lengths,
-    offset,
-    c0,
-    c1,
-    scale,
-    out,
-    coefs,
-    d,
-    ph,
-    pl,
-):  # pragma: no cover - compiled
-    """Windows ``c0 .. c1 - 1`` at every factor; returns the (possibly grown) scratch."""
-    nt = ms.size
-    size = c1 - c0
-    lens = lengths[c0:c1]
-    starts = np.empty(size, dtype=np.int64)
-    for k in range(size):
-        starts[k] = centres[c0 + k] - (lens[k] - 1) // 2 + offset
-    lo = starts[0]
-    for k in range(size):
-        lo = min(lo, starts[k])
-    aloc = np.empty(size, dtype=np.int64)
-    for k in range(size):
-        aloc[k] = starts[k] - lo
-    # runs of one length with consecutive starts take the contiguous fast path
-    runs = np.empty(size + 1, dtype=np.int64)
-    n_runs = 0
-    for k in range(size):
-        if k == 0 or lens[k] != lens[k - 1] or aloc[k] != aloc[k - 1] + 1:
-            runs[n_runs] = k
-            n_runs += 1
-    runs[n_runs] = size
-    # span of each m, and whether the prefix route pays (the windows overlap)
-    span = np.zeros(nt, dtype=np.int64)
-    dense = np.zeros(nt, dtype=np.bool_)
-    need = 0
-    for t in range(nt):
-        m = ms[t]
-        hi = 0
-        total = 0
-        for k in range(size):
-            if 3 * m <= lens[k]:
-                n = lens[k] - 2 * m + 1
-                hi = max(hi, aloc[k] + n)
-                total += n
-        span[t] = hi
-        dense[t] = total > 0 and hi <= 2 * total
-        if dense[t]:
-            need = max(need, hi)
-    if need > d.size:
-        d = np.empty(need)
-        ph = np.empty(need + 1)
-        pl = np.empty(need + 1)
-    res = np.empty(size)
-    for t in range(nt):
-        m = ms[t]
-        norm = scale / (2.0 * m * m)
-        if dense[t]:
-            _fill_second_differences(r, hh, hl, m, lo, lo + span[t], d)
-            _prefix_squares(d, span[t], ph, pl)
-            _eval_runs(ph, pl, aloc, lens, runs, n_runs, m, norm, res)
-        else:
-            for k in range(size):
-                L = lens[k]
-                if 3 * m > L:
-                    res[k] = np.nan
-                    continue
-                n = L - 2 * m + 1
-                a = starts[k]
-                acc = 0.0
-                i = a
-                while i < a + n:
-                    e = segment_end(i, a + n, m, 3)
-                    acc += _run_sq2(r, anchor_combo(hh, hl, i, m, coefs), i, e, m)
-                    i = e
-                res[k] = max(acc, 0.0) * (norm / n)
-        for k in range(size):
-            out[c0 + k, t] = res[k]
-    return d, ph, pl
-
-
-@parallel_jit
-def window_avar_kernel(
-    r,
-    hh,
-    hl,
-    ms,
-    centres,
-    lengths,
-    offset,
-    chunk,
-    workers,
-    scale,
-    out,
-    coefs,
-):  # pragma: no cover - compiled
-    """Overlapping Allan variance of every window at every averaging factor.
-
-    Window ``c`` covers increments ``a .. a + lengths[c] - 1`` with
-    ``a = centres[c] - (lengths[c] - 1) // 2 + offset`` (phase points up to
-    ``a + lengths[c]``); at factor ``m`` it sums ``d_m[i]**2`` for
-    ``n = L - 2m + 1`` starts ``i``. The windows are cut into chunks of ``chunk``
-    consecutive centres. Per chunk and ``m``: when the windows overlap, the second
-    differences over the chunk's span are computed once (exact anchors), prefix-summed with
-    compensation, and every window is a difference of two prefix values (O(1) per window
-    whatever its length); when they are far apart, each window is summed directly. Cells
-    with ``3m > L`` are NaN.
-    """
-    nc = centres.size
-    nch = (nc + chunk - 1) // chunk
-    # one work item per worker, chunks dealt round-robin, so the scratch buffers are
-    # allocated once per worker: fresh pages for every chunk cost more than the arithmetic
-    for w in prange(workers):
-        d = np.empty(0)
-        ph = np.empty(1)
-        pl = np.empty(1)
-        for ch in range(w, nch, workers):
-            c0 = ch * chunk
-            d, ph, pl = _window_chunk(
-                r,
-                hh,
-                hl,
-                ms,
-                centres,
-                lengths,
-                offset,
-                c0,
-                min(c0 + chunk, nc),
-                scale,
-                out,
-                coefs,
-                d,
-                ph,
-                pl,
-            )
-
-
-# ---------------------------------------------------------------------------------------
 # public wrappers
 
 
@@ -864,69 +654,3 @@ def cluster_sums(phase: AnchoredPhase, m: int) -> np.ndarray:
     count = (phase.n_points - 1) // m
     out = cluster_differences(phase.r, phase.hh, phase.hl, int(m), count)
     return out + phase.shift * m
-
-
-@jit
-def _window_extent(centres, lengths, offset):  # pragma: no cover - compiled
-    """First sample and end of the union of the windows (no temporary arrays)."""
-    first = centres[0] - (lengths[0] - 1) // 2 + offset
-    stop = first + lengths[0]
-    for c in range(centres.size):
-        a = centres[c] - (lengths[c] - 1) // 2 + offset
-        first = min(first, a)
-        stop = max(stop, a + lengths[c])
-    return first, stop
-
-
-def window_avar(
-    phase: AnchoredPhase,
-    ms: np.ndarray,
-    centres: np.ndarray,
-    lengths: np.ndarray,
-    *,
-    offset: int = 0,
-    scale: float = 1.0,
-    chunk: int = 4096,
-) -> np.ndarray:
-    """Overlapping Allan variance of many windows of ``phase`` at every factor ``ms``.
-
-    Parameters
-    ----------
-    phase : AnchoredPhase
-        The (extended) integrated record.
-    ms : ndarray of int
-        Averaging factors.
-    centres, lengths : ndarray of int
-        Window ``c`` holds the increments from ``centres[c] - (lengths[c] - 1) // 2 + offset``
-        on, ``lengths[c]`` of them (the convention of :mod:`adavar.windows`).
-    offset : int
-        Shift from centre indices to indices of ``phase`` (the mirrored samples before the
-        record).
-    scale : float
-        Multiplies every variance (``1 / tau0**2`` for phase input).
-    chunk : int
-        Consecutive windows per unit of work.
-
-    Returns
-    -------
-    ndarray, shape (len(centres), len(ms))
-        NaN where ``3 m > L``.
-    """
-    ms = np.ascontiguousarray(ms, dtype=np.int64)
-    centres = np.ascontiguousarray(centres, dtype=np.int64)
-    lengths = np.ascontiguousarray(lengths, dtype=np.int64)
-    if centres.shape != lengths.shape or centres.ndim != 1:
-        raise ValueError("internal: centres and lengths must be 1-D arrays of one shape")
-    if centres.size:
-        first, stop = _window_extent(centres, lengths, int(offset))
-        if first < 0 or stop > phase.n_points - 1:
-            raise ValueError("internal: a window runs past the data")
-    nc, nt = centres.size, ms.size
-    out = np.empty((nc, nt))
-    chunk = int(max(chunk, 1))
-    workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
-    window_avar_kernel(
-        phase.r, phase.hh, phase.hl, ms, centres, lengths, int(offset), chunk, workers,
-        float(scale), out, SECOND,
-    )  # fmt: skip
-    return out

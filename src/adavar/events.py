@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Event", "change_times", "find_events"]
+__all__ = ["Event", "change_times", "find_events", "flag_change_times"]
 
 
 @dataclass(frozen=True)
@@ -83,6 +83,29 @@ def change_times(window: Any, centre: Any, lmax: int, tau0: float, t0: float = 0
     return out
 
 
+def flag_change_times(
+    flags: Any, centre: Any, length: int, tau0: float, t0: float = 0.0
+) -> list[float]:
+    """Times (s) of the changes the controller's test flags in a *fixed* window.
+
+    A change is flagged while it lies inside the ``length``-sample window, first when it
+    enters the leading edge, so each run of flagged centres (runs less than ``length``
+    apart are one: the test fires on and off while the change crosses the window) marks one
+    change at the leading edge of its first flagged window, ``centre + length // 2``.
+    """
+    flags = np.asarray(flags, dtype=bool)
+    centre = np.asarray(centre, dtype=np.int64)
+    edges = np.diff(np.concatenate(([0], flags.astype(np.int8), [0])))
+    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    out: list[float] = []
+    last = None
+    for a, b in zip(starts, stops, strict=True):
+        if last is None or centre[a] - centre[last] >= length:
+            out.append(float(t0 + (centre[a] + length // 2) * tau0))
+        last = b
+    return out
+
+
 def _summary(values: np.ndarray) -> dict[str, Any]:
     values = values[np.isfinite(values)]
     if values.size == 0:
@@ -102,6 +125,7 @@ def find_events(
     *,
     t0: float = 0.0,
     duration: float | None = None,
+    changes: Any = None,
 ) -> list[Event]:
     """The non-stationary stretches of a record (see the module docstring).
 
@@ -119,14 +143,18 @@ def find_events(
         Time of the first sample.
     duration : float, optional
         Length of the record (s), for the last stretch; default the last window's time.
+    changes : sequence of float, optional
+        The change times, if known otherwise (a fixed window's :func:`flag_change_times`);
+        default :func:`change_times` of the adaptive window.
 
     Returns
     -------
     list of Event
     """
     time = np.asarray(time, dtype=float)
+    found = change_times(window, centre, lmax, tau0, t0) if changes is None else changes
     changes = []
-    for c in change_times(window, centre, lmax, tau0, t0):
+    for c in found:
         # a window that regrows a step and shrinks again saw the same change
         if not changes or c - changes[-1] > 0.25 * lmax * tau0:
             changes.append(c)

@@ -14,8 +14,6 @@ one-line message that names the problem and the way out.
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 import math
 import numbers
@@ -35,7 +33,7 @@ from adavar.units import (
     convert_coefficient,
     rate_unit_info,
 )
-from adavar.writers import atomic_file
+from adavar.writers import atomic_file, csv_text
 
 __all__ = [
     "COEFFICIENT_COLUMNS",
@@ -112,22 +110,6 @@ def write_text(path: str | os.PathLike[str], text: str) -> Path:
     return _atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def _csv_cell(value: Any) -> str:
-    if value is None:
-        return ""
-    if isinstance(value, (bool, np.bool_)):
-        return "true" if value else "false"
-    if isinstance(value, numbers.Integral):
-        return str(int(value))
-    if isinstance(value, numbers.Real):
-        return repr(float(value))  # shortest round-trip form; nan, inf, -inf
-    if isinstance(value, (str, os.PathLike)):
-        return os.fspath(value)
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        return _csv_cell(value.item())
-    raise TypeError(f"a CSV cell must be a number, text or None, got {type(value).__name__}")
-
-
 def write_table_csv(
     path: str | os.PathLike[str],
     rows: Iterable[Mapping[str, Any] | Sequence[Any]],
@@ -137,11 +119,13 @@ def write_table_csv(
 ) -> Path:
     """Write a table as CSV, atomically.
 
-    The file is: the ``comment`` lines, each prefixed with ``"# "`` (``pandas.read_csv(...,
-    comment="#")`` and :func:`adavar.io.read_text` skip them), a header line with
-    ``columns``, then one line per row. Numbers are written in their shortest exact form
-    (``repr``; NaN as ``nan``), None as an empty cell, booleans as ``true``/``false``.
-    The whole file is formatted before anything is written, so a bad row leaves no file.
+    The file is plain CSV (:func:`adavar.writers.csv_text`: ``pandas.read_csv(path)`` and
+    spreadsheets read it as it is): a header line with ``columns``, then one line per row.
+    Numbers are written in their shortest exact form (``repr``; NaN as ``nan``), None as an
+    empty cell, booleans as ``true``/``false``; a text cell that a spreadsheet would run as
+    a formula (``=``, ``+``, ``-``, ``@``, tab, carriage return first, not a number) gets a
+    leading ``'``. The whole file is formatted before anything is written, so a bad row
+    leaves no file.
 
     Parameters
     ----------
@@ -154,7 +138,9 @@ def write_table_csv(
     columns : sequence of str
         The column names.
     comment : str, optional
-        Free text (may span several lines) written before the header.
+        Free text (may span several lines) written before the header as ``# `` lines: a
+        reader then needs ``pandas.read_csv(path, comment="#")``. adavar's own tables have
+        none (their metadata is in a JSON file next to them).
 
     Returns
     -------
@@ -175,12 +161,7 @@ def write_table_csv(
         raise ValueError("a table needs at least one column")
     if len(set(columns)) != len(columns):
         raise ValueError(f"duplicate column names in {columns}")
-    buffer = io.StringIO()
-    if comment:
-        for line in str(comment).splitlines() or [""]:
-            buffer.write(f"# {line}".rstrip() + "\n")
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(columns)
+    table = []
     for k, row in enumerate(rows):
         if isinstance(row, Mapping):
             unknown = [key for key in row if key not in columns]
@@ -191,8 +172,8 @@ def write_table_csv(
             cells = list(row)
             if len(cells) != len(columns):
                 raise ValueError(f"row {k} has {len(cells)} values for {len(columns)} columns")
-        writer.writerow([_csv_cell(c) for c in cells])
-    return write_text(path, buffer.getvalue())
+        table.append(cells)
+    return write_text(path, csv_text(columns, table, comment=comment))
 
 
 def _jsonable(value: Any) -> Any:
@@ -400,7 +381,17 @@ def _fit_unit(fits: list[Any], given: str | None, what: str, sensor: str, defaul
     return unit
 
 
-def _axis_values(fits: list[Any], term: str, unit: str, what: str, pinned: str) -> list[float]:
+def _as_names(names: Any, what: str) -> list[str] | None:
+    if names is None:
+        return None
+    if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+        raise _fail(f"{what}_names must be a sequence of column names, one per axis, got {names!r}")
+    return list(names)
+
+
+def _axis_values(
+    fits: list[Any], term: str, unit: str, what: str, pinned: str, names: list[str] | None
+) -> list[float]:
     sensor = rate_unit_info(unit).sensor
     target, _ = _KALIBR_TARGET[(sensor, term)]
     symbol = LETTERS[term]
@@ -416,16 +407,34 @@ def _axis_values(fits: list[Any], term: str, unit: str, what: str, pinned: str) 
         uncs = np.ravel(np.broadcast_to(np.asarray(t.uncertainty, dtype=float), np.shape(t.value)))
         for v, u in zip(vals, uncs, strict=True):
             axis = len(values)
+            label = (
+                f"column {names[axis]!r}"
+                if names is not None and axis < len(names)
+                else f"axis {axis}"
+            )
             if not (math.isfinite(v) and v > 0):
-                if pinned == "bound" and math.isfinite(u) and u > 0:
+                bound = math.isfinite(u) and u > 0
+                if pinned == "bound" and bound:
                     v = u  # the 1-sigma upper bound of a term pinned at zero
+                elif not bound:
+                    raise _fail(
+                        f"the {what} fit of {label} has no {term} ({symbol} = {v:g}) and no "
+                        "upper bound to use instead: the data are constant or too short to "
+                        "fit; check that it is the right column and that the sensor was "
+                        "recording"
+                    )
                 else:
                     raise _fail(
-                        f"the {what} fit of axis {axis} has no {term} ({symbol} = {v:g}): "
+                        f"the {what} fit of {label} has no {term} ({symbol} = {v:g}): "
                         "fit a longer record with the term in the model, or pass "
                         "pinned='bound' to use its 1-sigma upper bound"
                     )
             values.append(float(convert_coefficient(v, term, unit, target)))
+    if names is not None and len(names) != len(values):
+        raise _fail(
+            f"{what}_names has {len(names)} names for {len(values)} {what} axes: give one "
+            "name per axis"
+        )
     return values
 
 
@@ -438,6 +447,8 @@ def kalibr_values(
     combine: str = "max",
     inflate: float = 1.0,
     pinned: str = "error",
+    gyro_names: Sequence[str] | None = None,
+    accel_names: Sequence[str] | None = None,
 ) -> dict[str, Any]:
     """The four Kalibr noise values and the per-axis values they come from.
 
@@ -462,17 +473,23 @@ def kalibr_values(
         raise _fail(f"inflate must be a positive factor (1 = no inflation), got {inflate!r}")
     gyros = _as_fits(gyro_fits, "gyro")
     accels = _as_fits(accel_fits, "accel")
+    g_names = _as_names(gyro_names, "gyro")
+    a_names = _as_names(accel_names, "accel")
     g_unit = _fit_unit(gyros, gyro_units, "gyro", "gyro", "rad/s")
     a_unit = _fit_unit(accels, accel_units, "accel", "accelerometer", "m/s^2")
     axes = {
         "accelerometer_noise_density": _axis_values(
-            accels, "angle_random_walk", a_unit, "accel", pinned
+            accels, "angle_random_walk", a_unit, "accel", pinned, a_names
         ),
         "accelerometer_random_walk": _axis_values(
-            accels, "rate_random_walk", a_unit, "accel", pinned
+            accels, "rate_random_walk", a_unit, "accel", pinned, a_names
         ),
-        "gyroscope_noise_density": _axis_values(gyros, "angle_random_walk", g_unit, "gyro", pinned),
-        "gyroscope_random_walk": _axis_values(gyros, "rate_random_walk", g_unit, "gyro", pinned),
+        "gyroscope_noise_density": _axis_values(
+            gyros, "angle_random_walk", g_unit, "gyro", pinned, g_names
+        ),
+        "gyroscope_random_walk": _axis_values(
+            gyros, "rate_random_walk", g_unit, "gyro", pinned, g_names
+        ),
     }
     reduce = max if combine == "max" else (lambda v: math.fsum(v) / len(v))
     out: dict[str, Any] = {key: reduce(vals) * inflate for key, vals in axes.items()}
@@ -503,6 +520,8 @@ def kalibr_imu_yaml(
     combine: str = "max",
     inflate: float = 1.0,
     pinned: str = "error",
+    gyro_names: Sequence[str] | None = None,
+    accel_names: Sequence[str] | None = None,
 ) -> str:
     """The Kalibr ``imu.yaml`` of a 6-axis IMU from its noise fits.
 
@@ -557,7 +576,11 @@ def kalibr_imu_yaml(
         Factor applied to all four values (1 = the fitted values).
     pinned : {"error", "bound"}
         What to do when an axis has no N or K (the fit pinned it at 0, e.g. K on a short
-        record): ``"error"``, or ``"bound"`` to use the term's 1-sigma upper bound.
+        record): ``"error"``, or ``"bound"`` to use the term's 1-sigma upper bound. An axis
+        without a bound either (a constant column) is an error in both cases.
+    gyro_names, accel_names : sequence of str, optional
+        The columns the axes come from, one per axis, to name them in the messages
+        (default: ``axis 0``, ``axis 1``, ...).
 
     Returns
     -------
@@ -569,8 +592,8 @@ def kalibr_imu_yaml(
     ------
     AdavarInputError
         Missing fits, units of the wrong kind or disagreeing with the fits, a bad rate,
-        topic, ``combine``, ``inflate`` or ``pinned``, or a missing N/K with
-        ``pinned="error"``.
+        topic, ``combine``, ``inflate`` or ``pinned``, a missing N/K with
+        ``pinned="error"``, or one without an upper bound.
     """
     if isinstance(rate, bool) or not isinstance(rate, numbers.Real):
         raise _fail(f"the IMU rate must be a number in Hz, got {rate!r}")
@@ -588,6 +611,8 @@ def kalibr_imu_yaml(
         combine=combine,
         inflate=inflate,
         pinned=pinned,
+        gyro_names=gyro_names,
+        accel_names=accel_names,
     )
     g_unit, a_unit = values["gyro_units"], values["accel_units"]
     inflate = float(inflate)

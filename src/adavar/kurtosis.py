@@ -45,7 +45,9 @@ the absolute error of the kurtosis stays below 5e-13, and that of ``S`` below 3e
 white noise, with an offset of 1e6 standard deviations, a drift of 1e6 sigma across the
 record, float32 data, bursts of 1e4x the noise, spikes of 1e8 sigma, level steps of 1e6
 sigma, random walks, and scales 1e-13 and 1e12; windows fixed or changing length at every
-centre.
+centre. A record far from 1 (beyond 2**±64) is first scaled by a power of two, exactly, so
+that data near the float64 limit or of subnormal numbers give the kurtosis of the same
+values at scale 1, bit for bit.
 """
 
 from __future__ import annotations
@@ -66,7 +68,7 @@ from adavar._kernels.double_double import (
     two_sum,
 )
 from adavar.errors import AdavarInputError
-from adavar.statistics import as_samples
+from adavar.statistics import as_samples, scaled
 from adavar.windows import window_schedule
 
 __all__ = ["MIN_COMPLEMENT", "REFERENCES", "kurtosis_contribution", "sliding_kurtosis"]
@@ -652,7 +654,7 @@ def sliding_kurtosis(
     ``p - (L-1)//2 + L - 1`` (:mod:`adavar.windows`). The cost is O(N) whatever the window
     lengths and however they change between centres; see the module notes for the accuracy.
     """
-    x = as_samples(data)
+    x, _ = scaled(as_samples(data))  # scale-free: at scale 1, |x - anchor| cannot overflow
     sched = window_schedule(x.size, window, edges=edges, step=step)
     y = np.ascontiguousarray(sched.extend(x))
     starts = np.ascontiguousarray(sched.start, dtype=np.int64)
@@ -746,7 +748,7 @@ def kurtosis_contribution(
     """
     if reference not in REFERENCES:
         raise AdavarInputError(f"unknown reference {reference!r}: use 'window' or 'record'")
-    x = as_samples(data)
+    x, _ = scaled(as_samples(data))  # scale-free: at scale 1, |x - anchor| cannot overflow
     sched = window_schedule(x.size, window, edges=edges, step=step)
     lengths = np.ascontiguousarray(sched.length, dtype=np.int64)
     out = np.empty(lengths.size)

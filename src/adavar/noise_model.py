@@ -48,6 +48,12 @@ How the diagonal fit works
   curves or more); a single curve is a stack of one and goes through the same per-curve
   code, so stacks and single fits agree bit for bit. Cost: about 3.5 s for 1e6 curves of
   10 taus with all five terms on one core.
+* **Any scale.** The model is linear in the coefficients and the weights scale with the
+  variance, so variances far from 1 (beyond ``4**±SAFE_EXPONENT``) are fitted scaled by a
+  power of four (exact) and the coefficients scaled back: the fit of ``x * 2**k`` is that
+  of ``x`` with every coefficient times ``4**k``, bit for bit. Coefficients beyond the
+  float64 range are an :class:`~adavar.errors.AdavarInputError` (rescale the data); a GLS
+  coefficient covariance beyond it is ``None``.
 * **Points ignored.** A point whose avar or edf is NaN/inf, or not strictly positive, gets
   weight 0 (DAVAR windows are NaN beyond a third of the window). A curve with fewer valid
   points than selected terms is not fitted: all its outputs are NaN.
@@ -79,6 +85,7 @@ same factor. A term not in ``terms`` has value 0 and uncertainty NaN.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -87,8 +94,10 @@ import numpy as np
 
 from adavar import gls_fit
 from adavar._nnls import PARALLEL_MIN, nnls_parallel, nnls_serial, subsets
+from adavar.errors import AdavarInputError
 from adavar.results import ADEQUATE_P, NoiseFit, NoiseTerm
 from adavar.slopes import SlopeReadoff, read_slopes
+from adavar.statistics import SAFE_EXPONENT, unscale
 from adavar.terms import AVAR_FACTORS as _K
 from adavar.terms import POWERS as _POWERS
 from adavar.terms import TERM_NAMES
@@ -111,6 +120,10 @@ ALLAN_STATS = frozenset({"adev", "oadev", "totdev"})
 METHODS = ("auto", "gls", "wls", "slopes")
 #: Shortest tau kept when the sensor's bandwidth is given: this many ``1 / bandwidth``.
 BANDWIDTH_FACTOR = 2.0
+#: Most reweighting passes: the 3rd pass moves a coefficient by at most 0.15 of its
+#: uncertainty, the 4th by 0.05 (module notes); by 100 the fit has converged or is cycling,
+#: and each pass costs a whole fit (a stack of a million curves: seconds per pass).
+MAX_REWEIGHT = 100
 
 
 # --------------------------------------------------------------------------------------
@@ -118,20 +131,46 @@ BANDWIDTH_FACTOR = 2.0
 # --------------------------------------------------------------------------------------
 
 
+def _check_reweight(n_reweight: Any) -> int:
+    """``n_reweight`` as an int in ``0 .. MAX_REWEIGHT``, or a one-line error."""
+    if isinstance(n_reweight, (float, np.floating)) and float(n_reweight).is_integer():
+        n_reweight = int(n_reweight)
+    if isinstance(n_reweight, (bool, np.bool_)) or not isinstance(n_reweight, (int, np.integer)):
+        raise AdavarInputError(f"n_reweight must be a non-negative integer, got {n_reweight!r}")
+    if not 0 <= n_reweight <= MAX_REWEIGHT:
+        raise AdavarInputError(
+            f"n_reweight must lie in 0 .. {MAX_REWEIGHT}, got {n_reweight}: the fit converges "
+            "in 3 or 4 passes"
+        )
+    return int(n_reweight)
+
+
+def _check_units(units: str) -> None:
+    try:
+        rate_unit_info(units)
+    except (TypeError, ValueError) as exc:
+        raise AdavarInputError(str(exc)) from None
+
+
 def _check_terms(terms: Sequence[str]) -> tuple[str, ...]:
     if isinstance(terms, str):
         terms = (terms,)
-    terms = tuple(terms)
+    try:
+        terms = tuple(terms)
+    except TypeError:
+        raise AdavarInputError(
+            f"terms must be a list of term names ({', '.join(TERM_NAMES)}), got {terms!r}"
+        ) from None
     if not terms:
-        raise ValueError(f"terms is empty; valid names: {', '.join(TERM_NAMES)}")
+        raise AdavarInputError(f"terms is empty; valid names: {', '.join(TERM_NAMES)}")
     bad = [t for t in terms if t not in TERM_NAMES]
     if bad:
-        raise ValueError(
+        raise AdavarInputError(
             f"unknown noise term(s) {', '.join(map(repr, bad))}; "
             f"valid names: {', '.join(TERM_NAMES)}"
         )
     if len(set(terms)) != len(terms):
-        raise ValueError(f"terms has duplicates: {terms}")
+        raise AdavarInputError(f"terms has duplicates: {terms}")
     return tuple(t for t in TERM_NAMES if t in terms)  # canonical order
 
 
@@ -179,7 +218,7 @@ def fit_avar(
         :meth:`NoiseFit.to_units`.
     n_reweight : int
         Reweighting passes after the first (model avar in the weights); 0 keeps the
-        weights of the measured avar.
+        weights of the measured avar; at most :data:`MAX_REWEIGHT`.
     spacing : {"octave", "independent"}
         ``"octave"`` (default): each tau's weight is multiplied by its local spacing in
         octaves, capped at 1 (``min(1, d log2(tau))``, central differences). Overlapping
@@ -208,43 +247,115 @@ def fit_avar(
 
     Raises
     ------
-    ValueError
-        On a bad ``tau``, inconsistent shapes, unknown terms or units, or ``method="gls"``.
+    AdavarInputError
+        On a bad ``tau``, inconsistent shapes, unknown terms or units, ``method="gls"``, or
+        variances whose coefficients leave the float64 range.
     """
     if units is not None:
-        rate_unit_info(units)
+        _check_units(units)
     method = _check_options(method, select, significance, exclude, rolloff)
     if method == "gls":
-        raise ValueError(
+        raise AdavarInputError(
             "method='gls' needs the record length and sample interval: fit the "
             "DeviationResult with fit_noise(result, method='gls')"
         )
-    tau_a = np.asarray(tau, dtype=float)
+    tau_a = _as_floats(tau, "tau")
+    avar = _as_floats(avar, "avar")
+    if tau_a.ndim != 1 or tau_a.size == 0:
+        raise AdavarInputError(f"tau must be a non-empty 1-D array, got shape {tau_a.shape}")
+    if avar.ndim == 0 or avar.shape[-1] != tau_a.size:
+        raise AdavarInputError(
+            f"avar must have shape (..., {tau_a.size}) to match tau, got {avar.shape}"
+        )
     keep, reasons = _tau_selection(tau_a, tau_range, bandwidth)
+    avar, k = _scaled_avar(avar)
     if method == "slopes":
-        dev = np.sqrt(np.asarray(avar, dtype=float))
-        return _slopes_fit(tau_a, dev, None, None, terms, units)
-    avar = np.where(keep, np.asarray(avar, dtype=float), np.nan)
-    avar = _apply_reference(tau_a, avar, reference, reasons)
-    return _fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
-                reasons=reasons)  # fmt: skip
+        dev = np.sqrt(avar)
+        return _unscale_fit(_slopes_fit(tau_a, dev, None, None, terms, units), k)
+    avar = np.where(keep, avar, np.nan)
+    avar = _apply_reference(tau_a, avar, reference, reasons, k)
+    return _unscale_fit(_fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
+                             reasons=reasons), k)  # fmt: skip
+
+
+def _as_floats(values: Any, name: str) -> np.ndarray:
+    try:
+        return np.asarray(values, dtype=float)
+    except (TypeError, ValueError):
+        raise AdavarInputError(f"{name} must be an array of numbers, got {values!r}") from None
+
+
+def _deviation_exponent(values: np.ndarray) -> int:
+    """Binary exponent of the largest finite positive value, 0 within ``2**±SAFE_EXPONENT``."""
+    good = values[np.isfinite(values) & (values > 0)]
+    if good.size == 0:
+        return 0
+    exponent = math.frexp(float(good.max()))[1]
+    return exponent if abs(exponent) > SAFE_EXPONENT else 0
+
+
+def _scaled_avar(avar: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(avar * 4**-k, k)``: variances far from 1 are fitted at scale 1 (exact).
+
+    The model is linear in the coefficients and the weights scale with the variance, so
+    the fit of the scaled curve is the fit of the curve with every coefficient (and its
+    uncertainty) times ``4**-k``; :func:`_unscale_fit` scales it back. Variances within
+    ``4**±SAFE_EXPONENT`` (about 1e-39 .. 1e38) are fitted as they are.
+    """
+    k = _deviation_exponent(avar) // 2
+    return (np.ldexp(avar, -2 * k) if k else avar), k
+
+
+def _unscale_fit(fit: NoiseFit, k: int) -> NoiseFit:
+    """A fit of variances scaled by ``4**-k``, in the data's own units again.
+
+    Coefficients or uncertainties beyond the float64 range raise
+    :class:`AdavarInputError`; the coefficient covariance (the square of their scale)
+    leaves the range first, and is then ``None`` (not available) instead.
+    """
+    if k == 0:
+        return fit
+    what = "noise-model coefficients"
+    slopes = fit.slopes
+    if slopes is not None:
+        slopes = dataclasses.replace(
+            slopes,
+            values={name: math.ldexp(v, k) for name, v in slopes.values.items()},
+            uncertainty={name: math.ldexp(v, k) for name, v in slopes.uncertainty.items()},
+        )
+    covariance = fit.coefficient_covariance
+    if covariance is not None:
+        with np.errstate(over="ignore", under="ignore"):
+            covariance = np.ldexp(covariance, 4 * k)
+        if np.any(np.isfinite(fit.coefficient_covariance) & ~np.isfinite(covariance)):
+            covariance = None
+    return dataclasses.replace(
+        fit,
+        coefficients=unscale(fit.coefficients, 2 * k, what, underflow=False),
+        coefficient_uncertainty=unscale(fit.coefficient_uncertainty, 2 * k, what, underflow=False),
+        coefficient_covariance=covariance,
+        slopes=slopes,
+    )
 
 
 def _apply_reference(
-    tau: np.ndarray, avar: np.ndarray, reference: NoiseFit | None, reasons: list[str]
+    tau: np.ndarray, avar: np.ndarray, reference: NoiseFit | None, reasons: list[str], k: int = 0
 ) -> np.ndarray:
-    """Leave out the taus below ``reference``'s shortest fitted one, take out its roll-off."""
+    """Leave out the taus below ``reference``'s shortest fitted one, take out its roll-off.
+
+    ``avar`` is scaled by ``4**-k`` (:func:`_scaled_avar`), and so is the roll-off.
+    """
     if reference is None:
         return avar
     if not isinstance(reference, NoiseFit) or np.ndim(reference.coefficients) != 1:
-        raise ValueError("reference must be the NoiseFit of one whole-record curve")
+        raise AdavarInputError("reference must be the NoiseFit of one whole-record curve")
     used = reference.used
     shortest = float(np.min(reference.tau[np.asarray(used)])) if used is not None else 0.0
     low = tau < shortest * (1.0 - 1e-9)
     for j in np.flatnonzero(low):
         reasons[j] = reasons[j] or f"below the whole-record fit's shortest tau {shortest:.3g} s"
     out = np.where(low, np.nan, avar)
-    roll = float(reference.rolloff)
+    roll = math.ldexp(float(reference.rolloff), -2 * k)
     return out - roll / tau**2 if roll < 0 else out
 
 
@@ -252,19 +363,19 @@ def _check_options(
     method: str, select: str, significance: float, exclude: str, rolloff: str
 ) -> str:
     if method not in METHODS:
-        raise ValueError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
+        raise AdavarInputError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
     if select not in ("significance", "none"):
-        raise ValueError(f"unknown select {select!r}: use 'significance' or 'none'")
+        raise AdavarInputError(f"unknown select {select!r}: use 'significance' or 'none'")
     if exclude not in ("auto", "none"):
-        raise ValueError(f"unknown exclude {exclude!r}: use 'auto' or 'none'")
+        raise AdavarInputError(f"unknown exclude {exclude!r}: use 'auto' or 'none'")
     if rolloff not in ("model", "none"):
-        raise ValueError(f"unknown rolloff {rolloff!r}: use 'model' or 'none'")
+        raise AdavarInputError(f"unknown rolloff {rolloff!r}: use 'model' or 'none'")
     try:
         ok = float(significance) > 0 and math.isfinite(float(significance))
     except (TypeError, ValueError):
         ok = False
     if not ok:
-        raise ValueError(f"significance must be a positive number, got {significance!r}")
+        raise AdavarInputError(f"significance must be a positive number, got {significance!r}")
     return method
 
 
@@ -280,11 +391,13 @@ def _tau_selection(
             lo = -math.inf if lo is None else float(lo)
             hi = math.inf if hi is None else float(hi)
         except (TypeError, ValueError):
-            raise ValueError(
+            raise AdavarInputError(
                 f"tau_range must be (min, max) in seconds, got {tau_range!r}"
             ) from None
         if not lo < hi:
-            raise ValueError(f"tau_range {tau_range!r}: the minimum must be below the maximum")
+            raise AdavarInputError(
+                f"tau_range {tau_range!r}: the minimum must be below the maximum"
+            )
         for j, t in enumerate(tau):
             if not lo <= t <= hi:
                 keep[j] = False
@@ -295,7 +408,7 @@ def _tau_selection(
         except (TypeError, ValueError):
             bw = math.nan
         if not (bw > 0 and math.isfinite(bw)):
-            raise ValueError(f"bandwidth must be a positive number of Hz, got {bandwidth!r}")
+            raise AdavarInputError(f"bandwidth must be a positive number of Hz, got {bandwidth!r}")
         limit = BANDWIDTH_FACTOR / bw
         for j, t in enumerate(tau):
             if keep[j] and t < limit:
@@ -349,20 +462,20 @@ def _fit(
 ) -> NoiseFit:
     """The diagonally weighted fit behind :func:`fit_avar` and :func:`fit_noise`."""
     if spacing not in ("octave", "independent"):
-        raise ValueError(f"unknown spacing {spacing!r}: use 'octave' or 'independent'")
+        raise AdavarInputError(f"unknown spacing {spacing!r}: use 'octave' or 'independent'")
     terms = _check_terms(terms)
-    if isinstance(n_reweight, bool) or int(n_reweight) != n_reweight or n_reweight < 0:
-        raise ValueError(f"n_reweight must be a non-negative integer, got {n_reweight!r}")
-    n_reweight = int(n_reweight)
+    n_reweight = _check_reweight(n_reweight)
 
     tau = np.asarray(tau, dtype=float)
     if tau.ndim != 1 or tau.size == 0:
-        raise ValueError(f"tau must be a non-empty 1-D array, got shape {tau.shape}")
+        raise AdavarInputError(f"tau must be a non-empty 1-D array, got shape {tau.shape}")
     if not np.all(np.isfinite(tau)) or np.any(tau <= 0):
-        raise ValueError("tau must be finite and positive")
+        raise AdavarInputError("tau must be finite and positive")
     avar = np.asarray(avar, dtype=float)
     if avar.ndim == 0 or avar.shape[-1] != tau.size:
-        raise ValueError(f"avar must have shape (..., {tau.size}) to match tau, got {avar.shape}")
+        raise AdavarInputError(
+            f"avar must have shape (..., {tau.size}) to match tau, got {avar.shape}"
+        )
     weighted = edf is not None
     edf = np.ones(tau.size) if edf is None else np.asarray(edf, dtype=float)
     try:
@@ -370,7 +483,9 @@ def _fit(
     except ValueError:
         fits = False
     if not fits:
-        raise ValueError(f"edf of shape {edf.shape} does not broadcast to avar's {avar.shape}")
+        raise AdavarInputError(
+            f"edf of shape {edf.shape} does not broadcast to avar's {avar.shape}"
+        )
 
     share = np.ones(tau.size)
     if spacing == "octave" and tau.size > 1:
@@ -486,7 +601,8 @@ def fit_noise(
         one inherited from the result only when :meth:`NoiseFit.to_units` needs it.
     n_reweight : int
         Passes after the first, each weighted with the previous pass's model (the
-        covariance for ``"gls"``, the diagonal weights for ``"wls"``).
+        covariance for ``"gls"``, the diagonal weights for ``"wls"``); at most
+        :data:`MAX_REWEIGHT` (the fit converges in 3 or 4).
     spacing : {"octave", "independent"}
         Weighting of densely spaced taus in the ``"wls"`` fit, see :func:`fit_avar` (the
         ``"gls"`` fit has the taus' correlation in its covariance instead).
@@ -545,8 +661,10 @@ def fit_noise(
 
     Raises
     ------
-    ValueError
-        For a non-Allan statistic, a result without ``edf``, or bad inputs.
+    AdavarInputError
+        For a non-Allan statistic, a result without ``edf``, bad inputs (``n_reweight``
+        beyond :data:`MAX_REWEIGHT`, unknown terms or units), or coefficients outside the
+        float64 range (see Notes). It is a ``ValueError``.
 
     Notes
     -----
@@ -560,30 +678,36 @@ def fit_noise(
     method = _check_options(method, select, significance, exclude, rolloff)
     stat = getattr(result, "stat", None)
     if stat is not None and str(stat).lower() not in ALLAN_STATS:
-        raise ValueError(
+        raise AdavarInputError(
             f"the coefficients of the IEEE noise model are defined for the Allan variance, "
             f"not for stat={stat!r}; compute the deviation with stat='oadev'"
         )
     if not hasattr(result, "tau"):
-        raise ValueError("result has no 'tau'; use fit_avar(tau, avar, edf) for raw arrays")
-    avar = getattr(result, "avar", None)
-    if avar is None:
-        dev = getattr(result, "dev", None)
-        if dev is None:
-            raise ValueError("result has neither 'avar' nor 'dev'")
-        avar = np.asarray(dev, dtype=float) ** 2
-    avar = np.asarray(avar, dtype=float)
+        raise AdavarInputError("result has no 'tau'; use fit_avar(tau, avar, edf) for raw arrays")
+    # a deviation is scaled before it is squared (dev**2 overflows from 1.3e154 on)
+    dev = getattr(result, "dev", None)
+    if dev is not None:
+        dev = np.asarray(dev, dtype=float)
+        k = _deviation_exponent(dev)
+        avar = np.ldexp(dev, -k) ** 2 if k else dev**2
+    else:
+        avar = getattr(result, "avar", None)
+        if avar is None:
+            raise AdavarInputError("result has neither 'avar' nor 'dev'")
+        avar, k = _scaled_avar(np.asarray(avar, dtype=float))
     edf = getattr(result, "edf", None)
     if edf is None or not np.isfinite(np.asarray(edf, dtype=float)).any():
-        raise ValueError(
+        raise AdavarInputError(
             "result has no 'edf' (a deviation computed with confidence=None?); compute it "
             "with a confidence level, or use fit_avar(tau, avar, edf=None) for relative weights"
         )
     declared = getattr(result, "units", None)
     if units is not None and declared is not None and units != declared:
-        raise ValueError(f"units={units!r} contradicts the result's declared units {declared!r}")
+        raise AdavarInputError(
+            f"units={units!r} contradicts the result's declared units {declared!r}"
+        )
     if units is not None:
-        rate_unit_info(units)
+        _check_units(units)
     else:
         units = declared
     time = getattr(result, "time", None)
@@ -596,29 +720,32 @@ def fit_noise(
     if one:
         dev = np.sqrt(avar)
         low, high = getattr(result, "dev_low", None), getattr(result, "dev_high", None)
+        if k:
+            low = None if low is None else np.ldexp(np.asarray(low, dtype=float), -k)
+            high = None if high is None else np.ldexp(np.asarray(high, dtype=float), -k)
         if method == "slopes":
-            return _slopes_fit(tau, np.where(keep, dev, np.nan), low, high, terms, units,
-                               tau_max=_readoff_reach(result))  # fmt: skip
+            return _unscale_fit(_slopes_fit(tau, np.where(keep, dev, np.nan), low, high, terms,
+                                            units, tau_max=_readoff_reach(result)), k)  # fmt: skip
         slopes = read_slopes(tau, dev, low, high, tau_max=_readoff_reach(result))
     elif method == "slopes":
-        raise ValueError("method='slopes' reads one curve; fit a stack with 'wls'")
+        raise AdavarInputError("method='slopes' reads one curve; fit a stack with 'wls'")
     record = _record_of(result) if one else None
     if method == "gls" and record is None:
-        raise ValueError(
+        raise AdavarInputError(
             "method='gls' needs one whole-record curve with its record (m, tau0, n_samples, "
             "data_type): a DeviationResult; use method='wls' for stacks or raw arrays"
         )
     if method == "wls" or record is None:
-        masked = _apply_reference(tau, np.where(keep, avar, np.nan), reference, reasons)
-        return _fit(tau, masked, edf, terms, units, n_reweight, spacing=spacing, time=time,
-                    reasons=reasons, slopes=slopes)  # fmt: skip
+        masked = _apply_reference(tau, np.where(keep, avar, np.nan), reference, reasons, k)
+        return _unscale_fit(_fit(tau, masked, edf, terms, units, n_reweight, spacing=spacing,
+                                 time=time, reasons=reasons, slopes=slopes), k)  # fmt: skip
     if reference is not None:
-        raise ValueError(
+        raise AdavarInputError(
             "reference is for the fit of DAVAR windows (method='wls'); a whole-record curve "
             "is fitted with its own exclusions and roll-off"
         )
-    return _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
-                float(significance), exclude, rolloff, slopes)  # fmt: skip
+    return _unscale_fit(_gls(result, record, avar, keep, reasons, terms, units, n_reweight,
+                             select, float(significance), exclude, rolloff, slopes), k)  # fmt: skip
 
 
 def _record_of(result: Any) -> tuple[np.ndarray, int, float] | None:
@@ -643,8 +770,7 @@ def _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
          significance, exclude, rolloff, slopes) -> NoiseFit:  # fmt: skip
     """The full-covariance fit of one curve (:mod:`adavar.gls_fit`) as a NoiseFit."""
     terms = _check_terms(terms)
-    if isinstance(n_reweight, bool) or int(n_reweight) != n_reweight or n_reweight < 0:
-        raise ValueError(f"n_reweight must be a non-negative integer, got {n_reweight!r}")
+    n_reweight = _check_reweight(n_reweight)
     ms, n_points, tau0 = record
     tau = np.asarray(result.tau, dtype=float)
     edf = np.broadcast_to(np.asarray(result.edf, dtype=float), tau.shape)

@@ -23,7 +23,7 @@ import contextlib
 import math
 import os
 import secrets
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -449,6 +449,7 @@ def coefficient_figure(
     conventional: bool = True,
     title: str | None = None,
     max_points: int = 4000,
+    events: Sequence[Any] = (),
 ) -> Figure:
     """One noise coefficient of every DAVAR window over time, with its 1-sigma band.
 
@@ -475,6 +476,9 @@ def coefficient_figure(
         At most this many windows are drawn, evenly spread over time (every k-th window:
         values between them are not drawn, so a feature shorter than ``k`` windows may be
         missed; the coefficient of a window varies on the scale of the window length).
+    events : sequence of Event or mapping
+        Non-stationary stretches (:func:`adavar.events.find_events`), shaded from
+        ``start_s`` to ``end_s`` (a line at ``start_s`` if still open).
 
     Returns
     -------
@@ -534,6 +538,13 @@ def coefficient_figure(
         text = f"{true_value:.4g} {shown_unit}" if shown_unit else f"{true_value:.4g}"
         ax.axhline(true_value, color="k", linestyle="--", linewidth=1.1,
                    label=f"true value {text}")  # fmt: skip
+    for k, event in enumerate(events):
+        start, end = _event_span(event)
+        label = "non-stationary stretch" if k == 0 else None
+        if end is None:
+            ax.axvline(start, color="C3", linewidth=1.2, label=label)
+        else:
+            ax.axvspan(start, end, color="C3", alpha=0.12, linewidth=0, label=label)
     ax.set_xlabel("time [s]")
     ax.set_ylabel(f"{letter} [{shown_unit}]" if shown_unit else letter)
     ax.grid(True, alpha=0.4)
@@ -541,6 +552,12 @@ def coefficient_figure(
     if title:
         ax.set_title(title)
     return fig
+
+
+def _event_span(event: Any) -> tuple[float, float | None]:
+    if isinstance(event, Mapping):
+        return float(event["start_s"]), event["end_s"]
+    return float(event.start_s), event.end_s
 
 
 def save_figure(

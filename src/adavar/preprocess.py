@@ -48,12 +48,14 @@ from adavar.errors import AdavarInputError
 
 __all__ = [
     "DECIMATE_METHODS",
+    "MAX_DETREND_ORDER",
     "STEP_NAMES",
     "Pipeline",
     "Step",
     "decimate",
     "detrend",
     "fit_trend",
+    "parse_steps",
     "preprocess",
     "remove_mean",
     "select",
@@ -64,6 +66,12 @@ DECIMATE_METHODS: tuple[str, ...] = ("keep", "average")
 
 #: The step names understood by :class:`Step` / :func:`preprocess`.
 STEP_NAMES: tuple[str, ...] = ("detrend", "mean", "decimate", "select")
+
+#: The highest polynomial degree :func:`detrend` accepts. Higher degrees are
+#: ill-conditioned, cost ``O(n * order**2)``, and a polynomial that flexible follows the
+#: slow noise (bias instability, rate random walk) that the Allan variance is meant to
+#: measure; the paper's detrend is of degree 3.
+MAX_DETREND_ORDER = 10
 
 _CHUNK = 1 << 20  # samples per block of the streaming least-squares passes
 _TIME_TOL = 1e-9  # relative tolerance when a time lands on a sample
@@ -217,7 +225,14 @@ def _detrend_2d(x: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _as_order(order: Any) -> int:
-    return _as_int(order, "the detrend order", 0, "use 0 (mean), 1 (line), ..., 3 (the paper)")
+    out = _as_int(order, "the detrend order", 0, "use 0 (mean), 1 (line), ..., 3 (the paper)")
+    if out > MAX_DETREND_ORDER:
+        raise _fail(
+            f"the detrend order must be at most {MAX_DETREND_ORDER}, got {out}: higher "
+            "polynomial degrees are ill-conditioned and remove the slow noise being measured "
+            "(bias instability, rate random walk); use 0 to 3 (the paper: 3)"
+        )
+    return out
 
 
 def detrend(x: Any, order: int = 3, *, rate: float = 1.0) -> np.ndarray:
@@ -234,7 +249,8 @@ def detrend(x: Any, order: int = 3, *, rate: float = 1.0) -> np.ndarray:
     x : array_like, shape (n,) or (n, channels)
         The record; time runs along the first axis.
     order : int
-        Degree of the polynomial (the paper: 3; 0 removes the mean).
+        Degree of the polynomial, 0 to :data:`MAX_DETREND_ORDER` (the paper: 3; 0 removes
+        the mean).
     rate : float
         Sample rate in Hz. The residual does not depend on it (a polynomial in time is one
         in the sample index); it is validated and used by :func:`fit_trend`.
@@ -247,8 +263,8 @@ def detrend(x: Any, order: int = 3, *, rate: float = 1.0) -> np.ndarray:
     Raises
     ------
     AdavarInputError
-        A negative or non-integer order, fewer than ``order + 1`` samples, a bad rate, or
-        NaN/Inf in the record.
+        A negative, non-integer or too high (above :data:`MAX_DETREND_ORDER`) order, fewer
+        than ``order + 1`` samples, a bad rate, or NaN/Inf in the record.
     """
     order = _as_order(order)
     _as_rate(rate)
@@ -265,7 +281,7 @@ def fit_trend(x: Any, order: int = 3, *, rate: float = 1.0, t0: float = 0.0) -> 
     x : array_like, shape (n,) or (n, channels)
         The record.
     order : int
-        Degree of the polynomial.
+        Degree of the polynomial, 0 to :data:`MAX_DETREND_ORDER`.
     rate : float
         Sample rate in Hz.
     t0 : float
@@ -478,6 +494,38 @@ _SPEC_HELP = (
 )
 
 
+def parse_steps(spec: str) -> list[Step]:
+    """The steps of a comma-separated text specification, such as ``--preprocess`` takes.
+
+    Parameters
+    ----------
+    spec : str
+        E.g. ``"detrend:3,decimate:100"``; each item as :meth:`Step.parse` reads it.
+
+    Returns
+    -------
+    list of Step
+        At least one.
+
+    Raises
+    ------
+    AdavarInputError
+        An empty specification, an empty item (``"detrend:3,"``, ``"mean,,decimate:10"``)
+        or a bad step.
+    """
+    if not isinstance(spec, str):
+        raise _fail(f"the preprocessing steps must be text such as 'detrend:3', got {spec!r}")
+    if not spec.strip():
+        raise _fail(f"the preprocessing specification is empty: {_SPEC_HELP}, e.g. detrend:3")
+    parts = [part.strip() for part in spec.split(",")]
+    for k, part in enumerate(parts, start=1):
+        if not part:
+            raise _fail(
+                f"preprocessing step {k} of {spec.strip()!r} is empty: remove the extra comma"
+            )
+    return [Step.parse(part) for part in parts]
+
+
 @dataclass(frozen=True)
 class Step:
     """One preprocessing step.
@@ -648,8 +696,9 @@ class Pipeline:
 
     Parameters
     ----------
-    steps : iterable of str, mapping or Step
-        See :meth:`Step.parse`. An empty pipeline returns the record unchanged.
+    steps : iterable of str, mapping or Step, or str
+        See :meth:`Step.parse`; one string may hold several steps separated by commas (see
+        :func:`parse_steps`). An empty pipeline returns the record unchanged.
     min_samples : int
         The fewest samples a step may leave (default 3, the fewest for an Allan variance).
 
@@ -664,7 +713,9 @@ class Pipeline:
     def __init__(
         self, steps: Iterable[str | Mapping[str, Any] | Step] = (), *, min_samples: int = 3
     ) -> None:
-        if isinstance(steps, (str, Mapping, Step)):
+        if isinstance(steps, str):
+            steps = parse_steps(steps)
+        elif isinstance(steps, (Mapping, Step)):
             steps = [steps]
         self.steps: tuple[Step, ...] = tuple(Step.parse(s) for s in steps)
         self.min_samples = _as_int(min_samples, "min_samples", 1, "use 1 or more")
@@ -769,7 +820,8 @@ def preprocess(
     steps : sequence of str, mapping or Step, or str
         E.g. ``["detrend:3", "decimate:100"]`` (the paper), ``["mean", "select:100:3600",
         "decimate:10:average"]``; a single string may hold several steps separated by
-        commas (``"detrend:3,decimate:100"``). See :meth:`Step.parse`.
+        commas (``"detrend:3,decimate:100"``; see :func:`parse_steps`). See
+        :meth:`Step.parse`.
     t0 : float
         Time of the first sample in s.
     min_samples : int
@@ -786,8 +838,7 @@ def preprocess(
     Raises
     ------
     AdavarInputError
-        A bad step specification, a step that fails or leaves too few samples.
+        A bad step specification (an empty one, or an empty item between commas), a step
+        that fails or leaves too few samples.
     """
-    if isinstance(steps, str):
-        steps = [s for s in (part.strip() for part in steps.split(",")) if s]
     return Pipeline(steps, min_samples=min_samples).run(x, rate=rate, t0=t0)

@@ -459,18 +459,20 @@ def _adaptive_figure(adaptive: Any) -> dict[str, Any]:
                                "yaxis": _yref(k), "hoverinfo": "name",
                                "line": {"color": "#000", "dash": "dash", "width": 1}})  # fmt: skip
 
+    used = {} if paper else {n: v[0] for n, v in (p.get("thresholds_used") or {}).items()}
+    at = "" if paper else " at Lmax"
     k = 0
     if adaptive.kurtosis is not None:
         line(_num(_pool(adaptive.kurtosis, starts, "first"), 5), "kurtosis", _COLOURS[0], k)
-        if paper:
-            level(p.get("k1"), "K1", k)
-            level(p.get("k2"), "K2", k)
+        if paper or used:
+            level(p.get("k1") if paper else used.get("k1"), "K1" + at, k)
+            level(p.get("k2") if paper else used.get("k2"), "K2" + at, k)
         panels.append("kurtosis")
         k += 1
     if adaptive.s is not None:
         line(_num(_pool(adaptive.s, starts, "first"), 5), "S", _COLOURS[3], k)
-        if paper:
-            level(p.get("s2"), "S2", k)
+        if paper or used:
+            level(p.get("s2") if paper else used.get("s2"), "S2" + at, k)
         panels.append("S (last l)")
         k += 1
     for flag, colour in (("f1", _COLOURS[0]), ("f2", _COLOURS[3]), ("f", _COLOURS[2])):
@@ -545,6 +547,45 @@ def _comparison_figure(comparison: Any, units: str | None) -> dict[str, Any]:
         if c is not None
     ]  # fmt: skip
     return {"data": traces, "layout": layout, "config": _config()}
+
+
+def event_shapes(events: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
+    """Plotly shapes: the non-stationary stretches shaded (a line where one is still open)."""
+    return [
+        {"type": "rect", "xref": "x", "yref": "paper", "x0": e["start_s"],
+         "x1": e["end_s"] if e["end_s"] is not None else None, "y0": 0, "y1": 1,
+         "fillcolor": "#d62728", "opacity": 0.12, "line": {"width": 0}, "layer": "below"}
+        if e["end_s"] is not None else
+        {"type": "line", "xref": "x", "yref": "paper", "x0": e["start_s"],
+         "x1": e["start_s"], "y0": 0, "y1": 1, "line": {"color": "#d62728", "width": 1.5}}
+        for e in events
+    ]  # fmt: skip
+
+
+def events_table(events: Sequence[Mapping[str, Any]], fit: Any, units: str | None) -> str:
+    """HTML table of the non-stationary stretches (``ReportAnalysis.events()["items"]``)."""
+    if not events:
+        return "<p>No non-stationary stretch: the window never shortened.</p>"
+    names = [n for n in (fit.terms if fit is not None else ()) if n in events[0]["before"]]
+    head = "".join(f"<th>{_esc(TERM_LABELS[n][0])} before / during / after</th>" for n in names)
+    rows = []
+    for e in events:
+        cells = [_fmt(e["start_s"]), "open" if e["end_s"] is None else _fmt(e["end_s"])]
+        for n in names:
+            parts = [
+                "-" if e[k][n]["median"] is None else
+                f"{e[k][n]['median']:.4g} [{e[k][n]['low']:.3g}, {e[k][n]['high']:.3g}]"
+                for k in ("before", "during", "after")
+            ]  # fmt: skip
+            cells.append(" / ".join(parts))
+        rows.append("<tr>" + "".join(f"<td>{_esc(c)}</td>" for c in cells) + "</tr>")
+    unit = f" ({_esc(units)} units of the fit)" if units else ""
+    return (
+        f"<table><tr><th>start [s]</th><th>end [s]</th>{head}</tr>{''.join(rows)}</table>"
+        f'<p class="caption">Change times estimated from the window; each term: median '
+        f"[16 %, 84 %] over the windows wholly before, inside and after the stretch"
+        f"{unit}.</p>"
+    )
 
 
 # --------------------------------------------------------------------------------------
@@ -697,6 +738,7 @@ def build_report(
     parameters: Mapping[str, Any] | None = None,
     preprocessing: Sequence[str] | None = None,
     units: str | None = None,
+    events: Sequence[Mapping[str, Any]] | None = None,
 ) -> str:
     """One self-contained HTML document with interactive plots of an analysis.
 
@@ -736,6 +778,10 @@ def build_report(
         Preprocessing steps applied to the data, in order.
     units : str, optional
         Unit of the rate samples, for results that do not carry one.
+    events : sequence of mapping, optional
+        The non-stationary stretches (``ReportAnalysis.events()["items"]``: ``start_s``,
+        ``end_s``, ``before``, ``during``, ``after``), shaded in the coefficient figure and
+        listed in an Events section (an empty list: the section says there is none).
 
     Returns
     -------
@@ -799,6 +845,8 @@ def build_report(
 
     if coefficients is not None:
         figure, names = _coefficient_figure(coefficients, units)
+        if figure and events:
+            figure["layout"]["shapes"] = event_shapes(events)
         if figure:
             body = plot("coefficients", figure)
             cap = (
@@ -807,9 +855,16 @@ def build_report(
             )
         else:
             body, cap = "", "No term is non-zero in any window."
+        if events:
+            cap += " Shaded: the non-stationary stretches the window detected."
         sections.append(
             '<section id="coefficients-time"><h2>Noise coefficients over time</h2>'
             f'{body}<p class="caption">{_esc(cap)}</p></section>'
+        )
+    if events is not None:
+        sections.append(
+            '<section id="events"><h2>Events</h2>'
+            f"{events_table(events, coefficients, units)}</section>"
         )
 
     if adaptive is not None:

@@ -43,6 +43,9 @@ class ControllerSettings:
         The given thresholds, or ones calibrated for ``false_alarm``.
     false_alarm : float
         Per-step false-alarm rate of the calibrated thresholds.
+    false_alarm_per_hour : float or None
+        Calibrate for this many false events per hour of stationary data instead
+        (``adavar adaptive``, ``report`` and ``batch`` use 0.1 with calibrated thresholds).
     """
 
     lmax: int = 600
@@ -58,6 +61,7 @@ class ControllerSettings:
     combine: str = "or"
     thresholds: str = "paper"
     false_alarm: float = 0.01
+    false_alarm_per_hour: float | None = None
 
     def keywords(self) -> dict[str, Any]:
         """The keywords of :func:`adavar.adaptive_davar` / :func:`adavar.adaptive_schedule`."""
@@ -65,8 +69,16 @@ class ControllerSettings:
 
     @classmethod
     def from_options(cls, options: Any) -> ControllerSettings:
-        """From an object with the command line's option names (``segment`` for ``l``)."""
-        values = {f.name: getattr(options, f.name) for f in fields(cls) if f.name != "l"}
+        """From an object with the command line's option names (``segment`` for ``l``).
+
+        ``false_alarm`` None (not given) keeps the per-hour calibration; a per-step
+        ``false_alarm`` given replaces it.
+        """
+        values = {f.name: getattr(options, f.name, None) for f in fields(cls) if f.name != "l"}
+        if values["false_alarm"] is None:
+            values["false_alarm"] = cls.false_alarm
+        else:
+            values["false_alarm_per_hour"] = None
         return cls(l=options.segment, **values)
 
 
@@ -86,6 +98,9 @@ class FitSettings:
     bandwidth: float | None = None
 
 
+#: False events per hour of stationary data the command line's thresholds are calibrated for.
+HOURLY_FALSE_ALARMS = 0.1
+
 #: The defaults everywhere (read-only instances).
 CONTROLLER = ControllerSettings()
 FIT = FitSettings()
@@ -104,5 +119,8 @@ ANALYSIS_DEFAULTS: dict[str, Any] = {
     **_CONTROLLER_OPTIONS,
     # the windows follow the record (adavar.analysis.resolve_lengths) unless given
     "lmax": None, "lmin": None, "segment": None,
+    # thresholds for a rate of false events per stationary hour (issue 13), unless
+    # --thresholds paper or a per-step --false-alarm is given
+    "thresholds": "calibrated", "false_alarm": None, "false_alarm_per_hour": HOURLY_FALSE_ALARMS,
     **_FIT_OPTIONS,
 }  # fmt: skip

@@ -53,6 +53,7 @@ if TYPE_CHECKING:  # defined in adavar.paper.scenarios, re-exported by __getattr
     from adavar.paper.scenarios import PAPER_SCENARIOS, PaperScenario, paper_scenario
 
 __all__ = [
+    "MAX_SAMPLES",
     "PAPER_SCENARIOS",
     "PaperScenario",
     "angle_random_walk",
@@ -75,6 +76,11 @@ SeedLike = int | np.integer | np.random.SeedSequence | np.random.Generator | Non
 """Anything :func:`numpy.random.default_rng` accepts as a seed."""
 
 FloatArray = NDArray[np.float64]
+
+#: The most samples a generator makes (``n``): 8 GB for the float64 result alone, and the
+#: generators hold a few arrays of that size while they work. Longer records exhaust the
+#: memory of most machines rather than fail cleanly.
+MAX_SAMPLES = 1_000_000_000
 
 # Order of the child streams of `sensor`.  Append new random terms at the END only, so that
 # existing seeds keep producing the same draws for the existing terms.
@@ -100,6 +106,11 @@ def _check_n(n: object, name: str = "n") -> int:
         )
     if n < 1:
         raise ValueError(f"{name} must be >= 1 (got {n}); request at least one sample.")
+    if n > MAX_SAMPLES:
+        raise ValueError(
+            f"{name} must be at most {MAX_SAMPLES:,} samples (got {n}): the record alone "
+            f"would take {8 * int(n) / 2**30:.1f} GiB; simulate fewer samples."
+        )
     return int(n)
 
 
@@ -175,7 +186,7 @@ def white(n: int, std: float = 1.0, *, rate: float = 1.0, seed: SeedLike = None)
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     std : float, default 1.0
         Standard deviation of each sample, in rate units ``u``; ``>= 0``.
     rate : float, default 1.0
@@ -208,7 +219,7 @@ def random_walk(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     step_std : float, default 1.0
         Standard deviation of each step ``w[k] - w[k-1]``, in rate units ``u``; ``>= 0``.
     rate : float, default 1.0
@@ -254,7 +265,7 @@ def flicker(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     h_minus1 : float, default 1.0
         Level of the one-sided PSD ``S(f) = h_minus1 / f``, in u^2 (u^2/Hz times Hz); ``>= 0``.
     rate : float, default 1.0
@@ -308,7 +319,7 @@ def markov(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     std : float
         Stationary standard deviation, in rate units ``u``; ``>= 0``.
     correlation_time : float
@@ -361,7 +372,7 @@ def sinusoid(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     amplitude : float
         Amplitude ``Omega_0`` in rate units ``u``; ``>= 0``.
     frequency : float
@@ -410,7 +421,7 @@ def quantization(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     coefficient : float
         ``Q`` in u*s (e.g. deg for a gyro, m/s for an accelerometer, s for a clock); ``>= 0``.
     rate : float, default 1.0
@@ -443,7 +454,7 @@ def angle_random_walk(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     coefficient : float
         ``N`` in u/sqrt(Hz) = u*sqrt(s) (e.g. deg/sqrt(s)); ``>= 0``.  Each sample has
         standard deviation ``N / sqrt(tau0) = N sqrt(rate)``.
@@ -478,7 +489,7 @@ def bias_instability(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     coefficient : float
         ``B`` in rate units u (e.g. deg/s); ``>= 0``.
     rate : float, default 1.0
@@ -514,7 +525,7 @@ def rate_random_walk(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     coefficient : float
         ``K`` in u*sqrt(Hz) = u/sqrt(s) (e.g. deg/s/sqrt(s)); ``>= 0``.
     rate : float, default 1.0
@@ -559,7 +570,7 @@ def rate_ramp(n: int, coefficient: float, *, rate: float = 1.0) -> FloatArray:
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     coefficient : float
         ``R`` in u/s (e.g. deg/s^2); ``>= 0``.
     rate : float, default 1.0
@@ -612,7 +623,7 @@ def sensor(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     rate : float, default 1.0
         Sampling rate in Hz (``tau0 = 1/rate``).
     quantization : float, default 0.0
@@ -785,7 +796,7 @@ def piecewise_white(
     Parameters
     ----------
     n : int
-        Number of samples, ``>= 1``.
+        Number of samples, ``1`` to :data:`MAX_SAMPLES`.
     stds : sequence of float
         Per-segment standard deviation of the rate samples, in u (``>= 0``, finite);
         ``len(stds) == len(change_samples) + 1``.  (Segment ``k`` has angle random walk

@@ -9,6 +9,7 @@ per averaging time and exactly (a few ulps), even on records with large offsets 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,28 +23,113 @@ from adavar.noise_id import NOISE_ID_RULES, b1_with_rn, pm_with_rn, rn_ratio
 from adavar.results import DeviationResult
 from adavar.taus import averaging_factors
 
-__all__ = ["DATA_TYPES", "NOISE_ID_RULES", "STATISTICS", "as_samples", "deviation", "resolve_tau0"]
+__all__ = [
+    "DATA_TYPES",
+    "MAX_POINTS_PER_DECADE",
+    "NOISE_ID_RULES",
+    "SAFE_EXPONENT",
+    "STATISTICS",
+    "ScaledSource",
+    "as_samples",
+    "check_confidence",
+    "data_exponent",
+    "deviation",
+    "refuse_masked",
+    "resolve_tau0",
+    "scaled",
+    "scaled_source",
+    "tau_factors",
+    "unscale",
+]
 
 STATISTICS = ("adev", "oadev", "mdev", "hdev", "ohdev", "tdev", "totdev")
 DATA_TYPES = ("rate", "phase")
 DATA_TYPE_ALIASES = {"rate": "rate", "freq": "rate", "frequency": "rate", "phase": "phase"}
+#: a record whose largest magnitude lies in ``2**-SAFE_EXPONENT .. 2**SAFE_EXPONENT`` is
+#: used as it is; one outside is first scaled by a power of two (:func:`scaled`)
+SAFE_EXPONENT = 64
+#: densest ``taus="log"``: neighbouring taus then differ by 0.23 %, far less than the
+#: confidence interval of any Allan-variance estimate; every factor is ``taus="all"``
+MAX_POINTS_PER_DECADE = 1000
+#: samples of a streamed record whose largest magnitude sets its scale, and pieces tried
+_SCALE_SAMPLES = 1 << 10
+_SCALE_PIECES = 64
+_TINY = float(np.finfo(np.float64).tiny)
 
 
 def resolve_tau0(rate: float | None, tau0: float | None) -> float:
-    """Sample interval from either a sample rate (Hz) or an interval (s), not both."""
+    """Sample interval from either a sample rate (Hz) or an interval (s), not both.
+
+    ``rate=None`` needs ``tau0``; a ``bool`` is not a rate. A rate whose interval lies
+    outside the normal float64 range (below about 2.2e-308 s or above 1.8e308 s) is refused
+    rather than carried into infinite or digit-less taus.
+    """
     if tau0 is not None:
-        if rate not in (None, 1.0):
+        if rate is not None and not (_is_real(rate) and float(rate) == 1.0):
             raise AdavarInputError("give either rate or tau0, not both")
         value, name = tau0, "tau0"
+    elif rate is None:
+        raise AdavarInputError(
+            "no sampling rate: give rate= (samples per second, Hz) or tau0= (seconds)"
+        )
     else:
-        value, name = (1.0 if rate is None else rate), "rate"
+        value, name = rate, "rate"
+    if isinstance(value, (bool, np.bool_)):
+        raise AdavarInputError(f"{name} must be a number, got {value!r}")
     try:
         value = float(value)
     except (TypeError, ValueError):
         raise AdavarInputError(f"{name} must be a number, got {value!r}") from None
     if not np.isfinite(value) or value <= 0:
         raise AdavarInputError(f"{name} must be a positive number, got {value!r}")
-    return value if name == "tau0" else 1.0 / value
+    with np.errstate(over="ignore", divide="ignore"):
+        step = value if name == "tau0" else 1.0 / value
+    if not (_TINY <= step < np.inf):
+        raise AdavarInputError(
+            f"{name} = {value!r} gives a sample interval of {step!r} s, outside the normal "
+            "float64 range (2.2e-308 .. 1.8e308): give the rate in Hz (or tau0 in seconds)"
+        )
+    return step
+
+
+def check_confidence(confidence: object) -> None:
+    """``confidence`` is None or a number strictly between 0 and 1 (else a one-line error)."""
+    if confidence is None:
+        return
+    try:
+        ok = not isinstance(confidence, (bool, np.bool_)) and 0.0 < float(confidence) < 1.0
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise AdavarInputError(
+            f"confidence must lie strictly between 0 and 1 (e.g. 0.683), or be None, got "
+            f"{confidence!r}"
+        )
+
+
+def _is_real(value: object) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    )
+
+
+def refuse_masked(data: object) -> None:
+    """Refuse a :class:`numpy.ma.MaskedArray` with masked samples (one-line error).
+
+    The statistics have no way to skip samples: a masked sample would be read as whatever
+    value lies under the mask. Without masked samples the array is read as it is.
+    """
+    if not isinstance(data, np.ma.MaskedArray):
+        return
+    mask = np.ma.getmaskarray(data)
+    if mask.any():
+        first = int(np.argmax(mask.ravel()))
+        raise AdavarInputError(
+            f"data is a masked array with {int(mask.sum())} masked sample(s) (the first is "
+            f"sample {first}) and masked samples cannot be skipped: fill them first, e.g. "
+            "interpolate over x.filled(np.nan) (what read_record(..., nan='interpolate') and "
+            "--nan interpolate do), or pass x.compressed() if dropping them shifts no time"
+        )
 
 
 def as_samples(data: object, *, min_length: int = 3) -> np.ndarray:
@@ -51,6 +137,7 @@ def as_samples(data: object, *, min_length: int = 3) -> np.ndarray:
 
     float32 and integer input is promoted to float64 (the sums need the precision).
     """
+    refuse_masked(data)
     try:
         x = np.asarray(data)
     except Exception as exc:  # pragma: no cover - exotic containers
@@ -75,6 +162,140 @@ def as_samples(data: object, *, min_length: int = 3) -> np.ndarray:
             f"sample {first} is {x[first]!r}: remove or interpolate non-finite samples first"
         )
     return x
+
+
+# ---------------------------------------------------------------------------------------
+# the scale of the data: every statistic here is homogeneous (a variance scales with the
+# square of the data), so a record far from 1 is computed at scale 1 and scaled back
+
+
+def data_exponent(x: np.ndarray) -> int:
+    """Binary exponent ``k`` of a record's scale, 0 when no scaling is needed.
+
+    ``x * 2**-k`` has its largest magnitude in ``[0.5, 1)``. A record whose largest
+    magnitude already lies within ``2**±SAFE_EXPONENT`` (about 5e-20 .. 2e19), or that is
+    all zeros, gets 0 and is used as it is: its sums of squares and fourth powers stay far
+    from overflow and underflow.
+    """
+    if x.size == 0:
+        return 0
+    big = max(abs(float(np.max(x))), abs(float(np.min(x))))
+    if not 0.0 < big < math.inf:
+        return 0
+    exponent = math.frexp(big)[1]
+    return exponent if abs(exponent) > SAFE_EXPONENT else 0
+
+
+def scaled(x: np.ndarray) -> tuple[np.ndarray, int]:
+    """``(x * 2**-k, k)`` with ``k = data_exponent(x)``: exact (``numpy.ldexp``), no copy if 0.
+
+    Multiplying by a power of two changes only the exponent of every sample, so results
+    computed on the scaled record are those of the record itself times ``2**k`` (a
+    deviation) or ``4**k`` (a variance), bit for bit, and a record near 1e306 or of
+    subnormal numbers is computed as accurately as one near 1.
+    """
+    k = data_exponent(x)
+    return (np.ldexp(x, -k) if k else x), k
+
+
+class ScaledSource(stream.ChunkedSource):
+    """A streamed record times ``2**-exponent`` (exact): :func:`scaled` out of core."""
+
+    def __init__(self, source: stream.ChunkedSource, exponent: int) -> None:
+        self.source = source
+        self.exponent = int(exponent)
+        self.size = source.size
+        self.name = source.name
+
+    def _read_raw(self, start: int, stop: int) -> np.ndarray:
+        return np.ldexp(self.source.read(start, stop), -self.exponent)
+
+
+def scaled_source(source: stream.ChunkedSource) -> tuple[stream.ChunkedSource, int]:
+    """``(source * 2**-k, k)`` for a streamed record.
+
+    ``k`` comes from its first 1024 samples (from the first piece of 1024 that is not all
+    zeros, within the first 64): any exponent is exact, it only has to keep the sums in
+    range, and a record does not change its scale by 2**64 within itself.
+    """
+    k = 0
+    for start in range(0, min(source.size, _SCALE_PIECES * _SCALE_SAMPLES), _SCALE_SAMPLES):
+        piece = source.read(start, min(source.size, start + _SCALE_SAMPLES))
+        if np.any(piece):
+            k = data_exponent(piece)
+            break
+    return (ScaledSource(source, k) if k else source), k
+
+
+def unscale(values: np.ndarray, exponent: int, what: str, *, underflow: bool = True) -> np.ndarray:
+    """``values * 2**exponent`` (exact), or a one-line error when it leaves float64.
+
+    A finite value whose true result exceeds the largest double raises
+    :class:`AdavarInputError` instead of becoming inf; with ``underflow=False`` so does a
+    nonzero one that would drop below the normal range (2.2e-308) and lose digits (a
+    variance; a deviation there is returned as the nearest subnormal).
+    """
+    values = np.asarray(values)
+    if exponent == 0:
+        return values
+    with np.errstate(over="ignore", under="ignore"):
+        out = np.ldexp(values, exponent)
+    finite = np.isfinite(values)
+    if np.any(finite & ~np.isfinite(out)):
+        raise AdavarInputError(
+            f"the {what} of this record exceed the float64 range (1.8e308): divide the data "
+            "by a power of ten (a larger unit) and scale the result back"
+        )
+    if not underflow and np.any(finite & (values != 0) & (np.abs(out) < _TINY)):
+        raise AdavarInputError(
+            f"the {what} of this record fall below the float64 range (2.2e-308) and would "
+            "lose digits: multiply the data by a power of ten (a smaller unit) and scale the "
+            "result back"
+        )
+    return out
+
+
+def tau_factors(
+    taus: str | Sequence[float] | np.ndarray,
+    m_max: int,
+    tau0: float,
+    points_per_decade: int,
+) -> tuple[np.ndarray, tuple[str, ...]]:
+    """:func:`adavar.taus.averaging_factors`, with the options checked (one-line errors).
+
+    ``points_per_decade`` must be a whole number in ``1 .. MAX_POINTS_PER_DECADE``; an
+    explicit ``taus`` must be numbers; every tau ``m * tau0`` must be a finite float.
+    """
+    ppd = points_per_decade
+    if isinstance(ppd, (float, np.floating)) and float(ppd).is_integer():
+        ppd = int(ppd)
+    if isinstance(ppd, (bool, np.bool_)) or not isinstance(ppd, (int, np.integer)):
+        raise AdavarInputError(f"points_per_decade must be a whole number, got {ppd!r}")
+    if not 1 <= ppd <= MAX_POINTS_PER_DECADE:
+        raise AdavarInputError(
+            f"points_per_decade must lie in 1 .. {MAX_POINTS_PER_DECADE}, got {ppd}: denser "
+            "taus add no information (use taus='all' for every averaging factor)"
+        )
+    if not isinstance(taus, str):
+        try:
+            values = np.asarray(taus)
+            bad = values.dtype.kind not in "iuf"
+            if not bad:
+                taus = values.astype(np.float64)
+        except (TypeError, ValueError):
+            bad = True
+        if bad:
+            raise AdavarInputError(
+                f"taus must be a keyword (octave, all, decade, log) or a list of seconds, "
+                f"got {taus!r}"
+            )
+    ms, notes = averaging_factors(taus, m_max, tau0, points_per_decade=int(ppd))
+    if not math.isfinite(float(ms[-1]) * tau0):
+        raise AdavarInputError(
+            f"the sample interval {tau0:g} s makes the tau of {int(ms[-1])} samples overflow "
+            "float64: check the rate (rate= is in Hz, tau0= in seconds)"
+        )
+    return ms, notes
 
 
 def _m_max(stat: str, n_points: int) -> int:
@@ -201,7 +422,8 @@ def deviation(
     tau0 : float, optional
         Sample interval in seconds, instead of ``rate``.
     points_per_decade : int
-        Density of ``taus="log"``.
+        Density of ``taus="log"``, 1 .. :data:`MAX_POINTS_PER_DECADE` (denser taus add no
+        information: neighbours would differ by less than 0.23 %).
     units : str, optional
         Declared unit of the samples (e.g. ``"deg/s"``), carried to the fit's unit
         conversions. Never guessed.
@@ -243,6 +465,16 @@ def deviation(
     standard deviations or a drift costs no digits. For rate input ``tau0`` cancels from
     the variance; for phase input it sets the units (phase/second).
 
+    Every statistic is homogeneous: a record beyond ``2**±SAFE_EXPONENT`` (values near
+    1e306, or subnormal numbers) is computed at scale 1, scaled by a power of two (exact),
+    and its deviations scaled back, so ``deviation(x * 2**k).dev == deviation(x).dev * 2**k``
+    bit for bit; a deviation beyond the largest double is an :class:`AdavarInputError`, one
+    below the normal range is the nearest subnormal. The binary exponent of ``tau0`` is
+    carried the same way for phase data and TDEV. A :class:`numpy.ma.MaskedArray` with
+    masked samples is refused (they cannot be skipped), as are a ``rate`` that is ``None``
+    without ``tau0`` or a ``bool``, taus that overflow, and more than
+    :data:`MAX_POINTS_PER_DECADE` points per decade.
+
     Out of core (chunked ``data`` or ``chunk_size`` given): the same anchored form is built
     by :mod:`adavar.stream_statistics` in one pass, keeping only its double-double anchors
     (16 bytes per 1024 samples); the local sums are recomputed over windows that slide
@@ -267,26 +499,29 @@ def deviation(
     dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
-    if confidence is not None and not (0.0 < float(confidence) < 1.0):
-        raise AdavarInputError(f"confidence must lie strictly between 0 and 1, got {confidence}")
+    check_confidence(confidence)
     step = resolve_tau0(rate, tau0)
     min_length = 4 if dtype == "phase" else 3
+    refuse_masked(data)
 
+    # the record is computed at scale 1 (exact: a power of two), the deviations scaled back
+    # by 2**exponent; the sample interval's binary exponent joins it for phase data and TDEV
     chunked = chunk_size is not None or stream.is_chunked(data)
     if chunked:
         chunk = stream.DEFAULT_CHUNK if chunk_size is None else stream.check_chunk_size(chunk_size)
-        source = stream.open_record(data, min_length)
+        source, exponent = scaled_source(stream.open_record(data, min_length))
         increments = source if dtype == "rate" else stream.DifferencedSource(source)
         n_samples, n_points = source.size, increments.size + 1
     else:
-        x = as_samples(data, min_length=min_length)
+        x, exponent = scaled(as_samples(data, min_length=min_length))
         u = x if dtype == "rate" else np.diff(x)
         n_samples, n_points = x.size, u.size + 1
 
-    scale = 1.0 if dtype == "rate" else 1.0 / step**2
-    ms, notes = averaging_factors(
-        taus, _m_max(stat, n_points), step, points_per_decade=points_per_decade
-    )
+    step_mantissa, step_exponent = math.frexp(step)
+    scale = 1.0 if dtype == "rate" else 1.0 / step_mantissa**2
+    if dtype == "phase":
+        exponent -= step_exponent
+    ms, notes = tau_factors(taus, _m_max(stat, n_points), step, points_per_decade)
     if not chunked:
         phase = diff.anchored_phase(u, cluster_stats=confidence is not None)
         kernels = diff
@@ -329,7 +564,8 @@ def deviation(
     var = var * scale
     tau = ms * step
     if stat == "tdev":
-        var = var * tau**2 / 3.0
+        var = var * (ms * step_mantissa) ** 2 / 3.0
+        exponent += step_exponent
 
     if confidence is None:
         nan = np.full(ms.size, np.nan)
@@ -356,11 +592,12 @@ def deviation(
             bias = np.array([TOTVAR_BIAS.get(int(a), 0.0) for a in alpha])
             var = var / (1.0 - bias * ms / (n_points - 1))
         var_low, var_high = edf_mod.chi2_interval(var, edf_values, float(confidence))
-        low, high = np.sqrt(var_low), np.sqrt(var_high)
+        low = unscale(np.sqrt(var_low), exponent, "deviations")
+        high = unscale(np.sqrt(var_high), exponent, "deviations")
 
     return DeviationResult(
         tau=tau,
-        dev=np.sqrt(var),
+        dev=unscale(np.sqrt(var), exponent, "deviations"),
         dev_low=low,
         dev_high=high,
         edf=edf_values,

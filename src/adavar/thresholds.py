@@ -18,7 +18,14 @@ from scipy import stats
 from adavar.errors import AdavarInputError
 from adavar.settings import CONTROLLER
 
-__all__ = ["Thresholds", "calibrated_thresholds", "fixed_thresholds"]
+__all__ = [
+    "Thresholds",
+    "calibrated_thresholds",
+    "fixed_thresholds",
+    "hourly_thresholds",
+    "noise_dependence",
+    "thresholds_for",
+]
 
 
 def _anscombe_glynn(n: int) -> tuple[float, float, float]:
@@ -164,3 +171,237 @@ def fixed_thresholds(lmax: int, k1: float, k2: float, s2: float) -> Thresholds:
         k1=np.full(size, float(k1)), k2=np.full(size, float(k2)), s2=np.full(size, float(s2)),
         source="fixed",
     )  # fmt: skip
+
+
+# ---------------------------------------------------------------------------------------
+# thresholds for a false-alarm rate per hour of stationary data
+
+
+def _ag_z(b: np.ndarray, n: float) -> np.ndarray:
+    """Anscombe-Glynn z-scores of kurtoses ``b`` (vectorised; -inf at and below the pole)."""
+    e, sd, a = _anscombe_glynn_real(n)
+    x = (np.asarray(b, dtype=float) - e) / sd
+    denom = 1 + x * math.sqrt(2 / (a - 4.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        term2 = np.cbrt((1 - 2.0 / a) / denom)
+        z = (1 - 2 / (9.0 * a) - term2) / math.sqrt(2 / (9.0 * a))
+    return np.where(denom > 0, z, -np.inf)
+
+
+def _ag_inverse(z: np.ndarray, n: float) -> np.ndarray:
+    """The kurtosis whose Anscombe-Glynn z-score is ``z`` (the transform solved exactly)."""
+    e, sd, a = _anscombe_glynn_real(n)
+    term2 = 1 - 2 / (9.0 * a) - np.asarray(z, dtype=float) * math.sqrt(2 / (9.0 * a))
+    denom = (1 - 2.0 / a) / term2**3
+    return e + (denom - 1) / math.sqrt(2 / (a - 4.0)) * sd
+
+
+def _anscombe_glynn_real(n: float) -> tuple[float, float, float]:
+    """:func:`_anscombe_glynn` for a real (effective) sample size ``n > 3``."""
+    n = max(float(n), 8.0)
+    e = 3.0 * (n - 1) / (n + 1)
+    sd = math.sqrt(24.0 * n * (n - 2) * (n - 3) / ((n + 1) ** 2 * (n + 3) * (n + 5)))
+    sqrtbeta1 = (
+        6.0 * (n * n - 5 * n + 2) / ((n + 7) * (n + 9))
+        * math.sqrt(6.0 * (n + 3) * (n + 5) / (n * (n - 2) * (n - 3)))
+    )  # fmt: skip
+    a = 6.0 + 8.0 / sqrtbeta1 * (2.0 / sqrtbeta1 + math.sqrt(1 + 4.0 / sqrtbeta1**2))
+    return e, sd, a
+
+
+#: Lags of the autocorrelation summed by :func:`noise_dependence`.
+DEPENDENCE_LAGS = 256
+#: Samples of the record :func:`noise_dependence` reads (from its start).
+DEPENDENCE_SAMPLES = 1 << 20
+
+
+def noise_dependence(x: np.ndarray) -> tuple[float, float]:
+    """How much the record's short-range correlation inflates the tests' sampling spread.
+
+    Returns ``(c2, c4) = (sum rho_k^2, sum rho_k^4)`` over lags ``|k| <=`` 256, from the
+    first 2^20 samples with the mean of every 2048-sample block removed (so slow drift does
+    not count; the sensor's filter does). For a Gaussian process the sample variance of
+    ``L`` samples has the spread of ``L / c2`` independent ones and the sample kurtosis that
+    of ``L / c4`` (its linear part is the mean of the Hermite polynomial ``H4``, whose
+    lag-``k`` covariance is ``24 rho_k^4``); white noise gives ``(1, 1)``.
+    """
+    v = np.asarray(x[:DEPENDENCE_SAMPLES], dtype=float)
+    block = 8 * DEPENDENCE_LAGS
+    m = (v.size // block) * block
+    if m < 4 * block:
+        return 1.0, 1.0
+    v = v[:m].reshape(-1, block)
+    v = (v - v.mean(axis=1, keepdims=True)).ravel()
+    var = float(np.dot(v, v))
+    if not var > 0.0:
+        return 1.0, 1.0
+    size = 1 << int(np.ceil(np.log2(2 * v.size)))
+    spec = np.fft.rfft(v, size)
+    acf = np.fft.irfft(spec * np.conj(spec), size)[1 : DEPENDENCE_LAGS + 1] / var
+    acf *= v.size / (v.size - np.arange(1, DEPENDENCE_LAGS + 1))
+    # lags whose correlation is below the estimate's noise count as zero
+    acf = np.where(np.abs(acf) > 3.0 / math.sqrt(v.size), acf, 0.0)
+    return 1.0 + 2.0 * float(np.sum(acf**2)), 1.0 + 2.0 * float(np.sum(acf**4))
+
+
+def _step_probability(per_sample: float, length: float) -> float:
+    """Per-step tail probability of a sliding statistic over ``length`` samples whose
+    excursions beyond its threshold start ``per_sample`` times per sample.
+
+    A sliding mean of ``length`` terms has the correlation ``1 - |k| / length`` at lag
+    ``k``: locally a Brownian-like (non-differentiable) process, whose excursions above a
+    high level ``u`` start at the rate ``u^2 P(Z > u) / length`` per sample (Pickands'
+    asymptotics with ``alpha = 1``, Pickands' constant 1; Rice's formula, which counts
+    every wiggle across ``u``, would count each excursion ``sqrt(length)`` times over).
+    Solved for ``u``, returned as ``P(Z > u)``.
+    """
+    from scipy.optimize import brentq
+
+    target = math.log(per_sample * length)
+    log_rate = lambda u: 2.0 * math.log(u) + float(stats.norm.logsf(u))  # noqa: E731
+    if target >= log_rate(_LOWEST_LEVEL):  # more excursions asked than there are
+        return float(stats.norm.sf(_LOWEST_LEVEL))
+    u = brentq(lambda v: log_rate(v) - target, _LOWEST_LEVEL, 40.0, xtol=1e-10)
+    return float(stats.norm.sf(u))
+
+
+#: Lowest threshold level (sigma) of the per-hour calibration (the excursion rate peaks
+#: near sqrt(2) and the asymptotics mean nothing below it).
+_LOWEST_LEVEL = 1.5
+
+
+_NODES = np.polynomial.hermite_e.hermegauss(48)
+_WEIGHTS = _NODES[1] / _NODES[1].sum()
+
+
+def _s_tail(s: float, length: int, seg: int, c2: float, c4: float) -> float:
+    """``P(S > s)`` for a window of ``length`` stationary Gaussian samples, analytically.
+
+    To first order the window's kurtosis is the segment's and the complement's mixed in
+    proportion ``w = l / L``, plus ``3 w (1 - w) (a - b)^2`` from their sample variances
+    ``1 + a`` and ``1 + b`` differing, so ``S = (kx - kc) / kx`` exceeds ``s`` when
+    ``w (k_seg - k_c) + 3 w (1 - w) (a - b)^2 > s E[kx]``. The two kurtoses follow
+    Anscombe-Glynn at their effective sizes (``l / c4``, ``(L - l) / c4``), ``a - b`` is
+    normal with variance ``2 c2 (1/l + 1/(L - l))``; the probability is integrated by
+    Gauss-Hermite quadrature over ``k_c`` and ``a - b``. Checked against simulated
+    quantiles in tests/test_thresholds_hourly.py.
+    """
+    w = seg / length
+    z = _NODES[0]
+    kc = _ag_inverse(z, (length - seg) / c4)[:, None]
+    var_ab = 2.0 * c2 * (1.0 / seg + 1.0 / (length - seg))
+    mix = 3.0 * w * (1.0 - w) * var_ab * z[None, :] ** 2
+    e = 3.0 * (length - 1) / (length + 1)
+    needed = kc + (s * e - mix) / w
+    p = stats.norm.sf(_ag_z(needed, seg / c4))
+    return float(_WEIGHTS @ p @ _WEIGHTS)
+
+
+def _s_upper_quantile(q: float, length: int, seg: int, c2: float, c4: float) -> float:
+    from scipy.optimize import brentq
+
+    f = lambda s: _s_tail(s, length, seg, c2, c4) - q  # noqa: E731
+    hi = 0.5
+    while f(hi) > 0 and hi < 64:
+        hi *= 2
+    return float(brentq(f, -1.0, hi, xtol=1e-7))
+
+
+#: Largest false-alarm rate per hour accepted (beyond it the tests flag stationary noise).
+MAX_PER_HOUR = 3600.0
+
+
+@lru_cache(maxsize=32)
+def hourly_thresholds(
+    lmin: int,
+    lmax: int,
+    segment: int,
+    *,
+    rate: float,
+    per_hour: float = 0.1,
+    dependence: tuple[float, float] = (1.0, 1.0),
+    s_test: str = "upper",
+) -> Thresholds:
+    """Thresholds for a number of false events per hour of stationary data.
+
+    Beyond the paper (docs/method.md section 8). The controller tests every sample; a false
+    event is an excursion of one of its tests on stationary noise (the kurtosis below
+    ``K1``, above ``K2``, or ``S`` above ``S2``; both tails of S for ``s_test="abs"``). Each
+    test gets an equal share of ``per_hour / (3600 rate)`` excursions per sample; the
+    excursion rate of a sliding statistic over ``L`` samples (``l`` for S, scaled by the
+    record's correlation ``c4``) gives the per-step tail probability
+    (:func:`_step_probability`), which sets ``K1(L)``, ``K2(L)`` as Anscombe-Glynn quantiles
+    at the effective size ``L / c4`` and ``S2(L)`` as a quantile of the analytic
+    distribution of S (:func:`_s_tail`). No simulation: milliseconds per length, bounded
+    memory for any record. The rate of false events measured on simulated sensor records
+    is in docs/benchmarks.md.
+
+    Parameters
+    ----------
+    lmin, lmax, segment : int
+        Window range and the S test's segment ``l``, samples.
+    rate : float
+        Samples per second.
+    per_hour : float
+        Target number of false events per hour of stationary data.
+    dependence : (float, float)
+        ``(c2, c4)`` of :func:`noise_dependence` (``(1, 1)``: white noise).
+    s_test : {"upper", "band", "abs"}
+        ``"abs"`` splits the S share between its two tails.
+
+    Returns
+    -------
+    Thresholds
+        Cached: the same settings return the same tables (do not modify them).
+    """
+    if not (math.isfinite(per_hour) and 0.0 < per_hour <= MAX_PER_HOUR):
+        raise AdavarInputError(
+            f"false_alarm_per_hour must lie in (0, {MAX_PER_HOUR:g}], got {per_hour}"
+        )
+    if not (math.isfinite(rate) and rate > 0.0):
+        raise AdavarInputError(f"the sample rate must be a positive number, got {rate}")
+    c2, c4 = (max(1.0, float(c)) for c in dependence)
+    per_sample = per_hour / (3600.0 * rate) / 3.0
+    size = lmax + 1
+    k1 = np.full(size, np.nan)
+    k2 = np.full(size, np.nan)
+    s2 = np.full(size, np.nan)
+    nodes = np.unique(np.round(np.geomspace(lmin, lmax, 9)).astype(np.int64))
+    lo, hi, sv = [], [], []
+    for n in nodes:
+        q = _step_probability(per_sample, float(n) * c4)
+        z = stats.norm.isf(q)
+        lo.append(float(_ag_inverse(-z, n / c4)))
+        hi.append(float(_ag_inverse(z, n / c4)))
+        qs = _step_probability(per_sample, float(segment) * c4)
+        sv.append(_s_upper_quantile(qs / 2 if s_test == "abs" else qs, int(n), segment, c2, c4))
+    inv = 1.0 / np.arange(lmin, lmax + 1)
+    for table, values in ((k1, lo), (k2, hi), (s2, sv)):
+        table[lmin:] = np.interp(inv, 1.0 / nodes[::-1], np.array(values)[::-1])
+    return Thresholds(
+        k1=k1, k2=k2, s2=s2,
+        source=f"calibrated, {per_hour:g} false events per stationary hour",
+    )  # fmt: skip
+
+
+def thresholds_for(parameters: dict, lmax: int | None = None) -> Thresholds:
+    """The thresholds a controller ran with, rebuilt from its recorded ``parameters``."""
+    p = parameters
+    lmax = int(p["lmax"] if lmax is None else lmax)
+    if p.get("thresholds") != "calibrated":
+        return fixed_thresholds(lmax, p["k1"], p["k2"], p["s2"])
+    if p.get("false_alarm_per_hour") is not None:
+        return hourly_thresholds(
+            int(p["lmin"]), lmax, int(p["l"]), rate=float(p["sample_rate"]),
+            per_hour=float(p["false_alarm_per_hour"]),
+            dependence=tuple(p.get("dependence") or (1.0, 1.0)), s_test=p.get("s_test", "upper"),
+        )  # fmt: skip
+    return calibrated_thresholds(int(p["lmin"]), lmax, int(p["l"]), false_alarm=p["false_alarm"])
+
+
+def threshold_summary(th: Thresholds, lmin: int, lmax: int) -> dict[str, list[float]]:
+    """``{"k1": [at Lmax, at Lmin], "k2": [...], "s2": [...]}``: the thresholds in force."""
+    return {
+        name: [float(getattr(th, name)[lmax]), float(getattr(th, name)[lmin])]
+        for name in ("k1", "k2", "s2")
+    }

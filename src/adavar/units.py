@@ -51,6 +51,7 @@ __all__ = [
     "convert_coefficient",
     "deviation_unit",
     "format_pm",
+    "is_known_unit",
     "rate_unit",
     "rate_unit_info",
     "term_unit",
@@ -420,6 +421,35 @@ def rate_unit(units: str | None, data_type: str = "rate") -> str | None:
     if units.strip() == "s":
         return ""
     return _times_seconds(units, -1.0)
+
+
+def is_known_unit(units: str, data_type: str = "rate") -> bool:
+    """Whether samples declared in ``units`` are in a unit this module knows.
+
+    Any other unit string is a free label (e.g. ``"mV"``): deviations and coefficients are
+    in it as given, without conventional units.
+
+    Parameters
+    ----------
+    units : str
+        Declared unit of the samples.
+    data_type : {"rate", "phase"}
+        Rate samples must be in one of :data:`RATE_UNITS` (or an alias); phase samples in
+        their integral (``deg``, ``rad``, ``m/s``, ...) or ``s`` (a clock's time error,
+        whose rate is a dimensionless fractional frequency).
+
+    Returns
+    -------
+    bool
+    """
+    rate = rate_unit(units, data_type)
+    if rate == "":
+        return True
+    try:
+        rate_unit_info(rate or "")
+    except (TypeError, ValueError):
+        return False
+    return True
 
 
 def deviation_unit(stat: str, units: str | None) -> str | None:

@@ -2,12 +2,16 @@
 
 :func:`atomic_directory` builds an output folder under a temporary sibling name and moves it
 into place only when everything in it was written, so an interrupted or failed run never
-leaves a half-written folder behind; :func:`atomic_file` does the same for one file.
+leaves a half-written folder behind (SIGTERM removes the temporary; a later run sweeps the
+temporaries of killed runs); every folder it writes holds :data:`OUTPUT_MARKER`, and only
+such a folder is ever replaced. :func:`atomic_file` does the same for one file.
 :func:`write_surface` writes a DAVAR surface as NetCDF (readable by xarray, netCDF4,
 ``scipy.io.netcdf_file``, ncdump, ...) or Parquet (pandas, pyarrow, polars, DuckDB, ...),
 so that it can be read without adavar. :func:`dumps`, :func:`deviation_json` and
 :func:`fit_json` give the JSON that ``adavar ... --json`` prints and ``result.json`` holds;
-:func:`write_deviation_csv` the ``deviation.csv`` of ``avar``, ``report`` and ``batch``.
+:func:`csv_text` makes every CSV adavar writes (plain: the header row first, text cells a
+spreadsheet would run as a formula neutralised), :func:`write_deviation_csv` the
+``deviation.csv`` of ``avar`` and ``batch``.
 
 Every problem with the user's input raises :class:`adavar.errors.AdavarInputError` with a
 one-line message that names the problem and the way out.
@@ -20,10 +24,16 @@ import csv
 import io as _stdio
 import json
 import math
+import numbers
 import os
+import re
 import secrets
 import shutil
-from collections.abc import Iterator
+import signal
+import socket
+import threading
+import time
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
@@ -36,17 +46,26 @@ if TYPE_CHECKING:
     from adavar.results import DavarResult, DeviationResult
 
 __all__ = [
+    "BATCH_MARKER",
+    "DEMO_MARKER",
+    "OUTPUT_MARKER",
     "SURFACE_FORMATS",
     "atomic_directory",
     "atomic_file",
     "check_output_directory",
     "check_surface_format",
     "conventional",
+    "csv_cell",
+    "csv_text",
     "deviation_json",
     "dumps",
     "fit_json",
+    "is_adavar_folder",
     "jsonable",
+    "spreadsheet_safe",
+    "sweep_stale_temporaries",
     "write_deviation_csv",
+    "write_marker",
     "write_surface",
 ]
 
@@ -59,6 +78,67 @@ def _fail(message: str) -> AdavarInputError:
 # Output folders
 # --------------------------------------------------------------------------------------
 
+#: The file in every folder adavar writes (JSON: who wrote it, its pid and host, when).
+#: ``--force`` replaces only a folder that holds it (or an empty one); a temporary folder
+#: that holds it is swept by a later run once its writer is gone.
+OUTPUT_MARKER = ".adavar-output"
+#: The marker of ``adavar demo`` folders (written before :data:`OUTPUT_MARKER` existed).
+DEMO_MARKER = ".adavar-demo"
+#: The marker of an ``adavar batch`` output folder (only such a folder is reused).
+BATCH_MARKER = ".adavar-batch"
+_MARKERS = (OUTPUT_MARKER, DEMO_MARKER, BATCH_MARKER)
+#: A temporary of a writer on another machine (or a reused pid) is stale after this, s.
+STALE_TEMPORARY_S = 6 * 3600.0
+#: Test hook: seconds :func:`atomic_directory` sleeps once the folder is written, before
+#: it is renamed into place (the tests send SIGTERM then).
+PAUSE_BEFORE_RENAME_ENV = "ADAVAR_TEST_PAUSE_BEFORE_RENAME"
+#: The hidden siblings :func:`atomic_directory` builds and replaces through.
+_SIBLING = re.compile(r"^\..+\.(tmp|old)-[0-9a-f]{12}$")
+
+
+def is_adavar_folder(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a folder adavar wrote (it holds :data:`OUTPUT_MARKER`, or the
+    marker of an older ``adavar demo`` or ``adavar batch`` folder).
+
+    Parameters
+    ----------
+    path : str or path-like
+
+    Returns
+    -------
+    bool
+    """
+    folder = Path(path)
+    return any((folder / marker).is_file() for marker in _MARKERS)
+
+
+def write_marker(folder: str | os.PathLike[str], purpose: str = "output") -> Path:
+    """Write :data:`OUTPUT_MARKER` into ``folder``: adavar wrote it and may replace it.
+
+    Parameters
+    ----------
+    folder : str or path-like
+        An existing folder.
+    purpose : str
+        What the folder is (``output``, ``temporary``, ...), for a reader of the marker.
+
+    Returns
+    -------
+    Path
+        The marker file.
+    """
+    from adavar import __version__
+
+    marker = Path(folder) / OUTPUT_MARKER
+    marker.write_text(
+        json.dumps({
+            "written_by": f"adavar {__version__}", "purpose": purpose, "pid": os.getpid(),
+            "host": socket.gethostname(), "created": time.time(),
+            "note": "adavar wrote this folder: adavar --force may replace it",
+        }) + "\n", encoding="utf-8",
+    )  # fmt: skip
+    return marker
+
 
 def check_output_directory(path: str | os.PathLike[str], *, replace: bool = False) -> Path:
     """Check that an output folder can be created at ``path``, before any work is done.
@@ -68,7 +148,8 @@ def check_output_directory(path: str | os.PathLike[str], *, replace: bool = Fals
     path : str or path-like
         The folder to create.
     replace : bool
-        Whether an existing folder may be replaced.
+        Whether an existing folder may be replaced. Only a folder adavar wrote
+        (:func:`is_adavar_folder`) or an empty one is ever replaced.
 
     Returns
     -------
@@ -78,8 +159,8 @@ def check_output_directory(path: str | os.PathLike[str], *, replace: bool = Fals
     Raises
     ------
     AdavarInputError
-        If ``path`` exists and ``replace`` is False, is an existing file, or its parent
-        folder does not exist.
+        If ``path`` exists and ``replace`` is False, exists and was not written by adavar,
+        is an existing file, or its parent folder does not exist.
     """
     target = Path(path).expanduser().absolute()
     if target.exists() or target.is_symlink():
@@ -90,6 +171,7 @@ def check_output_directory(path: str | os.PathLike[str], *, replace: bool = Fals
                 f"output folder {path} exists already: choose another one, or pass --force "
                 "to replace it"
             )
+        _check_replaceable(target, path)
     if not target.parent.is_dir():
         raise _fail(
             f"the parent folder of {path} does not exist: create it first or choose "
@@ -98,9 +180,25 @@ def check_output_directory(path: str | os.PathLike[str], *, replace: bool = Fals
     return target
 
 
+def _check_replaceable(target: Path, shown: str | os.PathLike[str]) -> None:
+    if is_adavar_folder(target):
+        return
+    try:
+        empty = not any(target.iterdir())
+    except OSError as exc:
+        raise _fail(f"cannot read the folder {shown}: {exc.strerror or exc}") from None
+    if not empty:
+        raise _fail(
+            f"{shown} exists and was not written by adavar (no {OUTPUT_MARKER} in it), so "
+            "even --force does not replace it: choose another output folder, or remove it "
+            "yourself if you no longer need it"
+        )
+
+
 def _make_sibling(target: Path, tag: str) -> Path:
-    """A new empty hidden folder next to ``target`` (os.mkdir honours the umask, where
-    tempfile.mkdtemp would leave the final folder at mode 0700)."""
+    """A new hidden folder next to ``target`` that holds only its marker (with this pid, so
+    that a later run can tell a dead writer's leftover); os.mkdir honours the umask, where
+    tempfile.mkdtemp would leave the final folder at mode 0700."""
     while True:
         candidate = target.parent / f".{target.name}.{tag}-{secrets.token_hex(6)}"
         try:
@@ -110,11 +208,133 @@ def _make_sibling(target: Path, tag: str) -> Path:
         except OSError as exc:
             reason = exc.strerror or exc
             raise _fail(f"cannot create a folder in {target.parent}: {reason}") from None
+        try:
+            write_marker(candidate, "temporary" if tag == "tmp" else "replaced folder")
+        except OSError as exc:
+            shutil.rmtree(candidate, ignore_errors=True)
+            raise _fail(f"cannot write in {target.parent}: {exc.strerror or exc}") from None
         return candidate
 
 
+def _pid_alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    if os.name != "posix":
+        return True  # no cheap check: the age decides
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # PermissionError: another user's live process
+        return True
+    return True
+
+
+def _stale(folder: Path, now: float) -> bool:
+    """Whether a hidden sibling is a leftover: its writer (this host) is gone, or it is old."""
+    try:
+        info = json.loads((folder / OUTPUT_MARKER).read_text(encoding="utf-8"))
+        pid, host, created = int(info["pid"]), str(info["host"]), float(info["created"])
+    except (OSError, ValueError, TypeError, KeyError):
+        return False  # not a temporary of ours (or one we cannot read): never touched
+    if host == socket.gethostname() and not _pid_alive(pid):
+        return True
+    return now - created > STALE_TEMPORARY_S
+
+
+def sweep_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:
+    """Remove the temporaries that killed runs of :func:`atomic_directory` left in ``folder``.
+
+    Only hidden ``.NAME.tmp-*`` and ``.NAME.old-*`` folders that hold :data:`OUTPUT_MARKER`
+    are considered, and only those whose writer is no longer running on this machine or
+    that are older than :data:`STALE_TEMPORARY_S`. A stale ``.NAME.old-*`` (a folder set
+    aside while being replaced) is moved back to ``NAME`` if ``NAME`` is missing.
+
+    Parameters
+    ----------
+    folder : str or path-like
+
+    Returns
+    -------
+    list of Path
+        The temporaries removed (or moved back).
+    """
+    base = Path(folder)
+    try:
+        entries = [p for p in base.iterdir() if _SIBLING.match(p.name) and p.is_dir()]
+    except OSError:
+        return []
+    now = time.time()
+    removed = []
+    for entry in entries:
+        if not _stale(entry, now):
+            continue
+        if ".old-" in entry.name:
+            name = entry.name[1 : entry.name.rindex(".old-")]
+            kept = entry / name
+            with contextlib.suppress(OSError):
+                if kept.is_dir() and not (base / name).exists():
+                    os.replace(kept, base / name)  # the run died before the new one was in
+        shutil.rmtree(entry, ignore_errors=True)
+        if not entry.exists():
+            removed.append(entry)
+    return removed
+
+
+class _TerminateCleanly:
+    """While a folder is being written (main thread only): SIGTERM removes the temporary
+    and exits with 143 (128 + SIGTERM), instead of leaving it behind. Inside
+    :meth:`critical` (the renames) the signal waits until the renames are done."""
+
+    def __init__(self, tmp: Path, target: Path) -> None:
+        self.tmp, self.target = tmp, target
+        self.previous: Any = None
+        self.installed = False
+        self.deferred = False
+        self.pending: int | None = None
+
+    def __enter__(self) -> _TerminateCleanly:
+        if threading.current_thread() is threading.main_thread():
+            try:
+                self.previous = signal.signal(signal.SIGTERM, self._handler)
+                self.installed = True
+            except (ValueError, OSError):  # not the main interpreter, or no signals here
+                pass
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.installed:
+            signal.signal(signal.SIGTERM, self.previous if self.previous is not None
+                          else signal.SIG_DFL)  # fmt: skip
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        if self.deferred:
+            self.pending = signum
+            return
+        self._terminate(signum)
+
+    def _terminate(self, signum: int) -> None:
+        shutil.rmtree(self.tmp, ignore_errors=True)
+        with contextlib.suppress(OSError):  # os.write: safe inside a signal handler
+            os.write(2, f"adavar: terminated (signal {signum}): {self.target} was not "
+                     "written\n".encode(errors="replace"))  # fmt: skip
+        raise SystemExit(128 + signum)
+
+    @contextlib.contextmanager
+    def critical(self) -> Iterator[None]:
+        self.deferred = True
+        try:
+            yield
+        finally:
+            self.deferred = False
+        if self.pending is not None:
+            self._terminate(self.pending)
+
+
 @contextlib.contextmanager
-def atomic_directory(path: str | os.PathLike[str], *, replace: bool = False) -> Iterator[Path]:
+def atomic_directory(
+    path: str | os.PathLike[str], *, replace: bool = False, sweep: bool = True
+) -> Iterator[Path]:
     """Build a folder under a temporary sibling name and move it to ``path`` at the end.
 
     Use as ``with atomic_directory(out) as tmp: write files into tmp``. If the block raises,
@@ -122,12 +342,20 @@ def atomic_directory(path: str | os.PathLike[str], *, replace: bool = False) -> 
     temporary folder is renamed to ``path`` (when ``replace`` is True, an existing folder at
     ``path`` is first renamed aside, then deleted once the new one is in place).
 
+    Every folder it writes holds :data:`OUTPUT_MARKER`, and only such a folder (or an empty
+    one) is ever replaced. While the block runs in the main thread, SIGTERM removes the
+    temporary and exits with status 143; temporaries that a killed run left next to
+    ``path`` are swept first (:func:`sweep_stale_temporaries`).
+
     Parameters
     ----------
     path : str or path-like
         The final folder.
     replace : bool
-        Whether an existing folder at ``path`` may be replaced.
+        Whether an existing folder at ``path`` may be replaced (one adavar wrote).
+    sweep : bool
+        Sweep stale temporaries in the parent folder first (default). A caller that writes
+        many folders into one parent sweeps it once itself.
 
     Yields
     ------
@@ -140,28 +368,42 @@ def atomic_directory(path: str | os.PathLike[str], *, replace: bool = False) -> 
         As :func:`check_output_directory` (checked again when the block is entered).
     """
     target = check_output_directory(path, replace=replace)
+    if sweep:
+        sweep_stale_temporaries(target.parent)
     tmp = _make_sibling(target, "tmp")
+    guard = _TerminateCleanly(tmp, target)
     try:
-        yield tmp
-        if target.exists():
-            if not replace:
-                raise _fail(
-                    f"output folder {path} appeared while it was being written: choose "
-                    "another one, or pass --force to replace it"
-                )
-            old = _make_sibling(target, "old")
-            os.replace(target, old / target.name)
-            try:
-                os.replace(tmp, target)
-            except BaseException:
-                os.replace(old / target.name, target)  # put the old folder back
-                raise
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, target)
+        with guard:
+            yield tmp
+            write_marker(tmp)  # the final folder's marker: an output, no longer a temporary
+            pause = os.environ.get(PAUSE_BEFORE_RENAME_ENV)
+            if pause:
+                time.sleep(float(pause))
+            with guard.critical():
+                _move_into_place(tmp, target, path, replace)
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _move_into_place(tmp: Path, target: Path, shown: str | os.PathLike[str], replace: bool) -> None:
+    if not target.exists():
+        os.replace(tmp, target)
+        return
+    if not replace:
+        raise _fail(
+            f"output folder {shown} appeared while it was being written: choose "
+            "another one, or pass --force to replace it"
+        )
+    _check_replaceable(target, shown)
+    old = _make_sibling(target, "old")
+    os.replace(target, old / target.name)
+    try:
+        os.replace(tmp, target)
+    except BaseException:
+        os.replace(old / target.name, target)  # put the old folder back
+        raise
+    shutil.rmtree(old, ignore_errors=True)
 
 
 # --------------------------------------------------------------------------------------
@@ -577,19 +819,111 @@ def fit_json(fit: NoiseFit) -> dict[str, Any]:
     return out
 
 
-def write_deviation_csv(path: Path, result: DeviationResult, comment: str) -> None:
-    """``deviation.csv``: a ``# comment`` line, then one row per tau (every digit kept)."""
+#: First characters that make a spreadsheet run a text cell as a formula (CSV injection).
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+
+
+def spreadsheet_safe(text: str) -> str:
+    """A text cell a spreadsheet shows as text: ``'`` before a leading ``=``, ``+``, ``-``,
+    ``@``, tab or carriage return, unless the text is a number (``-1.5``, ``-inf``).
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    str
+    """
+    if not text.startswith(_FORMULA_START):
+        return text
+    try:
+        float(text)
+    except ValueError:
+        return "'" + text
+    return text
+
+
+def csv_cell(value: Any) -> str:
+    """The text of one CSV cell: numbers in their shortest exact form (``repr``; NaN as
+    ``nan``), None as an empty cell, booleans as ``true``/``false``, text through
+    :func:`spreadsheet_safe`.
+
+    Raises
+    ------
+    TypeError
+        A value that is not a number, text, a path or None.
+    """
+    if value is None:
+        return ""
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        return repr(float(value))  # shortest round-trip form; nan, inf, -inf
+    if isinstance(value, (str, os.PathLike)):
+        return spreadsheet_safe(os.fspath(value))
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        return csv_cell(value.item())
+    raise TypeError(f"a CSV cell must be a number, text or None, got {type(value).__name__}")
+
+
+def csv_text(
+    columns: Sequence[str], rows: Iterable[Sequence[Any]], *, comment: str | None = None
+) -> str:
+    """A plain CSV table: the header row first, then one line per row (:func:`csv_cell`).
+
+    Every CSV adavar writes is made here: ``pandas.read_csv(path)`` and spreadsheets read
+    it as it is (its metadata is in the ``result.json`` next to it).
+
+    Parameters
+    ----------
+    columns : sequence of str
+        The column names (made :func:`spreadsheet_safe` too).
+    rows : iterable of sequence
+        The cells of every row, in column order.
+    comment : str, optional
+        Only for callers that want it: free text written before the header as ``# `` lines
+        (a reader then needs ``comment="#"``). adavar's own files have none.
+
+    Returns
+    -------
+    str
+    """
     buffer = _stdio.StringIO()
-    buffer.write(f"# {comment}\n")
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(["tau_s", "n", "m", "alpha", "edf", "dev", "dev_low", "dev_high"])
-    for row in zip(
-        result.tau, result.n, result.m, result.alpha, result.edf, result.dev,
-        result.dev_low, result.dev_high, strict=True,
-    ):  # fmt: skip
-        tau, n, m, alpha, edf, dev, low, high = row
-        writer.writerow(
-            [repr(float(tau)), int(n), int(m), int(alpha), repr(float(edf)),
-             repr(float(dev)), repr(float(low)), repr(float(high))]
-        )  # fmt: skip
-    path.write_text(buffer.getvalue(), encoding="utf-8")
+    if comment:
+        for line in str(comment).splitlines() or [""]:
+            buffer.write(f"# {line}".rstrip() + "\n")
+    # csv quotes a cell holding a character of its line terminator: "\r\n" makes it quote a
+    # carriage return too (which "\n" would not, and a reader takes for a line break);
+    # each line then ends with "\n"
+    line = _stdio.StringIO()
+    writer = csv.writer(line, lineterminator="\r\n")
+
+    def put(cells: list[str]) -> None:
+        line.seek(0)
+        line.truncate()
+        writer.writerow(cells)
+        buffer.write(line.getvalue()[:-2] + "\n")
+
+    put([spreadsheet_safe(str(c)) for c in columns])
+    for row in rows:
+        put([csv_cell(c) for c in row])
+    return buffer.getvalue()
+
+
+def write_deviation_csv(path: Path, result: DeviationResult, comment: str | None = None) -> None:
+    """``deviation.csv``: a header row, then one row per tau (every digit kept).
+
+    ``comment`` (optional, adavar passes none) goes before the header as a ``# `` line.
+    """
+    columns = ["tau_s", "n", "m", "alpha", "edf", "dev", "dev_low", "dev_high"]
+    rows = (
+        (float(tau), int(n), int(m), int(alpha), float(edf), float(dev), float(low), float(high))
+        for tau, n, m, alpha, edf, dev, low, high in zip(
+            result.tau, result.n, result.m, result.alpha, result.edf, result.dev,
+            result.dev_low, result.dev_high, strict=True,
+        )
+    )  # fmt: skip
+    path.write_text(csv_text(columns, rows, comment=comment), encoding="utf-8")

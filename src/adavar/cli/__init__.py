@@ -18,7 +18,8 @@ Commands
     The NIST SP 1065 check values, a simulated MEMS gyroscope and the paper's scenario 1.
 
 ``avar``, ``davar``, ``adaptive`` and ``report`` analyse several channels one by one with
-``--column gx,gy,gz`` (``avar``: every numeric column by default); on a terminal every
+``--column gx,gy,gz`` (``avar`` needs it for several numeric columns unless the file
+declares each column's unit); on a terminal every
 command shows what it is doing on one status line of stderr (nothing when stderr is not a
 terminal).
 

@@ -18,10 +18,11 @@ from adavar.cli.options import (
     add_fit_arguments,
     add_input_arguments,
     add_output_arguments,
+    check_arguments,
     parse_confidence,
     parse_taus,
     parse_terms,
-    positive_int,
+    points_per_decade,
 )
 from adavar.cli.output import (
     Status,
@@ -45,6 +46,7 @@ from adavar.writers import (
 
 
 def _cmd_avar(args: argparse.Namespace) -> int:
+    check_arguments(args)
     do_fit = args.fit or args.terms is not None
     if do_fit and args.stat not in ALLAN_STATS:
         raise UsageError(
@@ -58,6 +60,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
     status = Status()
     status(f"reading {args.file}")
     channels, meta, units_of, tau0 = load_input(args, several=True, out_of_core=True)
+    _check_columns(args, meta["columns"])
     runs = []
     for k, (name, samples) in enumerate(channels.items()):
         meta_c = {**meta, "column": name}
@@ -89,9 +92,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
                 for run in runs:
                     status(f"writing {args.out}: {run['name']}")
                     prefix = f"{safe_name(run['name'])}_" if several else ""
-                    write_deviation_csv(
-                        tmp / f"{prefix}deviation.csv", run["result"], run["comment"]
-                    )
+                    write_deviation_csv(tmp / f"{prefix}deviation.csv", run["result"])
                     fig = deviation_figure(run["result"], run["fit"], title=run["title"])
                     save_figure(fig, tmp / f"{prefix}deviation")
                     written += [f"{prefix}deviation.csv", f"{prefix}deviation.png",
@@ -115,6 +116,22 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         print()
         print(f"wrote {args.out}/ ({', '.join(written)})")
     return EXIT_OK
+
+
+def _check_columns(args: argparse.Namespace, columns: list[str]) -> None:
+    """Several numeric columns and no --column: one --units would label them all (a
+    temperature as deg/s), so the user chooses. A file that declares every channel's unit
+    (a ROS bag, without --units) has them all analysed, each in its own unit."""
+    if args.column is not None or len(columns) < 2 or not (args.units and args.units.strip()):
+        return
+    shown = ", ".join(columns[:10]) + (
+        f", ... ({len(columns)} in all)" if len(columns) > 10 else ""
+    )
+    raise UsageError(
+        f"{args.file} has {len(columns)} numeric columns ({shown}) and --units "
+        f"{args.units.strip()} would label them all: choose with --column (e.g. --column "
+        f"{columns[0]}, or several, comma-separated, analysed one by one)"
+    )
 
 
 def _avar_channel(
@@ -182,9 +199,6 @@ def _avar_channel(
     return {
         "name": meta["column"], "result": result, "fit": fit, "payload": payload,
         "lines": lines, "title": f"{Path(meta['path']).name}, column {meta['column']}",
-        "comment": f"adavar {__version__}: {args.stat} of {meta['path']} column "
-        f"{meta['column']!r}; {args.data_type} data, tau0 = {tau0:g} s, deviation in "
-        f"{dev_u or 'data units'}",
     }  # fmt: skip
 
 
@@ -196,7 +210,8 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         description="Allan-family deviation of one column of a CSV/TSV/whitespace text file, "
         "with confidence intervals, and optionally the fit of the IEEE Std 952 noise terms. "
         "The sampling rate and the unit of the samples are required: adavar never guesses "
-        "them.",
+        "them. A file with several numeric columns needs --column (one, or several analysed "
+        "one by one), unless it declares every column's unit (a ROS bag: all six).",
     )
     add_input_arguments(avar)
     avar.add_argument(
@@ -226,7 +241,7 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         help="octave (default), all, decade, log, or comma-separated taus in seconds",
     )  # fmt: skip
     avar.add_argument(
-        "--points-per-decade", default=10, type=positive_int, metavar="K",
+        "--points-per-decade", default=10, type=points_per_decade, metavar="K",
         help="density of --taus log (default: 10)",
     )  # fmt: skip
     avar.add_argument(

@@ -8,7 +8,15 @@ import time
 from typing import Any
 
 from adavar import __version__
-from adavar.cli.options import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, positive_float, positive_int
+from adavar.batch_cluster import DEFAULT_WORKER_TIMEOUT
+from adavar.cli.options import (
+    EXIT_INTERNAL,
+    EXIT_OK,
+    EXIT_USAGE,
+    check_arguments,
+    positive_float,
+    positive_int,
+)
 from adavar.cli.output import ProgressBar, text_table
 from adavar.writers import dumps
 
@@ -67,8 +75,9 @@ def _batch_error(row: dict[str, Any]) -> str:
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:
-    from adavar.batch import collect_files, report_options, run_batch
+    from adavar.batch import STATUS_ABSENT, collect_files, report_options, run_batch
 
+    check_arguments(args)
     files = collect_files(args.inputs, files_from=args.files_from)
     options = report_options(args, ignore_unknown=True)
     progress = _BatchProgress()
@@ -76,7 +85,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         result = run_batch(
             files, out=args.out, options=options, scheduler=args.scheduler,
             workers=args.workers, force=args.force, progress=progress, timeout=args.timeout,
-            html=args.html,
+            html=args.html, worker_timeout=args.worker_timeout,
         )  # fmt: skip
     finally:
         progress.close()
@@ -87,12 +96,18 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     summary = [str(result.summary_csv)]
     if result.summary_parquet is not None:
         summary.append(str(result.summary_parquet))
+    if result.summary_json is not None:
+        summary.append(str(result.summary_json))
     if args.json:
         print(dumps({
             "adavar_version": __version__, "out": str(result.out), "cluster": result.cluster,
             "counts": counts, "elapsed_s": result.elapsed_s,
             "files_per_minute": 60.0 * computed / result.elapsed_s if computed else None,
-            "summary": {"csv": summary[0], "parquet": summary[1] if len(summary) > 1 else None},
+            "summary": {"csv": str(result.summary_csv),
+                        "parquet": None if result.summary_parquet is None
+                        else str(result.summary_parquet),
+                        "json": None if result.summary_json is None
+                        else str(result.summary_json)},
             "notes": list(result.notes), "exit_code": code, "rows": result.rows,
         }))  # fmt: skip
     else:
@@ -100,9 +115,11 @@ def _cmd_batch(args: argparse.Namespace) -> int:
             f"adavar batch: {counts['files']} files {result.cluster} in "
             f"{_duration(result.elapsed_s)}: {counts['ok']} ok, {counts['done']} done earlier "
             f"(skipped), {counts['error']} failed"
+            + (f"; {counts['absent']} of earlier runs not in this one" if counts["absent"] else "")
         )
         if len(result.rows) <= _BATCH_LISTED:
-            rows = [_batch_row_line(row) for row in result.rows if row["status"] != "error"]
+            rows = [_batch_row_line(row) for row in result.rows
+                    if row["status"] not in ("error", STATUS_ABSENT)]  # fmt: skip
             if rows:
                 print(text_table(["output", "status", "whole-record fit", "events", "s"], rows,
                              "  "))  # fmt: skip
@@ -110,7 +127,8 @@ def _cmd_batch(args: argparse.Namespace) -> int:
             print(f"  error in {row['name']}: {_batch_error(row)}")
         for note in result.notes:
             print(f"note: {note}")
-        print(f"wrote {' and '.join(summary)}")
+        print(f"wrote {', '.join(summary[:-1])} and {summary[-1]}" if len(summary) > 1
+              else f"wrote {summary[0]}")  # fmt: skip
     if failed:
         first = failed[0]
         print(
@@ -132,10 +150,13 @@ def add_batch_parser(sub: Any, report: argparse.ArgumentParser) -> argparse.Argu
         "cluster of --workers N processes, or on the workers of a running 'dask scheduler' "
         "(--scheduler). Each file gets OUT/<name>/ with report.html, result.json (fit with "
         "uncertainties, events, parameters, preprocessing) and deviation.csv, written "
-        "atomically; OUT/summary.csv and summary.parquet hold one row per file. A bad file "
-        "is an error row and does not stop the batch; a rerun skips the files done (same "
-        "size, modification time and options). Exit code 0: every file ok; 2: some file "
-        "(or the command line) has a user error; 1: an internal error.",
+        "atomically; OUT/summary.csv, summary.parquet and summary.json hold one row per file "
+        "(with the files of earlier runs into this --out, status absent). A file's folder "
+        "is named after its stem and a hash of its path (gyro-3f2a9c), the same in every "
+        "run. A bad file is an error row (its folder says so) and does not stop the batch; "
+        "a rerun skips the files done (same size, modification time, options and outputs). "
+        "Exit code 0: every file ok; 2: some file (or the command line) has a user error; "
+        "1: an internal error.",
     )
     bat.add_argument(
         "inputs", metavar="GLOB|FILE", nargs="*",
@@ -161,8 +182,14 @@ def add_batch_parser(sub: Any, report: argparse.ArgumentParser) -> argparse.Argu
     bat.add_argument("--timeout", metavar="SECONDS", type=positive_float("seconds"),
                      default=10.0, help="wait this long for the scheduler and its first "
                      "worker (default: 10)")  # fmt: skip
+    bat.add_argument("--worker-timeout", metavar="SECONDS", type=positive_float("seconds"),
+                     default=DEFAULT_WORKER_TIMEOUT, help="give up when the cluster has had "
+                     "no worker for this long (every worker died): the files not analysed "
+                     "are error rows, the summary is written (default: "
+                     f"{DEFAULT_WORKER_TIMEOUT:g})")  # fmt: skip
     bat.add_argument("--force", action="store_true",
-                     help="recompute the files an earlier run of this --out finished")  # fmt: skip
+                     help="recompute the files an earlier run of this --out finished (only "
+                     "folders adavar wrote are ever replaced)")  # fmt: skip
     bat.add_argument("--no-html", dest="html", action="store_false",
                      help="skip each file's report.html (about 5 MB each: it embeds "
                      "plotly.js); result.json and deviation.csv are still written")  # fmt: skip

@@ -19,6 +19,7 @@ from adavar.cli.options import (
     add_controller_arguments,
     add_input_arguments,
     add_output_arguments,
+    check_arguments,
     parse_confidence,
     parse_intervals,
     parse_names,
@@ -26,6 +27,7 @@ from adavar.cli.options import (
     parse_seed,
     parse_taus,
     parse_terms,
+    points_per_decade,
     positive_int,
     seconds_list,
     threshold_list,
@@ -34,7 +36,6 @@ from adavar.cli.options import (
 from adavar.cli.output import (
     ProgressBar,
     Status,
-    csv_text,
     guard_replacement,
     output_error,
     text_table,
@@ -55,6 +56,7 @@ from adavar.settings import CONTROLLER
 from adavar.writers import (
     atomic_directory,
     check_output_directory,
+    csv_text,
     dumps,
 )
 
@@ -252,11 +254,20 @@ def compare_report(comp: Any, study: Any, thr: Any) -> list[str]:
     return lines
 
 
-def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
-    """CSV file name -> text."""
+def compare_tables(
+    comp: Any, study: Any, thr: Any, descriptions: dict[str, str] | None = None
+) -> dict[str, str]:
+    """CSV file name -> text (plain CSV); ``descriptions`` (if given) gets each file's
+    description (for the result.json next to them)."""
     head = f"adavar {__version__}: {comp.description}"
     names = list(comp.methods)
     files: dict[str, str] = {}
+
+    def table(name: str, description: str, columns: list[str], rows: list[Any]) -> None:
+        files[name] = csv_text(columns, rows)
+        if descriptions is not None:
+            descriptions[name] = description
+
     if comp.change_times:
         paper = comp.paper_nodes() if study is None else study.paper_nodes()
         cols = _paper_columns(comp, paper)
@@ -283,7 +294,8 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
                 for r in study.node_rows()
             ]
             columns = ["node", "change_s", *(f"{m}_{k}" for m in names for k in stats)]
-        files["nodes.csv"] = csv_text(
+        table(
+            "nodes.csv",
             f"{head}; node times (window centres) in s; paper_*: {PAPER_REFERENCE}",
             [*columns, *(f"paper_{m}" for m in cols)], rows,
         )  # fmt: skip
@@ -293,7 +305,8 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
         vals = {m: [run.intervals[iv] for iv in comp.intervals] for m, run in comp.methods.items()}
     else:
         vals = {m: [r["values"][m] for r in study.arw_rows()] for m in names}
-    files["intervals.csv"] = csv_text(
+    table(
+        "intervals.csv",
         f"{head}; ARW(a~b) = mean of N(t) over centres in [a, b]"
         + ("" if study is None else f", median over {len(study.seeds)} realisations")
         + "; paper_* in 1e-3 deg/sqrt(h) (scale not reproducible: compare ratios)",
@@ -317,7 +330,8 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
                 for m in names:
                     rows.append([m, r["metric"], "" if r["change"] is None else r["change"],
                                  r["values"][m]])  # fmt: skip
-        files["metrics.csv"] = csv_text(
+        table(
+            "metrics.csv",
             f"{head}; ground-truth metrics"
             + ("" if study is None else f", median over {len(study.seeds)} realisations")
             + "; bias/std/mad of N/N_true - 1 over stationary centres; error: mean "
@@ -330,7 +344,8 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
     arrays += [comp.methods[m].arw for m in names] + [comp.methods[m].window for m in names]
     body = [[float(a[i]) if a.dtype.kind == "f" else int(a[i]) for a in arrays]
             for i in range(comp.time.size)]  # fmt: skip
-    files["arw.csv"] = csv_text(
+    table(
+        "arw.csv",
         f"{head}; N(t) of every window (sample unit x sqrt(s)) and window lengths (samples)",
         cols_arw, body,
     )  # fmt: skip
@@ -348,7 +363,8 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
                        else (math.nan, math.nan))  # fmt: skip
                 pp = paper.get(change, (math.nan, math.nan))
                 rows.append([th, change, rise, fall, exp[0], exp[1], pp[0], pp[1]])
-        files["crossings.csv"] = csv_text(
+        table(
+            "crossings.csv",
             f"{head}; kurtosis of a fixed window of {thr.window} samples: times (s) at which it "
             "rises above K2 and falls back"
             + ("" if study is None else f" (median over {len(study.seeds)} realisations)"),
@@ -361,7 +377,8 @@ def compare_tables(comp: Any, study: Any, thr: Any) -> dict[str, str]:
             for m in names:
                 for j, change in enumerate(study.change_times):
                     rows.append([seed, m, change, *study.nodes[m][i, j]])
-        files["seeds_nodes.csv"] = csv_text(
+        table(
+            "seeds_nodes.csv",
             f"{head}; node times (s) of every realisation",
             ["seed", "method", "change_s", "beginning_s", "end_s", "restore_s"], rows,
         )  # fmt: skip
@@ -434,6 +451,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
             raise UsageError("--variance-reading chooses a --scenario's disturbance")
         if args.file is None:
             raise UsageError("give a data FILE (with --rate and --units) or --scenario 1|2")
+    check_arguments(args)
     if args.out is not None:
         check_output_directory(args.out, replace=args.force)
         guard_replacement(args.out, [Path(args.file)] if args.file is not None else [])
@@ -513,7 +531,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                               change_times=comp.change_times)  # fmt: skip
     elapsed = time.perf_counter() - start
 
-    tables = compare_tables(comp, study, thr)
+    descriptions: dict[str, str] = {}
+    tables = compare_tables(comp, study, thr, descriptions)
     if args.out is not None:
         status("drawing the figures")
     figures = compare_figures(comp, kurt, thr) if args.out is not None else {}
@@ -526,7 +545,9 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         "crossings": crossings_json(thr),
         "seeds": None if study is None else study.to_dict(),
         "elapsed_s": elapsed,
-        "out": None if args.out is None else {"dir": args.out, "files": written},
+        "out": None
+        if args.out is None
+        else {"dir": args.out, "files": written, "tables": descriptions},
     }
     text = dumps(payload)
     if args.out is not None:
@@ -600,7 +621,7 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
         help="comma-separated methods: davar-<L> (fixed window), davar-k, a-davar, oracle "
         "(default: davar-LMIN,davar-LMAX,davar-k,a-davar)",
     )  # fmt: skip
-    add_controller_arguments(cmp_)
+    add_controller_arguments(cmp_, hourly=False)
     # the paper's windows stay the default of compare (its scenarios are the paper's)
     cmp_.set_defaults(lmax=CONTROLLER.lmax, lmin=CONTROLLER.lmin, segment=CONTROLLER.l)
     cmp_.add_argument(
@@ -622,7 +643,7 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
         "from -2 to 2, or one per tau (comma-separated)",
     )  # fmt: skip
     cmp_.add_argument(
-        "--points-per-decade", default=10, type=positive_int, metavar="K",
+        "--points-per-decade", default=10, type=points_per_decade, metavar="K",
         help="density of --taus log (default: 10)",
     )  # fmt: skip
     cmp_.add_argument(

@@ -40,8 +40,14 @@ def with_config(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
             table = tomllib.load(fh)
     except FileNotFoundError:
         raise UsageError(f"--config {path}: no such file") from None
+    except UnicodeDecodeError as exc:  # TOML is UTF-8
+        raise UsageError(
+            f"--config {path} is not UTF-8 text (byte {exc.start} cannot be decoded): save "
+            "it as UTF-8"
+        ) from None
     except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise UsageError(f"--config {path}: not a readable TOML file ({exc})") from None
+        reason = " ".join(str(exc).split())
+        raise UsageError(f"--config {path}: not a readable TOML file ({reason})") from None
     settings = {k: v for k, v in table.items() if not isinstance(v, dict)}
     section = table.get(command, {})
     if not isinstance(section, dict):

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import io as _stdio
 import sys
 from pathlib import Path
 from typing import Any
@@ -37,6 +36,7 @@ from adavar.davar import davar
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
 from adavar.results import DavarResult
+from adavar.settings import HOURLY_FALSE_ALARMS
 from adavar.statistics import deviation
 from adavar.windows import MIN_WINDOW
 from adavar.writers import (
@@ -45,7 +45,9 @@ from adavar.writers import (
     check_output_directory,
     check_surface_format,
     conventional,
+    csv_text,
     dumps,
+    write_marker,
     write_surface,
 )
 
@@ -112,19 +114,16 @@ def _coefficient_term(fit: NoiseFit) -> str:
     return "angle_random_walk" if "angle_random_walk" in fit.terms else fit.terms[0]
 
 
-def _write_coefficients(path: Path, result: DavarResult, fit: NoiseFit, comment: str) -> None:
+def _write_coefficients(path: Path, result: DavarResult, fit: NoiseFit) -> None:
+    """coefficients.csv: one row per window (its file, column and units: result.json)."""
     columns: list[tuple[str, Any]] = [("time_s", result.time), ("window", result.window)]
     for name in fit.terms:
         term = fit.term(name)
         columns += [(name, term.value), (f"{name}_uncertainty", term.uncertainty)]
     columns.append(("reduced_chi2", fit.reduced_chi2))
     lists = [np.asarray(values).reshape(-1).tolist() for _, values in columns]
-    buffer = _stdio.StringIO()
-    buffer.write(f"# {comment}\n")
-    buffer.write(",".join(name for name, _ in columns) + "\n")
-    # str() of a Python float is its shortest round-trip form, as repr()
-    buffer.writelines(",".join(map(str, row)) + "\n" for row in zip(*lists, strict=True))
-    path.write_text(buffer.getvalue(), encoding="utf-8")
+    text = csv_text([name for name, _ in columns], zip(*lists, strict=True))
+    path.write_text(text, encoding="utf-8")
 
 
 def _davar_summary(
@@ -171,6 +170,8 @@ def _davar_summary(
             + " in the paper's proportions (600/400/100 of 6000 samples); give --lmax, "
             "--lmin, --l (samples or durations) to choose"
         )
+    if hasattr(result, "method") and result.method in ("adaptive", "kurtosis"):
+        lines.append(threshold_line(result.parameters))
     if meta.get("resolution"):
         lines.append(meta["resolution"])
     lines += [f"note: {note}" for note in result.notes]
@@ -222,23 +223,63 @@ def _davar_summary(
     return lines
 
 
+def _fixed_events_possible(args: argparse.Namespace, samples: Any) -> bool:
+    """Events of a fixed window: rate data in memory, a window the S test fits in."""
+    return (args.data_type == "rate" and isinstance(samples, np.ndarray)
+            and args.window is not None and int(args.window) >= 16)  # fmt: skip
+
+
+def _fixed_window_changes(
+    args: argparse.Namespace, samples: np.ndarray, common: dict[str, Any], tau0: float
+) -> list[float]:
+    """Change times flagged by the controller's tests in the fixed window (no adaptation)."""
+    from adavar.adaptive import adaptive_schedule, record_windows
+    from adavar.events import flag_change_times
+
+    length = int(args.window)
+    sched = adaptive_schedule(
+        samples, method="fixed", lmax=length, lmin=length, l=record_windows(0, length)[2],
+        thresholds="calibrated", false_alarm_per_hour=HOURLY_FALSE_ALARMS,
+        rate=common["rate"], tau0=common["tau0"],
+        **({"chunk_size": common["chunk_size"]} if "chunk_size" in common else {}),
+    )  # fmt: skip
+    return flag_change_times(sched.f, sched.centre, length, tau0, float(args.t0))
+
+
 def _schedule_of(result: Any) -> Any:
     """The controller record of an AdaptiveResult as a Schedule (for the Fig. 10 panels)."""
-    from adavar.adaptive import Schedule, calibrated_thresholds, fixed_thresholds
+    from adavar.adaptive import Schedule
+    from adavar.thresholds import thresholds_for
 
     p = result.parameters
-    if p.get("thresholds") == "calibrated":
-        th = calibrated_thresholds(p["lmin"], p["lmax"], p["l"], false_alarm=p["false_alarm"])
-    else:
-        th = fixed_thresholds(p["lmax"], p["k1"], p["k2"], p["s2"])
     return Schedule(
         window=result.window, kurtosis=result.kurtosis, s=result.s, f1=result.f1,
         f2=result.f2, f=result.f, centre=result.centre, method=result.method,
-        thresholds=th, parameters=p,
+        thresholds=thresholds_for(p), parameters=p,
     )  # fmt: skip
 
 
+def threshold_line(p: dict[str, Any]) -> str:
+    """One line: the controller's thresholds and where they come from."""
+    used = p.get("thresholds_used") or {}
+    if p.get("thresholds") != "calibrated" or not used:
+        return (f"thresholds: the paper's K1 {p['k1']:g}, K2 {p['k2']:g}, S2 {p['s2']:g} "
+                "(--thresholds calibrated sets them for a false-alarm rate)")  # fmt: skip
+    k1, k2, s2 = used["k1"], used["k2"], used["s2"]
+    values = (f"K1 {k1[0]:.4f}, K2 {k2[0]:.4f}, S2 {s2[0]:.4f} at Lmax; K1 {k1[1]:.4f}, "
+              f"K2 {k2[1]:.4f}, S2 {s2[1]:.4f} at Lmin")  # fmt: skip
+    if p.get("false_alarm_per_hour") is not None:
+        c4 = (p.get("dependence") or (1.0, 1.0))[1]
+        return (f"thresholds calibrated for {p['false_alarm_per_hour']:g} false events per "
+                f"stationary hour (the noise's short-range correlation widens them by "
+                f"c4 = {c4:.3g}): {values}; --thresholds paper for the paper's")  # fmt: skip
+    return f"thresholds calibrated for {p['false_alarm']:g} false alarms per step: {values}"
+
+
 def _cmd_davar(args: argparse.Namespace) -> int:
+    from adavar.cli.options import check_arguments
+
+    check_arguments(args)
     if args.format is not None and args.out is None:
         raise UsageError("--format chooses the surface file of --out: give --out DIR as well")
     if args.confidence is None and args.terms is not None:
@@ -263,7 +304,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     first = next(iter(loaded.values())) if chosen else loaded
     n_samples = int(getattr(first, "size", np.size(first)))
     resolve_lengths(args, tau0, n_samples)
-    resolution = resolve_resolution(args, tau0, n_samples)
+    resolution = resolve_resolution(args, tau0, n_samples, len(loaded) if chosen else 1)
     if not chosen:
         loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
     names = list(loaded)
@@ -304,6 +345,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
                     if several:
                         dest = tmp / folders[run["name"]]
                         dest.mkdir()
+                        write_marker(dest)  # each channel's folder is an output of its own
                     _write_davar_channel(args, run, dest, fmt, status)
                 if several:
                     (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
@@ -351,7 +393,12 @@ def _davar_channel(
 ) -> dict[str, Any]:  # fmt: skip
     """The (adaptive) DAVAR surface and its noise fit of one channel, with its JSON payload
     and the names of the files its output folder ``out`` gets."""
+    from adavar.cli.options import check_change_times
     from adavar.units import rate_unit
+
+    if args.command == "adaptive":
+        check_change_times(args.change_times, int(getattr(samples, "size", np.size(samples))),
+                           tau0)  # fmt: skip
 
     adaptive = args.command == "adaptive"
     rate_u = rate_unit(units, args.data_type)
@@ -451,15 +498,23 @@ def _davar_channel(
             "shrunk_fraction": float(np.mean(result.window < result.parameters["lmax"])),
         }  # fmt: skip
     events = None
-    if adaptive and fit is not None:
+    if fit is not None and (adaptive or _fixed_events_possible(args, samples)):
         from adavar.events import find_events
 
+        lmax = int(result.parameters["lmax"]) if adaptive else int(args.window)
+        changes = None if adaptive else _fixed_window_changes(args, samples, common, tau0)
         events = find_events(
-            result.window, result.centre, result.time, int(result.parameters["lmax"]), tau0,
+            result.window, result.centre, result.time, lmax, tau0,
             {name: fit.term(name).value for name in fit.terms}, t0=float(args.t0),
-            duration=float(args.t0) + result.n_samples * tau0,
+            duration=float(args.t0) + result.n_samples * tau0, changes=changes,
         )  # fmt: skip
         payload["events"] = [e.as_dict() for e in events]
+        if not adaptive:
+            payload["events_rule"] = (
+                "changes flagged by the adaptive controller's tests in the fixed window "
+                f"(l = a sixth of it, thresholds calibrated for {HOURLY_FALSE_ALARMS:g} false "
+                "events per stationary hour)"
+            )
         if out is not None:
             written.insert(-1, "events.csv")
     return {
@@ -481,9 +536,8 @@ def _write_events(path: Path, events: list[Any], fit: NoiseFit) -> None:
         for name in fit.terms:
             for part in (e.before, e.during, e.after):
                 row += [part[name]["median"], part[name]["low"], part[name]["high"]]
-        rows.append(["" if v is None else repr(float(v)) for v in row])
-    lines = [",".join(header), *(",".join(r) for r in rows)]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+        rows.append([None if v is None else float(v) for v in row])
+    path.write_text(csv_text(header, rows), encoding="utf-8")
 
 
 def _event_lines(events: list[Any], fit: NoiseFit) -> list[str]:
@@ -526,10 +580,9 @@ def _write_davar_channel(
         davar_surface_figure,
         save_figure,
     )
-    from adavar.units import term_unit
 
     adaptive = args.command == "adaptive"
-    result, fit, meta, tau0 = run["result"], run["fit"], run["meta"], run["tau0"]
+    result, fit, meta = run["result"], run["fit"], run["meta"]
     status(f"{run['tag']}drawing the figures")
     title = f"{Path(meta['path']).name}, column {meta['column']}"
     figures = {
@@ -546,21 +599,13 @@ def _write_davar_channel(
     if fit is not None:
         term = _coefficient_term(fit)
         what = f"window {args.window} samples" if not adaptive else f"{result.method} window"
-        figures[TERM_FILES[term]] = coefficient_figure(fit, term=term, title=f"{title}: {what}")
+        figures[TERM_FILES[term]] = coefficient_figure(
+            fit, term=term, title=f"{title}: {what}", events=run.get("events") or ()
+        )
     status(f"{run['tag']}writing the surface and the figures")
     write_surface(dest / run["written"][0], result, fmt=fmt)
     if fit is not None:
-        units_text = ", ".join(
-            f"{name} in {term_unit(name, fit.units) or '1'}" for name in fit.terms
-        )
-        _write_coefficients(
-            dest / "coefficients.csv", result, fit,
-            f"adavar {__version__}: noise coefficients of every DAVAR window of "
-            f"{meta['path']} column {meta['column']!r} ({args.data_type} data, "
-            f"tau0 = {tau0:g} s); time_s: window centre, window: samples; "
-            f"{units_text}; uncertainties 1 sigma (an upper bound where the value "
-            "is 0); nan: window not fitted",
-        )  # fmt: skip
+        _write_coefficients(dest / "coefficients.csv", result, fit)
     if run.get("events") is not None:
         _write_events(dest / "events.csv", run["events"], fit)
     for stem, fig in figures.items():

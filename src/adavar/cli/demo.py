@@ -23,22 +23,25 @@ from adavar.cli.output import (
 from adavar.errors import AdavarInputError
 from adavar.noise_model import fit_noise
 from adavar.writers import (
+    DEMO_MARKER,
     atomic_directory,
     check_output_directory,
     deviation_json,
     dumps,
     fit_json,
+    is_adavar_folder,
 )
 
-#: Name of the marker file that identifies a folder written by ``adavar demo`` (such a
-#: folder is replaced by the next run; any other existing folder needs --force).
-DEMO_MARKER = ".adavar-demo"
+# DEMO_MARKER (adavar.writers) marks a folder written by ``adavar demo``: such a folder is
+# replaced by the next run; --force replaces another folder adavar wrote, never a foreign one.
 
 
 DEMO_DEFAULT_OUT = "adavar-demo"
 
 
-def _demo_json(demo: Any, out: str, files: list[str]) -> dict[str, Any]:
+def _demo_json(
+    demo: Any, out: str, files: list[str], tables: dict[str, str] | None = None
+) -> dict[str, Any]:
     gyro = demo.gyro
     return {
         "adavar_version": __version__,
@@ -77,7 +80,7 @@ def _demo_json(demo: Any, out: str, files: list[str]) -> dict[str, Any]:
             "crossings": crossings_json(demo.paper.thresholds),
             "seeds": demo.paper.study.to_dict(),
         },
-        "out": {"dir": out, "files": files},
+        "out": {"dir": out, "files": files, "tables": tables or {}},
         "elapsed_s": demo.elapsed,
     }
 
@@ -86,12 +89,13 @@ def _check_demo_out(out: str, force: bool) -> None:
     path = Path(out)
     if path.is_dir() and not path.is_symlink() and not force:
         if any(path.iterdir()) and not (path / DEMO_MARKER).is_file():
+            another = (" (it is another adavar output: pass --force to replace it)"
+                       if is_adavar_folder(path) else ", or remove it yourself")  # fmt: skip
             raise AdavarInputError(
-                f"{out} exists and was not written by adavar demo: choose another --out, or "
-                "pass --force to replace it"
+                f"{out} exists and was not written by adavar demo: choose another --out{another}"
             )
-    check_output_directory(out, replace=True)
     guard_replacement(out, [])
+    check_output_directory(out, replace=True)
 
 
 def _demo_report(demo: Any) -> str:
@@ -138,19 +142,21 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     tables: dict[str, str] = {}
     figures: dict[str, Any] = {}
     paper = demo.paper
+    descriptions: dict[str, str] = {}
     if paper is not None:
         tables = {
             f"paper_{name}": body
             for name, body in compare_tables(
-                paper.comparison, paper.study, paper.thresholds
+                paper.comparison, paper.study, paper.thresholds, descriptions
             ).items()
         }
+        descriptions = {f"paper_{name}": text for name, text in descriptions.items()}
         figures = compare_figures(paper.comparison, paper.kurtosis, paper.thresholds)
         files += [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg"))]
     files.append("report.html")
     status("building the HTML report")
     html = _demo_report(demo)
-    payload = _demo_json(demo, str(args.out), files)
+    payload = _demo_json(demo, str(args.out), files, descriptions)
     text = dumps(payload)
     status(f"writing {args.out}")
     try:
@@ -232,7 +238,8 @@ def add_demo_parser(sub: Any) -> argparse.ArgumentParser:
     )
     demo.add_argument(
         "--force", action="store_true",
-        help="replace --out even if it is not a folder written by adavar demo",
+        help="replace --out even if it is another adavar output than a demo's (never a "
+        "folder adavar did not write)",
     )  # fmt: skip
     demo.add_argument(
         "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+import numpy as np
+
 from adavar import __version__
 from adavar.cli.options import EXIT_OK, UsageError, parse_names, positive_float
 from adavar.cli.output import Status, check_output_file, output_error
@@ -40,6 +42,12 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
                                        *((a, accel_units) for a in args.accel)]):  # fmt: skip
         status(f"fitting the noise terms of {name} ({k + 1}/6)")
         result = deviation(record.channel(name), rate=record.rate, units=units)
+        if result.dev.size and not np.any(result.dev):  # every sample equal
+            raise AdavarInputError(
+                f"column {name!r} is constant: it has no noise to fit; check "
+                f"{'--gyro' if k < 3 else '--accel'} (the columns of the axes) and that the "
+                "sensor was recording"
+            )
         try:
             fits[name] = fit_noise(result)
         except ValueError as exc:
@@ -48,7 +56,7 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
         gyro_fits=[fits[g] for g in args.gyro], accel_fits=[fits[a] for a in args.accel],
         rate=record.rate, topic=args.topic or "/imu0", gyro_units=gyro_units,
         accel_units=accel_units, combine=args.combine, inflate=args.inflate,
-        pinned=args.pinned,
+        pinned=args.pinned, gyro_names=args.gyro, accel_names=args.accel,
     )  # fmt: skip
     try:
         text = kalibr_imu_yaml(**kwargs)

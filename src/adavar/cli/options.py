@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from collections.abc import Callable
 from typing import NoReturn
 
@@ -12,9 +13,12 @@ from adavar.analysis import DEFAULT_MAX_MEMORY_MB, MAX_ALL_TAUS
 from adavar.durations import parse_duration
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES
-from adavar.settings import CONTROLLER, FIT
+from adavar.preprocess import MAX_DETREND_ORDER, parse_steps
+from adavar.settings import CONTROLLER, FIT, HOURLY_FALSE_ALARMS
+from adavar.statistics import MAX_POINTS_PER_DECADE
 from adavar.taus import TAU_KEYWORDS
 from adavar.terms import ALIASES, TERMS
+from adavar.units import RATE_UNITS, is_known_unit
 from adavar.windows import EDGES, MIN_WINDOW
 from adavar.writers import (
     SURFACE_FORMATS,
@@ -68,6 +72,17 @@ def positive_int(text: str) -> int:
         value = 0
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return value
+
+
+def points_per_decade(text: str) -> int:
+    """``--points-per-decade``: 1 to the library's ``MAX_POINTS_PER_DECADE``."""
+    value = positive_int(text)
+    if value > MAX_POINTS_PER_DECADE:
+        raise argparse.ArgumentTypeError(
+            f"must be at most {MAX_POINTS_PER_DECADE}, got {text!r}: denser taus add no "
+            "information (use --taus all for every averaging factor)"
+        )
     return value
 
 
@@ -133,12 +148,23 @@ def length_arg(minimum: int, why: str = "") -> Callable[[str], int | str]:
     return parse
 
 
+def _items(text: str) -> list[str]:
+    """The comma-separated items of a list flag; an empty one (a trailing or doubled comma)
+    is an error rather than dropped."""
+    parts = [part.strip() for part in text.split(",")]
+    if text.strip() and not all(parts):
+        raise argparse.ArgumentTypeError(
+            f"empty item in {text!r}: remove the trailing or doubled comma"
+        )
+    return [part for part in parts if part]
+
+
 def parse_taus(text: str) -> str | list[float]:
     key = text.strip().lower()
     if key in TAU_KEYWORDS:
         return key
     try:
-        values = [float(part) for part in text.split(",") if part.strip()]
+        values = [float(part) for part in _items(text)]
     except ValueError:
         values = []
     if not values or not all(math.isfinite(v) and v > 0 for v in values):
@@ -184,7 +210,7 @@ def _positive_list(what: str, example: str) -> Callable[[str], list[float]]:
 
     def parse(text: str) -> list[float]:
         try:
-            values = [float(part) for part in text.split(",") if part.strip()]
+            values = [float(part) for part in _items(text)]
         except ValueError:
             values = []
         if not values or not all(math.isfinite(v) and v > 0 for v in values):
@@ -204,9 +230,7 @@ threshold_list = _positive_list("kurtosis thresholds", "3.3,4")
 
 def parse_intervals(text: str) -> list[tuple[float, float]]:
     out = []
-    for part in text.split(","):
-        if not part.strip():
-            continue
+    for part in _items(text):
         try:
             a, b = (float(v) for v in part.split(":"))
         except ValueError:
@@ -239,7 +263,7 @@ def number_tuple(flag: str, least: int, most: int) -> Callable[[str], tuple[floa
 
 
 def parse_names(text: str) -> list[str]:
-    names = [part.strip().lower() for part in text.split(",") if part.strip()]
+    names = [part.lower() for part in _items(text)]
     if not names:
         raise argparse.ArgumentTypeError("give at least one method, e.g. davar-400,a-davar")
     return names
@@ -247,10 +271,7 @@ def parse_names(text: str) -> list[str]:
 
 def parse_terms(text: str) -> tuple[str, ...]:
     out = []
-    for part in text.split(","):
-        key = part.strip()
-        if not key:
-            continue
+    for key in _items(text):
         name = key if key in TERM_NAMES else ALIASES.get(key.lower())
         if name is None:
             raise argparse.ArgumentTypeError(
@@ -262,6 +283,70 @@ def parse_terms(text: str) -> tuple[str, ...]:
     if not out:
         raise argparse.ArgumentTypeError("give at least one noise term")
     return tuple(out)
+
+
+def parse_preprocess(text: str) -> str:
+    """``--preprocess``: the steps checked now (before the record is read), kept as text."""
+    try:
+        parse_steps(text)
+    except AdavarInputError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return text.strip()
+
+
+def warn(message: str) -> None:
+    """One ``adavar: warning:`` line on stderr."""
+    print(f"adavar: warning: {' '.join(message.split())}", file=sys.stderr)
+
+
+def check_arguments(args: argparse.Namespace) -> None:
+    """Flags that contradict or miss each other, before any work: ``--force`` without
+    ``--out``, an empty ``--s-test band``, ``--change-times`` that no method uses (a
+    warning), and an ``--units`` adavar does not know (a warning: it is a free label)."""
+    if getattr(args, "force", False) and "out" in vars(args) and args.out is None:
+        raise UsageError(
+            "--force replaces an existing --out folder: give --out DIR as well, or drop --force"
+        )
+    if getattr(args, "s_test", None) == "band" and getattr(args, "thresholds", "paper") == "paper":
+        if not args.s1 < args.s2:
+            raise UsageError(
+                f"--s-test band flags S outside [S1, S2], but --s1 {args.s1:g} is not below "
+                f"--s2 {args.s2:g}: give --s1 < --s2"
+            )
+    method = getattr(args, "method", None)
+    if getattr(args, "command", None) == "adaptive" and args.change_times and method != "oracle":
+        if args.out is None:
+            warn(
+                f"--change-times has no effect with --method {method} and no --out: add "
+                "--method oracle (the ideal schedule of those changes), or --out DIR to mark "
+                "them in the controller figure"
+            )
+        else:
+            warn(
+                f"--change-times only marks the changes in the controller figure: the window "
+                f"is --method {method}'s; add --method oracle for the ideal schedule of them"
+            )
+    units = getattr(args, "units", None)
+    if isinstance(units, str) and units.strip():
+        data_type = getattr(args, "data_type", "rate")
+        if not is_known_unit(units, data_type):
+            warn(
+                f"--units {units.strip()!r} is not a unit adavar knows ({', '.join(RATE_UNITS)};"
+                " with --data-type phase their integrals, or s): the results are in it as "
+                "given, without conventional units"
+            )
+
+
+def check_change_times(times: list[float] | None, n_samples: int, tau0: float) -> None:
+    """``--change-times`` inside the record of ``n_samples`` samples every ``tau0`` s
+    (the times count from its first sample, after any ``--preprocess``)."""
+    duration = n_samples * tau0
+    outside = [t for t in times or () if not 0.0 < t < duration]
+    if outside:
+        raise UsageError(
+            f"--change-times {outside[0]:g} s lies outside the record (0 .. {duration:g} s, "
+            "counted from its first sample): give times inside it"
+        )
 
 
 def add_input_arguments(
@@ -308,15 +393,16 @@ def add_input_arguments(
         "(--no-lazy); default: piece by piece beyond 1 GiB or a quarter of the free memory",
     )  # fmt: skip
     cmd.add_argument(
-        "--preprocess", metavar="STEPS",
-        help="comma-separated steps applied in order: detrend:ORDER, mean, "
-        "decimate:K[:average], select:START:STOP (seconds); e.g. detrend:3,decimate:100 "
-        "(the paper's real-data steps)",
+        "--preprocess", metavar="STEPS", type=parse_preprocess,
+        help="comma-separated steps applied in order: detrend:ORDER (ORDER 0 to "
+        f"{MAX_DETREND_ORDER}), mean, decimate:K[:average], select:START:STOP (seconds); e.g. "
+        "detrend:3,decimate:100 (the paper's real-data steps)",
     )  # fmt: skip
     cmd.add_argument(
         "--column", metavar="NAME[,NAME...]" if several else "NAME",
         help="header name or 0-based index of the channel; several, comma-separated (e.g. "
-        "gx,gy,gz), are analysed one by one (default: every numeric column but the time)"
+        "gx,gy,gz), are analysed one by one (needed when the file has several numeric "
+        "columns)"
         if several
         else "header name or 0-based index of the column (needed if there are several)",
     )  # fmt: skip
@@ -338,14 +424,19 @@ def add_input_arguments(
 def add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
     """--out DIR, --force and the hidden --debug of an analysis command."""
     cmd.add_argument("--out", metavar="DIR", help=out_help)
-    cmd.add_argument("--force", action="store_true", help="replace an existing --out folder")
+    cmd.add_argument("--force", action="store_true",
+                     help="replace an existing --out folder that adavar wrote")  # fmt: skip
     cmd.add_argument(
         "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
     )
 
 
-def add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
-    """The adaptive window's settings (docs/method.md section 8; the paper's values by default)."""
+def add_controller_arguments(cmd: argparse.ArgumentParser, *, hourly: bool = True) -> None:
+    """The adaptive window's settings (docs/method.md section 8).
+
+    ``hourly``: thresholds calibrated for ``--false-alarm-per-hour`` by default (adaptive,
+    report, batch); otherwise the paper's (compare).
+    """
     cmd.add_argument("--lmax", type=length_arg(5), metavar="L",
                       help="longest window: samples, or a duration such as 6s or 10min "
                       "(default: a tenth of the record, as the paper's 600 of 6000 "
@@ -378,14 +469,26 @@ def add_controller_arguments(cmd: argparse.ArgumentParser) -> None:
     cmd.add_argument("--combine", default=CONTROLLER.combine, choices=("or", "and"),
                       help="f = f1 or f2 (default) / f1 and f2")  # fmt: skip
     cmd.add_argument(
-        "--thresholds", default=CONTROLLER.thresholds, choices=("paper", "calibrated"),
-        help="paper: K1, K2, S2 as given (default); calibrated: from the sampling "
-        "distribution of the kurtosis for --false-alarm",
+        "--thresholds", default="calibrated" if hourly else "paper",
+        choices=("paper", "calibrated"),
+        help=("calibrated (default): for --false-alarm-per-hour false events per stationary "
+              "hour; paper: K1, K2, S2 as given" if hourly else
+              "paper: K1, K2, S2 as given (default); calibrated: from the sampling "
+              "distribution of the kurtosis for --false-alarm"),
     )  # fmt: skip
-    cmd.add_argument("--false-alarm", type=parse_confidence, default=CONTROLLER.false_alarm,
-                      metavar="P",
-                      help="per-step false-alarm rate of --thresholds calibrated (default: "
-                      "0.01)")  # fmt: skip
+    if hourly:
+        cmd.add_argument("--false-alarm-per-hour", type=positive_float("false events per hour"),
+                          default=HOURLY_FALSE_ALARMS, metavar="F",
+                          help="false events per hour of stationary data of --thresholds "
+                          "calibrated (default: 0.1)")  # fmt: skip
+    cmd.add_argument(
+        "--false-alarm",
+        type=parse_confidence,
+        default=None if hourly else CONTROLLER.false_alarm,
+        metavar="P",
+        help="per-step false-alarm rate of --thresholds calibrated"
+        + (" (instead of the per-hour rate)" if hourly else " (default: 0.01)"),
+    )
 
 
 def parse_noise_type(text: str) -> str | int | list[int]:
@@ -531,7 +634,7 @@ def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
         "bounds and no noise fit (faster, a third of the memory)",
     )  # fmt: skip
     cmd.add_argument(
-        "--points-per-decade", default=10, type=positive_int, metavar="K",
+        "--points-per-decade", default=10, type=points_per_decade, metavar="K",
         help="density of --taus log (default: 10)",
     )  # fmt: skip
     cmd.add_argument(

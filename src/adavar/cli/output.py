@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import csv
-import io as _stdio
 import math
 import os
 import sys
@@ -11,8 +9,6 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from adavar.cli.options import UsageError
 from adavar.errors import AdavarInputError
@@ -167,19 +163,6 @@ def channel_folders(names: Sequence[str]) -> dict[str, str]:
         used.add(candidate.lower())
         folders[name] = candidate
     return folders
-
-
-def csv_text(header_comment: str, columns: Sequence[str], rows: Sequence[Sequence[Any]]) -> str:
-    buffer = _stdio.StringIO()
-    buffer.write(f"# {header_comment}\n")
-    writer = csv.writer(buffer, lineterminator="\n")
-    writer.writerow(columns)
-    for row in rows:
-        # NaN (a node that does not apply, a value the paper does not give) as "nan": an
-        # empty last cell would read as a trailing delimiter
-        writer.writerow([repr(float(v)) if isinstance(v, (float, np.floating)) else v
-                         for v in row])  # fmt: skip
-    return buffer.getvalue()
 
 
 class Status:

@@ -9,12 +9,13 @@ from typing import Any
 import numpy as np
 
 from adavar import __version__
-from adavar.analysis import analyse_channel, load_input
+from adavar.analysis import ReportAnalysis, analyse_channel, load_input
 from adavar.cli.options import (
     EXIT_OK,
     add_controller_arguments,
     add_fit_arguments,
     add_input_arguments,
+    check_arguments,
     length_arg,
     parse_taus,
     parse_terms,
@@ -28,6 +29,7 @@ from adavar.writers import dumps, fit_json
 def _cmd_report(args: argparse.Namespace) -> int:
     from adavar.report import build_report, write_report
 
+    check_arguments(args)
     output = check_output_file(args.output, args.force, (".html", ".htm"))
     terms = args.terms or TERM_NAMES
     status = Status()
@@ -39,9 +41,12 @@ def _cmd_report(args: argparse.Namespace) -> int:
     names = list(loaded)
     several = len(names) > 1
     runs = []
+    segment_given = args.segment is not None  # before the windows follow the record
     for k, name in enumerate(names):
         tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
-        runs.append(analyse_channel(args, loaded[name], units_of[name], tau0, status, tag))
+        run = analyse_channel(args, loaded[name], units_of[name], tau0, status, tag)
+        run["events"] = _events(args, loaded[name], run, tau0, segment_given)
+        runs.append(run)
     first = runs[0]
     units = first["units"] if not several else "; ".join(
         f"{name}: {units_of[name]}" for name in names
@@ -81,6 +86,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
             deviation=first["result"], fit=first["fit"], surface=first["surface"],
             coefficients=first["coefficients"], adaptive=first["adaptive"],
             parameters=parameters, preprocessing=steps, units=first["rate_units"],
+            events=(first["events"] or {}).get("items"),
         )  # fmt: skip
     status(f"writing {output}")
     try:
@@ -101,6 +107,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
                 "taus": int(np.shape(surface.avar)[1]),
                 "method": getattr(surface, "method", "fixed"),
             },
+            "events": None if run["events"] is None else run["events"]["items"],
         }  # fmt: skip
 
     payload: dict[str, Any] = {
@@ -124,6 +131,25 @@ def _cmd_report(args: argparse.Namespace) -> int:
             print(f"  column {name!r} ({run['units']}):")
         print("\n".join(fit_lines(run["fit"], "    " if several else "  ")))
     return EXIT_OK
+
+
+def _events(
+    args: argparse.Namespace, samples: Any, run: dict[str, Any], tau0: float,
+    segment_given: bool,
+) -> dict[str, Any] | None:  # fmt: skip
+    """The events of one channel, as :meth:`ReportAnalysis.events` finds them."""
+    if run["surface"] is None:
+        return None
+    analysis = ReportAnalysis(
+        path=str(args.file), title="", samples=np.asarray(samples), meta={},
+        units=run["units"], rate_units=run["rate_units"], tau0=float(tau0),
+        rate_options=dict(rate=args.rate if args.rate is not None else 1.0,
+                          tau0=None if args.rate is not None else tau0),
+        options={**vars(args), "segment_given": segment_given},
+        deviation=run["result"], fit=run["fit"], surface=run["surface"],
+        adaptive=run["adaptive"], coefficients=run["coefficients"],
+    )  # fmt: skip
+    return analysis.events()
 
 
 def _channels_report(
@@ -170,6 +196,9 @@ def _channels_report(
                 f'<p class="caption">{rp._esc(caption)}</p>{rp._notes(surface.notes)}',
             ]
             figure, terms = rp._coefficient_figure(run["coefficients"], units)
+            events = (run.get("events") or {}).get("items")
+            if figure and events:
+                figure["layout"]["shapes"] = rp.event_shapes(events)
             parts.append("<h3>Noise coefficients over time</h3>")
             if figure:
                 parts.append(plot(f"plot-{k}-coefficients", figure))
@@ -180,6 +209,9 @@ def _channels_report(
             else:
                 cap = "No term is non-zero in any window."
             parts.append(f'<p class="caption">{rp._esc(cap)}</p>')
+            if events is not None:
+                parts.append("<h3>Events</h3>"
+                             + rp.events_table(events, run["coefficients"], units))  # fmt: skip
         if run["adaptive"] is not None:
             parts += [
                 "<h3>Adaptive window controller</h3>",

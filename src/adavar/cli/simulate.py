@@ -19,7 +19,28 @@ from adavar.cli.options import (
 )
 from adavar.cli.output import Status, check_output_file, output_error
 from adavar.errors import AdavarInputError
+from adavar.simulate import MAX_SAMPLES
 from adavar.writers import dumps
+
+#: Bytes of memory per sample of ``adavar simulate`` (the generators' arrays and the CSV
+#: text built in memory; about 210 measured with five terms), for the check of --n.
+BYTES_PER_SAMPLE = 256
+
+
+def _check_memory(n: int) -> None:
+    """A one-line error, before any work, when --n samples would not fit in memory."""
+    from adavar.sources import available_memory
+
+    need = n * BYTES_PER_SAMPLE
+    free = available_memory()
+    most = MAX_SAMPLES if free is None else min(MAX_SAMPLES, int(0.8 * free) // BYTES_PER_SAMPLE)
+    most = max(1, most)
+    if n > most:
+        room = "" if free is None else f"; {free / 2**30:.1f} GiB of memory is free"
+        raise UsageError(
+            f"--n {n} samples need about {need / 2**30:.1f} GiB to simulate and write as CSV"
+            f"{room}: give --n {most} or fewer"
+        )
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -52,6 +73,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             )
         if any(v < 0 for v in terms.values()):
             raise UsageError("noise coefficients must not be negative")
+        _check_memory(args.n)
         status(f"simulating {args.n} samples")
         try:
             x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, bias=args.bias,
@@ -123,7 +145,8 @@ def add_simulate_parser(sub: Any) -> argparse.ArgumentParser:
         type=positive_int,
         default=100_000,
         metavar="N",
-        help="number of samples of a simulated sensor (default: 100000)",
+        help="number of samples of a simulated sensor (default: 100000; at most what "
+        f"fits in the free memory at {BYTES_PER_SAMPLE} bytes a sample, and {MAX_SAMPLES:,})",
     )
     sim.add_argument(
         "--rate",

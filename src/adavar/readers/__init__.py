@@ -6,7 +6,7 @@
 =================================  ============  ==========================================
 file                               ``kind``      needs
 =================================  ============  ==========================================
-``.csv .tsv .txt .dat``            "csv"         nothing (NumPy)
+``.csv .tsv .txt .dat``            "csv"         nothing (pandas' C parser if installed)
 ``.phd .frd`` (Stable32)           "stable32"    nothing
 ``.npy``                           "npy"         nothing (memory-mapped)
 ``.npz``                           "npz"         nothing (uncompressed members memory-mapped)
@@ -19,9 +19,13 @@ ROS 1 ``.bag``                     "ros1"        rosbags
 
 Nothing is guessed silently: the sampling rate comes from a time column (or time stamps)
 or is declared with ``rate``; a numeric time column is in seconds unless its name carries
-a unit (``t_ms``, ``time [us]``, ``stamp_ns``) or ``time_format`` says otherwise; every
-step taken (rows dropped, gaps split or filled, samples interpolated) is listed in
-:attr:`Record.meta` so a result can be reproduced.
+a unit (``t_ms``, ``time [us]``, ``stamp_ns``) or ``time_format`` says otherwise, and one
+that could as well be in another unit (whole numbers 2 or more apart, values past the year
+5000 in seconds) is an error asking for the unit; the rate is the nominal one the stamps
+bear out exactly (``1.7e9 + k / 200`` s: 200 Hz), else their mean regular interval; units
+the format declares (ROS bags, HDF5 attributes) are checked against the user's
+(:meth:`Record.units_of`); every step taken (rows dropped, gaps split or filled, samples
+interpolated) is listed in :attr:`Record.meta` so a result can be reproduced.
 
 Every problem with the input raises :class:`adavar.errors.AdavarInputError` with a
 one-line message that names the problem, where it is, and the way out.
@@ -36,7 +40,8 @@ module                holds
 ``lazy``              when HDF5 / Parquet columns are read piece by piece (``LAZY_BYTES``)
 ``table``             the columns of a file, the time column and its unit, the channels
 ``record``            :class:`Record`, NaN and gap policies, the rate from the time stamps
-``text``              CSV / TSV / whitespace text files
+``textscan``          text files streamed in blocks: binary checks, pandas or NumPy parsing
+``text``              CSV / TSV / whitespace text files: delimiter, decimal comma, header
 ``stable32``          Stable32 ``.phd`` / ``.frd`` files
 ``npy``               ``.npy`` and ``.npz`` files (memory-mapped)
 ``hdf5``              HDF5 files

@@ -86,8 +86,11 @@ def read_record(
     ----------
     path : str or path-like
         The file (or ROS 2 bag folder); its suffix chooses the reader (see
-        :data:`SUFFIXES`). Text files: UTF-8, blank lines and lines starting with ``#`` or
-        ``%`` skipped, delimiter sniffed among tab, semicolon, comma and whitespace, a
+        :data:`SUFFIXES`). Text files: UTF-8 (a binary, compressed or UTF-16 file is
+        refused with what it is), streamed in blocks (the memory used is the columns', not
+        the text's), blank lines and lines starting with ``#`` or ``%`` skipped, delimiter
+        sniffed among tab, semicolon, comma and whitespace, decimal commas read in a file
+        separated by semicolons, tabs or spaces whose numbers have no decimal point, a
         header row when the first line is not numbers (Stable32 ``.phd``/``.frd`` and
         single-column files may have several header lines), empty / ``NA`` / ``nan``
         cells read as missing samples.
@@ -100,7 +103,10 @@ def read_record(
         a Stable32 file gives ``"phase"`` (``.phd``) or ``"frequency"`` (``.frd``).
     rate : float, optional
         The sampling rate (Hz). Needed when the file has no time column; when it has one,
-        the two must agree within 1 % (median interval), and the declared rate is used.
+        the two must agree within 1 %, and the declared rate is used. Found from the time
+        stamps, it is the nominal rate when every regular interval equals a round value
+        (of the rate or the interval) within the stamps' rounding and their mean agrees
+        (``meta["rate_source"]``), else the mean interval, gaps left out.
     time_column : str or int, optional
         The time column (name or index). By default a column named like ``t``, ``time``,
         ``timestamp``, ``stamp``, ``datetime``, ``epoch``, ``mjd`` (optionally with a unit:
@@ -111,7 +117,9 @@ def read_record(
     time_format : {"auto", "s", "ms", "us", "ns", "iso", "mjd"}
         The time column's unit: ``"auto"`` reads strings as ISO 8601 (naive times as UTC)
         and numbers in the unit written in the column name, else in seconds (recorded in
-        ``meta["time_unit_source"]`` as assumed).
+        ``meta["time_unit_source"]`` as assumed), unless that is unclear: whole numbers 2
+        or more apart (5 apart: 0.2 Hz in seconds, 200 Hz in milliseconds) or values past
+        the year 5000 in seconds are an error asking for the unit.
     gaps : {"error", "split", "interpolate"}
         What to do when an interval between time stamps is longer than
         ``(1 + gap_tolerance)`` times the median (a gap) or shorter than

@@ -29,6 +29,8 @@ NAN_POLICIES = ("error", "drop", "interpolate")
 
 _RATE_AGREEMENT = 0.01  # a declared rate and a time column must agree within 1 %
 _MAX_LISTED = 50  # gaps / dropped rows listed one by one in meta
+_NOMINAL = "nominal rate of the time stamps (every interval equals it within their resolution)"
+_MEAN = "mean time interval (gaps excluded)"
 
 
 @dataclass
@@ -115,12 +117,81 @@ class Record:
             )
         return self.channels[resolve(name, self.names, self.source, "channel")]
 
+    def units_of(self, given: str | None = None) -> dict[str, str | None]:
+        """The unit of every channel: ``given`` (``--units``), else the unit the file
+        declares (ROS bags: rad/s and m/s^2; HDF5 ``units`` attributes), else None.
+
+        Parameters
+        ----------
+        given : str, optional
+            The unit the user declared for every channel.
+
+        Returns
+        -------
+        dict of str to str or None
+
+        Raises
+        ------
+        AdavarInputError
+            ``given`` contradicts a unit the file declares (``deg/s`` for data declared in
+            rad/s is 57.3 times off; an angular rate for an acceleration is no unit of it).
+            A declared unit adavar does not know (a free label) is not compared.
+        """
+        declared = self.meta.get("units") or {}
+        if given is None:
+            return {name: declared.get(name) for name in self.names}
+        for name in self.names:
+            unit = declared.get(name)
+            if unit is None or not _contradicts(given, unit):
+                continue
+            units = {n: declared[n] for n in self.names if n in declared}
+            if len(set(units.values())) == 1:
+                way_out = f"leave out --units, or give --units {unit}"
+            else:
+                listed = ", ".join(f"{n} in {u}" for n, u in units.items())
+                way_out = f"leave out --units (the file declares {listed})"
+            raise fail(
+                f"--units {given} contradicts {self.source}, which declares channel {name!r} "
+                f"in {unit}{_what_differs(given, unit)}: {way_out}"
+            )
+        return dict.fromkeys(self.names, given)
+
     def pieces(self, name: str | None = None) -> list[np.ndarray]:
         """The channel cut into its gap-free segments (one piece when not split)."""
         values = self.channel(name)
         if self.segments is None:
             return [values]
         return [values[s] for s in self.segments]
+
+
+def _contradicts(given: str, declared: str) -> bool:
+    """Whether unit ``given`` is not the unit ``declared`` by the file (which adavar knows)."""
+    from adavar.units import unit_info
+
+    try:
+        info = unit_info(declared)
+    except (TypeError, ValueError):
+        return False  # a free label: nothing to compare with
+    try:
+        return unit_info(given) != info
+    except (TypeError, ValueError):
+        return True  # the file's unit is known, and the given one is not it
+
+
+def _what_differs(given: str, declared: str) -> str:
+    """`` (deg/s is an angular rate, m/s^2 an acceleration)`` when the two units measure
+    different quantities, else ""."""
+    from adavar.units import unit_info
+
+    kinds = {("gyro", 0.0): "an angular rate", ("accelerometer", 0.0): "an acceleration",
+             ("gyro", 1.0): "an angle", ("accelerometer", 1.0): "a velocity"}  # fmt: skip
+    try:
+        g, d = unit_info(given), unit_info(declared)
+    except (TypeError, ValueError):
+        return ""
+    what_g = kinds.get((g.sensor, g.time_power), f"a {g.sensor} unit")
+    what_d = kinds.get((d.sensor, d.time_power), f"a {d.sensor} unit")
+    return "" if what_g == what_d else f" ({given} is {what_g}, {declared} {what_d})"
 
 
 @dataclass
@@ -263,6 +334,38 @@ def _handle_nan(raw: RawRecord, policy: str, src: str, meta: dict[str, Any]) -> 
     )
 
 
+def sampling_interval(
+    dt: np.ndarray, step: float, tol: float, resolution: float
+) -> tuple[float, float, bool]:
+    """(interval in s, rate in Hz, nominal) from the intervals ``dt`` between time stamps.
+
+    The intervals within ``tol`` of the median ``step`` are the regular ones (gaps and
+    non-uniform intervals left out). When every regular interval equals a round value (at
+    most 6 significant digits, of the rate or of the interval) within ``2 * resolution``
+    (the stamps' rounding: a unit of integer stamps, a float spacing), and their mean
+    agrees with it to within what the stamps' rounding allows over the record, that value
+    is the nominal interval: epoch stamps like ``1.7e9 + k / 200`` give exactly 200 Hz, not
+    199.995. Otherwise the mean regular interval (more accurate than the median when the
+    stamps are rounded or jitter).
+    """
+    regular = (dt >= (1.0 - tol) * step) & (dt <= (1.0 + tol) * step)
+    reg = dt if regular.all() else dt[regular]
+    mean = float(np.mean(reg))
+    runs = 1 + dt.size - reg.size  # gap-free stretches
+    if float(np.max(np.abs(reg - mean))) > 4.0 * resolution + 2e-9 * mean:
+        return mean, 1.0 / mean, False  # the intervals vary more than the stamps' rounding
+    for digits in range(1, 7):
+        for value, is_rate in ((1.0 / mean, True), (mean, False)):
+            rounded = float(f"{value:.{digits}g}")
+            cand = 1.0 / rounded if is_rate else rounded
+            slack = 2.0 * resolution + 1e-9 * cand
+            if abs(mean - cand) > 2.0 * resolution * runs / reg.size + 1e-12 * cand:
+                continue
+            if float(np.max(np.abs(reg - cand))) <= slack:
+                return cand, (rounded if is_rate else 1.0 / rounded), True
+    return mean, 1.0 / mean, False
+
+
 def finish_record(
     raw: RawRecord,
     *,
@@ -309,8 +412,9 @@ def finish_record(
             f"{src}: time {what} at {where(i + 1)} (t = {_fmt_t(t[i + 1])} after "
             f"{_fmt_t(t[i])}): sort the rows by time and remove duplicates"
         )
-    step = float(np.median(dt))
-    found = 1.0 / step
+    step = float(np.median(dt))  # robust: gaps and outliers do not move it
+    resolution = float(meta.get("time_resolution", 0.0)) + float(np.spacing(t[-1]))
+    interval, found, nominal = sampling_interval(dt, step, tol, resolution)
     if rate is not None:
         if abs(found - rate) > _RATE_AGREEMENT * rate:
             raise fail(
@@ -322,9 +426,10 @@ def finish_record(
         grid_step = 1.0 / rate
     else:
         rate = found
-        meta["rate_source"] = "median time interval"
-        grid_step = step
+        meta["rate_source"] = _NOMINAL if nominal else _MEAN
+        grid_step = interval
     meta["median_interval"] = step
+    meta["mean_interval"] = interval if not nominal else 1.0 / found
     long_ = np.flatnonzero(dt > (1.0 + tol) * step)
     short = np.flatnonzero(dt < (1.0 - tol) * step)
     jitter = np.abs(dt - step) / step

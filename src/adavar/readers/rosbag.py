@@ -102,6 +102,7 @@ def read_rosbag(path: Path, src: str, opts: dict[str, Any], *, ros2: bool) -> Ra
         "units": {c: _IMU_UNITS[c] for c in chosen},
         "time_source": "header stamps" if time_column == "header" else "bag time stamps",
         "n_messages": int(k),
+        "time_resolution": 1e-9,  # integer nanoseconds
     }
     if time_column == "header" and not stamp.any():
         raise fail(

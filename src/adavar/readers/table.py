@@ -111,6 +111,7 @@ class Table:
     rows: np.ndarray | None = None  # file line numbers, for messages
     why_not: dict[str, str] = field(default_factory=dict)  # why a column is not numeric
     units: dict[str, str] = field(default_factory=dict)
+    bad: dict[str, tuple[int, str]] = field(default_factory=dict)  # text: first bad cell
 
 
 def _pick_time(
@@ -149,7 +150,7 @@ def _time_from_table(
                 "time_format 'iso' (or 'auto')"
             )
         rel, t0, tz = _iso_seconds(tab.get(name), tab.rows, name, src)
-        info.update(time_format="iso", timezone=tz)
+        info.update(time_format="iso", timezone=tz, time_resolution=1e-6)
         return rel, t0, info
     if kind == "ns":
         values = np.asarray(tab.get(name), dtype=np.int64)
@@ -161,7 +162,7 @@ def _time_from_table(
             t0 = float(first) / 1e9
         else:
             t0 = None
-        info.update(time_format="datetime")
+        info.update(time_format="datetime", time_resolution=1e-9)
         return rel, t0, info
     if time_format == "iso":
         raise fail(
@@ -180,20 +181,49 @@ def _time_from_table(
     if np.issubdtype(values.dtype, np.integer):
         rel = (values - values[0]).astype(np.float64) * factor  # exact for int64 ns stamps
         first = float(values[0])
+        resolution = factor  # one unit: the stamps are rounded to it
     else:
         values = values.astype(np.float64, copy=False)
         finite = np.isfinite(values)
         first = float(values[np.argmax(finite)]) if finite.any() else math.nan
         rel = (values - first) * factor
-    if how.startswith("assumed") and math.isfinite(first) and abs(first) > 1e11:
+        largest = float(np.max(np.abs(values[finite]))) if finite.any() else 0.0
+        resolution = float(np.spacing(largest)) * factor  # float rounding of a stamp
+    if how.startswith("assumed"):
+        _check_seconds(values, first, name, src)
+    t0 = (first - _MJD_UNIX_EPOCH) * 86400.0 if unit == "mjd" else first * factor
+    info.update(time_format=unit, time_unit_source=how, time_resolution=resolution)
+    return rel, (t0 if math.isfinite(t0) else None), info
+
+
+def _check_seconds(values: np.ndarray, first: float, name: str, src: str) -> None:
+    """Fail when a time column of no declared unit cannot be in seconds, or could as well be
+    in ms, us or ns: stamps after the year 5000, or whole numbers 2 or more apart (5 apart:
+    0.2 Hz in seconds, 200 Hz in milliseconds). Whole seconds 1 apart (1 Hz) are read."""
+    named = f"or in the column name (e.g. {name.strip()}_ms)"
+    if math.isfinite(first) and abs(first) > 1e11:
         raise fail(
             f"time column {name!r} of {src} starts at {first:.4g}, too large for seconds "
-            "(after the year 5000): give its unit with time_format 'ms', 'us' or 'ns' "
-            "(--time-format)"
+            f"(after the year 5000): give its unit with time_format 'ms', 'us' or 'ns' "
+            f"(--time-format), {named}"
         )
-    t0 = (first - _MJD_UNIX_EPOCH) * 86400.0 if unit == "mjd" else first * factor
-    info.update(time_format=unit, time_unit_source=how)
-    return rel, (t0 if math.isfinite(t0) else None), info
+    if values.size < 2:
+        return
+    if values.dtype.kind == "f":
+        finite = values[np.isfinite(values)]
+        if finite.size < 2 or not np.array_equal(finite, np.round(finite)):
+            return
+        steps = np.diff(finite)
+    else:
+        steps = np.diff(values)
+    step = float(np.median(steps))
+    if step >= 2:
+        raise fail(
+            f"time column {name!r} of {src} holds whole numbers {step:g} apart, so its unit "
+            f"is unclear ({1 / step:.4g} Hz if they are seconds, {1000 / step:.4g} Hz if "
+            f"milliseconds): give its unit with time_format 's', 'ms', 'us' or 'ns' "
+            f"(--time-format), {named}"
+        )
 
 
 def _iso_seconds(

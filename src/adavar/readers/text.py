@@ -1,113 +1,159 @@
 """Text files: CSV, TSV, semicolon- or whitespace-separated columns.
 
 A UTF-8 file, blank lines and comment lines (:data:`COMMENT_PREFIXES`) skipped; the
-delimiter is sniffed among tab, semicolon, comma and whitespace from the last lines; the
-header is the line just before the first data row (a row of numbers or ISO 8601 times);
-empty, ``NA``, ``nan``... cells are missing samples. :func:`text_table` reads the columns
-(also for Stable32 files, :mod:`adavar.readers.stable32`), :func:`read_text` the record.
+delimiter is sniffed among tab, semicolon, comma and whitespace from the last lines, and
+with it the decimal separator (decimal commas are read in a file separated by semicolons,
+tabs or spaces whose numbers have no decimal point); the header is the line just before the
+first data row (a row of numbers or ISO 8601 times); empty, ``NA``, ``nan``... cells are
+missing samples. The data rows are streamed block by block (:mod:`adavar.readers.textscan`):
+the memory used is the columns', not the text's. :func:`text_table` reads the columns (also
+for Stable32 files, :mod:`adavar.readers.stable32`), :func:`read_text` the record.
 """
 
 from __future__ import annotations
 
-import csv
-from collections.abc import Sequence
+import re
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from adavar.readers.errors import fail
 from adavar.readers.record import RawRecord
-from adavar.readers.table import MISSING, Table, channels_from_table, is_iso
+from adavar.readers.table import Table, channels_from_table, is_iso
+from adavar.readers.textscan import (
+    COMMENT_PREFIXES,
+    HEAD,
+    Layout,
+    is_number,
+    open_text,
+    read_columns,
+    split,
+)
 
-#: Lines starting with one of these (after leading blanks) are comments in text files.
-COMMENT_PREFIXES = ("#", "%")
+__all__ = ["COMMENT_PREFIXES", "cell_hint", "read_text", "text_table"]
 
-
-def _read_lines(path: Path) -> list[tuple[int, str]]:
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise fail(
-            f"{path} is not a UTF-8 text file: export the data as plain CSV or text"
-        ) from None
-    except OSError as exc:
-        raise fail(f"cannot read {path}: {exc.strerror or exc}") from None
-    return [
-        (number, line)
-        for number, raw in enumerate(text.splitlines(), start=1)
-        if (line := raw.strip()) and not line.startswith(COMMENT_PREFIXES)
-    ]
-
-
-def _split(text: str, delim: str | None) -> list[str]:
-    if delim is None:
-        return text.split()
-    if text.endswith(delim):  # one trailing separator is common in exported files
-        text = text[: -len(delim)]
-    row = next(csv.reader([text], delimiter=delim, skipinitialspace=True), [])
-    return [cell.strip() for cell in row]
+_DELIM_NAMES = {",": "comma", ";": "semicolon", "\t": "tab", None: "whitespace"}
+_SEARCHED = 1000  # lines searched for the first data row
+#: a number written with a decimal comma: 1,5  -0,25  ,5  1,5e-3
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
+#: a number with digit grouping: 1.234,5  1,234.5  1 234,5
+_GROUPED = re.compile(r"^[+-]?\d{1,3}(?:[., \u00a0\u202f]\d{3})+(?:[.,]\d+)?$")
 
 
-def _sniff(sample: list[str]) -> str | None:
-    """Tab, semicolon or comma (in that order) if it splits most sample lines into the
-    same number (> 1) of fields; otherwise None (runs of whitespace)."""
-    for delim in ("\t", ";", ","):
-        counts = [len(_split(line, delim)) for line in sample]
-        best = max(set(counts), key=counts.count)
-        if best > 1 and 2 * counts.count(best) > len(counts):
-            return delim
-    return None
+def _is_value(cell: str, decimal: str) -> bool:
+    """A number (with the file's decimal separator) or an ISO 8601 time."""
+    if decimal == "," and _DECIMAL_COMMA.match(cell):
+        return True
+    return is_number(cell) or is_iso(cell)
 
 
-def _is_number(cell: str) -> bool:
-    try:
-        float(cell)
-    except ValueError:
-        return False
-    return True
-
-
-def _is_data(cells: list[str]) -> bool:
+def _is_data(cells: list[str], decimal: str) -> bool:
     """A data row: at least half of its non-empty cells are numbers (NaN and Inf count) or
     ISO 8601 times, and it has at least one (header words and preamble sentences do not)."""
     filled = [cell for cell in cells if cell]
-    values = sum(1 for cell in filled if _is_number(cell) or is_iso(cell))
+    values = sum(1 for cell in filled if _is_value(cell, decimal))
     return values > 0 and 2 * values >= len(filled)
 
 
-_DELIM_NAMES = {",": "comma", ";": "semicolon", "\t": "tab", None: "whitespace"}
+def _decimal(sample: list[str], delim: str | None) -> str:
+    """``","`` when the sample's numbers are written with decimal commas (and none with a
+    decimal point), else ``"."``. A comma-separated file has decimal points."""
+    if delim == ",":
+        return "."
+    comma = point = False
+    for line in sample:
+        for cell in split(line, delim):
+            if _DECIMAL_COMMA.match(cell):
+                comma = True
+            elif "." in cell and (is_number(cell) or _GROUPED.match(cell)):
+                point = True
+    return "," if comma and not point else "."
+
+
+def _spaced_decimal_commas(sample: list[str]) -> bool:
+    """Whether most sample lines are runs of whitespace-separated numbers with decimal
+    commas (``1,5 2,25``), which a comma split would cut into nonsense."""
+
+    def numbers(line: str) -> bool:
+        cells = line.split()
+        return (
+            len(cells) > 1
+            and all(_DECIMAL_COMMA.match(c) or c.lstrip("+-").isdigit() for c in cells)
+            and any(_DECIMAL_COMMA.match(c) for c in cells)
+        )
+
+    return 2 * sum(numbers(line) for line in sample) > len(sample)
+
+
+def _sniff(sample: list[str]) -> tuple[str | None, str]:
+    """(delimiter, decimal separator). Tab, semicolon or comma (in that order) if it splits
+    most sample lines into the same number (> 1) of fields; otherwise None (runs of
+    whitespace)."""
+    for delim in ("\t", ";", ","):
+        counts = [len(split(line, delim)) for line in sample]
+        best = max(set(counts), key=counts.count)
+        if best > 1 and 2 * counts.count(best) > len(counts):
+            if delim == "," and _spaced_decimal_commas(sample):
+                return None, ","
+            return delim, _decimal(sample, delim)
+    return None, _decimal(sample, None)
+
+
+def cell_hint(cell: str, decimal_comma: bool, comma_separated: bool) -> str:
+    """Why a cell that looks like a number is not read as one ("" if it does not)."""
+    if _GROUPED.match(cell) and "," in cell and "." in cell:
+        return "digit grouping is not read: export the numbers without thousands separators"
+    if decimal_comma and "." in cell and is_number(cell):
+        return (
+            "a decimal point in a file whose numbers have decimal commas is ambiguous (1.500 "
+            "may be 1500): write every number with one decimal separator"
+        )
+    if not decimal_comma and _DECIMAL_COMMA.match(cell):
+        if comma_separated:
+            return "decimal commas are not read in a comma-separated file"
+        return (
+            "decimal commas are read only in a file separated by ';', tabs or spaces whose "
+            "numbers have no decimal points"
+        )
+    return ""
 
 
 def text_table(path: Path, src: str, *, preamble: bool) -> tuple[Table, dict[str, Any]]:
     """The columns of a text file, and what was found (delimiter, header, lines skipped)."""
-    lines = _read_lines(path)
+    scan = open_text(path, src, n_head=_SEARCHED + 1)
+    lines = scan.head
     if not lines:
-        raise fail(f"{src} is empty (no data rows): give a file with one sample per row")
-    delim = _sniff([text for _, text in lines[-50:]])
+        if scan.complete:
+            raise fail(f"{src} is empty (no data rows): give a file with one sample per row")
+        raise fail(
+            f"{src} has no data rows in its first {HEAD >> 20} MiB (only comments or blank "
+            "lines): give a file with one sample per row"
+        )
+    delim, decimal = _sniff(scan.tail)
     # header / preamble: the non-data lines before the first data line
-    counts = [len(_split(text, delim)) for _, text in lines[-50:]]
+    counts = [len(split(text, delim, src)) for text in scan.tail]
     width = max(set(counts), key=counts.count)  # fields in a data row
     first_data = None
-    for k, (_, text) in enumerate(lines[:1000]):
-        cells = _split(text, delim)
-        if len(cells) == width and _is_data(cells):
+    for k, (number, _, text) in enumerate(lines[:_SEARCHED]):
+        cells = split(text, delim, src, number)
+        if len(cells) == width and _is_data(cells, decimal):
             first_data = k
             break
     if first_data is None:
-        within = " in its first 1000 lines" if len(lines) > 1000 else ""
+        if len(lines) == 1 and scan.complete:
+            raise fail(f"{src} has a header row but no data rows: give a file with samples")
+        within = f" in its first {_SEARCHED} lines" if len(lines) > _SEARCHED else ""
         raise fail(f"{src} has no numeric data rows{within}: give a file with one sample per row")
-    data = lines[first_data:]
-    n_cols = len(_split(data[0][1], delim))
+    number, offset, text = lines[first_data]
+    n_cols = len(split(text, delim, src, number))
     if first_data > 1 and not preamble and n_cols > 1:
-        number = lines[1][0]
         raise fail(
-            f"{src}: row {number} is neither a number row nor the header: remove the extra "
-            "header lines or comment them out with #"
+            f"{src}: row {lines[1][0]} is neither a number row nor the header: remove the "
+            "extra header lines or comment them out with #"
         )
     names: list[str] | None = None
     if first_data >= 1:
-        head = _split(lines[first_data - 1][1], delim)
+        before = lines[first_data - 1]
+        head = split(before[2], delim, src, before[0])
         if len(head) == n_cols and (n_cols > 1 or first_data == 1):
             names = [cell if cell else f"column {j}" for j, cell in enumerate(head)]
     has_header = names is not None
@@ -116,77 +162,39 @@ def text_table(path: Path, src: str, *, preamble: bool) -> tuple[Table, dict[str
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
         raise fail(f"{src}: the header names column {dupes[0]!r} twice: rename one of them")
-    numbers = np.array([number for number, _ in data], dtype=np.int64)
-    texts = [text for _, text in data]
-    if delim is not None and any(text.endswith(delim) for text in texts):
-        texts = [text[: -len(delim)] if text.endswith(delim) else text for text in texts]
-    if delim is None:
-        rows = [text.split() for text in texts]
-    elif not any('"' in text for text in texts):
-        rows = [text.split(delim) for text in texts]  # cells stripped below where needed
-    else:
-        reader = csv.reader(texts, delimiter=delim, skipinitialspace=True)
-        rows = [[cell.strip() for cell in row] for row in reader]
-    if len({len(row) for row in rows}) > 1 or len(rows[0]) != n_cols:
-        for i, row in enumerate(rows):
-            if len(row) != n_cols:
-                raise fail(
-                    f"{src}: row {numbers[i]} has {len(row)} fields, expected {n_cols} "
-                    f"({_DELIM_NAMES[delim]}-separated): fix or remove that row"
-                )
-    cols: list[Sequence[str]] = list(zip(*rows, strict=True))
-    del rows
+    sample = [*scan.tail, *(t for _, _, t in lines[first_data : first_data + 50])]
+    spaced = delim is not None and any(f"{delim} " in t or '"' in t for t in sample)
+    layout = Layout(delim, decimal, n_cols, src, _DELIM_NAMES[delim], spaced)
+    columns, numbers = read_columns(path, offset, number, layout, scan.size - offset)
     kinds: dict[str, str] = {}
     why_not: dict[str, str] = {}
-    parsed: dict[str, np.ndarray] = {}
-    for j, name in enumerate(names):
-        values = _parse_numeric(cols[j])
-        if values is not None:
-            kinds[name], parsed[name] = "num", values
-            continue
-        cells = cols[j] = [cell.strip() for cell in cols[j]]
-        if all(c.casefold() in MISSING or is_iso(c) for c in cells[:200]) and any(
-            is_iso(c) for c in cells[:200]
-        ):
-            kinds[name] = "iso"
-            continue
-        kinds[name] = "text"
-        for i, cell in enumerate(cells):
-            if cell.casefold() not in MISSING and not _is_number(cell):
-                hint = "; decimal commas are not read" if _is_number(cell.replace(",", ".")) else ""
-                why_not[name] = f"row {numbers[i]}: {cell!r}{hint}"
-                break
-    by_name = dict(zip(names, cols, strict=True))
+    bad: dict[str, tuple[int, str]] = {}
+    values: dict[str, Any] = {}
+    for name, column in zip(names, columns, strict=True):
+        kinds[name] = str(column.kind)
+        if column.kind == "num" and column.values is not None:
+            values[name] = column.values.result()
+        elif column.kind == "iso":
+            values[name] = column.cells
+        elif column.bad is not None:
+            row, cell = column.bad
+            hint = cell_hint(cell, decimal == ",", delim == ",")
+            why_not[name] = f"row {row}: {cell!r}" + (f"; {hint}" if hint else "")
+            bad[name] = column.bad
+        else:
+            why_not[name] = "no values, only empty or missing cells"
 
     def get(name: str) -> Any:
-        return parsed[name] if name in parsed else by_name[name]
+        return values[name]
 
-    tab = Table(names, kinds, get, len(numbers), numbers, why_not)
+    tab = Table(names, kinds, get, len(numbers), numbers, why_not, bad=bad)
     meta = {
         "delimiter": _DELIM_NAMES[delim],
+        "decimal": "comma" if decimal == "," else "point",
         "header": has_header,
         "skipped_lines_before_data": first_data,
     }
     return tab, meta
-
-
-def _parse_numeric(cells: Sequence[str]) -> np.ndarray | None:
-    """The cells as int64 (if all are integers) or float64 (missing cells NaN), or None."""
-    try:
-        return np.array(cells, dtype=np.int64)
-    except (ValueError, OverflowError):
-        pass
-    try:
-        return np.array(cells, dtype=np.float64)
-    except ValueError:
-        pass
-    filled = ["nan" if c.strip().casefold() in MISSING else c for c in cells]
-    if all(c == "nan" for c in filled):
-        return None
-    try:
-        return np.array(filled, dtype=np.float64)
-    except ValueError:
-        return None
 
 
 def read_text(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:

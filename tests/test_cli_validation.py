@@ -1,0 +1,237 @@
+"""Bad or contradictory flags are refused (or warned about) in one line, before any work.
+
+Runaway parameters (a polynomial detrend of degree 4000, ``simulate --n`` beyond the free
+memory), flags that are silently ignored today (``--force`` without ``--out``, an empty
+``--s-test band``, ``--change-times`` beyond the record or without ``--method oracle``,
+trailing commas, an empty ``--preprocess``, unknown ``--units``), ``avar`` labelling every
+numeric column with one ``--units``, and kalibr's messages about a constant axis.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import adavar.sources
+from adavar import simulate
+from adavar.errors import AdavarInputError
+from adavar.export import kalibr_values
+from adavar.noise_model import fit_noise
+from adavar.preprocess import MAX_DETREND_ORDER, detrend, parse_steps, preprocess
+from adavar.statistics import deviation
+from adavar.units import is_known_unit
+
+from .cli_helpers import assert_one_line_error, run
+
+RATE = 10.0
+N = 2000  # 200 s at 10 Hz
+
+
+@pytest.fixture(scope="module")
+def gyro_csv(tmp_path_factory):
+    """White rate noise (deg/s) with a time column and a slowly warming temperature."""
+    x = simulate.white(N, std=0.5, rate=RATE, seed=3)
+    path = tmp_path_factory.mktemp("data") / "gyro.csv"
+    lines = ["time,gyro_x,temp"]
+    lines += [f"{k / RATE!r},{v!r},{21.5 + 1e-3 * k!r}" for k, v in enumerate(x.tolist())]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+def avar(path, *extra):
+    return ["avar", str(path), "--column", "gyro_x", "--units", "deg/s", *extra]
+
+
+def adaptive(path, *extra):
+    return ["adaptive", str(path), "--column", "gyro_x", "--units", "deg/s", "--lmax", "200",
+            "--lmin", "100", "--taus", "octave", "--json", *extra]  # fmt: skip
+
+
+# --------------------------------------------------------------------------------------
+# Item 10: runaway parameters
+# --------------------------------------------------------------------------------------
+
+
+def test_detrend_degree_is_bounded(capsys, gyro_csv, tmp_path):
+    out = tmp_path / "out"
+    code, stdout, err = run(capsys, avar(gyro_csv, "--preprocess", "detrend:4000",
+                                         "--out", str(out)))  # fmt: skip
+    assert_one_line_error(code, stdout, err, "--preprocess", f"at most {MAX_DETREND_ORDER}",
+                          "ill-conditioned", "got 4000")  # fmt: skip
+    assert not out.exists()
+    x = np.arange(100.0)
+    with pytest.raises(AdavarInputError, match="ill-conditioned"):
+        detrend(x, MAX_DETREND_ORDER + 1)
+    with pytest.raises(AdavarInputError, match=f"at most {MAX_DETREND_ORDER}"):
+        preprocess(x, rate=1.0, steps="detrend:11")
+    assert detrend(x, MAX_DETREND_ORDER).shape == x.shape  # the bound itself is fine
+
+
+def test_simulate_n_is_bounded_by_the_free_memory(capsys, tmp_path, monkeypatch):
+    monkeypatch.setattr(adavar.sources, "available_memory", lambda: 2**20)  # 1 MiB free
+    target = tmp_path / "sim.csv"
+    code, out, err = run(capsys, ["simulate", "--arw", "0.01", "--n", "100000",
+                                  "-o", str(target)])  # fmt: skip
+    assert_one_line_error(code, out, err, "--n 100000", "GiB", "free", "or fewer")
+    assert not target.exists()
+    monkeypatch.setattr(adavar.sources, "available_memory", lambda: 2**30)
+    code, out, err = run(capsys, ["simulate", "--arw", "0.01", "--n", "1000", "-o", str(target)])
+    assert code == 0, err
+
+
+def test_simulate_library_has_a_documented_maximum():
+    with pytest.raises(ValueError, match="at most"):
+        simulate.white(10**12)
+    with pytest.raises(ValueError, match="at most"):
+        simulate.sensor(simulate.MAX_SAMPLES + 1, angle_random_walk=1.0)
+
+
+# --------------------------------------------------------------------------------------
+# Item 17: silently accepted flags
+# --------------------------------------------------------------------------------------
+
+
+def test_s_test_band_needs_s1_below_s2(capsys, gyro_csv):
+    """With the paper's thresholds S2 is --s2 (calibrated thresholds compute their own)."""
+    code, out, err = run(capsys, adaptive(gyro_csv, "--s-test", "band", "--s1", "0.5",
+                                          "--s2", "0.07", "--thresholds", "paper"))  # fmt: skip
+    assert_one_line_error(code, out, err, "--s-test band", "--s1 0.5", "--s2 0.07")
+
+
+def test_oracle_change_times_beyond_the_record(capsys, gyro_csv):
+    code, out, err = run(capsys, adaptive(gyro_csv, "--method", "oracle",
+                                          "--change-times", "50,1000"))  # fmt: skip
+    assert_one_line_error(code, out, err, "--change-times 1000 s", "outside the record",
+                          "0 .. 200 s")  # fmt: skip
+
+
+def test_change_times_without_oracle_warn(capsys, gyro_csv):
+    code, _, err = run(capsys, adaptive(gyro_csv, "--change-times", "50"))
+    assert code == 0, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("adavar: warning: --change-times"), err
+    assert "--method oracle" in lines[0]
+
+
+@pytest.mark.parametrize(
+    ("flag", "value"), [("--taus", "1,"), ("--taus", "1,,2"), ("--terms", "N,")]
+)
+def test_trailing_comma_is_an_error(capsys, gyro_csv, flag, value):
+    code, out, err = run(capsys, avar(gyro_csv, flag, value))
+    assert_one_line_error(code, out, err, flag, "empty item", repr(value))
+
+
+def test_trailing_comma_in_change_times_is_an_error(capsys, gyro_csv):
+    code, out, err = run(capsys, adaptive(gyro_csv, "--method", "oracle",
+                                          "--change-times", "50,"))  # fmt: skip
+    assert_one_line_error(code, out, err, "--change-times", "empty item")
+
+
+@pytest.mark.parametrize(
+    ("spec", "fragment"),
+    [("", "empty"), ("  ", "empty"), ("detrend:3,", "step 2"), ("mean,,decimate:2", "step 2")],
+)
+def test_empty_preprocess_is_an_error(capsys, gyro_csv, spec, fragment):
+    code, out, err = run(capsys, avar(gyro_csv, "--preprocess", spec))
+    assert_one_line_error(code, out, err, "--preprocess", fragment)
+    with pytest.raises(AdavarInputError, match=fragment):
+        parse_steps(spec)
+
+
+def test_preprocess_steps_still_parse(capsys, gyro_csv):
+    assert [s.spec for s in parse_steps(" detrend:3 , decimate:2 ")] == [
+        "detrend:3", "decimate:2:keep",
+    ]  # fmt: skip
+    code, _, err = run(capsys, avar(gyro_csv, "--preprocess", "detrend:3,decimate:2"))
+    assert code == 0 and err == "", err
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [[], ["--window", "200", "--taus", "octave"], ["--lmax", "200", "--lmin", "100"]],
+    ids=["avar", "davar", "adaptive"],
+)
+def test_force_without_out_is_an_error(capsys, gyro_csv, extra):
+    command = "avar" if not extra else "davar" if "--window" in extra else "adaptive"
+    argv = [command, *avar(gyro_csv)[1:], *extra]
+    code, out, err = run(capsys, [*argv, "--force"])
+    assert_one_line_error(code, out, err, "--force", "--out")
+
+
+def test_unknown_units_warn_in_one_line(capsys, gyro_csv):
+    code, out, err = run(capsys, ["avar", str(gyro_csv), "--column", "gyro_x", "--units",
+                                  "furlongs"])  # fmt: skip
+    assert code == 0
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("adavar: warning: --units 'furlongs'"), err
+    assert "deg/s" in lines[0] and "conventional units" in lines[0]
+    assert "furlongs" in out  # the free label is still used
+    for units, data_type in (("deg/s", "rate"), ("deg/hr", "rate"), ("deg", "phase"),
+                             ("s", "phase")):  # fmt: skip
+        code, _, err = run(capsys, ["avar", str(gyro_csv), "--column", "gyro_x", "--units",
+                                    units, "--data-type", data_type])  # fmt: skip
+        assert code == 0 and err == "", (units, err)
+    assert is_known_unit("m/s", "phase") and not is_known_unit("deg/s", "phase")
+
+
+def test_avar_refuses_to_label_every_column_with_one_unit(capsys, gyro_csv, tmp_path):
+    code, out, err = run(capsys, ["avar", str(gyro_csv), "--units", "deg/s"])
+    assert_one_line_error(code, out, err, "2 numeric columns", "gyro_x, temp", "--column")
+    code, out, err = run(capsys, ["avar", str(gyro_csv), "--units", "deg/s", "--column",
+                                  "gyro_x,temp"])  # fmt: skip
+    assert code == 0 and "column 'temp'" in out, err  # chosen explicitly: fine
+    one = tmp_path / "one.csv"
+    one.write_text("\n".join(["time,gyro_x"] + [f"{k / RATE},{(-1) ** k}" for k in range(400)]))
+    code, out, err = run(capsys, ["avar", str(one), "--units", "deg/s"])
+    assert code == 0 and "column 'gyro_x'" in out, err  # the only candidate
+
+
+# --------------------------------------------------------------------------------------
+# Item 18: kalibr and a constant axis
+# --------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def imu_csv(tmp_path_factory):
+    """A short static 6-axis log whose gz is constant (a dead axis)."""
+    rng = np.random.default_rng(1)
+    n = 4000
+    cols = [np.arange(n) / 100.0] + [0.01 * rng.standard_normal(n) for _ in range(6)]
+    cols[3] = np.zeros(n)
+    path = tmp_path_factory.mktemp("imu") / "imu.csv"
+    np.savetxt(path, np.column_stack(cols), delimiter=",", header="time,gx,gy,gz,ax,ay,az",
+               comments="")  # fmt: skip
+    return path
+
+
+@pytest.mark.parametrize("pinned", ["error", "bound"])
+def test_kalibr_constant_axis_named_by_its_column(capsys, imu_csv, tmp_path, pinned):
+    out = tmp_path / "imu.yaml"
+    code, stdout, err = run(capsys, ["kalibr", str(imu_csv), "--gyro-units", "deg/s",
+                                     "--accel-units", "g", "--pinned", pinned,
+                                     "-o", str(out)])  # fmt: skip
+    assert_one_line_error(code, stdout, err, "column 'gz'", "constant", "--gyro")
+    assert "--pinned" not in err and "axis 2" not in err
+    assert not out.exists()
+
+
+def test_kalibr_library_names_the_column_and_suggests_only_what_helps():
+    rng = np.random.default_rng(2)
+    ok = fit_noise(deviation(0.01 * rng.standard_normal(4000), rate=100.0, units="deg/s"))
+    flat = fit_noise(deviation(np.zeros(4000), rate=100.0, units="deg/s"))
+    acc = [fit_noise(deviation(0.01 * rng.standard_normal(4000), rate=100.0, units="g"))] * 3
+    names = {"gyro_names": ["gx", "gy", "gz"], "accel_names": ["ax", "ay", "az"]}
+    with pytest.raises(AdavarInputError) as exc:
+        kalibr_values(gyro_fits=[ok, ok, flat], accel_fits=acc, pinned="bound", **names)
+    message = str(exc.value)
+    assert "column 'gz'" in message and "pinned" not in message and "\n" not in message
+    with pytest.raises(AdavarInputError, match="3 names for 2 gyro axes"):
+        kalibr_values(gyro_fits=[ok, ok], accel_fits=acc, pinned="bound", **names)
+
+
+def test_points_per_decade_is_bounded_on_the_command_line(capsys, gyro_csv):
+    from adavar.statistics import MAX_POINTS_PER_DECADE
+
+    too_many = str(MAX_POINTS_PER_DECADE + 1)
+    code, out, err = run(capsys, avar(gyro_csv, "--taus", "log", "--points-per-decade", too_many))
+    assert_one_line_error(code, out, err, "--points-per-decade", f"at most {MAX_POINTS_PER_DECADE}")
