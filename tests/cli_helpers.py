@@ -24,10 +24,15 @@ def assert_one_line_error(code, out, err, *fragments):
         assert fragment in lines[0], lines[0]
 
 
+#: The library modules whose functions the commands import when they run (the command
+#: modules import them inside their functions, so that ``adavar --help`` stays light).
+LIBRARY = ("adavar.analysis", "adavar.statistics", "adavar.noise_model", "adavar.adaptive",
+           "adavar.davar", "adavar.export", "adavar.simulate")  # fmt: skip
+
+
 def patch_cli(monkeypatch, name, value):
-    """Set ``name`` to ``value`` in every ``adavar.cli`` module, and in
-    :mod:`adavar.analysis`, that has it (the commands import the library functions they
-    call, so each of them holds its own reference)."""
+    """Set ``name`` to ``value`` in every ``adavar.cli`` module and in the library modules
+    the commands take their functions from (:data:`LIBRARY`) that have it."""
     import importlib
     import pkgutil
 
@@ -35,7 +40,7 @@ def patch_cli(monkeypatch, name, value):
 
     hit = False
     names = [f"adavar.cli.{i.name}" for i in pkgutil.iter_modules(adavar.cli.__path__)]
-    for module_name in ["adavar.analysis", *names]:  # the pipeline the commands call, too
+    for module_name in [*LIBRARY, *names]:  # the pipeline the commands call, too
         if module_name.endswith("__main__"):
             continue
         module = importlib.import_module(module_name)

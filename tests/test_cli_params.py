@@ -149,6 +149,12 @@ def _cli_function(name: str) -> Any:
         module = importlib.import_module(f"adavar.cli.{info.name}")
         if callable(getattr(module, name, None)):
             return getattr(module, name)
+    from .cli_helpers import LIBRARY  # the commands import these when they run
+
+    for module_name in LIBRARY:
+        module = importlib.import_module(module_name)
+        if callable(getattr(module, name, None)):
+            return getattr(module, name)
     raise AssertionError(f"no adavar.cli module uses {name}")
 
 

@@ -35,7 +35,7 @@ from adavar.davar import davar
 from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, fit_noise
-from adavar.settings import ControllerSettings
+from adavar.settings import MAX_ALL_TAUS, ControllerSettings
 from adavar.statistics import deviation
 
 __all__ = [
@@ -193,12 +193,8 @@ def resolve_lengths(args: Any, tau0: float, n_samples: int | None = None) -> Non
         args.step = to_samples(args.step, tau0, "--step")
 
 
-#: Default budget of ``--max-memory``: the surface and what is computed from it.
-DEFAULT_MAX_MEMORY_MB = 200
 #: Bytes per surface cell a command holds: the variance, its two bounds and the fit's arrays.
 CELL_BYTES = 8 * 4
-#: More taus than this from ``taus="all"`` and the default becomes ``"log"`` (10 a decade).
-MAX_ALL_TAUS = 200
 
 
 def resolve_resolution(args: Any, tau0: float, n_samples: int, channels: int = 1) -> str | None:

@@ -100,6 +100,19 @@ class FitSettings:
 
 #: False events per hour of stationary data the command line's thresholds are calibrated for.
 HOURLY_FALSE_ALARMS = 0.1
+#: Default budget of ``--max-memory`` (MB): the surface and what is computed from it.
+DEFAULT_MAX_MEMORY_MB = 200
+#: More taus than this from ``taus="all"`` and the default becomes ``"log"`` (10 a decade).
+MAX_ALL_TAUS = 200
+#: densest ``taus="log"``: neighbouring taus then differ by 0.23 %, far less than the
+#: confidence interval of any Allan-variance estimate; every factor is ``taus="all"``
+MAX_POINTS_PER_DECADE = 1000
+#: The Allan-family statistics of :func:`adavar.deviation`.
+STATISTICS = ("adev", "oadev", "mdev", "hdev", "ohdev", "tdev", "totdev")
+#: The most samples a generator makes (``n``): 8 GB for the float64 result alone, and the
+#: generators hold a few arrays of that size while they work. Longer records exhaust the
+#: memory of most machines rather than fail cleanly.
+MAX_SAMPLES = 1_000_000_000
 
 #: The defaults everywhere (read-only instances).
 CONTROLLER = ControllerSettings()

@@ -49,6 +49,8 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from adavar.settings import MAX_SAMPLES
+
 if TYPE_CHECKING:  # defined in adavar.paper.scenarios, re-exported by __getattr__ below
     from adavar.paper.scenarios import PAPER_SCENARIOS, PaperScenario, paper_scenario
 
@@ -77,10 +79,6 @@ SeedLike = int | np.integer | np.random.SeedSequence | np.random.Generator | Non
 
 FloatArray = NDArray[np.float64]
 
-#: The most samples a generator makes (``n``): 8 GB for the float64 result alone, and the
-#: generators hold a few arrays of that size while they work. Longer records exhaust the
-#: memory of most machines rather than fail cleanly.
-MAX_SAMPLES = 1_000_000_000
 
 # Order of the child streams of `sensor`.  Append new random terms at the END only, so that
 # existing seeds keep producing the same draws for the existing terms.

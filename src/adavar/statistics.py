@@ -21,6 +21,7 @@ from adavar import stream_statistics as sstat
 from adavar.errors import AdavarInputError
 from adavar.noise_id import NOISE_ID_RULES, b1_with_rn, pm_with_rn, rn_ratio
 from adavar.results import DeviationResult
+from adavar.settings import MAX_POINTS_PER_DECADE, STATISTICS
 from adavar.taus import averaging_factors
 
 __all__ = [
@@ -42,15 +43,11 @@ __all__ = [
     "unscale",
 ]
 
-STATISTICS = ("adev", "oadev", "mdev", "hdev", "ohdev", "tdev", "totdev")
 DATA_TYPES = ("rate", "phase")
 DATA_TYPE_ALIASES = {"rate": "rate", "freq": "rate", "frequency": "rate", "phase": "phase"}
 #: a record whose largest magnitude lies in ``2**-SAFE_EXPONENT .. 2**SAFE_EXPONENT`` is
 #: used as it is; one outside is first scaled by a power of two (:func:`scaled`)
 SAFE_EXPONENT = 64
-#: densest ``taus="log"``: neighbouring taus then differ by 0.23 %, far less than the
-#: confidence interval of any Allan-variance estimate; every factor is ``taus="all"``
-MAX_POINTS_PER_DECADE = 1000
 #: samples of a streamed record whose largest magnitude sets its scale, and pieces tried
 _SCALE_SAMPLES = 1 << 10
 _SCALE_PIECES = 64

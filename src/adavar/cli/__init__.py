@@ -29,6 +29,32 @@ one line ``adavar: error: ...`` on stderr. 130 when interrupted.
 
 Only this module prints; the library functions it calls return data."""
 
-from adavar.cli.main import build_parser, main
+import sys
+import types
+from typing import Any
 
 __all__ = ["build_parser", "main"]
+
+
+class _Package(types.ModuleType):
+    """``adavar.cli.main`` is the entry-point function, though a module of that name exists:
+    importing the module must not rebind the name."""
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "main" and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
+
+
+def __getattr__(name: str) -> Any:  # PEP 562: ``adavar.cli.options`` alone stays light
+    if name in __all__:
+        import importlib
+
+        module = importlib.import_module("adavar.cli.main")
+        # the function, not the module of the same name (the import bound that)
+        globals().update(build_parser=module.build_parser, main=module.main)
+        return globals()[name]
+    raise AttributeError(f"module 'adavar.cli' has no attribute {name!r}")

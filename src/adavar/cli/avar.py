@@ -10,7 +10,6 @@ from typing import Any
 import numpy as np
 
 from adavar import __version__
-from adavar.analysis import chunk_keywords, fit_keywords, load_input
 from adavar.cli.options import (
     EXIT_OK,
     UsageError,
@@ -33,8 +32,7 @@ from adavar.cli.output import (
     safe_name,
 )
 from adavar.errors import AdavarInputError
-from adavar.noise_model import ALLAN_STATS, fit_noise
-from adavar.statistics import STATISTICS, deviation
+from adavar.settings import STATISTICS
 from adavar.writers import (
     atomic_directory,
     check_output_directory,
@@ -46,6 +44,9 @@ from adavar.writers import (
 
 
 def _cmd_avar(args: argparse.Namespace) -> int:
+    from adavar.analysis import load_input
+    from adavar.noise_model import ALLAN_STATS
+
     check_arguments(args)
     do_fit = args.fit or args.terms is not None
     if do_fit and args.stat not in ALLAN_STATS:
@@ -139,7 +140,10 @@ def _avar_channel(
     tau0: float, do_fit: bool, status: Status | None = None, tag: str = "",
 ) -> dict[str, Any]:  # fmt: skip
     """The deviation (and fit) of one channel: results, JSON payload and printed lines."""
+    from adavar.analysis import chunk_keywords, fit_keywords
+    from adavar.noise_model import fit_noise
     from adavar.plots import STAT_NAMES
+    from adavar.statistics import deviation
     from adavar.units import deviation_unit, rate_unit
 
     status = status or Status()

@@ -12,7 +12,6 @@ from typing import Any
 import numpy as np
 
 from adavar import __version__
-from adavar.analysis import load_input, resolve_lengths
 from adavar.cli.options import (
     EXIT_OK,
     UsageError,
@@ -41,18 +40,8 @@ from adavar.cli.output import (
     text_table,
 )
 from adavar.errors import AdavarInputError
-from adavar.noise_model import TERM_NAMES
-from adavar.paper.nodes import NODE_TITLES
-from adavar.paper.reference import (
-    PAPER_FIG6_WINDOWS,
-    PAPER_FIG8_THRESHOLDS,
-    PAPER_LABELS,
-    PAPER_REFERENCE,
-    paper_arw,
-    paper_crossings,
-)
-from adavar.paper.studies import finite_median
 from adavar.settings import CONTROLLER
+from adavar.terms import TERM_NAMES
 from adavar.writers import (
     atomic_directory,
     check_output_directory,
@@ -77,6 +66,9 @@ def _paper_columns(comp: Any, paper: dict[str, Any]) -> list[str]:
 
 
 def _compare_node_lines(comp: Any, study: Any) -> list[str]:
+    from adavar.paper.nodes import NODE_TITLES
+    from adavar.paper.reference import PAPER_LABELS
+
     if not comp.change_times:
         return ["Nodes: no change times (give --change-times T,... for a data file)"]
     labels = comp.labels
@@ -112,6 +104,8 @@ def _compare_node_lines(comp: Any, study: Any) -> list[str]:
 
 
 def _compare_interval_lines(comp: Any, study: Any) -> list[str]:
+    from adavar.paper.reference import PAPER_LABELS, paper_arw
+
     labels = comp.labels
     paper = paper_arw(comp.scenario)
     cols = _paper_columns(comp, paper)
@@ -198,6 +192,8 @@ def _compare_metric_lines(comp: Any, study: Any) -> list[str]:
 
 
 def _crossing_lines(thr: Any, study: Any, scenario: int | None) -> list[str]:
+    from adavar.paper.reference import paper_crossings
+
     if thr is None:
         return []
     rows = []
@@ -259,6 +255,9 @@ def compare_tables(
 ) -> dict[str, str]:
     """CSV file name -> text (plain CSV); ``descriptions`` (if given) gets each file's
     description (for the result.json next to them)."""
+    from adavar.paper.reference import PAPER_REFERENCE, paper_arw, paper_crossings
+    from adavar.paper.studies import finite_median
+
     head = f"adavar {__version__}: {comp.description}"
     names = list(comp.methods)
     files: dict[str, str] = {}
@@ -425,7 +424,9 @@ def _truth_column(args: argparse.Namespace, size: int, tau0: float) -> np.ndarra
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     from adavar import simulate
+    from adavar.analysis import load_input, resolve_lengths
     from adavar.compare import compare, compare_seeds, kurtosis_study, threshold_study
+    from adavar.paper.reference import PAPER_FIG6_WINDOWS, PAPER_FIG8_THRESHOLDS
 
     if (args.file is None) == (args.scenario is None):
         raise UsageError("give a data FILE or --scenario 1|2 (one of them)")

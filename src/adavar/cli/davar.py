@@ -5,21 +5,16 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING as _TYPE_CHECKING
 from typing import Any
 
 import numpy as np
 
 from adavar import __version__
-from adavar.adaptive import adaptive_davar
-from adavar.analysis import (
-    chunk_keywords,
-    controller_settings,
-    fit_keywords,
-    load_input,
-    resolve_lengths,
-    resolve_resolution,
-    window_fit_keywords,
-)
+from adavar.terms import TERM_NAMES
+
+if _TYPE_CHECKING:  # pragma: no cover - annotations only
+    from adavar.noise_model import NoiseFit
 from adavar.cli.options import (
     EXIT_OK,
     TERM_FILES,
@@ -32,12 +27,9 @@ from adavar.cli.options import (
     window_length,
 )
 from adavar.cli.output import Status, channel_folders, guard_replacement, output_error, text_table
-from adavar.davar import davar
 from adavar.errors import AdavarInputError
-from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
 from adavar.results import DavarResult
 from adavar.settings import HOURLY_FALSE_ALARMS
-from adavar.statistics import deviation
 from adavar.windows import MIN_WINDOW
 from adavar.writers import (
     SURFACE_FORMATS,
@@ -277,6 +269,7 @@ def threshold_line(p: dict[str, Any]) -> str:
 
 
 def _cmd_davar(args: argparse.Namespace) -> int:
+    from adavar.analysis import load_input, resolve_lengths, resolve_resolution
     from adavar.cli.options import check_arguments
 
     check_arguments(args)
@@ -376,6 +369,10 @@ def _cmd_davar(args: argparse.Namespace) -> int:
 def _whole_record_fit(samples: Any, args: argparse.Namespace, rate_u: str, common: dict) -> Any:
     """The full-covariance fit of the whole record: the reference of the windows' fits
     (the sensor's roll-off is the same in every window). None if it cannot be made."""
+    from adavar.analysis import chunk_keywords, fit_keywords
+    from adavar.noise_model import fit_noise
+    from adavar.statistics import deviation
+
     if args.fit_method not in ("auto", "gls"):
         return None
     try:
@@ -393,7 +390,11 @@ def _davar_channel(
 ) -> dict[str, Any]:  # fmt: skip
     """The (adaptive) DAVAR surface and its noise fit of one channel, with its JSON payload
     and the names of the files its output folder ``out`` gets."""
+    from adavar.adaptive import adaptive_davar
+    from adavar.analysis import chunk_keywords, controller_settings, window_fit_keywords
     from adavar.cli.options import check_change_times
+    from adavar.davar import davar
+    from adavar.noise_model import fit_noise
     from adavar.units import rate_unit
 
     if args.command == "adaptive":

@@ -9,7 +9,6 @@ from pathlib import Path
 from typing import Any
 
 from adavar import __version__
-from adavar.adaptive import adaptive_davar
 from adavar.cli.compare import compare_figures, compare_report, compare_tables, crossings_json
 from adavar.cli.options import EXIT_OK, parse_seed
 from adavar.cli.output import (
@@ -21,7 +20,6 @@ from adavar.cli.output import (
     text_table,
 )
 from adavar.errors import AdavarInputError
-from adavar.noise_model import fit_noise
 from adavar.writers import (
     DEMO_MARKER,
     atomic_directory,
@@ -100,6 +98,8 @@ def _check_demo_out(out: str, force: bool) -> None:
 
 def _demo_report(demo: Any) -> str:
     """The demo's HTML report: the simulated gyro, and the paper's scenario 1 with A-DAVAR."""
+    from adavar.adaptive import adaptive_davar
+    from adavar.noise_model import fit_noise
     from adavar.report import build_report
 
     gyro = demo.gyro

@@ -9,15 +9,19 @@ import sys
 from collections.abc import Callable
 from typing import NoReturn
 
-from adavar.analysis import DEFAULT_MAX_MEMORY_MB, MAX_ALL_TAUS
 from adavar.durations import parse_duration
 from adavar.errors import AdavarInputError
-from adavar.noise_model import TERM_NAMES
 from adavar.preprocess import MAX_DETREND_ORDER, parse_steps
-from adavar.settings import CONTROLLER, FIT, HOURLY_FALSE_ALARMS
-from adavar.statistics import MAX_POINTS_PER_DECADE
+from adavar.settings import (
+    CONTROLLER,
+    DEFAULT_MAX_MEMORY_MB,
+    FIT,
+    HOURLY_FALSE_ALARMS,
+    MAX_ALL_TAUS,
+    MAX_POINTS_PER_DECADE,
+)
 from adavar.taus import TAU_KEYWORDS
-from adavar.terms import ALIASES, TERMS
+from adavar.terms import ALIASES, TERM_NAMES, TERMS
 from adavar.units import RATE_UNITS, is_known_unit
 from adavar.windows import EDGES, MIN_WINDOW
 from adavar.writers import (

@@ -8,12 +8,15 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from adavar.cli.options import UsageError
 from adavar.errors import AdavarInputError
-from adavar.noise_model import TERM_NAMES, NoiseFit
 from adavar.results import DeviationResult
+from adavar.terms import TERM_NAMES
+
+if TYPE_CHECKING:  # pragma: no cover
+    from adavar.noise_model import NoiseFit
 from adavar.writers import conventional
 
 

@@ -9,7 +9,6 @@ from typing import Any
 import numpy as np
 
 from adavar import __version__
-from adavar.analysis import ReportAnalysis, analyse_channel, load_input
 from adavar.cli.options import (
     EXIT_OK,
     add_controller_arguments,
@@ -22,11 +21,12 @@ from adavar.cli.options import (
     window_length,
 )
 from adavar.cli.output import Status, check_output_file, fit_lines, output_error
-from adavar.noise_model import TERM_NAMES
+from adavar.terms import TERM_NAMES
 from adavar.writers import dumps, fit_json
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
+    from adavar.analysis import analyse_channel, load_input
     from adavar.report import build_report, write_report
 
     check_arguments(args)
@@ -138,6 +138,8 @@ def _events(
     segment_given: bool,
 ) -> dict[str, Any] | None:  # fmt: skip
     """The events of one channel, as :meth:`ReportAnalysis.events` finds them."""
+    from adavar.analysis import ReportAnalysis
+
     if run["surface"] is None:
         return None
     analysis = ReportAnalysis(

@@ -19,7 +19,7 @@ from adavar.cli.options import (
 )
 from adavar.cli.output import Status, check_output_file, output_error
 from adavar.errors import AdavarInputError
-from adavar.simulate import MAX_SAMPLES
+from adavar.settings import MAX_SAMPLES
 from adavar.writers import dumps
 
 #: Bytes of memory per sample of ``adavar simulate`` (the generators' arrays and the CSV
