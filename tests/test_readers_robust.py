@@ -102,6 +102,18 @@ def test_ros_bag_units_flag_contradicting_the_bag_is_an_error(tmp_path, capsys):
     assert_one_line_error(code, out, err, "contradicts", "'az' in m/s^2", "leave out --units")
 
 
+def test_kalibr_units_contradicting_the_bag_are_an_error(tmp_path, capsys):
+    bag = _bag(tmp_path)
+    argv = ["kalibr", str(bag), "--gyro", "gx,gy,gz", "--accel", "ax,ay,az",
+            "-o", str(tmp_path / "imu.yaml")]  # fmt: skip
+    code, out, err = run(capsys, [*argv, "--gyro-units", "deg/s"])
+    assert_one_line_error(code, out, err, "--gyro-units deg/s contradicts", "in rad/s",
+                          "leave out --gyro-units")  # fmt: skip
+    code, out, err = run(capsys, [*argv, "--accel-units", "deg/s"])
+    assert_one_line_error(code, out, err, "--accel-units deg/s contradicts", "m/s^2")
+    assert not (tmp_path / "imu.yaml").exists()
+
+
 # --------------------------------------------------------------------------------------
 # Item 7: the time unit and the rate are never guessed
 # --------------------------------------------------------------------------------------

@@ -22,7 +22,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit, parallel_jit, prange
+# The kernels here are compiled serially (their ``prange`` loops run in order): on 2 cores
+# the serial form is faster up to 1e6 samples (2.7 vs 11 ms at 1e5, 18 vs 28 ms at 1e6),
+# within 1.3x at 1e7, immune to a busy core, and compiles in 10 s instead of 18 s
+# (docs/benchmarks.md, issue 15).
+from adavar._jit import jit, prange
 from adavar._kernels.double_double import dd_add, dd_scaled_add, two_sum
 from adavar._kernels.window_avar import window_avar
 
@@ -94,7 +98,7 @@ def _block_cluster_stats(rb, total, m, k_first, count, kc, out):  # pragma: no c
     out[7] = nq
 
 
-@parallel_jit
+@jit
 def _anchored_prefix(u, shift, nlev):  # pragma: no cover - compiled
     n = u.size
     npts = n + 1
@@ -291,7 +295,7 @@ def _run_fill2(r, c, lo, hi, m, out):  # pragma: no cover - compiled
         out[k] = c + ((x0[k] + x2[k]) - 2.0 * x1[k])
 
 
-@parallel_jit
+@jit
 def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs):  # pragma: no cover - compiled
     """``sum_{i=start}^{start+count-1} (sum_k coefs[k] S[i + k m])^2`` for every tau.
 
@@ -331,7 +335,7 @@ def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs):  # pragma: no
     return out
 
 
-@parallel_jit
+@jit
 def _strided_sums(r, hh, hl, ms, counts, coefs):  # pragma: no cover - compiled
     """Non-overlapping version: terms at ``i = 0, m, 2m, ...`` (``counts[t]`` of them)."""
     nt = ms.size
@@ -361,7 +365,7 @@ def _fill_second_differences(r, hh, hl, m, lo, hi, out):  # pragma: no cover - c
 _MOD_CHUNK = 1 << 14
 
 
-@parallel_jit
+@jit
 def _modified_sums(r, hh, hl, ms, counts):  # pragma: no cover - compiled
     """``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2`` for ``j = 0..count-1``: the MVAR numerator.
 
@@ -423,7 +427,7 @@ def cluster_differences(r, hh, hl, m, count):  # pragma: no cover - compiled
     return out
 
 
-@parallel_jit
+@jit
 def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compiled
     """Lag-1 autocorrelations of the linearly detrended cluster sums, differenced 0..dmax times.
 

@@ -29,9 +29,13 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
         args.file, columns=[*args.gyro, *args.accel], rate=args.rate,
         time_column=args.time_column, topic=args.topic, gaps=args.gaps,
     )  # fmt: skip
-    declared = record.meta.get("units") or {}
-    gyro_units = args.gyro_units or declared.get(args.gyro[0])
-    accel_units = args.accel_units or declared.get(args.accel[0])
+    # units given must agree with those the file declares (a ROS bag: rad/s, m/s^2)
+    gyro_units = record.units_of(args.gyro_units, names=args.gyro, flag="--gyro-units")[
+        args.gyro[0]
+    ]
+    accel_units = record.units_of(args.accel_units, names=args.accel, flag="--accel-units")[
+        args.accel[0]
+    ]
     if not gyro_units or not accel_units:
         raise UsageError(
             "declare the units with --gyro-units (e.g. rad/s, deg/s) and --accel-units "

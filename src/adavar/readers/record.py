@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -117,7 +118,9 @@ class Record:
             )
         return self.channels[resolve(name, self.names, self.source, "channel")]
 
-    def units_of(self, given: str | None = None) -> dict[str, str | None]:
+    def units_of(
+        self, given: str | None = None, names: Sequence[str] | None = None, flag: str = "--units"
+    ) -> dict[str, str | None]:
         """The unit of every channel: ``given`` (``--units``), else the unit the file
         declares (ROS bags: rad/s and m/s^2; HDF5 ``units`` attributes), else None.
 
@@ -125,6 +128,11 @@ class Record:
         ----------
         given : str, optional
             The unit the user declared for every channel.
+        names : sequence of str, optional
+            The channels it is declared for (default: every channel), e.g. the three gyro
+            axes of ``adavar kalibr --gyro-units``.
+        flag : str
+            The option named in the error message.
 
         Returns
         -------
@@ -138,23 +146,24 @@ class Record:
             A declared unit adavar does not know (a free label) is not compared.
         """
         declared = self.meta.get("units") or {}
+        chosen = list(self.names if names is None else names)
         if given is None:
-            return {name: declared.get(name) for name in self.names}
-        for name in self.names:
+            return {name: declared.get(name) for name in chosen}
+        for name in chosen:
             unit = declared.get(name)
             if unit is None or not _contradicts(given, unit):
                 continue
-            units = {n: declared[n] for n in self.names if n in declared}
+            units = {n: declared[n] for n in chosen if n in declared}
             if len(set(units.values())) == 1:
-                way_out = f"leave out --units, or give --units {unit}"
+                way_out = f"leave out {flag}, or give {flag} {unit}"
             else:
                 listed = ", ".join(f"{n} in {u}" for n, u in units.items())
-                way_out = f"leave out --units (the file declares {listed})"
+                way_out = f"leave out {flag} (the file declares {listed})"
             raise fail(
-                f"--units {given} contradicts {self.source}, which declares channel {name!r} "
+                f"{flag} {given} contradicts {self.source}, which declares channel {name!r} "
                 f"in {unit}{_what_differs(given, unit)}: {way_out}"
             )
-        return dict.fromkeys(self.names, given)
+        return dict.fromkeys(chosen, given)
 
     def pieces(self, name: str | None = None) -> list[np.ndarray]:
         """The channel cut into its gap-free segments (one piece when not split)."""

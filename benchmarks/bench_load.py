@@ -1,0 +1,162 @@
+"""Start-up, first run, text input and kernels on a busy machine, each against its peer.
+
+* start-up: ``import adavar`` and ``adavar --help`` (fresh processes, best of 5);
+* first run: ``adavar demo`` with an empty Numba cache directory, then warm;
+* text input: a 720k-row, 5-column CSV through adavar's reader and ``pandas.read_csv``;
+* kernels: the default ``deviation`` (OADEV with intervals) against ``allantools.oadev``
+  (without intervals) at N = 1e3 .. 1e7 (``--max-n``), quiet and with another process
+  busy on one core, on Numba's default threads and on one (``ADAVAR_THREADS=1``).
+
+Run: ``python benchmarks/bench_load.py [--max-n 10000000] [--skip-demo]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+from _machine import describe
+
+
+def _best(cmd: list[str], repeats: int = 5, env: dict | None = None) -> float:
+    best = np.inf
+    for _ in range(repeats):
+        start = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True, env=env)
+        best = min(best, time.perf_counter() - start)
+    return best
+
+
+def startup() -> list[str]:
+    py = sys.executable
+    bare = _best([py, "-c", "pass"])
+    imp = _best([py, "-c", "import adavar"])
+    numpy = _best([py, "-c", "import numpy"])
+    helptime = _best([py, "-m", "adavar.cli", "--help"])
+    return [
+        f"| python -c pass | {bare:.3f} s |",
+        f"| python -c 'import numpy' (peer) | {numpy:.3f} s |",
+        f"| python -c 'import adavar' | {imp:.3f} s (target 0.3 s) |",
+        f"| adavar --help | {helptime:.3f} s (target 0.3 s) |",
+    ]
+
+
+def first_run() -> list[str]:
+    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as out:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+        cmd = [sys.executable, "-m", "adavar.cli", "demo", "--out", f"{out}/d", "--force"]
+        start = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True, env=env)
+        cold = time.perf_counter() - start
+        warm = _best(cmd, repeats=2, env=env)
+    return [f"| adavar demo, empty Numba cache | {cold:.1f} s (target 15 s) |",
+            f"| adavar demo, warm | {warm:.1f} s (target 4 s) |"]  # fmt: skip
+
+
+def text_input() -> list[str]:
+    import pandas as pd
+
+    from adavar.readers import read_record
+
+    rng = np.random.default_rng(0)
+    n = 720_000
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "imu.csv")
+        cols = rng.standard_normal((n, 4))
+        t = np.arange(n) / 200.0
+        np.savetxt(path, np.column_stack([t, cols]), delimiter=",", fmt="%.9g",
+                   header="time,gx,gy,gz,temp", comments="")  # fmt: skip
+        ours, theirs = np.inf, np.inf
+        for _ in range(3):
+            start = time.perf_counter()
+            read_record(path, columns=["gx", "gy", "gz"], time_column="time")
+            ours = min(ours, time.perf_counter() - start)
+            start = time.perf_counter()
+            pd.read_csv(path)
+            theirs = min(theirs, time.perf_counter() - start)
+    return [f"| read 720k x 5 CSV: adavar | {ours:.3f} s ({ours / theirs:.2f}x pandas) |",
+            f"| pandas.read_csv (peer) | {theirs:.3f} s |"]  # fmt: skip
+
+
+def _spin(stop: mp.Event) -> None:  # type: ignore[valid-type]
+    while not stop.is_set():
+        pass
+
+
+def _kernel_times(max_n: int) -> dict[int, tuple[float, float]]:
+    import adavar
+
+    out = {}
+    n = 1000
+    while n <= max_n:
+        x = np.random.default_rng(1).standard_normal(n)
+        adavar.deviation(x, rate=1.0)  # compile
+        best = np.inf
+        for _ in range(5 if n < 10**7 else 2):
+            start = time.perf_counter()
+            adavar.deviation(x, rate=1.0)
+            best = min(best, time.perf_counter() - start)
+        peer = np.inf
+        try:
+            import allantools
+
+            for _ in range(3 if n < 10**7 else 1):
+                start = time.perf_counter()
+                allantools.oadev(x, rate=1.0, taus="octave")
+                peer = min(peer, time.perf_counter() - start)
+        except ImportError:
+            pass
+        out[n] = (best, peer)
+        n *= 10
+    return out
+
+
+def kernels(max_n: int) -> list[str]:
+    lines = []
+    for label, busy in (("quiet", False), ("one core busy", True)):
+        for threads in (None, "1"):
+            env = dict(os.environ)
+            if threads:
+                env["ADAVAR_THREADS"] = threads
+            stop = mp.Event()
+            spinner = mp.Process(target=_spin, args=(stop,)) if busy else None
+            if spinner:
+                spinner.start()
+            code = (f"import sys; sys.path.insert(0, {os.path.dirname(__file__)!r});"
+                    f"import bench_load as b; print(b._kernel_times({max_n}))")  # fmt: skip
+            done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                  env=env, check=True)  # fmt: skip
+            if spinner:
+                stop.set()
+                spinner.join()
+            times = eval(done.stdout.strip().splitlines()[-1])  # our own output
+            for n, (ours, peer) in times.items():
+                ratio = f"{peer / ours:.1f}x faster" if np.isfinite(peer) else "-"
+                lines.append(f"| deviation (with intervals), N = {n:.0e}, {label}, threads "
+                             f"{threads or 'default'} | {1e3 * ours:.1f} ms | allantools.oadev "
+                             f"(no intervals) {1e3 * peer:.1f} ms: {ratio} |")  # fmt: skip
+    return lines
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--max-n", type=int, default=10**7)
+    parser.add_argument("--skip-demo", action="store_true")
+    args = parser.parse_args()
+    print(f"machine: {describe()}")
+    print("| what | time |\n|---|---|")
+    for line in startup() + ([] if args.skip_demo else first_run()) + text_input():
+        print(line, flush=True)
+    print("\n| kernel | adavar | peer |\n|---|---|---|")
+    for line in kernels(args.max_n):
+        print(line, flush=True)
+
+
+if __name__ == "__main__":
+    main()
