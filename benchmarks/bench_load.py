@@ -125,7 +125,7 @@ def kernels(max_n: int) -> list[str]:
             if threads:
                 env["ADAVAR_THREADS"] = threads
             stop = mp.Event()
-            spinner = mp.Process(target=_spin, args=(stop,)) if busy else None
+            spinner = mp.Process(target=_spin, args=(stop,)) if busy else None  # one core
             if spinner:
                 spinner.start()
             code = (f"import sys; sys.path.insert(0, {os.path.dirname(__file__)!r});"
@@ -137,7 +137,7 @@ def kernels(max_n: int) -> list[str]:
                 spinner.join()
             times = eval(done.stdout.strip().splitlines()[-1])  # our own output
             for n, (ours, peer) in times.items():
-                ratio = f"{peer / ours:.1f}x faster" if np.isfinite(peer) else "-"
+                ratio = f"peer/adavar {peer / ours:.1f}" if np.isfinite(peer) else "-"
                 lines.append(f"| deviation (with intervals), N = {n:.0e}, {label}, threads "
                              f"{threads or 'default'} | {1e3 * ours:.1f} ms | allantools.oadev "
                              f"(no intervals) {1e3 * peer:.1f} ms: {ratio} |")  # fmt: skip
