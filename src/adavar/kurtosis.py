@@ -67,6 +67,7 @@ from adavar._kernels.double_double import (
     fma,
     two_sum,
 )
+from adavar._kernels.window_avar import sample_median
 from adavar.errors import AdavarInputError
 from adavar.statistics import as_samples, scaled
 from adavar.windows import window_schedule
@@ -111,16 +112,7 @@ def _power_of_two_scale(big):  # pragma: no cover - compiled
 @jit
 def _anchor_scale(y, lo, hi, tmp):  # pragma: no cover - compiled
     """Median of an even sample of ``y[lo:hi]`` and a power of two ``f`` with |f (y - a)| < 1."""
-    span = hi - lo
-    m = min(tmp.size, span)
-    for i in range(m):
-        v = y[lo + (i * (span - 1)) // max(m - 1, 1)]
-        j = i
-        while j > 0 and tmp[j - 1] > v:  # insertion sort: m is small
-            tmp[j] = tmp[j - 1]
-            j -= 1
-        tmp[j] = v
-    anchor = tmp[(m - 1) // 2]
+    anchor = sample_median(y, lo, hi, tmp)
     big = 0.0
     for j in range(lo, hi):
         big = max(big, abs(y[j] - anchor))

@@ -33,7 +33,7 @@ import numpy as np
 from adavar._jit import get_num_threads, jit, parallel_jit, prange
 from adavar._kernels.double_double import two_sum
 
-__all__ = ["MEDIAN_SAMPLES", "window_avar", "window_avar_kernel"]
+__all__ = ["MEDIAN_SAMPLES", "sample_median", "window_avar", "window_avar_kernel"]
 
 #: samples of a span whose median is its local reference
 MEDIAN_SAMPLES = 65
@@ -42,7 +42,7 @@ _ROWS = 6
 
 
 @jit
-def _sample_median(u, lo, hi, tmp):  # pragma: no cover - compiled
+def sample_median(u, lo, hi, tmp):  # pragma: no cover - compiled
     """Median of up to ``tmp.size`` samples of ``u[lo:hi]`` spread evenly (a data value)."""
     span = hi - lo
     m = min(tmp.size, span)
@@ -204,7 +204,7 @@ def _eval_runs(q, aloc, lens, runs, n_runs, m, norm, res):  # pragma: no cover -
 def _one_window(u, a, L, ms, scale, work, tmp, row):  # pragma: no cover - compiled
     """Every factor of the window ``u[a:a+L]`` alone, over its own span, into ``row``."""
     ph, pl, d, q = work[0], work[1], work[2], work[3:]
-    _local_prefix(u, a, a + L, _sample_median(u, a, a + L, tmp), ph, pl)
+    _local_prefix(u, a, a + L, sample_median(u, a, a + L, tmp), ph, pl)
     for t in range(ms.size):
         m = ms[t]
         if 3 * m > L:
@@ -245,7 +245,7 @@ def _window_chunk(
             _one_window(u, starts[k], lens[k], ms, scale, work, tmp, out[c0 + k])
         return work
     ph, pl, d, q = work[0], work[1], work[2], work[3:]
-    _local_prefix(u, lo, hi, _sample_median(u, lo, hi, tmp), ph, pl)
+    _local_prefix(u, lo, hi, sample_median(u, lo, hi, tmp), ph, pl)
     aloc = np.empty(size, dtype=np.int64)
     for k in range(size):
         aloc[k] = starts[k] - lo
