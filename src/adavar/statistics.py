@@ -11,17 +11,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
 from adavar import differences as diff
 from adavar import edf as edf_mod
+from adavar import extended_statistics as ext
 from adavar import stream
 from adavar import stream_statistics as sstat
 from adavar.errors import AdavarInputError
 from adavar.noise_id import NOISE_ID_RULES, b1_with_rn, pm_with_rn, rn_ratio
 from adavar.results import DeviationResult
-from adavar.settings import MAX_POINTS_PER_DECADE, STATISTICS
+from adavar.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, STATISTICS
 from adavar.taus import averaging_factors
 
 __all__ = [
@@ -387,6 +389,7 @@ def deviation(
     noise_id: str = "sp1065",
     totdev_edf: str = "sp1065",
     totdev_bias: bool = False,
+    **options: Any,
 ) -> DeviationResult:
     """Allan-family deviation of a whole record, with a confidence interval at every tau.
 
@@ -485,8 +488,9 @@ def deviation(
     Noise identification streams the record as well
     (:func:`adavar.stream.noise_types`).
     """
-    if stat not in STATISTICS:
-        raise AdavarInputError(f"unknown stat {stat!r}: use one of {', '.join(STATISTICS)}")
+    spec = ext.spec_of(stat)
+    if stat not in STATISTICS and spec is None:
+        raise AdavarInputError(f"unknown stat {stat!r}: use one of {', '.join(ALL_STATISTICS)}")
     if noise_id not in NOISE_ID_RULES:
         raise AdavarInputError(f"unknown noise_id {noise_id!r}: use one of {NOISE_ID_RULES}")
     if str(totdev_edf).lower() not in edf_mod.TOTDEV_EDF_METHODS:
@@ -518,6 +522,21 @@ def deviation(
     scale = 1.0 if dtype == "rate" else 1.0 / step_mantissa**2
     if dtype == "phase":
         exponent -= step_exponent
+    unknown = sorted(set(options) - set(spec.options if spec is not None else ()))
+    if unknown:
+        raise AdavarInputError(
+            f"deviation() got an unexpected keyword {unknown[0]!r} for stat={stat!r}"
+        )
+    if spec is not None:
+        if chunked:
+            raise AdavarInputError(
+                f"stat={stat!r} is computed in memory: pass the record as an array "
+                "(np.asarray(data)), or use one of the Allan statistics out of core"
+            )
+        return _extended_deviation(
+            spec, u, x.size, dtype, step, exponent, taus, points_per_decade, confidence,
+            noise_id, units, options,
+        )  # fmt: skip
     ms, notes = tau_factors(taus, _m_max(stat, n_points), step, points_per_decade)
     if not chunked:
         phase = diff.anchored_phase(u, cluster_stats=confidence is not None)
@@ -589,6 +608,92 @@ def deviation(
             bias = np.array([TOTVAR_BIAS.get(int(a), 0.0) for a in alpha])
             var = var / (1.0 - bias * ms / (n_points - 1))
         var_low, var_high = edf_mod.chi2_interval(var, edf_values, float(confidence))
+        low = unscale(np.sqrt(var_low), exponent, "deviations")
+        high = unscale(np.sqrt(var_high), exponent, "deviations")
+
+    return DeviationResult(
+        tau=tau,
+        dev=unscale(np.sqrt(var), exponent, "deviations"),
+        dev_low=low,
+        dev_high=high,
+        edf=edf_values,
+        n=np.asarray(n, dtype=np.int64),
+        m=ms,
+        alpha=alpha,
+        stat=stat,
+        data_type=dtype,
+        tau0=step,
+        confidence=float("nan") if confidence is None else float(confidence),
+        n_samples=int(n_samples),
+        units=units,
+        notes=notes,
+    )
+
+
+def _extended_deviation(
+    spec: ext.StatisticSpec,
+    u: np.ndarray,
+    n_samples: int,
+    dtype: str,
+    step: float,
+    exponent: int,
+    taus: str | Sequence[float] | np.ndarray,
+    points_per_decade: int,
+    confidence: float | None,
+    noise_id: str,
+    units: str | None,
+    options: dict[str, Any],
+) -> DeviationResult:
+    """:func:`deviation` for a statistic of :data:`adavar.extended_statistics.SPECS`."""
+    family = spec.family()
+    stat = spec.name
+    n_points = u.size + 1
+    step_mantissa, step_exponent = math.frexp(step)  # ``exponent`` holds -step_exponent
+    ms, notes = tau_factors(taus, family.m_max(stat, n_points), step, points_per_decade)
+    ms, more = family.factors(stat, ms)
+    notes = notes + tuple(more)
+    if ms.size == 0:
+        raise AdavarInputError(
+            f"no averaging time is left for stat={stat!r} on {n_samples} samples: give "
+            "longer data or other taus"
+        )
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    var, n = family.squared(stat, u, ms, **options)
+    if spec.kind == "time":
+        # time-like: in units of cumsum(u); times tau0 for rate data, as they are for phase
+        if dtype == "rate":
+            var = var * step_mantissa**2
+            exponent += step_exponent
+        else:
+            exponent += step_exponent
+    elif dtype == "phase":
+        var = var / step_mantissa**2
+    tau = spec.tau_factor * ms * step
+
+    if confidence is None:
+        nan = np.full(ms.size, np.nan)
+        alpha = np.full(ms.size, -1, dtype=np.int64)
+        edf_values, low, high = nan, nan.copy(), nan.copy()
+    else:
+        phase = diff.anchored_phase(u, cluster_stats=True)
+        id_ms = np.minimum(ms, max(1, _m_max("oadev", n_points)))
+        alpha = record_noise_types(phase, id_ms, spec.dmax, data_type=dtype, noise_id=noise_id)
+        edf_values = np.array(
+            [
+                float(family.edf(stat, int(a), int(m), n_points, **options))
+                for a, m in zip(alpha, ms, strict=True)
+            ]
+        )
+        defined = np.isfinite(edf_values)
+        var_low = np.full(ms.size, np.nan)
+        var_high = np.full(ms.size, np.nan)
+        if defined.any():
+            var_low[defined], var_high[defined] = edf_mod.chi2_interval(
+                var[defined], edf_values[defined], float(confidence)
+            )
+        else:
+            notes = (*notes, f"{stat} has no chi-square interval: dev_low, dev_high are NaN")
         low = unscale(np.sqrt(var_low), exponent, "deviations")
         high = unscale(np.sqrt(var_high), exponent, "deviations")
 
