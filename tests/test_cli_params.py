@@ -223,12 +223,14 @@ def test_deviation_gets_every_avar_flag(capsys, monkeypatch, record):
                                 "deg", "--data-type", "phase", "--stat", "mdev", "--taus",
                                 "decade", "--confidence", "0.9", "--points-per-decade", "7",
                                 "--chunk-size", "64", "--noise-id", "stable32", "--totdev-edf",
-                                "legacy", "--totdev-bias"])  # fmt: skip
+                                "legacy", "--totdev-bias", "--no-bias-correction",
+                                "--theo-ratio-terms", "9"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.deviation, {
         "stat": "mdev", "data_type": "phase", "taus": "decade", "confidence": 0.9,
         "points_per_decade": 7, "units": rate_unit("deg", "phase"), "chunk_size": 64,
         "noise_id": "stable32", "totdev_edf": "legacy", "totdev_bias": True,
+        "bias_correction": False, "theo_ratio_terms": 9,
     })  # fmt: skip
     assert sample_interval(seen) == pytest.approx(0.25)
     seen.clear()

@@ -31,3 +31,88 @@ def test_a_bad_thread_setting_is_a_one_line_error_on_the_command_line(tmp_path):
     assert done.returncode == 2, done.stderr
     lines = done.stderr.strip().splitlines()
     assert len(lines) == 1 and "ADAVAR_THREADS='many'" in lines[0], done.stderr
+
+
+# --- twin kernels: the serial and the parallel version give the same bits -------------
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+
+from adavar import _jit  # noqa: E402
+
+
+@pytest.fixture
+def force(monkeypatch):
+    """Run every twin kernel on one version: ``force("serial")`` or ``force("parallel")``."""
+
+    def choose(which: str) -> None:
+        monkeypatch.setattr(_jit, "SERIAL_WORK", 1 << 62 if which == "serial" else 0)
+
+    return choose
+
+
+def _record(n: int, seed: int = 7) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    x = rng.standard_normal(n) + 1e9  # a large offset
+    x[n // 3 :] += 1e4  # a level step
+    x += np.linspace(0.0, 50.0, n)  # and a drift
+    return x
+
+
+def _both(force, call):
+    force("serial")
+    a = call()
+    force("parallel")
+    b = call()
+    return a, b
+
+
+def test_twin_davar_window_kernel_is_bit_identical(force):
+    from adavar._kernels.window_avar import window_avar
+
+    x = _record(40_000)
+    ms = np.array([1, 2, 4, 8, 16, 32, 64], dtype=np.int64)
+    centres = np.arange(300, 39_700, dtype=np.int64)
+    lengths = np.where(centres % 1000 < 500, 600, 400).astype(np.int64)
+    a, b = _both(force, lambda: window_avar(x, ms, centres, lengths))
+    np.testing.assert_array_equal(a, b)
+
+
+def test_twin_kurtosis_kernels_are_bit_identical(force):
+    from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
+
+    x = _record(30_000, seed=3)
+    for call in (
+        lambda: sliding_kurtosis(x, window=500),
+        lambda: kurtosis_contribution(x, window=500, reference="window", segment=100),
+        lambda: kurtosis_contribution(x, window=500, reference="record"),
+    ):
+        a, b = _both(force, call)
+        np.testing.assert_array_equal(a, b)
+
+
+def test_twin_adaptive_controller_is_bit_identical(force):
+    from adavar.adaptive import adaptive_schedule
+
+    x = _record(60_000, seed=5)
+    x[30_000:32_000] += 3.0 * np.random.default_rng(1).standard_normal(2000)  # a disturbance
+    a, b = _both(force, lambda: adaptive_schedule(x, rate=1.0).window)
+    np.testing.assert_array_equal(a, b)
+    assert a.min() < 600  # the controller did shorten the window
+
+
+@pytest.mark.parametrize("where", ["spike", "offset step"])
+def test_the_controller_survives_a_huge_burst(force, where):
+    # a 1e12-sigma burst leaves the window's running sums with nothing but rounding: it
+    # used to raise ZeroDivisionError (serial) or SystemError (parallel)
+    from adavar.adaptive import adaptive_schedule
+
+    x = np.random.default_rng(2).standard_normal(60_000)
+    if where == "spike":
+        x[30_000:30_010] += 1e12
+    else:
+        x += 1e9
+        x[30_000:32_000] *= 3.0
+    a, b = _both(force, lambda: adaptive_schedule(x, rate=1.0).window)
+    np.testing.assert_array_equal(a, b)
+    assert 400 <= a.min() and a.max() <= 600

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from adavar import stream
-from adavar._jit import get_num_threads, jit, parallel_jit, prange
+from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
 from adavar._kernels.double_double import two_sum
 from adavar.davar import davar
 from adavar.durations import Length, is_duration, to_samples
@@ -153,7 +153,7 @@ def _window_mean(x, a, b):  # pragma: no cover - compiled
     return (h + lo) / (b - a)
 
 
-@jit
+@jit(error_model="numpy")  # a window emptied of its variance by cancellation gives NaN
 def _run(
     x, offset, p_start, p_end, record_from, L, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
     s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
@@ -279,7 +279,7 @@ def _run(
             flag = flag1 or flag2
         kx = m4x / vx if ok_x else np.nan
         kc = m4c / (m2c * m2c) if m2c > 0.0 else np.nan
-        sv = (kx - kc) / kx
+        sv = (kx - kc) / kx if kx != 0.0 else np.nan
         if p >= record_from:
             window[p] = L
             kurt[p] = kx
@@ -657,8 +657,10 @@ def adaptive_schedule(
     def run(ext: np.ndarray, offset: int, q0: int, q1: int, start_length: int) -> tuple:
         m = q1 - q0
         out = _outputs(m)
-        end = _controller(
-            ext, offset, m, lmax, lmin, th.k1, th.k2, float(s1), th.s2, seg, dl0, dl1,
+        # about eight inner steps per centre (moments, tests, the length update)
+        end = _controller.run(
+            8 * m, read_only(ext, np.float64), offset, m, lmax, lmin, th.k1, th.k2,
+            float(s1), th.s2, seg, dl0, dl1,
             _S_TEST_CODE[s_test], method != "kurtosis", combine == "and",
             method in ("adaptive", "kurtosis"), given(q0, q1), *out, _segments(m), WARM_UP,
             start_length,

@@ -34,7 +34,7 @@ from scipy.stats import chi2
 from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import stream
-from adavar._jit import jit
+from adavar._jit import jit, read_only
 from adavar.durations import Length, to_samples
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
@@ -303,7 +303,9 @@ def _chunked_avar(
     """
     pad = sched.pad_before
     centre, length = sched.centre, sched.length
-    bounds, los, his = _centre_groups(centre, length, pad, int(chunk), GROUP_GAP)
+    bounds, los, his = _centre_groups(
+        read_only(centre), read_only(length), pad, int(chunk), GROUP_GAP
+    )
     out = np.empty((centre.size, ms.size))
     for g in range(los.size):
         c0, c1, lo, hi = int(bounds[g]), int(bounds[g + 1]), int(los[g]), int(his[g])
@@ -368,7 +370,7 @@ def _lazy_avar(
     # blocks of at most LAZY_BLOCK_VALUES output values, at least one window each
     rows = max(1, LAZY_BLOCK_VALUES // max(1, ms.size))
     span = int(min(chunk, max(2 * int(length.max()), rows * sched.step)))
-    bounds, los, his = _centre_groups(centre, length, pad, span, GROUP_GAP)
+    bounds, los, his = _centre_groups(read_only(centre), read_only(length), pad, span, GROUP_GAP)
     blocks = []
     for g in range(los.size):
         c0, c1, lo = int(bounds[g]), int(bounds[g + 1]), int(los[g])

@@ -26,7 +26,7 @@ import numpy as np
 # the serial form is faster up to 1e6 samples (2.7 vs 11 ms at 1e5, 18 vs 28 ms at 1e6),
 # within 1.3x at 1e7, immune to a busy core, and compiles in 10 s instead of 18 s
 # (docs/benchmarks.md, issue 15).
-from adavar._jit import jit, prange
+from adavar._jit import jit, prange, read_only
 from adavar._kernels.double_double import dd_add, dd_scaled_add, two_sum
 from adavar._kernels.window_avar import window_avar
 
@@ -45,8 +45,8 @@ __all__ = [
 ]
 
 SHIFT = 10
-SECOND = np.array([1, -2, 1], dtype=np.int64)  # coefficients of the Allan difference
-THIRD = np.array([-1, 3, -3, 1], dtype=np.int64)  # and of the Hadamard one
+SECOND = read_only(np.array([1, -2, 1], dtype=np.int64))  # coefficients of the Allan difference
+THIRD = read_only(np.array([-1, 3, -3, 1], dtype=np.int64))  # and of the Hadamard one
 BLOCK = 1 << SHIFT  # anchor spacing, samples
 SUPERBLOCK = 1 << 14  # terms per parallel work item; each touches a few 128 KiB chunks
 
@@ -215,7 +215,9 @@ def anchored_phase(
     u = np.ascontiguousarray(increments, dtype=np.float64)
     if shift is None:
         shift = float(np.median(u[:BLOCK])) if u.size else 0.0
-    r, hh, hl, stats = _anchored_prefix(u, shift, FUSED_LEVELS if cluster_stats else 0)
+    r, hh, hl, stats = _anchored_prefix(
+        read_only(u), float(shift), FUSED_LEVELS if cluster_stats else 0
+    )
     return AnchoredPhase(r, hh, hl, shift, stats if cluster_stats else None)
 
 

@@ -57,7 +57,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar._jit import get_num_threads, jit, parallel_jit, prange
+from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
 from adavar._kernels.double_double import (
     dd_add,
     dd_div_d,
@@ -648,12 +648,12 @@ def sliding_kurtosis(
     """
     x, _ = scaled(as_samples(data))  # scale-free: at scale 1, |x - anchor| cannot overflow
     sched = window_schedule(x.size, window, edges=edges, step=step)
-    y = np.ascontiguousarray(sched.extend(x))
-    starts = np.ascontiguousarray(sched.start, dtype=np.int64)
-    lengths = np.ascontiguousarray(sched.length, dtype=np.int64)
+    y = read_only(sched.extend(x), np.float64)
+    starts = read_only(sched.start, np.int64)
+    lengths = read_only(sched.length, np.int64)
     out = np.empty(starts.size)
     chunk = _chunk(int(lengths.max()), sched.step)
-    _sliding(y, starts, lengths, 0, chunk, _workers(starts.size, chunk), out)
+    _sliding.run(y.size, y, starts, lengths, 0, chunk, _workers(starts.size, chunk), out)
     return _finish(sched.centre, out, return_centres)
 
 
@@ -742,15 +742,15 @@ def kurtosis_contribution(
         raise AdavarInputError(f"unknown reference {reference!r}: use 'window' or 'record'")
     x, _ = scaled(as_samples(data))  # scale-free: at scale 1, |x - anchor| cannot overflow
     sched = window_schedule(x.size, window, edges=edges, step=step)
-    lengths = np.ascontiguousarray(sched.length, dtype=np.int64)
+    lengths = read_only(sched.length, np.int64)
     out = np.empty(lengths.size)
     chunk = _chunk(int(lengths.max()), sched.step)
     workers = _workers(lengths.size, chunk)
     if reference == "window":
         seg = _as_segment(segment, int(lengths.min()))
-        y = np.ascontiguousarray(sched.extend(x))
-        starts = np.ascontiguousarray(sched.start, dtype=np.int64)
-        _sliding(y, starts, lengths, seg, chunk, workers, out)
+        y = read_only(sched.extend(x), np.float64)
+        starts = read_only(sched.start, np.int64)
+        _sliding.run(2 * y.size, y, starts, lengths, seg, chunk, workers, out)
         return _finish(sched.centre, out, return_centres)
     if segment is not None:
         raise AdavarInputError(
@@ -758,8 +758,8 @@ def kurtosis_contribution(
             "segment is the window itself: drop segment"
         )
     start = sched.centre - (lengths - 1) // 2
-    a = np.ascontiguousarray(np.clip(start, 0, x.size), dtype=np.int64)
-    b = np.ascontiguousarray(np.clip(start + lengths, 0, x.size), dtype=np.int64)
+    a = read_only(np.clip(start, 0, x.size), np.int64)
+    b = read_only(np.clip(start + lengths, 0, x.size), np.int64)
     differs = np.flatnonzero(x != x[0])
     if differs.size == 0:  # a constant record has no kurtosis
         out[:] = np.nan
@@ -769,8 +769,10 @@ def kurtosis_contribution(
     anchor = float(np.median(x[:: max(1, x.size // _ANCHOR_SAMPLES)]))
     big = float(np.max(np.abs(x - anchor)))
     scale = _power_of_two_scale(big)
-    pre, suf = _grid_moments(x, anchor, scale, _GRID)
+    x = read_only(x, np.float64)
+    pre, suf = _grid_moments.run(2 * x.size, x, anchor, scale, _GRID)
     kx = pre[-1, 0] * pre[-1, 4] / pre[-1, 2] ** 2
-    const = np.array([first, last, int(x[0] == x[-1])], dtype=np.int64)
-    _record(x, a, b, chunk, workers, anchor, scale, pre, suf, _GRID, kx, const, out)
+    const = read_only(np.array([first, last, int(x[0] == x[-1])], dtype=np.int64))
+    work = 2 * x.size + 8 * a.size
+    _record.run(work, x, a, b, chunk, workers, anchor, scale, pre, suf, _GRID, kx, const, out)
     return _finish(sched.centre, out, return_centres)

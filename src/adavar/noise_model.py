@@ -93,6 +93,7 @@ from typing import Any
 import numpy as np
 
 from adavar import gls_fit
+from adavar._jit import get_num_threads
 from adavar._nnls import PARALLEL_MIN, nnls_parallel, nnls_serial, subsets
 from adavar.errors import AdavarInputError
 from adavar.results import ADEQUATE_P, NoiseFit, NoiseTerm
@@ -516,7 +517,10 @@ def _fit(
     coef_sig = np.empty((n_curves, 5))
     chi2 = np.empty(n_curves)
     npts = np.empty(n_curves, dtype=np.int64)
-    kernel = nnls_parallel if n_curves >= PARALLEL_MIN else nnls_serial
+    # one thread set (a short record's comparison, ADAVAR_THREADS=1): the serial kernel,
+    # so the parallel one is never compiled for it
+    parallel = n_curves >= PARALLEL_MIN and get_num_threads() > 1
+    kernel = nnls_parallel if parallel else nnls_serial
     kernel(
         phi, a2, e2, n_reweight, sub_idx, sub_size, order, sel,
         tau_ref ** (-powers.astype(float)), weighted, share,

@@ -230,8 +230,11 @@ class _Window:
             # r[p] needs increment p - 1, except at a block start
             u_first = self.p if self.p & _MASK == 0 else self.p - 1
             u = ph.source.read(u_first, hi - 1) if hi - 1 > u_first else np.empty(0)
-            kernel = _advance_blocks if hi - self.p >= _PARALLEL_MIN else _advance
-            self.s, self.c = kernel(u, u_first, self.p, hi, ph.shift, self.s, self.c, self.buf, lo)
+            args = (u, u_first, self.p, hi, ph.shift, self.s, self.c, self.buf, lo)
+            if hi - self.p >= _PARALLEL_MIN:
+                self.s, self.c = _advance_blocks.run(hi - self.p, *args)
+            else:
+                self.s, self.c = _advance(*args)
             self.p = hi
         return self.buf[: hi - lo]
 
@@ -324,8 +327,10 @@ def _fill2(x0, x1, x2, lo, hi, m, hh, hl, out):  # pragma: no cover - compiled
 
 def _squares(xs, lo, hi, m, phase, coefs) -> float:
     x3 = xs[3] if len(xs) > 3 else xs[2]
-    kernel = _sq_sum_parallel if hi - lo >= _PARALLEL_MIN else _sq_sum
-    return float(kernel(xs[0], xs[1], xs[2], x3, lo, hi, m, phase.hh, phase.hl, coefs))
+    args = (xs[0], xs[1], xs[2], x3, lo, hi, m, phase.hh, phase.hl, coefs)
+    if hi - lo >= _PARALLEL_MIN:
+        return float(_sq_sum_parallel.run(hi - lo, *args))
+    return float(_sq_sum(*args))
 
 
 def overlapping_sums(

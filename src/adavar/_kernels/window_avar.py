@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import get_num_threads, jit, parallel_jit, prange
+from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
 from adavar._kernels.double_double import two_sum
 
 __all__ = ["MEDIAN_SAMPLES", "sample_median", "window_avar", "window_avar_kernel"]
@@ -371,10 +371,10 @@ def window_avar(
     ndarray, shape (len(centres), len(ms))
         NaN where ``3 m > L``.
     """
-    u = np.ascontiguousarray(samples, dtype=np.float64)
-    ms = np.ascontiguousarray(ms, dtype=np.int64)
-    centres = np.ascontiguousarray(centres, dtype=np.int64)
-    lengths = np.ascontiguousarray(lengths, dtype=np.int64)
+    u = read_only(samples, np.float64)
+    ms = read_only(ms, np.int64)
+    centres = read_only(centres, np.int64)
+    lengths = read_only(lengths, np.int64)
     if centres.shape != lengths.shape or centres.ndim != 1:
         raise ValueError("internal: centres and lengths must be 1-D arrays of one shape")
     if centres.size:
@@ -389,5 +389,8 @@ def window_avar(
     chunk = int(max(chunk, 1))
     workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
     if nc:
-        window_avar_kernel(u, ms, centres, lengths, int(offset), chunk, workers, float(scale), out)
+        work = max(nc, stop - first) * nt  # one term per sample of the windows' union, per m
+        window_avar_kernel.run(
+            work, u, ms, centres, lengths, int(offset), chunk, workers, float(scale), out
+        )
     return out

@@ -22,6 +22,7 @@ from adavar.cli.options import (
     parse_taus,
     parse_terms,
     points_per_decade,
+    positive_int,
 )
 from adavar.cli.output import (
     Status,
@@ -32,7 +33,7 @@ from adavar.cli.output import (
     safe_name,
 )
 from adavar.errors import AdavarInputError
-from adavar.settings import STATISTICS
+from adavar.settings import ALL_STATISTICS
 from adavar.writers import (
     atomic_directory,
     check_output_directory,
@@ -161,6 +162,8 @@ def _avar_channel(
         noise_id=args.noise_id,
         totdev_edf=args.totdev_edf,
         totdev_bias=args.totdev_bias,
+        bias_correction=args.bias_correction,
+        theo_ratio_terms=args.theo_ratio_terms,
         **chunk_keywords(args),
     )
     fit = None
@@ -219,7 +222,7 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
     )
     add_input_arguments(avar)
     avar.add_argument(
-        "--stat", default="oadev", choices=STATISTICS, help="statistic (default: oadev)"
+        "--stat", default="oadev", choices=ALL_STATISTICS, help="statistic (default: oadev)"
     )
     avar.add_argument(
         "--noise-id", default="sp1065", choices=("sp1065", "stable32"),
@@ -234,6 +237,15 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
     avar.add_argument(
         "--totdev-bias", action="store_true",
         help="divide out totdev's bias for flicker and random-walk FM (SP 1065)",
+    )  # fmt: skip
+    avar.add_argument(
+        "--bias-correction", action=argparse.BooleanOptionalAction, default=None,
+        help="apply the bias correction of a statistic that has one (htotdev); default: "
+        "the statistic's own default",
+    )  # fmt: skip
+    avar.add_argument(
+        "--theo-ratio-terms", type=positive_int, default=None, metavar="N",
+        help="theobr/theoh: AVAR/Theo1 ratios in the bias ratio (default: all, as SP 1065)",
     )  # fmt: skip
     avar.add_argument(
         "--data-type", default="rate", choices=("rate", "phase"),
