@@ -28,7 +28,7 @@ import importlib
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["SPECS", "StatisticSpec", "spec_of"]
+__all__ = ["SPECS", "StatisticSpec", "is_time_like", "spec_of"]
 
 
 @dataclass(frozen=True)
@@ -63,7 +63,23 @@ class StatisticSpec:
         return importlib.import_module(self.module)
 
 
-SPECS: dict[str, StatisticSpec] = {}
+SPECS: dict[str, StatisticSpec] = {
+    "theo1": StatisticSpec("theo1", "adavar.theo_family", "frequency", tau_factor=0.75),
+    "theobr": StatisticSpec(
+        "theobr", "adavar.theo_family", "frequency", 0.75, options=("theo_ratio_terms",)
+    ),
+    "theoh": StatisticSpec(
+        "theoh", "adavar.theo_family", "frequency", options=("theo_ratio_terms",)
+    ),
+    "mtie": StatisticSpec("mtie", "adavar.time_error", "time"),
+    "tierms": StatisticSpec("tierms", "adavar.time_error", "time"),
+}
+
+
+def is_time_like(stat: str) -> bool:
+    """True for a statistic in phase units (TDEV and the time-kind ones), not rate units."""
+    spec = SPECS.get(stat)
+    return stat == "tdev" or (spec is not None and spec.kind == "time")
 
 
 def spec_of(stat: str) -> StatisticSpec | None:

@@ -389,7 +389,8 @@ def deviation(
     noise_id: str = "sp1065",
     totdev_edf: str = "sp1065",
     totdev_bias: bool = False,
-    **options: Any,
+    bias_correction: bool | None = None,
+    theo_ratio_terms: int | None = None,
 ) -> DeviationResult:
     """Allan-family deviation of a whole record, with a confidence interval at every tau.
 
@@ -451,6 +452,14 @@ def deviation(
         random-walk FM, per the identified alpha; T = N tau0), as Stable32 does for
         frequency data, so that ``dev`` estimates the Allan deviation. Default False: the
         plain TOTDEV of SP 1065 (its published values).
+    bias_correction : bool, optional
+        For the statistics of :mod:`adavar.extended_statistics` that have a bias correction
+        (``htotdev``...): apply it or not; None (default) takes the statistic's default.
+        An error for a statistic without one.
+    theo_ratio_terms : int, optional
+        ``theobr``/``theoh``: how many AVAR/Theo1 ratios make the bias ratio (default: all,
+        as SP 1065 and Stable32; fewer is faster on long records and differs by up to 10 %,
+        see :func:`adavar.theo_family.theobr_ratio`).
 
     Returns
     -------
@@ -522,10 +531,15 @@ def deviation(
     scale = 1.0 if dtype == "rate" else 1.0 / step_mantissa**2
     if dtype == "phase":
         exponent -= step_exponent
+    # options of the statistics beyond the Allan seven: None means the statistic's default
+    given = {"bias_correction": bias_correction, "theo_ratio_terms": theo_ratio_terms}
+    options = {k: v for k, v in given.items() if v is not None}
     unknown = sorted(set(options) - set(spec.options if spec is not None else ()))
     if unknown:
         raise AdavarInputError(
-            f"deviation() got an unexpected keyword {unknown[0]!r} for stat={stat!r}"
+            f"{unknown[0]} does not apply to stat={stat!r}: drop it (it is an option of "
+            + ", ".join(s.name for s in ext.SPECS.values() if unknown[0] in s.options)
+            + ")"
         )
     if spec is not None:
         if chunked:
@@ -678,7 +692,10 @@ def _extended_deviation(
     else:
         phase = diff.anchored_phase(u, cluster_stats=True)
         id_ms = np.minimum(ms, max(1, _m_max("oadev", n_points)))
-        alpha = record_noise_types(phase, id_ms, spec.dmax, data_type=dtype, noise_id=noise_id)
+        alpha, id_notes = record_noise_types(
+            phase, id_ms, spec.dmax, data_type=dtype, noise_id=noise_id
+        )
+        notes = notes + id_notes
         edf_values = np.array(
             [
                 float(family.edf(stat, int(a), int(m), n_points, **options))
