@@ -3,11 +3,13 @@
 * start-up: ``import adavar`` and ``adavar --help`` (fresh processes, best of 5);
 * first run: ``adavar demo`` with an empty Numba cache directory, then warm;
 * text input: a 720k-row, 5-column CSV through adavar's reader and ``pandas.read_csv``;
+* memory: peak resident memory of ``avar``, ``davar``, ``adaptive`` and ``report`` on one
+  hour at 200 Hz, against the sizes of the input and of what each writes;
 * kernels: the default ``deviation`` (OADEV with intervals) against ``allantools.oadev``
   (without intervals) at N = 1e3 .. 1e7 (``--max-n``), quiet and with another process
   busy on one core, on Numba's default threads and on one (``ADAVAR_THREADS=1``).
 
-Run: ``python benchmarks/bench_load.py [--max-n 10000000] [--skip-demo]``.
+Run: ``python benchmarks/bench_load.py [--max-n 10000000] [--skip-demo] [--only memory]``.
 """
 
 from __future__ import annotations
@@ -84,6 +86,55 @@ def text_input() -> list[str]:
             f"| pandas.read_csv (peer) | {theirs:.3f} s |"]  # fmt: skip
 
 
+def _peak_rss_mb(cmd: list[str]) -> float:
+    """Peak resident memory of ``cmd`` (MB), read in a fresh parent so no other child counts."""
+    code = ("import resource, subprocess, sys; subprocess.run(sys.argv[1:], check=True, "
+            "capture_output=True); "
+            "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)")  # fmt: skip
+    done = subprocess.run([sys.executable, "-c", code, *cmd], capture_output=True, text=True,
+                          check=True)  # fmt: skip
+    return int(done.stdout.split()[-1]) / 1024.0
+
+
+def _folder_mb(path: str) -> float:
+    total = 0
+    for root, _, files in os.walk(path):
+        total += sum(os.path.getsize(os.path.join(root, f)) for f in files)
+    return total / 2**20
+
+
+def memory() -> list[str]:
+    """Peak memory of every command on one hour at 200 Hz, against input and output size."""
+    rng = np.random.default_rng(4)
+    n = 720_000
+    lines = []
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "gyro.csv")
+        np.savetxt(path, rng.standard_normal(n) * 0.01, fmt="%.9g", header="gz", comments="")
+        cli = [sys.executable, "-m", "adavar.cli"]
+        base = _peak_rss_mb([sys.executable, "-c", "import adavar.cli, adavar.davar, adavar.plots"])
+        runs = {
+            "avar --taus all": ["avar", path, "--rate", "200", "--units", "deg/s", "--taus", "all"],
+            "davar (window 60 s)": ["davar", path, "--rate", "200", "--units", "deg/s",
+                                    "--window", "12000"],
+            "adaptive": ["adaptive", path, "--rate", "200", "--units", "deg/s"],
+            "report": ["report", path, "--rate", "200", "--units", "deg/s"],
+        }  # fmt: skip
+        input_mb = n * 8 / 2**20
+        for label, args in runs.items():
+            out = os.path.join(tmp, label.split()[0])
+            flag = ["-o", out + ".html"] if args[0] == "report" else ["--out", out]
+            peak = _peak_rss_mb([*cli, *args, *flag])
+            written = (
+                _folder_mb(out) if os.path.isdir(out) else os.path.getsize(out + ".html") / 2**20
+            )
+            ratio = (peak - base) / (input_mb + written)
+            lines.append(f"| {label}, 720k samples | peak {peak:.0f} MB (imports {base:.0f} MB) | "
+                         f"input {input_mb:.1f} MB, output {written:.1f} MB: "
+                         f"(peak - imports) / (input + output) = {ratio:.1f} |")  # fmt: skip
+    return lines
+
+
 def _spin(stop: mp.Event) -> None:  # type: ignore[valid-type]
     while not stop.is_set():
         pass
@@ -148,13 +199,22 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-n", type=int, default=10**7)
     parser.add_argument("--skip-demo", action="store_true")
+    parser.add_argument("--only", choices=("memory",), help="run one section")
     args = parser.parse_args()
     print(f"machine: {describe()}")
+    if args.only == "memory":
+        print("| command | memory | sizes |\n|---|---|---|")
+        for line in memory():
+            print(line, flush=True)
+        return
     print("| what | time |\n|---|---|")
     for line in startup() + ([] if args.skip_demo else first_run()) + text_input():
         print(line, flush=True)
     print("\n| kernel | adavar | peer |\n|---|---|---|")
     for line in kernels(args.max_n):
+        print(line, flush=True)
+    print("\n| command | memory | sizes |\n|---|---|---|")
+    for line in memory():
         print(line, flush=True)
 
 

@@ -35,6 +35,10 @@ _LAZY = {
     "adaptive_davar": "adavar.adaptive",
     "adaptive_schedule": "adavar.adaptive",
     "compare": "adavar.compare",
+    "CodeviationResult": "adavar.cornered_hat",
+    "CorneredHatResult": "adavar.cornered_hat",
+    "cornered_hat": "adavar.cornered_hat",
+    "gcodev": "adavar.cornered_hat",
     "davar": "adavar.davar",
     "Duration": "adavar.durations",
     "seconds": "adavar.durations",
@@ -46,6 +50,8 @@ _LAZY = {
     "fit_avar": "adavar.noise_model",
     "fit_noise": "adavar.noise_model",
     "compare_seeds": "adavar.paper.studies",
+    "PowerLawFit": "adavar.power_law",
+    "fit_power_law": "adavar.power_law",
     "DavarResult": "adavar.results",
     "DeviationResult": "adavar.results",
     "deviation": "adavar.statistics",
@@ -56,12 +62,14 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from adavar import simulate
     from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
     from adavar.compare import compare
+    from adavar.cornered_hat import CodeviationResult, CorneredHatResult, cornered_hat, gcodev
     from adavar.davar import davar
     from adavar.durations import Duration, seconds
     from adavar.errors import AdavarInputError
     from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
     from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
     from adavar.paper.studies import compare_seeds
+    from adavar.power_law import PowerLawFit, fit_power_law
     from adavar.results import DavarResult, DeviationResult
     from adavar.statistics import deviation
 
@@ -97,19 +105,25 @@ sys.modules[__name__].__class__ = _Package
 __all__ = [
     "AdaptiveResult",
     "AdavarInputError",
+    "CodeviationResult",
+    "CorneredHatResult",
     "DavarResult",
     "DeviationResult",
     "Duration",
     "NoiseFit",
     "NoiseTerm",
+    "PowerLawFit",
     "adaptive_davar",
     "adaptive_schedule",
     "compare",
     "compare_seeds",
+    "cornered_hat",
     "davar",
     "deviation",
     "fit_avar",
     "fit_noise",
+    "fit_power_law",
+    "gcodev",
     "kurtosis_contribution",
     "seconds",
     "simulate",

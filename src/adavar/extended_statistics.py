@@ -73,6 +73,20 @@ SPECS: dict[str, StatisticSpec] = {
     ),
     "mtie": StatisticSpec("mtie", "adavar.time_error", "time"),
     "tierms": StatisticSpec("tierms", "adavar.time_error", "time"),
+    "mtotdev": StatisticSpec(
+        "mtotdev", "adavar.total_family", "frequency", options=("bias_correction", "total_edf")
+    ),
+    "ttotdev": StatisticSpec(
+        "ttotdev", "adavar.total_family", "time", options=("bias_correction", "total_edf")
+    ),
+    "htotdev": StatisticSpec(
+        "htotdev",
+        "adavar.total_family",
+        "frequency",
+        dmax=3,
+        options=("bias_correction", "total_edf"),
+    ),
+    "pdev": StatisticSpec("pdev", "adavar.total_family", "frequency"),
 }
 
 

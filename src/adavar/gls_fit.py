@@ -43,7 +43,19 @@ import numpy as np
 from adavar import avar_covariance
 from adavar import edf as edf_mod
 
-__all__ = ["EXCLUDE_Z", "SIGNIFICANCE", "GlsOutcome", "fit_curve"]
+__all__ = [
+    "DIAG_FLOOR",
+    "EXCLUDE_Z",
+    "MAX_TAUS",
+    "SIGNIFICANCE",
+    "GlsOutcome",
+    "bounded_lsq",
+    "fit_curve",
+    "inverse_fisher",
+    "nnls_gls",
+    "thin",
+    "whiten",
+]
 
 #: Default significance (C / sigma_C) a term needs to stay in the model.
 SIGNIFICANCE = 2.0
@@ -52,8 +64,8 @@ EXCLUDE_Z = 3.0
 #: The automatic exclusion only reaches taus below this fraction of the curve's minimum.
 _EXCLUDE_REACH = 1.0 / 3.0
 _EXCLUDE_LOOK = 3  # the shortest fitted taus whose residuals decide an exclusion
-_MAX_TAUS = 64  # denser grids are thinned for the covariance (4 per octave)
-_DIAG_FLOOR = 0.25  # Cov_jj >= this * 2 model^2 / edf (a deterministic ramp has no variance)
+MAX_TAUS = 64  # denser grids are thinned for the covariance (4 per octave)
+DIAG_FLOOR = 0.25  # Cov_jj >= this * 2 model^2 / edf (a deterministic ramp has no variance)
 
 
 @dataclass(frozen=True)
@@ -98,13 +110,13 @@ class _Problem:
         c = avar_covariance.covariance(basis, coef)
         c *= np.outer(self.scale[idx], self.scale[idx])
         model = self.phi[idx] @ coef
-        floor = _DIAG_FLOOR * _weights_from_edf(model, self.edf[idx])
+        floor = DIAG_FLOOR * _weights_from_edf(model, self.edf[idx])
         d = np.diag(c)
         c[np.diag_indices_from(c)] = np.maximum(d, floor)
         return c
 
 
-def _whiten(cov: np.ndarray, scale: np.ndarray):
+def whiten(cov: np.ndarray, scale: np.ndarray):
     """Cholesky factor of the covariance in relative units (``cov / (scale scale^T)``)."""
     rel = cov / np.outer(scale, scale)
     rel[np.diag_indices_from(rel)] *= 1.0 + 1e-10
@@ -116,7 +128,7 @@ def _whiten(cov: np.ndarray, scale: np.ndarray):
         return np.linalg.cholesky((v * w) @ v.T)
 
 
-def _bounded_lsq(a: np.ndarray, b: np.ndarray, free: np.ndarray) -> np.ndarray:
+def bounded_lsq(a: np.ndarray, b: np.ndarray, free: np.ndarray) -> np.ndarray:
     """``min ||a x - b||`` with ``x >= 0`` except where ``free`` (columns scaled first)."""
     from scipy.optimize import lsq_linear, nnls
 
@@ -130,19 +142,28 @@ def _bounded_lsq(a: np.ndarray, b: np.ndarray, free: np.ndarray) -> np.ndarray:
     return xs / norms
 
 
-def _nnls_gls(a, phi, chol, scale, free):
+def nnls_gls(a, phi, chol, scale, free):
     """``min ||L^-1 (a - phi x) / scale||`` (x >= 0 but ``free``); x, chi2, whitened phi."""
     # a general solve: OpenBLAS's threaded triangular solve spins for milliseconds on a
     # 20 x 20 system when the other core is busy
     both = np.linalg.solve(chol, np.column_stack([phi / scale[:, None], a / scale]))
     aw, bw = both[:, :-1], both[:, -1]
-    x = _bounded_lsq(aw, bw, free)
+    x = bounded_lsq(aw, bw, free)
     chi2 = float(np.sum((aw @ x - bw) ** 2))
     return x, chi2, aw
 
 
-def _inverse_fisher(aw: np.ndarray) -> np.ndarray:
-    return np.linalg.pinv(aw.T @ aw)
+def inverse_fisher(aw: np.ndarray) -> np.ndarray:
+    """``(A^T A)^-1`` of the whitened design ``aw``, with its columns equilibrated first.
+
+    The columns of a wide tau range differ in scale by many decades (``tau^-2`` against
+    ``tau^2``); a plain pseudo-inverse then drops the small singular values of the
+    unscaled normal matrix as rank deficiency and reports near-zero uncertainties.
+    """
+    norms = np.linalg.norm(aw, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    scaled = aw / norms
+    return np.linalg.pinv(scaled.T @ scaled) / np.outer(norms, norms)
 
 
 def _fit_terms(prob: _Problem, idx: np.ndarray, cols: np.ndarray, n_iter: int, signed: bool):
@@ -155,7 +176,7 @@ def _fit_terms(prob: _Problem, idx: np.ndarray, cols: np.ndarray, n_iter: int, s
     ref = a.copy()
     for _ in range(3):
         w = np.sqrt(prob.edf[idx] / 2.0) / ref
-        x = _bounded_lsq(phi * w[:, None], a * w, free)
+        x = bounded_lsq(phi * w[:, None], a * w, free)
         coef[:] = 0.0
         coef[cols] = x
         model = phi @ x
@@ -167,8 +188,8 @@ def _fit_terms(prob: _Problem, idx: np.ndarray, cols: np.ndarray, n_iter: int, s
         model = prob.phi[idx] @ coef
         scale = np.where(model > 0, model, a)
         cov = prob.cov(coef, idx)
-        chol = _whiten(cov, scale)
-        x, chi2, aw = _nnls_gls(a, phi, chol, scale, free)
+        chol = whiten(cov, scale)
+        x, chi2, aw = nnls_gls(a, phi, chol, scale, free)
         new = np.zeros(5)
         new[cols] = x
         if not np.any(new[1:4] > 0):
@@ -177,7 +198,7 @@ def _fit_terms(prob: _Problem, idx: np.ndarray, cols: np.ndarray, n_iter: int, s
     return coef, chi2, aw, cov
 
 
-def _thin(tau: np.ndarray, usable: np.ndarray) -> np.ndarray:
+def thin(tau: np.ndarray, usable: np.ndarray) -> np.ndarray:
     """At most 4 taus per octave: a dense grid adds no information, only cost."""
     keep = usable.copy()
     last = -np.inf
@@ -243,7 +264,7 @@ def fit_curve(
     """
     powers = np.arange(-2, 3)
     used = usable.copy()
-    thinned = _thin(tau, usable) if usable.sum() > _MAX_TAUS else usable
+    thinned = thin(tau, usable) if usable.sum() > MAX_TAUS else usable
     for j in np.flatnonzero(usable & ~thinned):
         reasons[j] = "thinned: a denser tau grid than 4 per octave adds no information"
     used = thinned.copy()
@@ -260,7 +281,7 @@ def fit_curve(
             coef, chi2, aw, cov = _fit_terms(prob, idx, cols, n_iter, rolloff == "model")
             dof = idx.size - cols.size
             factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
-            fisher = _inverse_fisher(aw) * factor
+            fisher = inverse_fisher(aw) * factor
             sig = np.sqrt(np.maximum(np.diag(fisher), 0.0))
             # a negative tau^-2 (roll-off) term is as significant as its magnitude
             z = np.where(sig > 0, np.abs(coef[cols]) / np.where(sig > 0, sig, 1.0), 0.0)
@@ -306,11 +327,11 @@ def fit_curve(
             continue
         trial = np.array(sorted(set(cols.tolist()) | {k}), dtype=np.int64)
         scale = np.where(model[idx] > 0, model[idx], avar[idx])
-        _, _, aw_k = _nnls_gls(
-            avar[idx], prob.phi[np.ix_(idx, trial)], _whiten(cov, scale), scale,
+        _, _, aw_k = nnls_gls(
+            avar[idx], prob.phi[np.ix_(idx, trial)], whiten(cov, scale), scale,
             (trial == 0) & (rolloff == "model"),
         )  # fmt: skip
-        f_k = _inverse_fisher(aw_k) * factor
+        f_k = inverse_fisher(aw_k) * factor
         unc[k] = math.sqrt(max(f_k[list(trial).index(k), list(trial).index(k)], 0.0))
     return GlsOutcome(
         coefficients=coef,

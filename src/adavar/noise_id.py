@@ -241,8 +241,13 @@ def fill_unidentified(alpha: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
         return alpha.astype(np.int64), (
             "noise type could not be identified at any tau; white noise assumed for EDF",
         )
+    # nearest identified tau by bisection (ties to the shorter tau): O(n log n) memory-free;
+    # taus="all" on a long record has ~1e5 taus and as many identified ones
     index = np.arange(alpha.size)
-    nearest = known[np.abs(index[:, None] - known[None, :]).argmin(axis=1)]
+    above = np.clip(np.searchsorted(known, index), 0, known.size - 1)
+    below = np.clip(above - 1, 0, known.size - 1)
+    take_below = np.abs(index - known[below]) <= np.abs(known[above] - index)
+    nearest = np.where(take_below, known[below], known[above])
     return alpha[nearest].astype(np.int64), ()
 
 

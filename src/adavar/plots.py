@@ -77,6 +77,15 @@ STAT_NAMES: dict[str, str] = {
     "hdev": "Hadamard deviation",
     "ohdev": "Overlapping Hadamard deviation",
     "totdev": "Total deviation",
+    "mtotdev": "Modified total deviation",
+    "ttotdev": "Time total deviation",
+    "htotdev": "Hadamard total deviation",
+    "pdev": "Parabolic deviation",
+    "theo1": "Theo1 deviation",
+    "theobr": "Bias-removed Theo1 deviation",
+    "theoh": "Hybrid Theo deviation",
+    "mtie": "Maximum time interval error",
+    "tierms": "RMS time interval error",
 }
 
 #: IEEE Std 952 letter and readable name of each noise term.
@@ -591,20 +600,33 @@ def save_figure(
     base = Path(path_without_suffix)
     folder = base.parent
     written = []
-    for fmt in formats:
-        target = Path(f"{base}.{fmt}")
-        # not mkstemp: its 0600 mode would stick to the final file; "x" honours the umask
-        tmp_name = folder / f".{target.name}.{secrets.token_hex(6)}.tmp"
-        try:
-            with open(tmp_name, "xb") as handle:
-                fig.savefig(handle, format=fmt, dpi=dpi)
-            os.replace(tmp_name, target)
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp_name)
-            raise
-        written.append(target)
+    engine = fig.get_layout_engine()
+    try:
+        for k, fmt in enumerate(formats):
+            if k == 1 and engine is not None:
+                # the layout is in inches, the same for every format: solve it once
+                fig.set_layout_engine("none")
+            written.append(_save_one(fig, base, folder, fmt, dpi))
+    finally:
+        if engine is not None:
+            fig.set_layout_engine(engine)
     return written
+
+
+def _save_one(fig: Figure, base: Path, folder: Path, fmt: str, dpi: int) -> Path:
+    """One format of :func:`save_figure`, written atomically."""
+    target = Path(f"{base}.{fmt}")
+    # not mkstemp: its 0600 mode would stick to the final file; "x" honours the umask
+    tmp_name = folder / f".{target.name}.{secrets.token_hex(6)}.tmp"
+    try:
+        with open(tmp_name, "xb") as handle:
+            fig.savefig(handle, format=fmt, dpi=dpi)
+        os.replace(tmp_name, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp_name)
+        raise
+    return target
 
 
 # --------------------------------------------------------------------------------------

@@ -111,7 +111,11 @@ MAX_POINTS_PER_DECADE = 1000
 STATISTICS = ("adev", "oadev", "mdev", "hdev", "ohdev", "tdev", "totdev")
 #: every ``stat=`` of :func:`adavar.deviation`: the Allan seven, then the statistics of
 #: :mod:`adavar.extended_statistics`
-ALL_STATISTICS = STATISTICS + ("theo1", "theobr", "theoh", "mtie", "tierms")  # noqa: RUF005
+ALL_STATISTICS = (
+    *STATISTICS,
+    *("mtotdev", "ttotdev", "htotdev", "pdev"),
+    *("theo1", "theobr", "theoh", "mtie", "tierms"),
+)
 #: The most samples a generator makes (``n``): 8 GB for the float64 result alone, and the
 #: generators hold a few arrays of that size while they work. Longer records exhaust the
 #: memory of most machines rather than fail cleanly.

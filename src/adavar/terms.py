@@ -25,10 +25,16 @@ import numpy as np
 __all__ = [
     "ALIASES",
     "AVAR_FACTORS",
+    "DRIFT",
     "LETTERS",
     "POWERS",
+    "POWER_LAW_NAMES",
+    "POWER_LAW_TERMS",
+    "SENSOR_KINDS",
     "TERMS",
+    "TERM_LABELS",
     "TERM_NAMES",
+    "PowerLawTerm",
     "Term",
     "term_index",
 ]
@@ -98,3 +104,92 @@ def term_index(name: str) -> int:
         raise ValueError(
             f"unknown noise term {name!r}; valid names: {', '.join(TERM_NAMES)}"
         ) from None
+
+
+# --------------------------------------------------------------------------------------
+# Words per kind of instrument, and the power-law (clock) model
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PowerLawTerm:
+    """One term of the power-law model ``S_y(f) = sum h_alpha f^alpha`` (IEEE Std 1139).
+
+    Attributes
+    ----------
+    name : str
+        Key of the term (``fit.h["white_fm"]``).
+    alpha : int
+        Power of ``f`` in the fractional-frequency (rate) PSD.
+    label : str
+        Clock words (``"white FM"``).
+    ieee : str or None
+        The IEEE Std 952 term with the same Allan-variance slope (None for flicker PM, whose
+        ``tau^-2 ln(tau)`` has no IEEE counterpart).
+    """
+
+    name: str
+    alpha: int
+    label: str
+    ieee: str | None
+
+
+#: The five noises of IEEE Std 1139 / NIST SP 1065, in the order of alpha, -2 .. 2.
+POWER_LAW_TERMS: tuple[PowerLawTerm, ...] = (
+    PowerLawTerm("random_walk_fm", -2, "random walk FM", "rate_random_walk"),
+    PowerLawTerm("flicker_fm", -1, "flicker FM", "bias_instability"),
+    PowerLawTerm("white_fm", 0, "white FM", "angle_random_walk"),
+    PowerLawTerm("flicker_pm", 1, "flicker PM", None),
+    PowerLawTerm("white_pm", 2, "white PM", "quantization"),
+)
+#: Their names, in that order.
+POWER_LAW_NAMES: tuple[str, ...] = tuple(t.name for t in POWER_LAW_TERMS)
+#: The deterministic linear frequency drift (the clock's counterpart of the rate ramp).
+DRIFT = "frequency_drift"
+
+#: Kinds of instrument whose words name the terms (see :func:`adavar.units.term_names`).
+SENSOR_KINDS = ("gyro", "accelerometer", "clock", "generic")
+
+_INERTIAL_PM = {"white_pm": "white angle noise", "flicker_pm": "flicker angle noise"}
+_ACCEL_PM = {"white_pm": "white velocity noise", "flicker_pm": "flicker velocity noise"}
+
+#: Kind -> term key -> label. Keys: the IEEE terms (:data:`TERM_NAMES`), the power-law
+#: terms (:data:`POWER_LAW_NAMES`) and :data:`DRIFT`; the two sets name the same slopes
+#: (white PM ~ quantization, white FM ~ angle random walk, ...), so either fit is labelled
+#: in the words of its instrument.
+TERM_LABELS: dict[str, dict[str, str]] = {
+    "gyro": {
+        **{t.name: t.label for t in TERMS},
+        **_INERTIAL_PM,
+        "white_fm": "angle random walk",
+        "flicker_fm": "bias instability",
+        "random_walk_fm": "rate random walk",
+        DRIFT: "rate ramp",
+    },
+    "accelerometer": {
+        "quantization": "quantization",
+        "angle_random_walk": "velocity random walk",
+        "bias_instability": "bias instability",
+        "rate_random_walk": "acceleration random walk",
+        "rate_ramp": "acceleration ramp",
+        **_ACCEL_PM,
+        "white_fm": "velocity random walk",
+        "flicker_fm": "bias instability",
+        "random_walk_fm": "acceleration random walk",
+        DRIFT: "acceleration ramp",
+    },
+    "clock": {
+        "quantization": "white PM",
+        "angle_random_walk": "white FM",
+        "bias_instability": "flicker FM",
+        "rate_random_walk": "random walk FM",
+        "rate_ramp": "frequency drift",
+        **{t.name: t.label for t in POWER_LAW_TERMS},
+        DRIFT: "frequency drift",
+    },
+    "generic": {
+        **{t.name: t.label for t in TERMS},
+        **{t.name: t.label for t in POWER_LAW_TERMS},
+        DRIFT: "drift",
+    },
+}

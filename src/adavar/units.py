@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar.terms import TERM_NAMES, TERMS
+from adavar.terms import SENSOR_KINDS, TERM_LABELS, TERM_NAMES, TERMS
 
 __all__ = [
     "CONVENTIONAL_UNITS",
@@ -54,6 +54,8 @@ __all__ = [
     "is_known_unit",
     "rate_unit",
     "rate_unit_info",
+    "sensor_kind",
+    "term_names",
     "term_unit",
     "unit_info",
 ]
@@ -458,8 +460,9 @@ def deviation_unit(stat: str, units: str | None) -> str | None:
     Parameters
     ----------
     stat : str
-        The statistic; ``"tdev"`` is in the integrated (phase) unit ``units*s``, every other
-        statistic in ``units``.
+        The statistic; ``"tdev"`` and the other time-like ones (``ttotdev``, ``mtie``,
+        ``tierms``) are in the integrated (phase) unit ``units*s``, every other statistic in
+        ``units``.
     units : str or None
         Unit of the rate (see :func:`rate_unit`).
 
@@ -469,7 +472,9 @@ def deviation_unit(stat: str, units: str | None) -> str | None:
     """
     if units is None:
         return None
-    return _times_seconds(units, 1.0) if stat == "tdev" else units
+    from adavar.extended_statistics import is_time_like
+
+    return _times_seconds(units, 1.0) if is_time_like(stat) else units
 
 
 def term_unit(term: str, units: str | None) -> str | None:
@@ -535,3 +540,84 @@ def format_pm(value: Any, uncertainty: Any, unit: str | None = None, *, digits: 
     scale = 10.0**exp_v
     body = f"({v / scale:.{decimals}f} ± {u / scale:.{decimals}f})e{exp_v:+03d}"
     return body + suffix
+
+
+# --------------------------------------------------------------------------------------
+# The words of each kind of instrument
+# --------------------------------------------------------------------------------------
+
+#: Units of a clock's time error (phase data) and of a fractional frequency (rate data).
+CLOCK_PHASE_UNITS = frozenset({"s", "ms", "us", "µs", "ns", "ps", "fs"})
+CLOCK_RATE_UNITS = frozenset({"", "1", "s/s", "hz/hz", "ratio", "fractional"})
+
+
+def sensor_kind(units: str | None, data_type: str = "rate") -> str:
+    """The kind of instrument that data declared in ``units`` come from.
+
+    Parameters
+    ----------
+    units : str or None
+        Declared unit of the samples (None: not declared).
+    data_type : {"rate", "phase"}
+        How the samples are read (``"freq"``/``"frequency"`` mean ``"rate"``).
+
+    Returns
+    -------
+    str
+        ``"clock"`` for a time error (phase in ``s``, ``ns``, ...) or a dimensionless
+        fractional frequency (rate in ``""``, ``"1"``, ``"ratio"``); ``"gyro"`` or
+        ``"accelerometer"`` for the inertial units of this module; ``"generic"`` for None or
+        any other unit (never guessed).
+    """
+    if units is None:
+        return "generic"
+    if not isinstance(units, str):
+        raise TypeError(f"a unit must be a string, got {type(units).__name__}")
+    phase = str(data_type).lower() == "phase"
+    key = units.strip().replace(" ", "")
+    if (key in CLOCK_PHASE_UNITS) if phase else (key.lower() in CLOCK_RATE_UNITS):
+        return "clock"
+    rate = rate_unit(key, "phase" if phase else "rate")
+    try:
+        return rate_unit_info(rate or "").sensor
+    except (TypeError, ValueError):
+        return "generic"
+
+
+def term_names(
+    units: str | None, data_type: str = "rate", *, sensor: str | None = None
+) -> dict[str, str]:
+    """Words that name the noise terms for data declared in ``units``.
+
+    One table (:data:`adavar.terms.TERM_LABELS`) holds them: clocks say white PM, flicker
+    PM, white FM, flicker FM, random walk FM and frequency drift; gyros quantization,
+    angle random walk, bias instability, rate random walk and rate ramp; accelerometers
+    velocity random walk and acceleration random walk instead.
+
+    Parameters
+    ----------
+    units : str or None
+        Declared unit of the samples (see :func:`sensor_kind`).
+    data_type : {"rate", "phase"}
+        How the samples are read.
+    sensor : {"gyro", "accelerometer", "clock", "generic"}, optional
+        The kind of instrument, overriding the one read from ``units``.
+
+    Returns
+    -------
+    dict
+        Term key -> label, for the keys of both fits: the IEEE terms of
+        :func:`adavar.fit_noise` (``"angle_random_walk"``, ...), the power-law terms of
+        :func:`adavar.fit_power_law` (``"white_fm"``, ...) and ``"frequency_drift"``.
+
+    Examples
+    --------
+    >>> term_names("s", "phase")["angle_random_walk"]
+    'white FM'
+    >>> term_names("m/s^2")["white_fm"]
+    'velocity random walk'
+    """
+    kind = sensor_kind(units, data_type) if sensor is None else sensor
+    if kind not in SENSOR_KINDS:
+        raise ValueError(f"unknown sensor {sensor!r}; use one of {', '.join(SENSOR_KINDS)}")
+    return dict(TERM_LABELS[kind])
