@@ -22,7 +22,7 @@ RATE = 10.0
 N_SAMPLES = 2000
 STDS = {"gx": 0.1, "gy": 0.2, "gz": 0.4}
 SINGLE_KEYS = ["adavar_version", "input", "parameters", "units", "shape", "time", "tau", "m",
-               "alpha", "notes", "fit", "out", "events", "events_rule"]  # fmt: skip
+               "alpha", "notes", "fit", "out", "events", "events_rule", "stat"]  # fmt: skip
 
 
 @pytest.fixture(scope="module")

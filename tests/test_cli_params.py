@@ -224,13 +224,15 @@ def test_deviation_gets_every_avar_flag(capsys, monkeypatch, record):
                                 "decade", "--confidence", "0.9", "--points-per-decade", "7",
                                 "--chunk-size", "64", "--noise-id", "stable32", "--totdev-edf",
                                 "legacy", "--totdev-bias", "--no-bias-correction",
-                                "--theo-ratio-terms", "9"])  # fmt: skip
+                                "--theo-ratio-terms", "9", "--gaps", "omit",
+                                "--total-edf", "stable32"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.deviation, {
         "stat": "mdev", "data_type": "phase", "taus": "decade", "confidence": 0.9,
         "points_per_decade": 7, "units": rate_unit("deg", "phase"), "chunk_size": 64,
         "noise_id": "stable32", "totdev_edf": "legacy", "totdev_bias": True,
-        "bias_correction": False, "theo_ratio_terms": 9,
+        "bias_correction": False, "theo_ratio_terms": 9, "gaps": "omit",
+        "total_edf": "stable32",
     })  # fmt: skip
     assert sample_interval(seen) == pytest.approx(0.25)
     seen.clear()
@@ -238,6 +240,21 @@ def test_deviation_gets_every_avar_flag(capsys, monkeypatch, record):
                               "deg/s"])  # fmt: skip
     assert code == 1 and sample_interval(seen) == pytest.approx(0.5)
     assert "chunk_size" not in seen["_passed"]  # only passed on when given
+    assert seen["gaps"] == "error"  # the reader's --gaps values leave NaN an error
+
+
+def test_gaps_omit_reaches_the_reader_as_nan_rows(capsys, monkeypatch, record):
+    """avar --gaps omit: the reader marks missing stamps and keeps NaN cells (--nan error,
+    the default, becomes keep; --nan drop / interpolate are kept as given)."""
+    seen = recorder(monkeypatch, readers, "read_record")
+    base = ["avar", str(record), "--column", "x", "--rate", "4", "--units", "deg/s"]
+    assert run(capsys, [*base, "--gaps", "omit"])[0] == 1
+    assert (seen["gaps"], seen["nan"]) == ("nan", "keep")
+    seen.clear()
+    assert run(capsys, [*base, "--gaps", "omit", "--nan", "interpolate"])[0] == 1
+    assert (seen["gaps"], seen["nan"]) == ("nan", "interpolate")
+    code, _, err = run(capsys, ["davar", str(record), "--rate", "4", "--gaps", "omit"])
+    assert code == 2 and "invalid choice: 'omit'" in err  # avar only
 
 
 @pytest.mark.parametrize("command", ["avar", "davar", "adaptive", "report"])
@@ -270,10 +287,11 @@ def test_davar_gets_every_flag(capsys, monkeypatch, record):
                                 "--taus", "octave", "--edges", "valid", "--step", "3",
                                 "--confidence", "0.9", "--t0", "5", "--points-per-decade",
                                 "7", "--noise-type", "-1", "--chunk-size", "64",
-                                "--edge-edf", "interior"])  # fmt: skip
+                                "--edge-edf", "interior", "--stat", "ohvar"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.davar, {
-        "window": 100, "data_type": "phase", "taus": "octave", "edges": "valid", "step": 3,
+        "window": 100, "stat": "ohvar", "data_type": "phase", "taus": "octave",
+        "edges": "valid", "step": 3,
         "confidence": 0.9, "t0": 5.0, "points_per_decade": 7, "noise_type": -1,
         "units": rate_unit("deg", "phase"), "chunk_size": 64, "edge_edf": "interior",
     })  # fmt: skip

@@ -64,6 +64,7 @@ __all__ = [
     "kurtosis_windows_figure",
     "rate_unit",
     "save_figure",
+    "term_label",
     "term_unit",
     "threshold_figure",
 ]
@@ -90,6 +91,22 @@ STAT_NAMES: dict[str, str] = {
 
 #: IEEE Std 952 letter and readable name of each noise term.
 TERM_LABELS: dict[str, tuple[str, str]] = {t.name: (t.letter, t.label) for t in TERMS}
+
+
+def term_label(name: str, units: str | None) -> tuple[str, str]:
+    """IEEE letter and the field's name of a noise term for rate data in ``units``.
+
+    Angle random walk for a gyro, velocity random walk for an accelerometer, white FM for
+    a clock (:func:`adavar.units.term_names`); the IEEE Std 952 name when the unit says
+    neither.
+    """
+    from adavar.units import term_names
+
+    try:
+        names = term_names(units)
+    except (TypeError, ValueError):
+        names = {}
+    return TERM_LABELS[name][0], names.get(name, TERM_LABELS[name][1])
 
 
 # --------------------------------------------------------------------------------------

@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from adavar.noise_model import TERM_NAMES
-from adavar.plots import STAT_NAMES, TERM_LABELS
+from adavar.plots import STAT_NAMES, TERM_LABELS, term_label
 from adavar.units import (
     conventional_units,
     convert_coefficient,
@@ -350,7 +350,7 @@ def _term_texts(fit: Any, unit: str | None) -> dict[str, tuple[str, str]]:
     converted = _converted(fit, unit)
     out = {}
     for name in TERM_NAMES:
-        letter, long_name = TERM_LABELS[name]
+        letter, long_name = term_label(name, unit)
         own = fit.term(name)
         own_text = format_pm(own.value, own.uncertainty, term_unit(name, unit))
         if converted is not None:
@@ -621,7 +621,7 @@ def _coefficient_table(fit: Any, units: str | None) -> str:
     converted = _converted(fit, unit)
     rows = []
     for name in TERM_NAMES:
-        letter, long_name = TERM_LABELS[name]
+        letter, long_name = term_label(name, unit)
         term = fit.term(name)
         if name not in fit.terms:
             state = "not in the model"

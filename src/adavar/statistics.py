@@ -131,10 +131,11 @@ def refuse_masked(data: object) -> None:
         )
 
 
-def as_samples(data: object, *, min_length: int = 3) -> np.ndarray:
+def as_samples(data: object, *, min_length: int = 3, missing_hint: str = "") -> np.ndarray:
     """Validate a record: a finite 1-D numeric array of at least ``min_length`` samples.
 
     float32 and integer input is promoted to float64 (the sums need the precision).
+    ``missing_hint`` is added to the error about a NaN sample (a way out the caller has).
     """
     refuse_masked(data)
     try:
@@ -157,8 +158,10 @@ def as_samples(data: object, *, min_length: int = 3) -> np.ndarray:
     finite = np.isfinite(x)
     if not finite.all():
         first = int(np.argmin(finite))
+        value = float(x[first])
+        hint = missing_hint if math.isnan(value) else ""
         raise AdavarInputError(
-            f"sample {first} is {x[first]!r}: remove or interpolate non-finite samples first"
+            f"sample {first} is {value!r}: {hint}remove or interpolate non-finite samples first"
         )
     return x
 
@@ -372,6 +375,7 @@ def record_noise_types(
 
 
 TOTVAR_BIAS: dict[int, float] = {-1: 1.0 / (3.0 * np.log(2.0)), -2: 0.75}
+_OMIT_HINT = "pass gaps='omit' (--gaps omit) to leave out the terms that touch missing samples, or "
 
 
 def deviation(
@@ -391,6 +395,8 @@ def deviation(
     totdev_bias: bool = False,
     bias_correction: bool | None = None,
     theo_ratio_terms: int | None = None,
+    total_edf: str | None = None,
+    gaps: str = "error",
 ) -> DeviationResult:
     """Allan-family deviation of a whole record, with a confidence interval at every tau.
 
@@ -456,10 +462,28 @@ def deviation(
         For the statistics of :mod:`adavar.extended_statistics` that have a bias correction
         (``htotdev``...): apply it or not; None (default) takes the statistic's default.
         An error for a statistic without one.
+    total_edf : {"sp1065", "stable32"}, optional
+        ``mtotdev``/``ttotdev``/``htotdev``: the EDF convention (default ``"sp1065"``; see
+        :func:`adavar.total_family.edf`).
     theo_ratio_terms : int, optional
         ``theobr``/``theoh``: how many AVAR/Theo1 ratios make the bias ratio (default: all,
         as SP 1065 and Stable32; fewer is faster on long records and differs by up to 10 %,
         see :func:`adavar.theo_family.theobr_ratio`).
+    gaps : {"error", "omit"}
+        What a NaN sample means. ``"error"`` (default): it is refused. ``"omit"``: it is a
+        missing sample on the regular grid (sample ``k`` at ``k * tau0``), and every
+        difference term that touches one is left out; ``result.n`` counts the terms kept,
+        the variance is their mean with the usual normalisation, and a note gives the
+        number of missing samples. Rate data: a term over phase points ``i .. i + L``
+        touches the rate samples ``i .. i + L - 1`` (``L`` = 2m Allan, 3m Hadamard,
+        3m - 1 modified) and is left out if any is missing. Phase data: an Allan or
+        Hadamard term is left out only if one of its own points ``i + k m`` is missing,
+        a modified one if any point of its m-sums, ``i .. i + 3m - 1``, is. The EDF is
+        that of a gap-free record giving as many terms (:func:`adavar.gaps.effective_points`)
+        and the noise type is identified on the kept data (:mod:`adavar.gaps`). For
+        ``oadev``, ``adev``, ``mdev``, ``tdev``, ``hdev``, ``ohdev``; ``totdev`` and the
+        other statistics are refused on a record with NaN. A masked array's masked
+        samples are missing samples too. Without NaN the result is that of ``"error"``.
 
     Returns
     -------
@@ -480,7 +504,7 @@ def deviation(
     bit for bit; a deviation beyond the largest double is an :class:`AdavarInputError`, one
     below the normal range is the nearest subnormal. The binary exponent of ``tau0`` is
     carried the same way for phase data and TDEV. A :class:`numpy.ma.MaskedArray` with
-    masked samples is refused (they cannot be skipped), as are a ``rate`` that is ``None``
+    masked samples is refused (unless ``gaps="omit"``), as are a ``rate`` that is ``None``
     without ``tau0`` or a ``bool``, taus that overflow, and more than
     :data:`MAX_POINTS_PER_DECADE` points per decade.
 
@@ -497,6 +521,7 @@ def deviation(
     Noise identification streams the record as well
     (:func:`adavar.stream.noise_types`).
     """
+    keywords = {k: v for k, v in locals().items() if k != "data"}  # every keyword, for gaps
     spec = ext.spec_of(stat)
     if stat not in STATISTICS and spec is None:
         raise AdavarInputError(f"unknown stat {stat!r}: use one of {', '.join(ALL_STATISTICS)}")
@@ -512,6 +537,10 @@ def deviation(
     check_confidence(confidence)
     step = resolve_tau0(rate, tau0)
     min_length = 4 if dtype == "phase" else 3
+    if gaps != "error":  # adavar.gaps imports this module: loaded on first use
+        from adavar.gaps import deviation_omitting_gaps
+
+        return deviation_omitting_gaps(data, **keywords)
     refuse_masked(data)
 
     # the record is computed at scale 1 (exact: a power of two), the deviations scaled back
@@ -523,7 +552,7 @@ def deviation(
         increments = source if dtype == "rate" else stream.DifferencedSource(source)
         n_samples, n_points = source.size, increments.size + 1
     else:
-        x, exponent = scaled(as_samples(data, min_length=min_length))
+        x, exponent = scaled(as_samples(data, min_length=min_length, missing_hint=_OMIT_HINT))
         u = x if dtype == "rate" else np.diff(x)
         n_samples, n_points = x.size, u.size + 1
 
@@ -532,7 +561,11 @@ def deviation(
     if dtype == "phase":
         exponent -= step_exponent
     # options of the statistics beyond the Allan seven: None means the statistic's default
-    given = {"bias_correction": bias_correction, "theo_ratio_terms": theo_ratio_terms}
+    given = {
+        "bias_correction": bias_correction,
+        "theo_ratio_terms": theo_ratio_terms,
+        "total_edf": total_edf,
+    }
     options = {k: v for k, v in given.items() if v is not None}
     unknown = sorted(set(options) - set(spec.options if spec is not None else ()))
     if unknown:

@@ -548,7 +548,9 @@ def format_pm(value: Any, uncertainty: Any, unit: str | None = None, *, digits: 
 
 #: Units of a clock's time error (phase data) and of a fractional frequency (rate data).
 CLOCK_PHASE_UNITS = frozenset({"s", "ms", "us", "µs", "ns", "ps", "fs"})
-CLOCK_RATE_UNITS = frozenset({"", "1", "s/s", "hz/hz", "ratio", "fractional"})
+CLOCK_RATE_UNITS = frozenset(
+    {"", "1", "s/s", "hz/hz", "ratio", "fractional", "ms/s", "us/s", "µs/s", "ns/s", "ps/s"}
+)
 
 
 def sensor_kind(units: str | None, data_type: str = "rate") -> str:

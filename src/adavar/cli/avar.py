@@ -61,7 +61,8 @@ def _cmd_avar(args: argparse.Namespace) -> int:
 
     status = Status()
     status(f"reading {args.file}")
-    channels, meta, units_of, tau0 = load_input(args, several=True, out_of_core=True)
+    channels, meta, units_of, tau0 = load_input(_reader_arguments(args), several=True,
+                                                out_of_core=True)  # fmt: skip
     _check_columns(args, meta["columns"])
     runs = []
     for k, (name, samples) in enumerate(channels.items()):
@@ -120,6 +121,16 @@ def _cmd_avar(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _reader_arguments(args: argparse.Namespace) -> argparse.Namespace:
+    """``--gaps omit`` for the reader: missing time stamps become NaN rows
+    (``gaps="nan"``) and NaN / empty cells stay in place (``nan="keep"``, unless --nan
+    drop or interpolate is given), for the deviation to leave out."""
+    if args.gaps != "omit":
+        return args
+    nan = "keep" if args.nan == "error" else args.nan
+    return argparse.Namespace(**{**vars(args), "gaps": "nan", "nan": nan})
+
+
 def _check_columns(args: argparse.Namespace, columns: list[str]) -> None:
     """Several numeric columns and no --column: one --units would label them all (a
     temperature as deg/s), so the user chooses. A file that declares every channel's unit
@@ -164,6 +175,8 @@ def _avar_channel(
         totdev_bias=args.totdev_bias,
         bias_correction=args.bias_correction,
         theo_ratio_terms=args.theo_ratio_terms,
+        total_edf=args.total_edf,
+        gaps="omit" if args.gaps == "omit" else "error",
         **chunk_keywords(args),
     )
     fit = None
@@ -221,6 +234,14 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         "one by one), unless it declares every column's unit (a ROS bag: all six).",
     )
     add_input_arguments(avar)
+    gaps = next(a for a in avar._actions if a.dest == "gaps")
+    gaps.choices = (*gaps.choices, "omit")
+    gaps.help = (
+        "a gap in the time stamps is an error (default), splits the record into gap-free "
+        "pieces analysed one by one, is filled by linear interpolation, or (omit) its "
+        "missing samples, and NaN/empty cells, are left out of the statistic: every "
+        "difference term touching one is omitted (no interpolation)"
+    )
     avar.add_argument(
         "--stat", default="oadev", choices=ALL_STATISTICS, help="statistic (default: oadev)"
     )
@@ -242,6 +263,10 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         "--bias-correction", action=argparse.BooleanOptionalAction, default=None,
         help="apply the bias correction of a statistic that has one (htotdev); default: "
         "the statistic's own default",
+    )  # fmt: skip
+    avar.add_argument(
+        "--total-edf", default=None, choices=("sp1065", "stable32"),
+        help="EDF of mtotdev/ttotdev/htotdev: SP 1065 (default) or Stable32's",
     )  # fmt: skip
     avar.add_argument(
         "--theo-ratio-terms", type=positive_int, default=None, metavar="N",

@@ -43,6 +43,18 @@ from adavar.writers import (
     write_surface,
 )
 
+#: --stat -> what the summary calls the surface's deviation
+STAT_TITLES = {
+    "oavar": "Dynamic Allan deviation",
+    "ohvar": "Dynamic overlapping Hadamard deviation",
+    "mvar": "Dynamic modified Allan deviation",
+}
+#: why a Hadamard or modified surface gets no fit (the IEEE model is of the Allan variance)
+NO_FIT = (
+    "no noise fit: the IEEE Std 952 coefficients are defined on the Allan variance; "
+    "--stat oavar fits them"
+)
+
 
 def _series_stats(values: Any, times: np.ndarray) -> dict[str, Any]:
     """Median, 5th/95th percentiles, extremes (with their times) and mean of a time series,
@@ -139,7 +151,7 @@ def _davar_summary(
         f"{data_type} data in {units}, tau0 = {tau0:g} s ({1.0 / tau0:g} Hz), "
         f"{result.n_samples * tau0:g} s",
         (
-            f"Dynamic Allan deviation: window {int(window[0])} samples "
+            f"{STAT_TITLES[meta.get('stat', 'oavar')]}: window {int(window[0])} samples "
             f"({int(window[0]) * tau0:g} s)"
             if not hasattr(result, "method")
             else f"Adaptive dynamic Allan deviation ({result.method}): window "
@@ -167,7 +179,9 @@ def _davar_summary(
     if meta.get("resolution"):
         lines.append(meta["resolution"])
     lines += [f"note: {note}" for note in result.notes]
-    if fit is None:
+    if fit is None and meta.get("stat", "oavar") != "oavar":
+        lines.append(f"({NO_FIT})")
+    elif fit is None:
         lines.append("(no noise fit: --confidence none computes no EDF to weight it)")
     else:
         fitted = _fitted_windows(fit)
@@ -280,6 +294,8 @@ def _cmd_davar(args: argparse.Namespace) -> int:
             "--terms needs the confidence bounds (the fit is weighted by the EDF of every "
             "cell): drop --confidence none"
         )
+    if getattr(args, "stat", "oavar") != "oavar" and args.terms is not None:
+        raise UsageError(f"--terms with --stat {args.stat}: {NO_FIT}")
     fmt = check_surface_format(args.format or "nc")  # before the work: pyarrow installed?
     if args.out is not None:
         check_output_directory(args.out, replace=args.force)
@@ -308,7 +324,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         out = args.out if args.out is None or not several else f"{args.out}/{folders[name]}"
         tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
         info = {**meta, "column": name, "windows_from": getattr(args, "windows_from", None),
-                "resolution": resolution}  # fmt: skip
+                "resolution": resolution, "stat": getattr(args, "stat", "oavar")}  # fmt: skip
         runs.append(_davar_channel(args, loaded[name], info, units_of[name],
                                    tau0, fmt, out, status, tag))  # fmt: skip
     if several:
@@ -427,9 +443,10 @@ def _davar_channel(
             **controller_settings(args), **common,
         )  # fmt: skip
     else:
-        result = davar(samples, window=args.window, **common)
+        result = davar(samples, window=args.window, stat=args.stat, **common)
+    stat = getattr(args, "stat", "oavar")  # adaptive: the Allan variance
     fit = None
-    if args.confidence is not None:
+    if args.confidence is not None and stat == "oavar":  # the IEEE model is of the AVAR
         status(f"{tag}fitting the noise terms of every window")
         try:
             fit = fit_noise(result, **window_fit_keywords(args, _whole_record_fit(
@@ -482,7 +499,7 @@ def _davar_channel(
         "tau": result.tau,
         "m": result.m,
         "alpha": result.alpha,
-        "notes": list(result.notes),
+        "notes": list(result.notes) + ([NO_FIT] if stat != "oavar" else []),
         "fit": None if fit is None else _davar_fit_json(fit, np.asarray(result.time)),
         "out": None if out is None else {"dir": out, "format": fmt, "files": written},
     }
@@ -518,6 +535,7 @@ def _davar_channel(
             )
         if out is not None:
             written.insert(-1, "events.csv")
+    payload["stat"] = stat  # the variance of every window (--stat); last: keys keep order
     return {
         "name": meta["column"], "result": result, "fit": fit, "meta": meta, "units": units,
         "tau0": tau0, "payload": payload, "text": dumps(payload), "written": written,
@@ -631,6 +649,12 @@ def add_davar_parser(sub: Any) -> argparse.ArgumentParser:
         "--window", metavar="L", type=window_length, required=True,
         help=f"window length: samples (at least {MIN_WINDOW}, at most the record) or a "
         "duration such as 600s or 10min; taus up to a third of it",
+    )  # fmt: skip
+    dav.add_argument(
+        "--stat", default="oavar", choices=tuple(STAT_TITLES),
+        help="variance of every window: oavar (overlapping Allan, default), ohvar "
+        "(overlapping Hadamard: blind to a rate ramp) or mvar (modified Allan); only oavar "
+        "gets the noise fit",
     )  # fmt: skip
     add_surface_arguments(dav)
     dav.add_argument("--json", action="store_true", help="print one JSON object (a summary)")

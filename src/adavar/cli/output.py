@@ -61,7 +61,7 @@ def deviation_table(result: DeviationResult, indent: str = "") -> str:
 
 
 def fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = None) -> list[str]:
-    from adavar.plots import TERM_LABELS
+    from adavar.plots import TERM_LABELS, term_label
     from adavar.units import format_pm, term_unit
 
     conv = conventional(fit)
@@ -96,7 +96,7 @@ def fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = Non
         headers += ["true value", "error"]
     rows = []
     for name in TERM_NAMES:
-        letter, long_name = TERM_LABELS[name]
+        letter, long_name = term_label(name, fit.units)
         term = fit.term(name)
         row = [f"{letter}  {long_name}"]
         if name not in fit.terms:

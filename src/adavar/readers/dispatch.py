@@ -120,7 +120,7 @@ def read_record(
         ``meta["time_unit_source"]`` as assumed), unless that is unclear: whole numbers 2
         or more apart (5 apart: 0.2 Hz in seconds, 200 Hz in milliseconds) or values past
         the year 5000 in seconds are an error asking for the unit.
-    gaps : {"error", "split", "interpolate"}
+    gaps : {"error", "split", "interpolate", "nan"}
         What to do when an interval between time stamps is longer than
         ``(1 + gap_tolerance)`` times the median (a gap) or shorter than
         ``(1 - gap_tolerance)`` times it (non-uniform sampling). ``"error"`` names the
@@ -128,8 +128,13 @@ def read_record(
         gap-free pieces (non-uniform sampling is still an error). ``"interpolate"`` fills
         each gap with evenly spaced, linearly interpolated samples (the samples read are
         kept as they are); with non-uniform sampling, every channel is linearly resampled
-        onto the uniform grid ``k / rate``. Without a time base there is nothing to check.
-    nan : {"error", "drop", "interpolate"}
+        onto the uniform grid ``k / rate``. ``"nan"`` keeps every sample read at its
+        place and marks the samples missing from the grid: a gap of ``g`` sample
+        intervals gets ``round(g) - 1`` NaN rows (at evenly spaced times, as
+        ``"interpolate"`` places them), for ``deviation(..., gaps="omit")`` to leave out
+        (non-uniform sampling is still an error; ``meta["n_missing_inserted"]``). Without
+        a time base there is nothing to check.
+    nan : {"error", "drop", "interpolate", "keep"}
         What to do with NaN, infinite or missing samples (and missing time stamps).
         ``"error"`` names the first bad row and column. ``"drop"`` removes those rows: with
         a time base, a hole left behind is then a gap like any other (handled by ``gaps``);
@@ -137,7 +142,11 @@ def read_record(
         inner row would shift every later sample in time (use ``"interpolate"``).
         ``"interpolate"`` replaces each bad value by linear interpolation over time (or
         sample index) between its finite neighbours; leading and trailing rows where a
-        channel has no finite value yet are trimmed.
+        channel has no finite value yet are trimmed. ``"keep"`` leaves every value in place
+        (NaN, and Inf, which the analyses refuse): NaN samples are then missing samples for
+        ``deviation(..., gaps="omit")``; a row whose time stamp is missing is dropped (its
+        time is unknown), leaving a gap in the time base for ``gaps`` (``"nan"`` marks it
+        missing again). Counts in ``meta["nan_values_kept"]``.
     dataset : str, optional
         HDF5 only: the dataset (a 1-D array, a 2-D samples x channels array, a compound
         dataset whose fields are columns) or a group of equal-length 1-D datasets. By
@@ -208,7 +217,7 @@ def read_record(
             f"{src} is read whole (lazy reading is for .npy, HDF5 and Parquet files): leave "
             "out lazy=True / --lazy, or convert the file to .npy"
         )
-    if lazy and nan != "error":
+    if lazy and nan not in ("error", "keep"):
         raise fail(
             f"nan={nan!r} needs the whole record in memory, so it cannot be read lazily: "
             "leave out lazy=True / --lazy, or remove the bad samples first"

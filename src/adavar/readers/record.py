@@ -24,9 +24,9 @@ from adavar.readers.table import resolve
 from adavar.stream import DEFAULT_CHUNK, ChunkedSource, memmap_source
 
 #: Values of ``gaps``: what to do with gaps and non-uniform sampling in a time base.
-GAP_POLICIES = ("error", "split", "interpolate")
+GAP_POLICIES = ("error", "split", "interpolate", "nan")
 #: Values of ``nan``: what to do with NaN / infinite / empty samples.
-NAN_POLICIES = ("error", "drop", "interpolate")
+NAN_POLICIES = ("error", "drop", "interpolate", "keep")
 
 _RATE_AGREEMENT = 0.01  # a declared rate and a time column must agree within 1 %
 _MAX_LISTED = 50  # gaps / dropped rows listed one by one in meta
@@ -240,6 +240,10 @@ def _handle_nan(raw: RawRecord, policy: str, src: str, meta: dict[str, Any]) -> 
     if all(isinstance(v, ChunkedSource) for v in raw.channels.values()):
         meta["lazy"] = True  # each piece is checked as it is read (the error names the sample)
         return raw
+    if policy == "keep" and raw.time is None:  # nothing to do: every sample stays in place
+        if not any(memmap_source(v) is not None for v in raw.channels.values()):
+            meta["nan_values_kept"] = _non_finite_counts(raw)
+        return raw
     if _all_finite_by_file(raw):
         return raw
     names = list(raw.channels)
@@ -263,6 +267,8 @@ def _handle_nan(raw: RawRecord, policy: str, src: str, meta: dict[str, Any]) -> 
         return names[0], "?"
 
     tname = meta.get("time_column", "time")
+    if policy == "keep":
+        return _keep_nan(raw, bad, bad_t, tname, src, meta, where)
     if policy == "error":
         if any_t and (not bad.any() or np.argmax(bad_t) <= np.argmax(bad)):
             i = int(np.argmax(bad_t))
@@ -274,7 +280,7 @@ def _handle_nan(raw: RawRecord, policy: str, src: str, meta: dict[str, Any]) -> 
         name, value = first_bad_cell(i)
         raise fail(
             f"{src}: {where(i)}, column {name!r} is {value}: fix or remove that row, or use "
-            "--nan drop or --nan interpolate"
+            "--nan drop or --nan interpolate (adavar avar: --gaps omit leaves it out)"
         )
     rows_bad = bad | bad_t if bad_t is not None else bad
     if policy == "drop":
@@ -340,6 +346,41 @@ def _handle_nan(raw: RawRecord, policy: str, src: str, meta: dict[str, Any]) -> 
     meta["nan_rows_trimmed"] = int(n - (stop - start))
     return RawRecord(
         columns, time, raw.t0, None if raw.rows is None else raw.rows[sl], raw.word, raw.meta
+    )
+
+
+def _non_finite_counts(raw: RawRecord) -> dict[str, int]:
+    return {name: int(np.count_nonzero(~np.isfinite(v))) for name, v in raw.channels.items()}
+
+
+def _keep_nan(
+    raw: RawRecord,
+    bad: np.ndarray,
+    bad_t: np.ndarray | None,
+    tname: str,
+    src: str,
+    meta: dict[str, Any],
+    where: Any,
+) -> RawRecord:
+    """``nan="keep"``: bad samples stay in place (missing samples for ``gaps="omit"``); a
+    row whose time stamp is missing is dropped (its time is unknown), which leaves a gap in
+    the time base for the gap policy."""
+    meta["nan_values_kept"] = _non_finite_counts(raw)
+    if bad_t is None or not bad_t.any():
+        return raw
+    keep = ~bad_t
+    if not keep.any():
+        raise fail(f"{src}: time column {tname!r} has no finite value: choose another column")
+    idx = np.flatnonzero(bad_t)
+    meta["nan_time_rows_dropped"] = int(idx.size)
+    meta["nan_dropped_at"] = [where(int(i)) for i in idx[:_MAX_LISTED]]
+    return RawRecord(
+        {k: v[keep] for k, v in raw.channels.items()},
+        raw.time[keep],
+        raw.t0,
+        None if raw.rows is None else raw.rows[keep],
+        raw.word,
+        raw.meta,
     )
 
 
@@ -454,7 +495,8 @@ def finish_record(
         more = f" and {long_.size - 1} more" if long_.size > 1 else ""
         return fail(
             f"{src}: gap of {dt[i]:.4g} s after {where(i)} (t = {_fmt_t(t[i])}; the median "
-            f"interval is {step:.4g} s){more}: use --gaps split or --gaps interpolate"
+            f"interval is {step:.4g} s){more}: use --gaps split or --gaps interpolate (adavar "
+            "avar: --gaps omit)"
         )
 
     def uneven_error() -> AdavarInputError:
@@ -468,7 +510,7 @@ def finish_record(
 
     channels = dict(raw.channels)
     segments = None
-    if gaps == "error" or (gaps == "split" and short.size):
+    if gaps == "error" or (gaps in ("split", "nan") and short.size):
         if short.size and (not long_.size or short[0] < long_[0]):
             raise uneven_error()
         if long_.size:
@@ -478,6 +520,24 @@ def finish_record(
         segments = [slice(a, b) for a, b in itertools.pairwise(cuts)]
         meta["gaps"] = "split"
         meta["segment_lengths"] = [b - a for a, b in itertools.pairwise(cuts)]
+    elif gaps == "nan" and long_.size:
+        # every sample stays at its place; round(gap / interval) - 1 NaN rows fill a gap
+        per = np.ones(n - 1, dtype=np.int64)
+        per[long_] = np.maximum(1, np.rint(dt[long_] / grid_step)).astype(np.int64)
+        starts = np.repeat(t[:-1], per)
+        offsets = np.arange(per.sum()) - np.repeat(np.cumsum(per) - per, per)
+        new_t = np.append(starts + np.repeat(dt / per, per) * offsets, t[-1])
+        at = np.concatenate(([0], np.cumsum(per)))
+        filled = {}
+        for k, v in channels.items():
+            out = np.full(new_t.size, np.nan)
+            out[at] = v
+            filled[k] = out
+        channels = filled
+        meta["gaps"] = "nan"
+        meta["n_samples_read"] = int(n)
+        meta["n_missing_inserted"] = int(new_t.size - n)
+        t = new_t
     elif gaps == "interpolate" and (long_.size or short.size):
         if short.size:  # non-uniform: resample everything onto the uniform grid
             count = math.floor(t[-1] / grid_step + 1e-9) + 1

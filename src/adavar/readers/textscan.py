@@ -365,6 +365,8 @@ def _python_block(texts: list[str], numbers: Sequence[int], lay: Layout) -> list
     else:
         rows = [split(text, delim, lay.src, n) for text, n in zip(texts, numbers, strict=True)]
     for i, row in enumerate(rows):
+        if len(row) == lay.n_cols - 1 and delim is not None and texts[i].endswith(delim):
+            row.append("")  # "1.5," with two columns: the separator ends an empty last cell
         if len(row) != lay.n_cols:
             raise fail(
                 f"{lay.src}: row {numbers[i]} has {len(row)} fields, expected {lay.n_cols} "
