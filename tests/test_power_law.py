@@ -313,3 +313,49 @@ def test_term_names_per_instrument():
     assert term_names("deg/s", sensor="clock")["quantization"] == "white PM"
     with pytest.raises(ValueError, match="unknown sensor"):
         term_names("deg/s", sensor="radio")
+
+
+# --- the command line: clock data get the clock model with --fit ----------------------
+
+
+def _clock_csv(tmp_path, sigma=1e-11, n=20_000):
+    y = np.random.default_rng(3).standard_normal(n) * sigma  # white FM, tau0 = 1 s
+    path = tmp_path / "clock.csv"
+    np.savetxt(path, np.concatenate([[0.0], np.cumsum(y)]), header="phase", comments="",
+               fmt="%.17e")  # fmt: skip
+    return path
+
+
+def test_cli_fits_the_clock_model_for_phase_in_seconds(capsys, tmp_path):
+    import json
+
+    from tests.cli_helpers import run
+
+    argv = ["avar", str(_clock_csv(tmp_path)), "--rate", "1", "--units", "s", "--data-type",
+            "phase", "--fit", "--json"]  # fmt: skip
+    code, out, err = run(capsys, argv)
+    assert code == 0, err
+    payload = json.loads(out)
+    h0 = payload["power_law"]["h"]["white_fm"]
+    assert h0["label"] == "white FM" and h0["alpha"] == 0
+    # white FM of sigma 1e-11 at tau0 = 1 s: h_0 = 2 sigma^2 tau0
+    assert abs(h0["value"] / 2e-22 - 1) < 4 * h0["sigma"] / 2e-22
+    assert "fit" in payload  # the IEEE fit is still there, unchanged
+    code, out, _ = run(capsys, argv[:-1])
+    assert "power-law fit of oadev" in out and "h_0  white FM" in out
+
+
+def test_cli_power_law_is_off_for_a_gyro_unless_asked(capsys, tmp_path):
+    import json
+
+    from tests.cli_helpers import run
+
+    path = _clock_csv(tmp_path)
+    base = ["avar", str(path), "--rate", "1", "--units", "deg", "--data-type", "phase", "--fit",
+            "--json"]  # fmt: skip
+    code, out, err = run(capsys, base)
+    assert code == 0, err
+    assert "power_law" not in json.loads(out)
+    code, out, err = run(capsys, [*base, "--power-law", "on"])
+    assert code == 0, err
+    assert json.loads(out)["power_law"]["h"]["white_fm"]["label"] == "angle random walk"

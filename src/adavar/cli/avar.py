@@ -202,6 +202,9 @@ def _avar_channel(
     }
     if fit is not None:
         payload["fit"] = fit_json(fit)
+    power_law, power_law_note = _power_law(args, result, units, do_fit)
+    if power_law is not None:
+        payload["power_law"] = _power_law_json(power_law)
     dev_u = deviation_unit(args.stat, rate_u)
     lines = [
         f"{meta['path']}, column {meta['column']!r}: {result.n_samples} samples, "
@@ -216,10 +219,58 @@ def _avar_channel(
         lines.append(f"note: column {meta['column']!r} is constant: its deviation is 0")
     if fit is not None:
         lines += ["", *fit_lines(fit)]
+    if power_law is not None:
+        lines += ["", power_law.summary()]
+    elif power_law_note:
+        lines.append(f"note: {power_law_note}")
     return {
         "name": meta["column"], "result": result, "fit": fit, "payload": payload,
         "lines": lines, "title": f"{Path(meta['path']).name}, column {meta['column']}",
     }  # fmt: skip
+
+
+def _power_law(args: argparse.Namespace, result: Any, units: str, do_fit: bool) -> tuple[Any, str]:
+    """The clock model of ``--fit`` (``--power-law``): (PowerLawFit or None, why not)."""
+    from adavar.power_law import POWER_LAW_STATS, fit_power_law
+    from adavar.units import sensor_kind
+
+    choice = getattr(args, "power_law", "auto")
+    wanted = choice == "on" or (
+        choice == "auto" and do_fit and sensor_kind(units, args.data_type) == "clock"
+    )
+    if not wanted:
+        return None, ""
+    if result.stat not in POWER_LAW_STATS or args.confidence is None:
+        return None, (
+            f"no power-law fit: it needs one of {', '.join(POWER_LAW_STATS)} with intervals"
+        )
+    import dataclasses
+
+    # the CLI's result carries the rate's unit; the clock model reads the samples' unit
+    declared = dataclasses.replace(result, units=units)
+    try:
+        return fit_power_law(declared, f_h=getattr(args, "f_h", None)), ""
+    except (AdavarInputError, ValueError) as exc:
+        return None, f"no power-law fit: {exc}"
+
+
+def _power_law_json(fit: Any) -> dict[str, Any]:
+    """The ``"power_law"`` member of ``--json``: h coefficients with 1-sigma, by name."""
+    h = {}
+    for k, name in enumerate(fit.names):
+        if name in fit.terms:
+            h[name] = {
+                "alpha": int(fit.alpha[k]), "label": fit.labels[name], "value": float(fit.h[k]),
+                "sigma": float(fit.h_sigma[k]), "dropped": name in fit.dropped,
+            }  # fmt: skip
+    out: dict[str, Any] = {
+        "stat": fit.stat, "f_h": float(fit.f_h), "f_h_source": fit.f_h_source, "h": h,
+        "chi2": float(fit.chi2), "dof": int(fit.dof), "p_value": float(fit.p_value),
+        "notes": list(fit.notes),
+    }  # fmt: skip
+    if "frequency_drift" in fit.terms:
+        out["drift"] = {"value": float(fit.drift), "sigma": float(fit.drift_sigma)}
+    return out
 
 
 def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
@@ -290,6 +341,16 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         help="two-sided confidence level of the intervals (default: 0.683)",
     )  # fmt: skip
     avar.add_argument("--fit", action="store_true", help="fit the IEEE Std 952 noise terms")
+    avar.add_argument(
+        "--power-law", default="auto", choices=("auto", "on", "off"),
+        help="also fit the clock model h_-2 .. h_2 (adavar.fit_power_law): auto (default) "
+        "with --fit when the units say clock (phase in s/ns/..., or a fractional "
+        "frequency), on, or off",
+    )  # fmt: skip
+    avar.add_argument(
+        "--f-h", type=float, default=None, metavar="HZ",
+        help="measurement bandwidth of the PM terms of --power-law (default: Nyquist)",
+    )  # fmt: skip
     avar.add_argument(
         "--terms", type=parse_terms, metavar="LIST",
         help="comma-separated terms of the fit (names or Q,N,B,K,R; default: all five); "
