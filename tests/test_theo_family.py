@@ -162,6 +162,146 @@ def test_ratio_terms_option_is_close():
 
 
 # ---------------------------------------------------------------------------------------
+# the all-tau kernel against the exact one (its raw output too, before any fallback)
+
+KINDS = ["white", "walk", "run", "offset", "drift", "smooth", "step", "phase_step", "float32"]
+
+
+def adversarial(kind: str, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` increments of a record that makes the lag products cancel (or lose digits)."""
+    w = rng.standard_normal(n)
+    k = np.arange(n, dtype=np.float64)
+    if kind == "walk":  # random-walk FM: the phase grows as n^1.5
+        return np.cumsum(w)
+    if kind == "run":  # random-run FM, on a frequency offset
+        return np.cumsum(np.cumsum(w)) + 1e9
+    if kind == "offset":
+        return w + 1e9
+    if kind == "drift":
+        return w + 1e3 * k
+    if kind == "smooth":  # a pure drift, noise at 1e-8 of it
+        return k + 1e-8 * w
+    if kind == "step":  # level steps of the frequency
+        return w + 1e6 * (k >= n // 2) - 3e5 * (k >= n // 3)
+    if kind == "phase_step":
+        return w + np.where(k == n // 2, 1e6, 0.0)
+    if kind == "float32":
+        return (w + 1e3).astype(np.float32).astype(np.float64)
+    return w
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    n=st.integers(3, 400),
+    seed=st.integers(0, 2**32 - 1),
+    kind=st.sampled_from(KINDS),
+    scale=st.sampled_from([1.0, 2.0**60, 2.0**-60]),
+)
+def test_fast_matches_exact(n, seed, kind, scale):
+    rng = np.random.default_rng(seed)
+    u = adversarial(kind, n, rng) * scale
+    ms = np.arange(2, n + 1, 2)
+    exact = tf.theo1_double_sums(u, ms, "exact")
+    raw, bound = tf._fast_sums(np.ascontiguousarray(u), ms)
+    # both kernels are within a few ulps of the rational value; the bound holds
+    np.testing.assert_allclose(raw, exact, rtol=1e-12, atol=0)
+    assert np.all(np.abs(raw - exact) <= bound + 1e-14 * exact)
+    np.testing.assert_allclose(tf.theo1_double_sums(u, ms, "fast"), exact, rtol=1e-12, atol=0)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_fast_all_taus_adversarial(kind):
+    # a longer record, every even factor, through deviation (scaled by 2**+-900 too)
+    u = adversarial(kind, 1500, np.random.default_rng(4))
+    ms = np.arange(2, 1501, 2)
+    exact = tf.theo1_double_sums(u, ms, "exact")
+    np.testing.assert_allclose(tf.theo1_double_sums(u, ms, "fast"), exact, rtol=1e-12, atol=0)
+    got = dev(u, "theo1", ms)
+    np.testing.assert_array_equal(got.m, ms)
+    ref = np.sqrt(exact / (0.75 * (1501 - ms) * ms * ms))
+    np.testing.assert_allclose(got.dev, ref, rtol=1e-12, atol=0)
+    for e in (900, -900):
+        scaled = dev(u * 2.0**e, "theo1", ms)
+        np.testing.assert_array_equal(scaled.dev, np.ldexp(got.dev, e))
+
+
+def test_fast_float32_input():
+    y = np.random.default_rng(6).standard_normal(999).astype(np.float32) + np.float32(1e4)
+    got = adavar.deviation(y, stat="theo1", rate=1.0, taus="all", confidence=None)
+    ms = got.m
+    exact = tf.theo1_double_sums(y.astype(np.float64), ms, "exact")
+    np.testing.assert_allclose(got.dev**2 * 0.75 * (1000 - ms) * ms * ms, exact, rtol=1e-12)
+
+
+def test_fast_falls_back_where_its_bound_is_loose(monkeypatch):
+    u = adversarial("walk", 300, np.random.default_rng(1))
+    ms = np.arange(2, 301, 2)
+    exact = tf.theo1_double_sums(u, ms, "exact")
+    real = tf._fast_sums
+
+    def loose_at_short_taus(u, ms):
+        sums, bound = real(u, ms)
+        return sums * (1 + 1e-6 * (ms < 40)), np.where(ms < 40, np.inf, bound)
+
+    monkeypatch.setattr(tf, "_fast_sums", loose_at_short_taus)
+    got = tf.theo1_double_sums(u, ms, "fast")
+    np.testing.assert_array_equal(got[ms < 40], exact[ms < 40])  # redone exactly
+    np.testing.assert_allclose(got, exact, rtol=1e-12)
+    monkeypatch.setattr(tf, "FAST_TOLERANCE", 0.0)  # nothing is certain: all exact
+    np.testing.assert_array_equal(tf.theo1_double_sums(u, ms, "fast"), exact)
+
+
+def test_method_choice_and_checks():
+    n = 20000
+    every = np.arange(2, n, 2)
+    octave = 2 ** np.arange(1, 15)
+    assert tf._fast_cost(n, every) < tf._exact_cost(n, every) / 100
+    assert tf._fast_cost(n, tf.ratio_factors(n)[1]) < tf._exact_cost(n, tf.ratio_factors(n)[1])
+    assert tf._exact_cost(n, octave[:4]) < tf._fast_cost(n, octave[:4])
+    u = np.random.default_rng(0).standard_normal(99)
+    got = tf.theo1_double_sums(u, [8, 2, 8, 4])  # any order, repeats
+    np.testing.assert_array_equal(got, tf.theo1_double_sums(u, [2, 4, 8])[[2, 0, 2, 1]])
+    for bad in ([3], [0], [100]):
+        with pytest.raises(AdavarInputError, match="even factors"):
+            tf.theo1_double_sums(u, bad)
+    with pytest.raises(AdavarInputError, match="method"):
+        tf.theo1_double_sums(u, [2], "slow")
+    assert tf.theo1_double_sums(np.full(50, 3.0), [2, 10], "fast").tolist() == [0.0, 0.0]
+
+
+@SETTINGS
+@given(n=st.integers(17, 700), seed=st.integers(0, 2**32 - 1), kind=st.sampled_from(KINDS))
+def test_theobr_ratio_fast_matches_exact(n, seed, kind):
+    u = adversarial(kind, n, np.random.default_rng(seed))
+    if n == 17:  # 18 points: the one pair has no AVAR term
+        with pytest.raises(AdavarInputError, match="no AVAR/Theo1 pair"):
+            tf.theobr_ratio(u)
+        return
+    m_avar, m_theo = tf.ratio_factors(n + 1)
+    fast = tf._ratio(u, m_avar, tf._theo1_var(u, m_theo, "fast"))
+    exact = tf._ratio(u, m_avar, tf._theo1_var(u, m_theo, "exact"))
+    assert fast == pytest.approx(exact, rel=1e-12)
+
+
+def test_theobr_exact_ratio_is_fast_and_right():
+    rng = np.random.default_rng(9)
+    u = np.cumsum(rng.standard_normal(3000)) + rng.normal(0, 30, 3000)  # white to walk FM
+    m_avar, m_theo = tf.ratio_factors(3001)
+    assert tf._fast_cost(3001, m_theo) < tf._exact_cost(3001, m_theo) / 10  # the fast kernel
+    assert m_theo.size == 3001 // 6 - 3 + 1
+    exact = tf._ratio(u, m_avar, tf._theo1_var(u, m_theo, "exact"))
+    assert tf.theobr_ratio(u) == pytest.approx(exact, rel=1e-12)
+    got = dev(u, "theobr", [2, 100, 3000])
+    theo = tf._theo1_var(u, got.m, "exact")
+    np.testing.assert_allclose(got.dev**2, theo * exact, rtol=1e-12)
+    # the option still picks evenly spread terms, both ends included
+    m_avar, m_theo = tf.ratio_factors(3001, 5)
+    i = np.round(np.linspace(0, 497, 5)).astype(int)
+    np.testing.assert_array_equal(m_theo, 12 + 4 * i)
+    np.testing.assert_array_equal(m_avar, 9 + 3 * i)
+
+
+# ---------------------------------------------------------------------------------------
 # Stable32 (PHASE.DAT)
 
 

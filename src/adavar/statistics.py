@@ -467,8 +467,8 @@ def deviation(
         :func:`adavar.total_family.edf`).
     theo_ratio_terms : int, optional
         ``theobr``/``theoh``: how many AVAR/Theo1 ratios make the bias ratio (default: all,
-        as SP 1065 and Stable32; fewer is faster on long records and differs by up to 10 %,
-        see :func:`adavar.theo_family.theobr_ratio`).
+        as SP 1065 and Stable32; fewer differs by up to 10 %, see
+        :func:`adavar.theo_family.theobr_ratio`).
     gaps : {"error", "omit"}
         What a NaN sample means. ``"error"`` (default): it is refused. ``"omit"``: it is a
         missing sample on the regular grid (sample ``k`` at ``k * tau0``), and every

@@ -35,13 +35,23 @@ multiples of 3 from ``m = 3`` on: any other ``m >= 3`` is moved to the nearest m
 (a note says so); ``m = 1, 2`` are always AVAR. ``m_max`` is the largest multiple of 3 with
 ``4m/3 <= N - 1`` (tau up to 75 % of the record).
 
-Computation: :func:`adavar._kernels.theo_family.theo1_sums`, exact to a few ulps whatever
-the frequency offset or drift (Theo1 is blind to a frequency offset; the kernel never forms
-the offset), in ``sum_m (N - m) m / 2`` multiply-adds; the Allan variances come from
-:mod:`adavar.differences`. That is the naive operation count, O(N m) per tau (octave taus
-on 2e4 points: about 0.1 s), not the O(N) per tau of an all-tau algorithm; ThêoBR's exact
-bias ratio needs Theo1 at about N/6 factors, about ``0.015 N^3`` multiply-adds (5000
-points: 2 s), which ``theo_ratio_terms`` bounds (64 terms: 0.15 s at 5000 points).
+Computation (:func:`theo1_double_sums`): two kernels of
+:mod:`adavar._kernels.theo_family`, whichever its cost model says is cheaper for the
+factors asked for. The exact one, ``theo1_sums``, works on window sums of the increments
+(Theo1 is blind to a frequency offset; the kernel never forms it) in ``sum_m (N - m) m / 2``
+multiply-adds: O(N m) per tau, the cheaper for a few short factors. The all-tau one,
+``theo1_fast_sums`` (after J. A. Lewis, IEEE TUFFC 2020), expands the square into lag
+products of the phase, centred and kept in double-double, and steps from one factor to the
+next in O(m): O(N) per tau, every even factor of 2e4 points in about 0.25 s (the exact
+kernel: about 5 minutes); octave taus on 2e4 points cost about 0.15 s either way. It bounds
+its own error at every factor and hands any factor whose bound exceeds ``FAST_TOLERANCE``
+(2^-36 relative) to the exact kernel (on 2e4 points of a drift or a random run of
+frequency: m = 2). Both are within a few ulps of exact rational arithmetic, the all-tau one
+usually within one (it sums in double-double throughout); they agree to ~1e-14 on offsets
+of 1e9, drifts, steps and random walks of frequency. ThêoBR's exact bias ratio needs
+Theo1 at ``N/6`` factors up to ``2N/3``: one all-tau pass, shared with the factors asked
+for (2e4 points: about 0.13 s with the Allan variances, which come from
+:mod:`adavar.differences`; the exact kernel alone: about 2 minutes).
 
 EDF (``edf``): Theo1 uses SP 1065's empirical formulas (Table 9, Howe & Tasset 2004), in
 terms of ``N`` and ``r = 0.75 m`` (the Theo1 tau in units of tau0), floored at 1:
@@ -80,14 +90,29 @@ import numpy as np
 
 from adavar import differences as diff
 from adavar import edf as edf_mod
-from adavar._kernels.theo_family import theo1_sums
+from adavar._jit import read_only
+from adavar._kernels.theo_family import centred_phase, theo1_fast_sums, theo1_sums
 from adavar.errors import AdavarInputError
 
-__all__ = ["STATS", "edf", "factors", "m_max", "squared", "theo1_edf", "theobr_ratio"]
+__all__ = [
+    "FAST_TOLERANCE",
+    "STATS",
+    "edf",
+    "factors",
+    "m_max",
+    "ratio_factors",
+    "squared",
+    "theo1_double_sums",
+    "theo1_edf",
+    "theobr_ratio",
+]
 
 STATS = ("theo1", "theobr", "theoh")
 #: fewest phase points with a ThêoBR bias ratio (n = floor(N/6 - 3) >= 0)
 MIN_POINTS_THEOBR = 18
+#: relative error bound the all-tau Theo1 must guarantee at a factor, else it is recomputed
+#: by the exact kernel there
+FAST_TOLERANCE = 2.0**-36
 
 
 def _check(stat: str) -> None:
@@ -124,13 +149,125 @@ def factors(stat: str, ms: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
     return np.unique(moved), tuple(notes)
 
 
-def _theo1_var(u: np.ndarray, ms: np.ndarray) -> np.ndarray:
+# cost of the two Theo1 kernels, nanoseconds per unit of work (fitted on 2e3 and 2e4 points)
+_NS_EXACT = 0.65  # per multiply-add of the exact kernel
+_NS_EXACT_WINDOW = 0.4  # per exact addition growing its window sums
+_NS_FAST = 0.25  # per double-double lag product of the fast one
+_NS_FAST_TERM = 1.0  # per term T(m, j) the fast one adds up
+_NS_FAST_POINT = 50.0  # per phase point (centring, prefix sums, copies)
+
+
+def _exact_cost(n_points: int, ms: np.ndarray) -> float:
+    """Nanoseconds :func:`theo1_sums` needs (about)."""
+    m = ms.astype(np.float64)
+    work = float(np.sum((n_points - m) * m / 2))
+    return _NS_EXACT * work + _NS_EXACT_WINDOW * n_points * float(m[-1]) / 2
+
+
+def _fast_cost(n_points: int, ms: np.ndarray) -> float:
+    """Nanoseconds :func:`theo1_fast_sums` needs (about)."""
+    top = float(ms[-1])
+    lags = (top + 1) * n_points - top * (top + 1) / 2
+    terms = float(np.sum(ms)) / 2
+    return _NS_FAST * (lags + 1.25 * top * top) + _NS_FAST_TERM * terms + _NS_FAST_POINT * n_points
+
+
+def _exact_sums(u: np.ndarray, ms: np.ndarray) -> np.ndarray:
+    """``S(m)`` from the exact kernel (a few ulps; ``O(N m)`` per factor)."""
+    out = np.zeros(ms.size)
+    theo1_sums(read_only(u, np.float64), read_only(ms, np.int64), out)
+    return out
+
+
+def _fast_sums(u: np.ndarray, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``S(m)`` from the all-tau kernel, and a bound on the error of each.
+
+    The phase is centred and scaled by a power of two (exact) to ``max|x| < 1``; the bound
+    is the kernel's (module docstring of :mod:`adavar._kernels.theo_family`) plus the effect
+    of the rounding of ``x`` itself, ``|dS| <= 2 sqrt(S S_d) + S_d`` with
+    ``S_d <= 16 d^2 (N - m) H_k`` for an error ``d`` per point.
+    """
+    n_points = u.size + 1
+    xh = np.empty(n_points)
+    xl = np.empty(n_points)
+    u = read_only(u, np.float64)
+    seen = centred_phase(u, float(np.mean(u)), xh, xl)
+    top = float(np.max(np.abs(xh)))
+    if top == 0.0:  # a linear phase: Theo1 is zero
+        return np.zeros(ms.size), np.zeros(ms.size)
+    e = math.frexp(top)[1]
+    xh = np.ldexp(xh, -e)
+    xl = np.ldexp(xl, -e)
+    out = np.empty(ms.size)
+    theo1_fast_sums(read_only(xh), read_only(xl), read_only(ms, np.int64), out)
+    k = ms // 2
+    harmonic = np.cumsum(1.0 / np.arange(1, k[-1] + 1))[k - 1]
+    big = math.ldexp(top, -e) ** 2
+    bound = harmonic * 2.0**-98 * (n_points + 2.0) ** 2 * big + 2.0**-42 * np.abs(out)
+    d = (3.0 * n_points + 4.0) * 2.0**-104 * math.ldexp(seen, -e)  # N additions, 2 more
+    s_d = 16.0 * d * d * (n_points - ms) * harmonic
+    bound += 2.0 * np.sqrt(np.maximum(out, 0.0) * s_d + bound * s_d) + s_d
+    return np.ldexp(out, 2 * e), np.ldexp(bound, 2 * e)
+
+
+def theo1_double_sums(u: np.ndarray, ms: np.ndarray, method: str = "auto") -> np.ndarray:
+    """The Theo1 double sum ``S(m)`` (unnormalised, SP 1065 Eq. 30) at even ``ms``.
+
+    Parameters
+    ----------
+    u : ndarray of float64
+        The ``N - 1`` increments of the phase, at scale 1.
+    ms : ndarray of int64
+        Even factors, ``2 <= m <= N - 1`` (any order).
+    method : {"auto", "fast", "exact"}
+        ``"exact"``: :func:`adavar._kernels.theo_family.theo1_sums`, ``O(N m)`` per factor;
+        ``"fast"``: the all-tau kernel, ``O(N)`` per factor over all factors up to the
+        largest, each checked against its error bound (relative ``2^-36``) and recomputed
+        exactly where the bound is larger (at the shortest factors of a record with drift or
+        a random walk of frequency, say); ``"auto"``: whichever costs less.
+
+    Returns
+    -------
+    ndarray of float64
+        ``sum_j (1/j) sum_i [...]^2`` per factor.
+    """
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    asked = np.asarray(ms, dtype=np.int64)
+    if asked.size == 0:
+        return np.zeros(0)
+    n_points = u.size + 1
+    bad = (asked % 2 != 0) | (asked < 2) | (asked > n_points - 1)
+    if bad.any():
+        raise AdavarInputError(
+            f"Theo1 needs even factors 2 <= m <= N - 1 = {n_points - 1}, got m = "
+            f"{int(asked[bad][0])}"
+        )
+    if method not in ("auto", "fast", "exact"):
+        raise AdavarInputError(f"method must be 'auto', 'fast' or 'exact', got {method!r}")
+    ms, back = np.unique(asked, return_inverse=True)
+    return _double_sums(u, ms, method)[back]
+
+
+def _double_sums(u: np.ndarray, ms: np.ndarray, method: str) -> np.ndarray:
+    """:func:`theo1_double_sums` at increasing, distinct, valid ``ms``."""
+    n_points = u.size + 1
+    if method == "auto":
+        cheaper = _fast_cost(n_points, ms) < _exact_cost(n_points, ms)
+        method = "fast" if cheaper else "exact"
+    if method == "exact":
+        return _exact_sums(u, ms)
+    sums, bound = _fast_sums(u, ms)
+    redo = ~(bound <= FAST_TOLERANCE * sums)  # NaN-safe: a NaN bound is redone too
+    if redo.any():
+        sums[redo] = _exact_sums(u, ms[redo])
+    return sums
+
+
+def _theo1_var(u: np.ndarray, ms: np.ndarray, method: str = "auto") -> np.ndarray:
     """Theo1 variances at even ``ms`` (sample interval 1)."""
     n_points = u.size + 1
-    sums = np.zeros(ms.size)
-    theo1_sums(u, ms, sums)
     m = ms.astype(np.float64)
-    return sums / (0.75 * (n_points - m) * m * m)
+    return theo1_double_sums(u, ms, method) / (0.75 * (n_points - m) * m * m)
 
 
 def _oavar(phase: diff.AnchoredPhase, ms: np.ndarray) -> np.ndarray:
@@ -140,24 +277,14 @@ def _oavar(phase: diff.AnchoredPhase, ms: np.ndarray) -> np.ndarray:
     return diff.overlapping_sums(phase, ms, 2) / (2.0 * m * m * counts)
 
 
-def theobr_ratio(u: np.ndarray, terms: int | None = None) -> float:
-    """ThêoBR's bias ratio ``kf`` (SP 1065 Eq. 33) of the increments ``u``.
-
-    Parameters
-    ----------
-    u : ndarray of float64
-        The ``N - 1`` increments of the phase (rate samples or phase differences).
-    terms : int, optional
-        Average only this many ratios, evenly spread over ``i = 0 .. n`` (both ends
-        included). Default: all ``n + 1`` of them, as SP 1065 (and Stable32) do; that costs
-        about ``0.015 N^3`` multiply-adds (5000 points: about 2 s; 20000: about 2 min).
+def ratio_factors(n_points: int, terms: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The AVAR and Theo1 factors of ThêoBR's bias ratio (see :func:`theobr_ratio`).
 
     Returns
     -------
-    float
-        ``mean_i AVAR(9 + 3i) / Theo1(12 + 4i)``, ``i = 0 .. floor(N/6 - 3)``.
+    m_avar, m_theo : ndarray of int64
+        ``9 + 3i`` and ``12 + 4i`` for the ``i`` averaged, a pair with no AVAR term left out.
     """
-    n_points = u.size + 1
     if n_points < MIN_POINTS_THEOBR:
         raise AdavarInputError(
             f"theobr/theoh need at least {MIN_POINTS_THEOBR} phase points for the bias "
@@ -173,9 +300,17 @@ def theobr_ratio(u: np.ndarray, terms: int | None = None) -> float:
             i = np.unique(np.round(np.linspace(0, i[-1], int(terms))).astype(np.int64))
     m_avar = 9 + 3 * i
     keep = n_points - 2 * m_avar >= 1  # the last pair has no AVAR term when 6 divides N
-    m_avar, m_theo = m_avar[keep], (12 + 4 * i)[keep]
+    if not keep.any():  # N = 18: the one pair's AVAR (m = 9) needs 19 points
+        raise AdavarInputError(
+            f"theobr/theoh: no AVAR/Theo1 pair for the bias ratio on {n_points} phase points "
+            "(AVAR at m = 9 needs 19): give a longer record or use stat='theo1'"
+        )
+    return m_avar[keep], (12 + 4 * i)[keep]
+
+
+def _ratio(u: np.ndarray, m_avar: np.ndarray, theo: np.ndarray) -> float:
+    """``mean(AVAR(m_avar) / theo)`` over the pairs whose Theo1 is not zero."""
     avar = _oavar(diff.anchored_phase(u), m_avar)
-    theo = _theo1_var(u, m_theo)
     ok = theo > 0
     if not ok.any():
         raise AdavarInputError(
@@ -183,6 +318,38 @@ def theobr_ratio(u: np.ndarray, terms: int | None = None) -> float:
             "linear phase): the bias-removed statistic is undefined, use stat='theo1'"
         )
     return float(np.mean(avar[ok] / theo[ok]))
+
+
+def theobr_ratio(u: np.ndarray, terms: int | None = None) -> float:
+    """ThêoBR's bias ratio ``kf`` (SP 1065 Eq. 33) of the increments ``u``.
+
+    Parameters
+    ----------
+    u : ndarray of float64
+        The ``N - 1`` increments of the phase (rate samples or phase differences).
+    terms : int, optional
+        Average only this many ratios, evenly spread over ``i = 0 .. n`` (both ends
+        included). Default: all ``n + 1`` of them, as SP 1065 (and Stable32) do; they need
+        Theo1 at ``N/6`` factors up to ``2N/3``, one pass of the all-tau kernel (20000
+        points: about 0.13 s). Fewer terms save little time: the factors still reach 2N/3.
+
+    Returns
+    -------
+    float
+        ``mean_i AVAR(9 + 3i) / Theo1(12 + 4i)``, ``i = 0 .. floor(N/6 - 3)``.
+    """
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    m_avar, m_theo = ratio_factors(u.size + 1, terms)
+    return _ratio(u, m_avar, _theo1_var(u, m_theo))
+
+
+def _theo1_and_ratio(u: np.ndarray, ms: np.ndarray, terms: int | None) -> tuple[np.ndarray, float]:
+    """Theo1 at ``ms`` and the bias ratio, from one pass over the union of their factors."""
+    m_avar, m_theo = ratio_factors(u.size + 1, terms)
+    every = np.union1d(ms, m_theo)
+    var = _theo1_var(u, every)
+    kf = _ratio(u, m_avar, var[np.searchsorted(every, m_theo)])
+    return var[np.searchsorted(every, ms)], kf
 
 
 def _theoh_split(ms: np.ndarray, n_points: int) -> np.ndarray:
@@ -206,7 +373,8 @@ def squared(
         Factors already passed through :func:`factors`.
     theo_ratio_terms : int, optional
         ThêoBR/ThêoH: the ``terms`` of :func:`theobr_ratio` (``deviation(...,
-        theo_ratio_terms=64)`` trades the exact SP 1065 ratio for speed on long records).
+        theo_ratio_terms=64)`` averages 64 evenly spread ratios instead of SP 1065's all;
+        since the all-tau kernel it saves little time: the factors still reach ``2N/3``).
 
     Returns
     -------
@@ -217,11 +385,11 @@ def squared(
     u = np.ascontiguousarray(u, dtype=np.float64)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     n_points = u.size + 1
-    if stat != "theoh":
-        var = _theo1_var(u, ms)
-        if stat == "theobr":
-            var = var * theobr_ratio(u, theo_ratio_terms)
-        return var, (n_points - ms) * (ms // 2)
+    if stat == "theo1":
+        return _theo1_var(u, ms), (n_points - ms) * (ms // 2)
+    if stat == "theobr":
+        var, kf = _theo1_and_ratio(u, ms, theo_ratio_terms)
+        return var * kf, (n_points - ms) * (ms // 2)
     var = np.empty(ms.size)
     n = np.empty(ms.size, dtype=np.int64)
     br = _theoh_split(ms, n_points)
@@ -231,7 +399,8 @@ def squared(
         n[~br] = n_points - 2 * m_a
     if br.any():
         m_t = np.ascontiguousarray(4 * ms[br] // 3)
-        var[br] = _theo1_var(u, m_t) * theobr_ratio(u, theo_ratio_terms)
+        theo, kf = _theo1_and_ratio(u, m_t, theo_ratio_terms)
+        var[br] = theo * kf
         n[br] = (n_points - m_t) * (m_t // 2)
     return var, n
 
