@@ -253,8 +253,12 @@ def test_gaps_omit_reaches_the_reader_as_nan_rows(capsys, monkeypatch, record):
     seen.clear()
     assert run(capsys, [*base, "--gaps", "omit", "--nan", "interpolate"])[0] == 1
     assert (seen["gaps"], seen["nan"]) == ("nan", "interpolate")
-    code, _, err = run(capsys, ["davar", str(record), "--rate", "4", "--gaps", "omit"])
-    assert code == 2 and "invalid choice: 'omit'" in err  # avar only
+    seen.clear()  # davar --gaps omit too (adaptive has no gap path)
+    assert run(capsys, ["davar", str(record), "--column", "x", "--rate", "4", "--units",
+                        "deg/s", "--window", "100", "--gaps", "omit"])[0] == 1  # fmt: skip
+    assert (seen["gaps"], seen["nan"]) == ("nan", "keep")
+    code, _, err = run(capsys, ["adaptive", str(record), "--rate", "4", "--gaps", "omit"])
+    assert code == 2 and "invalid choice: 'omit'" in err
 
 
 @pytest.mark.parametrize("command", ["avar", "davar", "adaptive", "report"])
@@ -287,13 +291,15 @@ def test_davar_gets_every_flag(capsys, monkeypatch, record):
                                 "--taus", "octave", "--edges", "valid", "--step", "3",
                                 "--confidence", "0.9", "--t0", "5", "--points-per-decade",
                                 "7", "--noise-type", "-1", "--chunk-size", "64",
-                                "--edge-edf", "interior", "--stat", "ohvar"])  # fmt: skip
+                                "--edge-edf", "interior", "--stat", "ohvar", "--gaps",
+                                "omit"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.davar, {
         "window": 100, "stat": "ohvar", "data_type": "phase", "taus": "octave",
         "edges": "valid", "step": 3,
         "confidence": 0.9, "t0": 5.0, "points_per_decade": 7, "noise_type": -1,
         "units": rate_unit("deg", "phase"), "chunk_size": 64, "edge_edf": "interior",
+        "gaps": "omit",
     })  # fmt: skip
     assert sample_interval(seen) == pytest.approx(0.25)
     seen.clear()
@@ -301,7 +307,7 @@ def test_davar_gets_every_flag(capsys, monkeypatch, record):
                               "deg/s", "--window", "100", "--taus", "octave", "--noise-type",
                               "0,-1,-2", "--confidence", "none"])  # fmt: skip
     assert code == 1 and seen["noise_type"] == [0, -1, -2] and seen["confidence"] is None
-    assert "chunk_size" not in seen["_passed"]
+    assert "chunk_size" not in seen["_passed"] and seen["gaps"] == "error"
 
 
 CONTROLLER_FLAGS = ["--lmax", "120", "--lmin", "60", "--k1", "2", "--k2", "4", "--s1", "-0.1",

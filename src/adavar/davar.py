@@ -46,6 +46,7 @@ from adavar.durations import Length, to_samples
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.statistics import (
+    _OMIT_HINT,  # the way out the error about a NaN names
     DATA_TYPE_ALIASES,
     as_samples,
     check_confidence,
@@ -96,7 +97,9 @@ class DavarStatResult(DavarResult):
 
     @property
     def n_terms(self) -> np.ndarray:
-        """Number of squared terms in each cell (0 where undefined)."""
+        """Number of squared terms in each cell (0 where undefined; with gaps, the kept)."""
+        if self.terms is not None:
+            return self.terms
         n = self.window[:, None] + 1 - _term_width(self.stat, self.m[None, :])
         return np.where(3 * self.m[None, :] <= self.window[:, None], n, 0)
 
@@ -419,8 +422,9 @@ def _group_rows(
     finite = np.isfinite(piece)
     if not finite.all():
         raise AdavarInputError(
-            f"the record holds a non-finite value ({piece[np.argmin(finite)]!r}): remove or "
-            "interpolate non-finite samples first"
+            f"the record holds a non-finite value ({piece[np.argmin(finite)]!r}): "
+            f"{_OMIT_HINT if np.isnan(piece).any() else ''}remove or interpolate non-finite "
+            "samples first"
         )
     piece, k = scaled(piece)
     per = _chunk_size(centres.size, int(lengths.max()), step)
@@ -485,6 +489,7 @@ def davar(
     chunk_size: int | None = None,
     lazy: bool | None = None,
     edge_edf: str = "distinct",
+    gaps: str = "error",
 ) -> DavarResult:
     """Dynamic Allan variance: the overlapping Allan (or Hadamard, modified) variance of a
     sliding window.
@@ -564,6 +569,16 @@ def davar(
         the mirrored ones counted as repeats (:func:`edf_table`), which keeps the 68 %
         intervals covering within ``L/2`` of the ends. ``"interior"``: the full window's
         EDF as before (coverage 47-57 % near the ends).
+    gaps : {"error", "omit"}
+        A NaN sample is an error (default), or (``"omit"``) a missing sample on the regular
+        grid: in every window each difference term that touches one is left out (the
+        rules of ``deviation(gaps="omit")``), each cell is the mean of its kept terms,
+        ``result.terms`` holds their counts (NaN cells where none is kept) and each cell's
+        EDF is that of a gap-free window with as many terms; the noise type is identified
+        on the whole record's kept data. A record without NaN gives the gap-free result
+        bit for bit. Computed in memory (a chunked record with NaN is read into memory;
+        not with an explicit ``chunk_size`` nor a lazy surface). See
+        :mod:`adavar.davar_gaps`.
     units : str, optional
         Declared unit of the *rate* (e.g. ``"deg/s"``; for phase input the unit of its
         derivative: angle in deg gives ``"deg/s"``), carried to the fit's unit conversions
@@ -637,6 +652,17 @@ def davar(
         raise AdavarInputError(f"t0 must be a number of seconds, got {t0!r}") from None
     dt = resolve_tau0(rate, tau0)
     min_length = 4 if dtype == "phase" else 3
+    if gaps != "error":  # adavar.davar_gaps imports this module: loaded on first use
+        from adavar.davar_gaps import gap_davar, missing_record
+
+        found = missing_record(data, gaps=gaps, chunk_size=chunk_size, lazy=lazy)
+        if found is not None:
+            return gap_davar(
+                found[0], found[1], notes=found[2], window=window, stat=name, rate=rate,
+                tau0=tau0, dt=dt, data_type=dtype, taus=taus, edges=edges, step=step,
+                confidence=confidence, t0=t0, points_per_decade=points_per_decade,
+                noise_type=noise_type, units=units, edge_edf=edge_edf,
+            )  # fmt: skip
     refuse_masked(data)
     # computed at scale 1 (exact: powers of two), the variances scaled back by 2**exponent
     dt_mantissa, dt_exponent = math.frexp(dt)
@@ -663,7 +689,7 @@ def davar(
             return scaled_increments[0]
 
     else:
-        x, k = scaled(as_samples(data, min_length=min_length))
+        x, k = scaled(as_samples(data, min_length=min_length, missing_hint=_OMIT_HINT))
         u = x if dtype == "rate" else np.diff(x)
         n_samples, n = x.size, u.size
 

@@ -84,6 +84,18 @@ class DeviationResult:
     units: str | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
 
+    def _repr_html_(self) -> str:
+        """Notebook view: a compact table and a small figure (:mod:`adavar.notebook`)."""
+        from adavar.notebook import html_of
+
+        return html_of(self)
+
+    def plot(self, **kwargs: Any) -> Any:
+        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`)."""
+        from adavar.notebook import plot_of
+
+        return plot_of(self, **kwargs)
+
     @property
     def rate(self) -> float:
         """Sample rate in Hz."""
@@ -151,6 +163,12 @@ class DavarResult:
     bound_table : ndarray, shape (2, K, M), or None
         ``avar_low / avar`` and ``avar_high / avar`` per distinct window length
         (``edf / chi2.ppf``; 0 where a tau is undefined).
+    terms : ndarray of int64, shape (T, M), or None
+        Terms kept in each cell when computed with ``davar(..., gaps="omit")`` on a record
+        with missing samples (those touching none; 0 where the cell is NaN), else None
+        (every term is kept: :attr:`n_terms`). With it, ``edf_table`` and ``bound_table``
+        have one row per centre (``window_class`` is ``arange(T)``): each cell's EDF
+        follows its own count.
     """
 
     time: np.ndarray
@@ -171,6 +189,7 @@ class DavarResult:
     edf_table: np.ndarray | None = None
     window_class: np.ndarray | None = None
     bound_table: np.ndarray | None = None
+    terms: np.ndarray | None = None
     _cache: dict[str, np.ndarray] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -203,6 +222,18 @@ class DavarResult:
         """Upper confidence bound of :attr:`avar` (None without bounds)."""
         return self._bound(1)
 
+    def _repr_html_(self) -> str:
+        """Notebook view: a compact table and a small figure (:mod:`adavar.notebook`)."""
+        from adavar.notebook import html_of
+
+        return html_of(self)
+
+    def plot(self, **kwargs: Any) -> Any:
+        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`)."""
+        from adavar.notebook import plot_of
+
+        return plot_of(self, **kwargs)
+
     @property
     def rate(self) -> float:
         """Sample rate in Hz."""
@@ -232,7 +263,10 @@ class DavarResult:
 
     @property
     def n_terms(self) -> np.ndarray:
-        """Number of squared differences in each cell, ``L - 2m + 1`` (0 where undefined)."""
+        """Number of squared differences in each cell, ``L - 2m + 1`` (0 where undefined;
+        with gaps, the kept ones: :attr:`terms`)."""
+        if self.terms is not None:
+            return self.terms
         n = self.window[:, None] - 2 * self.m[None, :] + 1
         return np.where(3 * self.m[None, :] <= self.window[:, None], n, 0)
 
@@ -594,6 +628,18 @@ class NoiseFit:
         t = np.asarray(tau, dtype=float)
         c = np.maximum(self.coefficients[..., k], 0.0)
         return np.sqrt(np.multiply.outer(c, t ** _POWERS[k]))
+
+    def _repr_html_(self) -> str:
+        """Notebook view: a compact table and a small figure (:mod:`adavar.notebook`)."""
+        from adavar.notebook import html_of
+
+        return html_of(self)
+
+    def plot(self, **kwargs: Any) -> Any:
+        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`)."""
+        from adavar.notebook import plot_of
+
+        return plot_of(self, **kwargs)
 
     def term(self, name: str) -> NoiseTerm:
         """The :class:`NoiseTerm` called ``name``."""

@@ -131,6 +131,18 @@ def _reader_arguments(args: argparse.Namespace) -> argparse.Namespace:
     return argparse.Namespace(**{**vars(args), "gaps": "nan", "nan": nan})
 
 
+def allow_gaps_omit(parser: argparse.ArgumentParser, split: str = "") -> None:
+    """``--gaps omit`` on ``parser`` (avar, davar): NaN rows whose terms are left out;
+    ``split`` describes ``--gaps split`` where the command has it."""
+    gaps = next(a for a in parser._actions if a.dest == "gaps")
+    gaps.choices = (*gaps.choices, "omit")
+    gaps.help = (
+        f"a gap in the time stamps is an error (default), {split}is filled by linear "
+        "interpolation, or (omit) its missing samples, and NaN/empty cells, are left out of "
+        "the statistic: every difference term touching one is omitted (no interpolation)"
+    )
+
+
 def _check_columns(args: argparse.Namespace, columns: list[str]) -> None:
     """Several numeric columns and no --column: one --units would label them all (a
     temperature as deg/s), so the user chooses. A file that declares every channel's unit
@@ -285,14 +297,7 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         "one by one), unless it declares every column's unit (a ROS bag: all six).",
     )
     add_input_arguments(avar)
-    gaps = next(a for a in avar._actions if a.dest == "gaps")
-    gaps.choices = (*gaps.choices, "omit")
-    gaps.help = (
-        "a gap in the time stamps is an error (default), splits the record into gap-free "
-        "pieces analysed one by one, is filled by linear interpolation, or (omit) its "
-        "missing samples, and NaN/empty cells, are left out of the statistic: every "
-        "difference term touching one is omitted (no interpolation)"
-    )
+    allow_gaps_omit(avar, "splits the record into gap-free pieces analysed one by one, ")
     avar.add_argument(
         "--stat", default="oadev", choices=ALL_STATISTICS, help="statistic (default: oadev)"
     )

@@ -15,6 +15,7 @@ from adavar.terms import TERM_NAMES
 
 if _TYPE_CHECKING:  # pragma: no cover - annotations only
     from adavar.noise_model import NoiseFit
+from adavar.cli.avar import _reader_arguments, allow_gaps_omit
 from adavar.cli.options import (
     EXIT_OK,
     TERM_FILES,
@@ -230,9 +231,11 @@ def _davar_summary(
 
 
 def _fixed_events_possible(args: argparse.Namespace, samples: Any) -> bool:
-    """Events of a fixed window: rate data in memory, a window the S test fits in."""
+    """Events of a fixed window: rate data in memory, a window the S test fits in, and no
+    missing sample (--gaps omit: the controller's tests need every sample)."""
     return (args.data_type == "rate" and isinstance(samples, np.ndarray)
-            and args.window is not None and int(args.window) >= 16)  # fmt: skip
+            and args.window is not None and int(args.window) >= 16
+            and not np.isnan(samples).any())  # fmt: skip
 
 
 def _fixed_window_changes(
@@ -309,7 +312,10 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     # several channels only when --column names them: a surface of every numeric column
     # (a temperature too) is too costly to be a default
     chosen = args.column is not None
-    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False, out_of_core=True)
+    reader = _reader_arguments(args)  # --gaps omit: NaN rows for davar(gaps="omit")
+    loaded, meta, units_of, tau0 = load_input(reader, several=chosen, pieces=False,
+                                              out_of_core=True)  # fmt: skip
+    args.rate, args.tau0 = reader.rate, reader.tau0
     first = next(iter(loaded.values())) if chosen else loaded
     n_samples = int(getattr(first, "size", np.size(first)))
     resolve_lengths(args, tau0, n_samples)
@@ -394,6 +400,7 @@ def _whole_record_fit(samples: Any, args: argparse.Namespace, rate_u: str, commo
     try:
         whole = deviation(samples, data_type=args.data_type, taus="octave", units=rate_u,
                           rate=common["rate"], tau0=common["tau0"],
+                          gaps="omit" if getattr(args, "gaps", None) == "omit" else "error",
                           **chunk_keywords(args))  # fmt: skip
         return fit_noise(whole, **{**fit_keywords(args), "method": "gls"})
     except (ValueError, AdavarInputError):  # too short a record for the curve: no reference
@@ -443,7 +450,8 @@ def _davar_channel(
             **controller_settings(args), **common,
         )  # fmt: skip
     else:
-        result = davar(samples, window=args.window, stat=args.stat, **common)
+        result = davar(samples, window=args.window, stat=args.stat,
+                       gaps="omit" if args.gaps == "omit" else "error", **common)  # fmt: skip
     stat = getattr(args, "stat", "oavar")  # adaptive: the Allan variance
     fit = None
     if args.confidence is not None and stat == "oavar":  # the IEEE model is of the AVAR
@@ -535,6 +543,12 @@ def _davar_channel(
             )
         if out is not None:
             written.insert(-1, "events.csv")
+    if result.terms is not None:  # --gaps omit on a record with missing samples
+        payload["terms_kept"] = {  # per tau, over the windows (0: a NaN cell)
+            "min": result.terms.min(axis=0),
+            "median": np.median(result.terms, axis=0),
+            "empty_cells": np.count_nonzero(result.terms == 0, axis=0),
+        }
     payload["stat"] = stat  # the variance of every window (--stat); last: keys keep order
     return {
         "name": meta["column"], "result": result, "fit": fit, "meta": meta, "units": units,
@@ -645,6 +659,7 @@ def add_davar_parser(sub: Any) -> argparse.ArgumentParser:
         "the unit of the samples are required: adavar never guesses them.",
     )
     add_input_arguments(dav)
+    allow_gaps_omit(dav)
     dav.add_argument(
         "--window", metavar="L", type=window_length, required=True,
         help=f"window length: samples (at least {MIN_WINDOW}, at most the record) or a "

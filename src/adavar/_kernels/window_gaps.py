@@ -1,0 +1,327 @@
+"""The DAVAR window kernel for a record with missing samples: ``davar(..., gaps="omit")``.
+
+The engine of :mod:`adavar._kernels.window_avar` and :mod:`adavar._kernels.window_hvar`
+(the same double-double span, terms and compensated prefix sums of their squares) with a
+*keep flag* per term. The missing samples are filled with finite values beforehand
+(:func:`adavar.gaps.filled_increments`), so every term over the span is finite; per
+averaging factor each term that touches a missing sample is set to zero before its square
+enters the prefix, and a second, integer prefix counts the kept terms. A window's sum of
+kept squares and its number of kept terms are then both differences of two prefix values:
+O(1) per (window, factor), as without gaps. The variance is the sum over the kept count
+times the statistic's factor; a cell with no kept term is NaN.
+
+The keep test of the term starting at (extended) index ``j`` is that of
+:mod:`adavar._kernels.gaps`: ``cnt[j + w] == cnt[j]`` when ``w > 0`` (``cnt`` the prefix
+count of missing samples of the mirror-extended record: rate samples for rate data,
+phase points for the modified statistic of phase data), else no missing phase point among
+``pm[j + k m]`` (phase data, Allan and Hadamard terms).
+
+A kept term is computed from the same double-double prefix as without gaps and involves
+no filled value, so each cell keeps the accuracy of the gap-free kernels (an ulp or so of
+every term, the three-part prefix when a cell's error bound asks for it). On a record
+without missing samples the result is bit for bit that of the gap-free kernels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
+from adavar._kernels.window_avar import (
+    MEDIAN_SAMPLES,
+    _fill_differences,
+    _local_prefix,
+    _prefix_squares,
+    _window_extent,
+    _window_sum,
+    sample_median,
+)
+from adavar._kernels.window_hvar import MVAR, OHVAR, _fill_terms, _norm_of
+
+__all__ = ["KINDS", "OAVAR", "window_gaps", "window_gaps_kernel"]
+
+#: the statistic of a kernel call (``window_hvar``'s codes, and one for the Allan variance)
+OAVAR = 0
+KINDS = {"oadev": OAVAR, "ohdev": OHVAR, "mdev": MVAR}
+#: scratch rows as in window_hvar: prefix (2), moving sums (2), terms, squares' prefix (3)
+_ROWS = 8
+
+
+@jit
+def _terms(kind, L, m):  # pragma: no cover - compiled
+    """Terms of a window of ``L`` samples at ``m`` (``3 m <= L``), kept or not."""
+    if kind == OAVAR:
+        return L - 2 * m + 1
+    return L - 3 * m + (2 if kind == MVAR else 1)
+
+
+@jit
+def _norm(kind, m, scale):  # pragma: no cover - compiled
+    """The factor of a window's sum of squares before the division by its term count
+    (the expressions of the gap-free kernels: the same bits)."""
+    if kind == OAVAR:
+        return scale / (2.0 * m * m)
+    return _norm_of(kind, m, scale)
+
+
+@jit
+def _fill(work, kind, m, first, count):  # pragma: no cover - compiled
+    """The statistic's ``count`` terms from local start ``first`` into ``work[4]``."""
+    if kind == OAVAR:
+        _fill_differences(work[0], work[1], m, first, count, work[4])
+    else:
+        _fill_terms(work, kind, m, first, count)
+
+
+@jit
+def _mask_terms(d, kc, j0, count, m, w, kind, cnt, pm):  # pragma: no cover - compiled
+    """Zero the terms ``d[:count]`` that touch a missing sample (term ``k`` starts at
+    extended index ``j0 + k``) and write the prefix count of the kept ones into ``kc``."""
+    kc[0] = 0
+    n = 0
+    if w > 0:
+        a = cnt[j0 : j0 + count]
+        b = cnt[j0 + w : j0 + w + count]
+        for k in range(count):
+            if a[k] == b[k]:
+                n += 1
+            else:
+                d[k] = 0.0
+            kc[k + 1] = n
+        return
+    for k in range(count):
+        j = j0 + k
+        bad = pm[j] + pm[j + m] + pm[j + 2 * m]
+        if kind == OHVAR:
+            bad += pm[j + 3 * m]
+        if bad == 0:
+            n += 1
+        else:
+            d[k] = 0.0
+        kc[k + 1] = n
+
+
+@jit
+def _own_sum(work, kc, kind, m, w, first, j0, n, cnt, pm):  # pragma: no cover - compiled
+    """Kept sum of squares and kept count of the ``n`` terms from local start ``first``
+    (extended index ``j0``), summed from zero (a small ``q[1]``)."""
+    q = work[5:]
+    _fill(work, kind, m, first, n)
+    _mask_terms(work[4], kc, j0, n, m, w, kind, cnt, pm)
+    _prefix_squares(work[4], n, q, False)
+    return q[0, n] + q[1, n], kc[n]
+
+
+@jit
+def _one_window(
+    u, a, L, ms, ws, kind, scale, cnt, pm, work, kc, tmp, row, kept
+):  # fmt: skip  # pragma: no cover - compiled
+    """Every factor of the window ``u[a:a+L]`` alone, over its own span."""
+    _local_prefix(u, a, a + L, sample_median(u, a, a + L, tmp), work[0], work[1])
+    for t in range(ms.size):
+        m = ms[t]
+        kept[t] = 0
+        if 3 * m > L:
+            row[t] = np.nan
+            continue
+        n = _terms(kind, L, m)
+        s, c = _own_sum(work, kc, kind, m, ws[t], 0, a, n, cnt, pm)
+        kept[t] = c
+        row[t] = np.nan if c == 0 else max(s, 0.0) * (_norm(kind, m, scale) / c)
+
+
+@jit
+def _eval_kept(q, kc, aloc, lens, kind, m, norm, big, res, counts):  # pragma: no cover
+    """Every window's kept mean from the prefixes; True when a cell lies below the error
+    floor of the two-part sums (``big``, as in ``window_avar``: the caller redoes them in
+    three parts; ``big = 0`` never asks)."""
+    redo = False
+    floor = big * norm / 8.0
+    for k in range(aloc.size):
+        L = lens[k]
+        counts[k] = 0
+        if 3 * m > L:
+            res[k] = np.nan
+            continue
+        n = _terms(kind, L, m)
+        a = aloc[k]
+        c = kc[a + n] - kc[a]
+        counts[k] = c
+        if c == 0:
+            res[k] = np.nan
+            continue
+        s = max(_window_sum(q, a, a + n), 0.0)
+        # the bound of window_avar is per summed term: n of them in the prefix range
+        if s * (norm / n) < floor:
+            redo = True
+        res[k] = s * (norm / c)
+    return redo
+
+
+@jit
+def _window_chunk(
+    u, ms, ws, centres, lengths, offset, c0, c1, kind, scale, cnt, pm, out, kept, work, kc,
+    tmp,
+):  # fmt: skip  # pragma: no cover - compiled
+    """Windows ``c0 .. c1 - 1`` at every factor; returns the (possibly grown) scratch."""
+    size = c1 - c0
+    lens = lengths[c0:c1]
+    starts = np.empty(size, dtype=np.int64)
+    lo = centres[c0] - (lens[0] - 1) // 2 + offset
+    hi = lo
+    covered = 0
+    longest = 0
+    for k in range(size):
+        starts[k] = centres[c0 + k] - (lens[k] - 1) // 2 + offset
+        lo = min(lo, starts[k])
+        hi = max(hi, starts[k] + lens[k])
+        covered += lens[k]
+        longest = max(longest, lens[k])
+    spread = hi - lo > 2 * covered  # far apart: each window over its own span
+    need = (longest if spread else hi - lo) + 1
+    if need > work.shape[1]:
+        work = np.empty((_ROWS, need))
+        kc = np.empty(need + 1, dtype=np.int64)
+    if spread:
+        for k in range(size):
+            _one_window(u, starts[k], lens[k], ms, ws, kind, scale, cnt, pm, work, kc, tmp,
+                        out[c0 + k], kept[c0 + k])  # fmt: skip
+        return work, kc
+    q = work[5:]
+    _local_prefix(u, lo, hi, sample_median(u, lo, hi, tmp), work[0], work[1])
+    aloc = np.empty(size, dtype=np.int64)
+    for k in range(size):
+        aloc[k] = starts[k] - lo
+    res = np.empty(size)
+    counts = np.empty(size, dtype=np.int64)
+    for t in range(ms.size):
+        m = ms[t]
+        w = ws[t]
+        norm = _norm(kind, m, scale)
+        span = 0
+        total = 0
+        for k in range(size):
+            if 3 * m <= lens[k]:
+                n = _terms(kind, lens[k], m)
+                span = max(span, aloc[k] + n)
+                total += n
+        if total > 0 and span <= 2 * total:
+            _fill(work, kind, m, 0, span)
+            _mask_terms(work[4], kc, lo, span, m, w, kind, cnt, pm)
+            big = _prefix_squares(work[4], span, q, False)
+            if _eval_kept(q, kc, aloc, lens, kind, m, norm, big, res, counts):
+                _prefix_squares(work[4], span, q, True)
+                _eval_kept(q, kc, aloc, lens, kind, m, norm, 0.0, res, counts)
+        else:
+            for k in range(size):
+                L = lens[k]
+                counts[k] = 0
+                if 3 * m > L:
+                    res[k] = np.nan
+                    continue
+                n = _terms(kind, L, m)
+                s, c = _own_sum(work, kc, kind, m, w, aloc[k], lo + aloc[k], n, cnt, pm)
+                counts[k] = c
+                res[k] = np.nan if c == 0 else max(s, 0.0) * (norm / c)
+        for k in range(size):
+            out[c0 + k, t] = res[k]
+            kept[c0 + k, t] = counts[k]
+    return work, kc
+
+
+@parallel_jit
+def window_gaps_kernel(
+    u, ms, ws, centres, lengths, offset, chunk, workers, kind, scale, cnt, pm, out, kept
+):  # fmt: skip  # pragma: no cover - compiled
+    """Kept-term variance of every window at every averaging factor (module notes).
+
+    Windows and chunks as in ``window_avar_kernel``; ``ws[t]`` is the keep test's window
+    at ``ms[t]`` (0: the missing-point test). Writes ``out`` (NaN where ``3m > L`` or no
+    term is kept) and ``kept`` (the kept term counts).
+    """
+    nc = centres.size
+    nch = (nc + chunk - 1) // chunk
+    for w in prange(workers):
+        work = np.empty((_ROWS, 1))
+        kc = np.empty(2, dtype=np.int64)
+        tmp = np.empty(MEDIAN_SAMPLES)
+        for ch in range(w, nch, workers):
+            c0 = ch * chunk
+            work, kc = _window_chunk(
+                u, ms, ws, centres, lengths, offset, c0, min(c0 + chunk, nc), kind, scale,
+                cnt, pm, out, kept, work, kc, tmp,
+            )  # fmt: skip
+
+
+def window_gaps(
+    samples: np.ndarray,
+    ms: np.ndarray,
+    centres: np.ndarray,
+    lengths: np.ndarray,
+    *,
+    stat: str,
+    cnt: np.ndarray,
+    pm: np.ndarray,
+    ws: np.ndarray,
+    offset: int = 0,
+    scale: float = 1.0,
+    chunk: int = 4096,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Variance of the kept terms of many windows of ``samples`` at every factor ``ms``.
+
+    Parameters
+    ----------
+    samples : ndarray of float64
+        The mirror-extended rate samples or phase increments, missing ones filled with
+        finite values.
+    ms : ndarray of int
+        Averaging factors.
+    centres, lengths : ndarray of int
+        Window ``c`` holds ``samples[a : a + lengths[c]]``,
+        ``a = centres[c] - (lengths[c] - 1) // 2 + offset``.
+    stat : {"oadev", "ohdev", "mdev"}
+        The statistic.
+    cnt : ndarray of int64
+        Prefix count of the missing samples (or phase points) of the extended record.
+    pm : ndarray of uint8
+        Missing flag of every extended phase point (read only where ``ws`` is 0).
+    ws : ndarray of int64
+        The keep test's window per factor (:meth:`adavar.gaps.GapLayout.windows`).
+    offset, scale, chunk
+        As for :func:`adavar._kernels.window_avar.window_avar`.
+
+    Returns
+    -------
+    avar : ndarray, shape (len(centres), len(ms))
+        NaN where ``3 m > L`` or no term is kept.
+    kept : ndarray of int64, same shape
+        Kept terms per cell.
+    """
+    kind = KINDS.get(stat)
+    if kind is None:
+        raise ValueError(f"internal: unknown window statistic {stat!r}")
+    u = read_only(samples, np.float64)
+    ms = read_only(ms, np.int64)
+    ws = read_only(ws, np.int64)
+    centres = read_only(centres, np.int64)
+    lengths = read_only(lengths, np.int64)
+    cnt = read_only(cnt, np.int64)
+    pm = read_only(pm, np.uint8)
+    if centres.shape != lengths.shape or centres.ndim != 1 or ws.shape != ms.shape:
+        raise ValueError("internal: centres/lengths or ms/ws of different shapes")
+    nc, nt = centres.size, ms.size
+    out = np.empty((nc, nt))
+    kept = np.zeros((nc, nt), dtype=np.int64)
+    if not nc:
+        return out, kept
+    first, stop = _window_extent(centres, lengths, int(offset))
+    if first < 0 or stop > u.size or cnt.size < u.size + 2 or pm.size < u.size + 1:
+        raise ValueError("internal: a window runs past the data or its gap layout")
+    chunk = int(max(chunk, 1))
+    workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
+    work = max(nc, stop - first) * nt * (2 if kind == MVAR else 1)
+    window_gaps_kernel.run(
+        work, u, ms, ws, centres, lengths, int(offset), chunk, workers, int(kind),
+        float(scale), cnt, pm, out, kept,
+    )  # fmt: skip
+    return out, kept
