@@ -159,6 +159,7 @@ def test_report_one_section_per_channel(capsys, imu_csv, tmp_path):
     assert "column 'gx' (deg/s):" in stdout and "column 'gy' (deg/s):" in stdout
     assert stdout.count("Noise fit") == 2
 
+    # the browser draws the nine plots (the single-channel report renders in test_report)
     dom = render_in_chromium(doc, tmp_path / "browser", 9)
     assert dom.count("main-svg") >= 9
     assert "img" not in [tag for tag, _ in parse(dom).tags]

@@ -155,7 +155,10 @@ def test_property_matches_reference(n, seed, offset, drift, scale, stat):
     y = scale * (rng.standard_normal(n) + offset + drift * np.arange(n) / n)
     r = deviation(y, stat=stat, taus="all", confidence=None)
     want = reference.deviation(y, r.m, stat)
-    np.testing.assert_allclose(r.dev, want, rtol=1e-9, atol=0)
+    # relative 1e-9, or a few ulps of the samples where a tau's few terms cancel to far
+    # below the noise (one Hadamard term 5 orders below its peers, after a 1e4-sigma ramp)
+    floor = 16 * np.finfo(float).eps * float(np.max(np.abs(y)))
+    np.testing.assert_array_less(np.abs(r.dev - want), 1e-9 * want + floor)
 
 
 @settings(max_examples=25, deadline=None)

@@ -1,0 +1,70 @@
+"""Test-session set-up: the two workers share the first compilation of the kernels.
+
+On a fresh checkout every Numba kernel compiles on first use (then it is cached on disk).
+With two pytest-xdist workers, both start with the same tests' kernels and compile them
+side by side: the same work twice. Here each worker first compiles one half of the
+heaviest kernels, by calling the public functions on tiny inputs, and writes them to the
+shared cache; whichever kernels of the other half it then needs it loads from there.
+Nothing here asserts anything: a warm-up that fails leaves the kernels to compile in the
+tests, which report any error themselves.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+
+import numpy as np
+
+
+def _group_a() -> None:
+    import adavar
+    from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
+
+    x = np.random.default_rng(0).standard_normal(3000)
+    r = adavar.deviation(x, rate=1.0)
+    adavar.fit_noise(r)
+    adavar.deviation(x, rate=1.0, data_type="phase", stat="mdev")
+    for stat in ("adev", "hdev", "ohdev", "totdev"):
+        adavar.deviation(x, rate=1.0, stat=stat)
+    surface = adavar.davar(x, rate=1.0, window=300)
+    adavar.fit_noise(surface)
+    sliding_kurtosis(x, window=300)
+    kurtosis_contribution(x, window=300, segment=50)
+    kurtosis_contribution(x, window=300, reference="record")
+    for stat in ("mtotdev", "htotdev", "pdev"):
+        adavar.deviation(x[:600], rate=1.0, stat=stat)
+
+
+def _group_b() -> None:
+    import adavar
+    from adavar import _jit
+
+    x = np.random.default_rng(1).standard_normal(3000)
+    adavar.adaptive_schedule(x, rate=1.0, lmax=300, lmin=200, l=50)
+    for stat in ("theo1", "theobr", "mtie", "tierms"):
+        adavar.deviation(x[:800], rate=1.0, stat=stat)
+    adavar.deviation(x[:800], rate=1.0, stat="theo1", taus="all")
+    y = x.copy()
+    y[100:110] = np.nan
+    adavar.deviation(y, rate=1.0, gaps="omit")
+    adavar.davar(y, rate=1.0, window=300, gaps="omit")
+    for stat in ("ohvar", "mvar"):
+        adavar.davar(x, rate=1.0, window=300, stat=stat)
+    # the parallel twins, which the tests of large records and of the twins reach
+    saved = _jit.SERIAL_WORK
+    _jit.SERIAL_WORK = 0
+    try:
+        adavar.davar(x, rate=1.0, window=300)
+        adavar.adaptive_schedule(x, rate=1.0, lmax=300, lmin=200, l=50)
+    finally:
+        _jit.SERIAL_WORK = saved
+
+
+def pytest_sessionstart(session) -> None:
+    worker = os.environ.get("PYTEST_XDIST_WORKER")
+    group = {"gw0": _group_a, "gw1": _group_b}.get(worker or "")
+    if group is None:  # one process (or a third worker): the tests compile as they go
+        return
+    with contextlib.suppress(Exception):
+        group()
