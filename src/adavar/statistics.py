@@ -658,23 +658,10 @@ def deviation(
         low = unscale(np.sqrt(var_low), exponent, "deviations")
         high = unscale(np.sqrt(var_high), exponent, "deviations")
 
-    return DeviationResult(
-        tau=tau,
-        dev=unscale(np.sqrt(var), exponent, "deviations"),
-        dev_low=low,
-        dev_high=high,
-        edf=edf_values,
-        n=np.asarray(n, dtype=np.int64),
-        m=ms,
-        alpha=alpha,
-        stat=stat,
-        data_type=dtype,
-        tau0=step,
-        confidence=float("nan") if confidence is None else float(confidence),
-        n_samples=int(n_samples),
-        units=units,
-        notes=notes,
-    )
+    return _result(
+        tau, unscale(np.sqrt(var), exponent, "deviations"), low, high, edf_values, n, ms,
+        alpha, stat, dtype, step, confidence, n_samples, units, notes,
+    )  # fmt: skip
 
 
 def _extended_deviation(
@@ -747,9 +734,20 @@ def _extended_deviation(
         low = unscale(np.sqrt(var_low), exponent, "deviations")
         high = unscale(np.sqrt(var_high), exponent, "deviations")
 
+    return _result(
+        tau, unscale(np.sqrt(var), exponent, "deviations"), low, high, edf_values, n, ms,
+        alpha, stat, dtype, step, confidence, n_samples, units, notes,
+    )  # fmt: skip
+
+
+def _result(
+    tau, dev, low, high, edf_values, n, ms, alpha, stat, dtype, step, confidence, n_samples,
+    units, notes,
+) -> DeviationResult:  # fmt: skip
+    """The :class:`DeviationResult` of :func:`deviation` (every statistic)."""
     return DeviationResult(
         tau=tau,
-        dev=unscale(np.sqrt(var), exponent, "deviations"),
+        dev=dev,
         dev_low=low,
         dev_high=high,
         edf=edf_values,
