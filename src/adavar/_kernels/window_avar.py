@@ -33,7 +33,13 @@ import numpy as np
 from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
 from adavar._kernels.double_double import two_sum
 
-__all__ = ["MEDIAN_SAMPLES", "sample_median", "window_avar", "window_avar_kernel"]
+__all__ = [
+    "MEDIAN_SAMPLES",
+    "prepare_windows",
+    "sample_median",
+    "window_avar",
+    "window_avar_kernel",
+]
 
 #: samples of a span whose median is its local reference
 MEDIAN_SAMPLES = 65
@@ -333,6 +339,43 @@ def _window_extent(centres, lengths, offset):  # pragma: no cover - compiled
     return first, stop
 
 
+def prepare_windows(
+    samples: np.ndarray,
+    ms: np.ndarray,
+    centres: np.ndarray,
+    lengths: np.ndarray,
+    offset: int,
+    chunk: int,
+    out: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, int, int, int]:
+    """The window kernels' arguments checked and in kernel form (read-only views).
+
+    Returns ``(u, ms, centres, lengths, out, chunk, workers, span)``: ``span`` is the
+    number of samples of the windows' union (at least one per window), the kernels' work
+    per factor.
+    """
+    u = read_only(samples, np.float64)
+    ms = read_only(ms, np.int64)
+    centres = read_only(centres, np.int64)
+    lengths = read_only(lengths, np.int64)
+    if centres.shape != lengths.shape or centres.ndim != 1:
+        raise ValueError("internal: centres and lengths must be 1-D arrays of one shape")
+    nc, nt = centres.size, ms.size
+    span = 0
+    if nc:
+        first, stop = _window_extent(centres, lengths, int(offset))
+        if first < 0 or stop > u.size:
+            raise ValueError("internal: a window runs past the data")
+        span = max(nc, stop - first)
+    if out is None:
+        out = np.empty((nc, nt))
+    elif out.shape != (nc, nt):
+        raise ValueError("internal: the output has the wrong shape")
+    chunk = int(max(chunk, 1))
+    workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
+    return u, ms, centres, lengths, out, chunk, workers, span
+
+
 def window_avar(
     samples: np.ndarray,
     ms: np.ndarray,
@@ -371,25 +414,11 @@ def window_avar(
     ndarray, shape (len(centres), len(ms))
         NaN where ``3 m > L``.
     """
-    u = read_only(samples, np.float64)
-    ms = read_only(ms, np.int64)
-    centres = read_only(centres, np.int64)
-    lengths = read_only(lengths, np.int64)
-    if centres.shape != lengths.shape or centres.ndim != 1:
-        raise ValueError("internal: centres and lengths must be 1-D arrays of one shape")
+    u, ms, centres, lengths, out, chunk, workers, span = prepare_windows(
+        samples, ms, centres, lengths, offset, chunk, out
+    )
     if centres.size:
-        first, stop = _window_extent(centres, lengths, int(offset))
-        if first < 0 or stop > u.size:
-            raise ValueError("internal: a window runs past the data")
-    nc, nt = centres.size, ms.size
-    if out is None:
-        out = np.empty((nc, nt))
-    elif out.shape != (nc, nt):
-        raise ValueError("internal: the output has the wrong shape")
-    chunk = int(max(chunk, 1))
-    workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
-    if nc:
-        work = max(nc, stop - first) * nt  # one term per sample of the windows' union, per m
+        work = span * ms.size  # one term per sample of the windows' union, per m
         window_avar_kernel.run(
             work, u, ms, centres, lengths, int(offset), chunk, workers, float(scale), out
         )

@@ -31,15 +31,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
+from adavar._jit import jit, parallel_jit, prange
 from adavar._kernels.double_double import two_sum
 from adavar._kernels.window_avar import (
     MEDIAN_SAMPLES,
     _eval_uniform,
     _local_prefix,
     _prefix_squares,
-    _window_extent,
     _window_sum,
+    prepare_windows,
     sample_median,
 )
 
@@ -332,26 +332,12 @@ def window_hvar(
     kind = KINDS.get(stat)
     if kind is None:
         raise ValueError(f"internal: unknown window statistic {stat!r}")
-    u = read_only(samples, np.float64)
-    ms = read_only(ms, np.int64)
-    centres = read_only(centres, np.int64)
-    lengths = read_only(lengths, np.int64)
-    if centres.shape != lengths.shape or centres.ndim != 1:
-        raise ValueError("internal: centres and lengths must be 1-D arrays of one shape")
+    u, ms, centres, lengths, out, chunk, workers, span = prepare_windows(
+        samples, ms, centres, lengths, offset, chunk, out
+    )
     if centres.size:
-        first, stop = _window_extent(centres, lengths, int(offset))
-        if first < 0 or stop > u.size:
-            raise ValueError("internal: a window runs past the data")
-    nc, nt = centres.size, ms.size
-    if out is None:
-        out = np.empty((nc, nt))
-    elif out.shape != (nc, nt):
-        raise ValueError("internal: the output has the wrong shape")
-    chunk = int(max(chunk, 1))
-    workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
-    if nc:
         # the moving sums cost about twice a third difference per sample
-        work = max(nc, stop - first) * nt * (2 if kind == MVAR else 1)
+        work = span * ms.size * (2 if kind == MVAR else 1)
         window_hvar_kernel.run(
             work, u, ms, centres, lengths, int(offset), chunk, workers, int(kind),
             float(scale), out,
