@@ -99,6 +99,7 @@ from adavar.errors import AdavarInputError
 from adavar.results import ADEQUATE_P, NoiseFit, NoiseTerm
 from adavar.slopes import SlopeReadoff, read_slopes
 from adavar.statistics import SAFE_EXPONENT, unscale
+from adavar.taus import tau_bounds
 from adavar.terms import AVAR_FACTORS as _K
 from adavar.terms import POWERS as _POWERS
 from adavar.terms import TERM_NAMES
@@ -387,18 +388,7 @@ def _tau_selection(
     keep = np.ones(tau.shape, dtype=bool)
     reasons = [""] * tau.size
     if tau_range is not None:
-        try:
-            lo, hi = tau_range
-            lo = -math.inf if lo is None else float(lo)
-            hi = math.inf if hi is None else float(hi)
-        except (TypeError, ValueError):
-            raise AdavarInputError(
-                f"tau_range must be (min, max) in seconds, got {tau_range!r}"
-            ) from None
-        if not lo < hi:
-            raise AdavarInputError(
-                f"tau_range {tau_range!r}: the minimum must be below the maximum"
-            )
+        lo, hi = tau_bounds(tau_range)
         for j, t in enumerate(tau):
             if not lo <= t <= hi:
                 keep[j] = False

@@ -93,6 +93,7 @@ from adavar import avar_covariance, gls_fit
 from adavar import edf as edf_mod
 from adavar.errors import AdavarInputError
 from adavar.results import NoiseTerm
+from adavar.taus import tau_bounds
 from adavar.terms import DRIFT, POWER_LAW_NAMES, POWER_LAW_TERMS
 from adavar.units import rate_unit, sensor_kind, term_names
 
@@ -752,18 +753,7 @@ def fit_power_law(
     reasons = ["" if g else "undefined (NaN or not positive)" for g in good]
     usable = good.copy()
     if tau_range is not None:
-        try:
-            lo, hi = tau_range
-            lo = -math.inf if lo is None else float(lo)
-            hi = math.inf if hi is None else float(hi)
-        except (TypeError, ValueError):
-            raise AdavarInputError(
-                f"tau_range must be (min, max) in seconds, got {tau_range!r}"
-            ) from None
-        if not lo < hi:
-            raise AdavarInputError(
-                f"tau_range {tau_range!r}: the minimum must be below the maximum"
-            )
+        lo, hi = tau_bounds(tau_range)
         for j, t in enumerate(tau):
             if usable[j] and not lo <= t <= hi:
                 usable[j] = False

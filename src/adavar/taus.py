@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
 
 from adavar.errors import AdavarInputError
 
-__all__ = ["TAU_KEYWORDS", "averaging_factors"]
+__all__ = ["TAU_KEYWORDS", "averaging_factors", "tau_bounds"]
 
 TAU_KEYWORDS = ("all", "octave", "decade", "log")
 
@@ -93,3 +94,24 @@ def averaging_factors(
             "the record's range"
         )
     return m, tuple(notes)
+
+
+def tau_bounds(tau_range: object) -> tuple[float, float]:
+    """``(min, max)`` seconds of a fit's ``tau_range`` (None ends are open), checked.
+
+    Raises
+    ------
+    AdavarInputError
+        Not a pair of numbers (or None), or a minimum not below the maximum.
+    """
+    try:
+        lo, hi = tau_range  # type: ignore[misc]
+        lo = -math.inf if lo is None else float(lo)
+        hi = math.inf if hi is None else float(hi)
+    except (TypeError, ValueError):
+        raise AdavarInputError(
+            f"tau_range must be (min, max) in seconds, got {tau_range!r}"
+        ) from None
+    if not lo < hi:
+        raise AdavarInputError(f"tau_range {tau_range!r}: the minimum must be below the maximum")
+    return lo, hi
