@@ -259,29 +259,29 @@ def test_controller_statistics_agree_with_the_kurtosis_module():
 def test_parallel_segments_reproduce_the_sequential_pass_bit_for_bit(monkeypatch, segments):
     """Speculative segments (started from Lmax, WARM_UP centres early) and the sequential
     pass agree exactly, including segments whose guess must be rerun."""
-    from adavar import adaptive
+    from adavar import controller
 
     x = np.random.default_rng(21).standard_normal(40_000) + 5e5
     for a in range(0, x.size, 3000):  # frequent disturbances: some guesses will not coalesce
         x[a : a + 700] = 5e5 + 3.0 * (x[a : a + 700] - 5e5)
-    monkeypatch.setattr(adaptive, "WARM_UP", 512)
-    monkeypatch.setattr(adaptive, "_segments", lambda n: 1)
+    monkeypatch.setattr(controller, "WARM_UP", 512)
+    monkeypatch.setattr(controller, "_segments", lambda n: 1)
     one = adaptive_schedule(x, **SMALL)
-    monkeypatch.setattr(adaptive, "_segments", lambda n: segments)
+    monkeypatch.setattr(controller, "_segments", lambda n: segments)
     many = adaptive_schedule(x, **SMALL)
     for name in ("window", "kurtosis", "s", "f1", "f2", "f"):
         np.testing.assert_array_equal(getattr(many, name), getattr(one, name))
     # with no warm-up a segment's guess (lmax) is wrong wherever the true window is
     # shorter at its start: those segments must be rerun from the true length
-    monkeypatch.setattr(adaptive, "WARM_UP", 0)
+    monkeypatch.setattr(controller, "WARM_UP", 0)
     x_reg = np.random.default_rng(22).standard_normal(40_000)
     x_reg[::2] *= 1.0 + (np.arange(20_000) % 1024 < 500)  # long non-stationary stretches
-    monkeypatch.setattr(adaptive, "_segments", lambda n: 1)
+    monkeypatch.setattr(controller, "_segments", lambda n: 1)
     ref = adaptive_schedule(x_reg, **SMALL).window
     bounds = [
-        (k * x_reg.size // segments) // adaptive.REANCHOR * adaptive.REANCHOR
+        (k * x_reg.size // segments) // controller.REANCHOR * controller.REANCHOR
         for k in range(1, segments)
     ]
     assert any(ref[b] != SMALL["lmax"] for b in bounds)  # a rerun is needed
-    monkeypatch.setattr(adaptive, "_segments", lambda n: segments)
+    monkeypatch.setattr(controller, "_segments", lambda n: segments)
     np.testing.assert_array_equal(adaptive_schedule(x_reg, **SMALL).window, ref)

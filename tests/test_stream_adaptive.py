@@ -13,7 +13,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from adavar import adaptive, stream
+from adavar import adaptive, controller, stream
 from adavar.adaptive import adaptive_davar, adaptive_schedule
 from adavar.errors import AdavarInputError
 from adavar.simulate import paper_scenario
@@ -54,8 +54,8 @@ def burst():
 
 def test_the_record_spans_pieces_and_parallel_segments(burst):
     x, want = burst
-    assert adaptive._segments(x.size) > 1  # the in-memory pass runs speculative segments
-    assert adaptive._segments(70_001 // 512 * 512 + 512) > 1  # so does a large piece
+    assert controller._segments(x.size) > 1  # the in-memory pass runs speculative segments
+    assert controller._segments(70_001 // 512 * 512 + 512) > 1  # so does a large piece
     w = want["mirror"].window
     assert w.min() == SMALL["lmin"] and (w < SMALL["lmax"]).mean() > 0.2  # it adapts
     # the window is short at many piece boundaries: the carried length matters

@@ -12,11 +12,8 @@ shrinks ``L`` by ``dL1`` (``f = 1``) or regrows it by ``dL0`` (``f = 0``) within
 ``[Lmin, Lmax]`` (Eq. 19-22). The schedule then goes to :func:`adavar.davar`, the one place
 where a DAVAR surface is computed.
 
-The pass is sequential (each length depends on the last decision) and O(N): the window
-and its leading segment slide by at most ``max(dL0, dL1)`` samples per step, and their
-power sums ``sum (x - a)**k``, ``k = 1..4``, are kept in double-double precision around an
-anchor ``a`` that is moved to the window's mean every :data:`REANCHOR` steps (the sums are
-then recomputed), so offsets of 1e6 standard deviations, drifts and bursts cost no digits.
+The pass is sequential (each length depends on the last decision) and O(N); it is compiled
+in :mod:`adavar.controller`, which also checks the settings and sets the thresholds.
 
 Out of core (a memory map, a dask array, a :class:`adavar.stream.ChunkedSource`, or
 ``chunk_size=``) the pass reads the record piece by piece. Pieces start at multiples of
@@ -38,8 +35,7 @@ from typing import Any
 import numpy as np
 
 from adavar import stream
-from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
-from adavar._kernels.double_double import two_sum
+from adavar.controller import REANCHOR, controller_outputs, make_controller
 from adavar.davar import davar
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
@@ -54,15 +50,7 @@ from adavar.statistics import (
     scaled_source,
 )
 from adavar.stream import ChunkedSource
-from adavar.thresholds import (
-    DEPENDENCE_SAMPLES,
-    Thresholds,
-    calibrated_thresholds,
-    fixed_thresholds,
-    hourly_thresholds,
-    noise_dependence,
-    threshold_summary,
-)
+from adavar.thresholds import Thresholds, calibrated_thresholds, threshold_summary
 
 __all__ = [
     "METHODS",
@@ -78,277 +66,6 @@ __all__ = [
 ]
 
 METHODS = ("adaptive", "kurtosis", "oracle", "fixed")
-S_TESTS = ("upper", "band", "abs")
-COMBINES = ("or", "and")
-#: centres between re-anchorings of the running power sums (each costs O(L))
-REANCHOR = 512
-#: centres a speculative segment runs before its own start (see :func:`_controller`)
-WARM_UP = 8192
-
-_S_TEST_CODE = {"upper": 0, "band": 1, "abs": 2}
-
-
-# ---------------------------------------------------------------------------------------
-# the sequential controller
-
-
-@jit(inline="always")
-def _acc(h, lo, v):  # pragma: no cover - compiled
-    """Double-double accumulation; only ``h + v`` is on the loop-carried path."""
-    s, e = two_sum(h, v)
-    return s, lo + e
-
-
-@jit
-def _fresh_sums(x, i0, i1, anchor):  # pragma: no cover - compiled
-    """Double-double ``sum (x[i] - anchor)**k``, k = 1..4, over ``[i0, i1)``: 8 floats."""
-    h1 = l1 = h2 = l2 = h3 = l3 = h4 = l4 = 0.0
-    for i in range(i0, i1):
-        d = x[i] - anchor
-        d2 = d * d
-        h1, l1 = _acc(h1, l1, d)
-        h2, l2 = _acc(h2, l2, d2)
-        h3, l3 = _acc(h3, l3, d2 * d)
-        h4, l4 = _acc(h4, l4, d2 * d2)
-    return h1, l1, h2, l2, h3, l3, h4, l4
-
-
-@jit(inline="always")
-def _central(inv_n, s1, s2, s3, s4):  # pragma: no cover - compiled
-    """Second and fourth central moments from power sums about an anchor near the mean."""
-    d = s1 * inv_n
-    e2 = s2 * inv_n
-    m2 = e2 - d * d
-    m4 = s4 * inv_n - 4.0 * d * (s3 * inv_n) + 6.0 * d * d * e2 - 3.0 * d * d * d * d
-    return m2, m4
-
-
-@jit(inline="always")
-def _minus(h, lo, hs, ls):  # pragma: no cover - compiled
-    """``(h + lo) - (hs + ls)`` rounded once the leading parts have cancelled exactly."""
-    s, e = two_sum(h, -hs)
-    return s + (e + (lo - ls))
-
-
-@jit(inline="always")
-def _moments(
-    h1, l1, h2, l2, h3, l3, h4, l4, g1, k1_, g2, k2_, g3, k3_, g4, k4_, inv_x, inv_c
-):  # fmt: skip  # pragma: no cover - compiled
-    """(m2, m4) of the window (sums h, l) and of the window without its segment (g, k)."""
-    m2x, m4x = _central(inv_x, h1 + l1, h2 + l2, h3 + l3, h4 + l4)
-    m2c, m4c = _central(
-        inv_c, _minus(h1, l1, g1, k1_), _minus(h2, l2, g2, k2_), _minus(h3, l3, g3, k3_),
-        _minus(h4, l4, g4, k4_),
-    )  # fmt: skip
-    return m2x, m4x, m2c, m4c
-
-
-@jit
-def _window_mean(x, a, b):  # pragma: no cover - compiled
-    """Mean of ``x[a:b]`` from a double-double sum (a deterministic re-anchoring point)."""
-    h = 0.0
-    lo = 0.0
-    for i in range(a, b):
-        h, lo = _acc(h, lo, x[i])
-    return (h + lo) / (b - a)
-
-
-@jit(error_model="numpy")  # a window emptied of its variance by cancellation gives NaN
-def _run(
-    x, offset, p_start, p_end, record_from, L, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
-    s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
-):  # fmt: skip  # pragma: no cover - compiled
-    """Run the controller over centres ``p_start .. p_end - 1`` from length ``L``.
-
-    docs/method.md section 8. ``x`` is the extended record, centre ``p`` at ``x[p + offset]``.
-    ``k1[L]``, ``k2[L]``, ``s2[L]`` are the thresholds for a window of length ``L``. With
-    ``adapt`` false the lengths come from ``given`` and only the kurtosis, S and flags are
-    recorded. Outputs are written for ``p >= record_from``. Returns the length in force
-    at ``record_from`` and the length after the last update.
-
-    The power sums of the window and of its leading segment live in scalars (registers;
-    written as tuples passed through helper calls the loop ran six times slower). They are
-    recomputed afresh, about the window's mean, at ``p_start`` and at every multiple of
-    :data:`REANCHOR`: so everything from such a centre on depends only on the length in
-    force there, which is what lets :func:`_controller` run segments in parallel and still
-    give the sequential result bit for bit.
-    """
-    inv = np.empty(lmax + 1)  # 1/n by lookup: no division on the loop-carried path
-    inv[0] = np.inf
-    for k in range(1, lmax + 1):
-        inv[k] = 1.0 / k
-    a = 0
-    b = 0
-    anchor = 0.0
-    h1 = l1 = h2 = l2 = h3 = l3 = h4 = l4 = 0.0
-    g1 = k1_ = g2 = k2_ = g3 = k3_ = g4 = k4_ = 0.0
-    at_record = L
-    for p in range(p_start, p_end):
-        if not adapt:
-            L = given[p]
-        if p == record_from:
-            at_record = L
-        a_new = p + offset - (L - 1) // 2
-        b_new = a_new + L
-        if p == p_start or p % REANCHOR == 0:  # anchor at the window's mean, sum afresh
-            anchor = _window_mean(x, a_new, b_new)
-            h1, l1, h2, l2, h3, l3, h4, l4 = _fresh_sums(x, a_new, b_new, anchor)
-            g1, k1_, g2, k2_, g3, k3_, g4, k4_ = _fresh_sums(x, b_new - seg, b_new, anchor)
-            a = a_new
-            b = b_new
-        while a < a_new:  # the trailing edge advances: samples leave the window
-            d = x[a] - anchor
-            d2 = d * d
-            h1, l1 = _acc(h1, l1, -d)
-            h2, l2 = _acc(h2, l2, -d2)
-            h3, l3 = _acc(h3, l3, -(d2 * d))
-            h4, l4 = _acc(h4, l4, -(d2 * d2))
-            a += 1
-        while a > a_new:  # it retreats: samples rejoin
-            a -= 1
-            d = x[a] - anchor
-            d2 = d * d
-            h1, l1 = _acc(h1, l1, d)
-            h2, l2 = _acc(h2, l2, d2)
-            h3, l3 = _acc(h3, l3, d2 * d)
-            h4, l4 = _acc(h4, l4, d2 * d2)
-        while b < b_new:  # the leading edge advances: a sample enters window and segment
-            d = x[b] - anchor
-            d2 = d * d
-            d3 = d2 * d
-            d4 = d2 * d2
-            h1, l1 = _acc(h1, l1, d)
-            h2, l2 = _acc(h2, l2, d2)
-            h3, l3 = _acc(h3, l3, d3)
-            h4, l4 = _acc(h4, l4, d4)
-            q = x[b - seg] - anchor  # ... and one leaves the segment
-            q2 = q * q
-            # added and removed separately, so that a burst cancels exactly when it leaves
-            g1, k1_ = _acc(g1, k1_, d)
-            g2, k2_ = _acc(g2, k2_, d2)
-            g3, k3_ = _acc(g3, k3_, d3)
-            g4, k4_ = _acc(g4, k4_, d4)
-            g1, k1_ = _acc(g1, k1_, -q)
-            g2, k2_ = _acc(g2, k2_, -q2)
-            g3, k3_ = _acc(g3, k3_, -(q2 * q))
-            g4, k4_ = _acc(g4, k4_, -(q2 * q2))
-            b += 1
-        while b > b_new:  # it retreats
-            b -= 1
-            d = x[b] - anchor
-            d2 = d * d
-            d3 = d2 * d
-            d4 = d2 * d2
-            h1, l1 = _acc(h1, l1, -d)
-            h2, l2 = _acc(h2, l2, -d2)
-            h3, l3 = _acc(h3, l3, -d3)
-            h4, l4 = _acc(h4, l4, -d4)
-            q = x[b - seg] - anchor
-            q2 = q * q
-            g1, k1_ = _acc(g1, k1_, -d)
-            g2, k2_ = _acc(g2, k2_, -d2)
-            g3, k3_ = _acc(g3, k3_, -d3)
-            g4, k4_ = _acc(g4, k4_, -d4)
-            g1, k1_ = _acc(g1, k1_, q)
-            g2, k2_ = _acc(g2, k2_, q2)
-            g3, k3_ = _acc(g3, k3_, q2 * q)
-            g4, k4_ = _acc(g4, k4_, q2 * q2)
-        m2x, m4x, m2c, m4c = _moments(
-            h1, l1, h2, l2, h3, l3, h4, l4, g1, k1_, g2, k2_, g3, k3_, g4, k4_,
-            inv[L], inv[L - seg],
-        )  # fmt: skip
-        # the decisions by products, not quotients: the next window waits only on them
-        ok_x = m2x > 0.0
-        ok = ok_x and m2c > 0.0
-        vx = m2x * m2x
-        flag1 = not (ok_x and k1[L] * vx <= m4x <= k2[L] * vx)
-        lhs = m4x * (m2c * m2c)  # kx - kc > t kx  <=>  (1 - t) m4x m2c^2 > m4c m2x^2
-        rhs = m4c * vx
-        above = ok and (1.0 - s2[L]) * lhs > rhs
-        if s_test == 0:
-            flag2 = above
-        elif s_test == 1:
-            flag2 = not ok or above or (1.0 - s1) * lhs < rhs
-        else:
-            flag2 = above or (ok and (1.0 + s2[L]) * lhs < rhs)
-        if not use_f2:
-            flag = flag1
-        elif use_and:
-            flag = flag1 and flag2
-        else:
-            flag = flag1 or flag2
-        kx = m4x / vx if ok_x else np.nan
-        kc = m4c / (m2c * m2c) if m2c > 0.0 else np.nan
-        sv = (kx - kc) / kx if kx != 0.0 else np.nan
-        if p >= record_from:
-            window[p] = L
-            kurt[p] = kx
-            scoef[p] = sv
-            f1[p] = flag1
-            f2[p] = flag2
-            f[p] = flag
-        if adapt:
-            if flag:
-                L = max(L - dl1, lmin)
-            else:
-                L = min(L + dl0, lmax)
-    return at_record, L
-
-
-@parallel_jit
-def _controller(
-    x, offset, n, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and,
-    adapt, given, window, kurt, scoef, f1, f2, f, n_segments, warm_up, start_length,
-):  # fmt: skip  # pragma: no cover - compiled
-    """The controller over centres ``0..n-1``: sequential result, segments in parallel.
-
-    The first centre starts from ``start_length`` (``lmax`` for a whole record; the length
-    carried over from the previous piece out of core). Returns the length after the last
-    update, which is where the next piece starts.
-
-    The record is cut into ``n_segments`` pieces whose bounds are multiples of
-    :data:`REANCHOR`. Each piece but the first is run speculatively from ``lmax``,
-    starting ``warm_up`` centres early (:data:`WARM_UP`) so that its length has forgotten
-    the guess (the length coalesces with the true one whenever both sit at ``lmax`` or
-    ``lmin``). Then, in order,
-    a piece whose speculative length at its start differs from the length its predecessor
-    actually ended with is run again from the true length. Since the running sums restart
-    at every multiple of REANCHOR, a piece that starts from the true length reproduces the
-    sequential pass exactly.
-    """
-    bounds = np.empty(n_segments + 1, dtype=np.int64)
-    for k in range(n_segments + 1):
-        bounds[k] = min(n, (k * n // n_segments) // REANCHOR * REANCHOR)
-    bounds[n_segments] = n
-    start_state = np.zeros(n_segments, dtype=np.int64)
-    end_state = np.zeros(n_segments, dtype=np.int64)
-    for k in prange(n_segments):
-        s0 = bounds[k]
-        s1_ = bounds[k + 1]
-        if s1_ <= s0:
-            continue
-        p0 = 0 if k == 0 else max(0, (s0 - warm_up) // REANCHOR * REANCHOR)
-        L0 = given[p0] if not adapt else (start_length if k == 0 else lmax)
-        start_state[k], end_state[k] = _run(
-            x, offset, p0, s1_, s0, L0, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test,
-            use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
-        )  # fmt: skip
-    last = start_length
-    if adapt:
-        last = -1
-        for k in range(n_segments):
-            s0 = bounds[k]
-            s1_ = bounds[k + 1]
-            if s1_ <= s0:
-                continue
-            if last >= 0 and start_state[k] != last:  # the guess did not coalesce: rerun
-                start_state[k], end_state[k] = _run(
-                    x, offset, s0, s1_, s0, last, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
-                    s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
-                )  # fmt: skip
-            last = end_state[k]
-    return last
-
 
 # ---------------------------------------------------------------------------------------
 # schedules
@@ -437,19 +154,6 @@ def _oracle_lengths(
         ideal = np.maximum(2 * (x - p), 2 * (p - x + 1)) + odd
         out = np.minimum(out, np.clip(ideal, lmin, lmax))
     return out
-
-
-def _segments(n: int) -> int:
-    """Pieces of the controller pass: a few per thread once the warm-up is cheap."""
-    if n < 8 * WARM_UP:
-        return 1
-    return int(min(4 * get_num_threads(), n // (4 * WARM_UP)))
-
-
-def _outputs(m: int) -> tuple[np.ndarray, ...]:
-    """The controller's output arrays for ``m`` centres: window, kurtosis, S, f1, f2, f."""
-    flags = tuple(np.empty(m, dtype=np.bool_) for _ in range(3))
-    return (np.empty(m, dtype=np.int64), np.empty(m), np.empty(m), *flags)
 
 
 def record_windows(n_samples: int, lmax: int | None = None) -> tuple[int, int, int]:
@@ -562,39 +266,22 @@ def adaptive_schedule(
     """
     if method not in METHODS:
         raise AdavarInputError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
-    if s_test not in S_TESTS:
-        raise AdavarInputError(f"unknown s_test {s_test!r}: use one of {', '.join(S_TESTS)}")
-    if combine not in COMBINES:
-        raise AdavarInputError(f"unknown combine {combine!r}: use 'or' or 'and'")
     if edges not in ("mirror", "valid"):
         raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
-    if thresholds not in ("paper", "calibrated"):
-        raise AdavarInputError(f"unknown thresholds {thresholds!r}: use 'paper' or 'calibrated'")
     dt = resolve_tau0(rate, tau0)
     lmax, lmin, seg, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)
-    dl0 = _check_int("dl0", dl0, 0)
-    dl1 = _check_int("dl1", dl1, 0)
     chunked = chunk_size is not None or stream.is_chunked(data)
     chunk = stream.DEFAULT_CHUNK
     if chunk_size is not None:
         chunk = stream.check_chunk_size(chunk_size)
-    if lmin > lmax:
-        raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
-    if (lmax - lmin) % 2 or dl0 % 2 or dl1 % 2:
-        raise AdavarInputError(
-            "lmax - lmin, dl0 and dl1 must be even: the window keeps the parity of its length "
-            "(docs/method.md section 8)"
-        )
-    if seg > lmin - 4:
-        raise AdavarInputError(
-            f"l = {seg} leaves fewer than 4 samples of the shortest window ({lmin}) for S: "
-            "choose l < lmin - 3"
-        )
-    for name, value in (("k1", k1), ("k2", k2), ("s1", s1), ("s2", s2)):
-        if not np.isfinite(float(value)):
-            raise AdavarInputError(f"{name} must be a finite number, got {value!r}")
-    if float(k1) > float(k2):
-        raise AdavarInputError(f"k1 ({k1}) must not exceed k2 ({k2})")
+    settings = dict(
+        method=method, lmax=lmax, lmin=lmin, seg=seg, dl0=dl0, dl1=dl1, k1=k1, k2=k2, s1=s1,
+        s2=s2, s_test=s_test, combine=combine, thresholds=thresholds, false_alarm=false_alarm,
+        false_alarm_per_hour=false_alarm_per_hour, rate=1.0 / dt,
+    )  # fmt: skip
+    # the settings checked before the record is read (the calibration waits for it)
+    quick = settings | {"thresholds": "paper"} if thresholds == "calibrated" else settings
+    make_controller(**quick)
     # the kurtosis is scale-free: the record is run at scale 1 (exact, a power of two), so
     # its fourth powers neither overflow (data near 1e80) nor underflow (near 1e-80)
     refuse_masked(data)
@@ -603,32 +290,20 @@ def adaptive_schedule(
         n = source.size
         if n < lmax:
             raise AdavarInputError(f"the record has {n} samples; at least {lmax} are needed")
+
+        def head(k: int) -> np.ndarray:  # in pieces of the chunk size (bounded reads)
+            k = min(n, k)
+            return np.concatenate([source.read(a, min(k, a + chunk)) for a in range(0, k, chunk)])
     else:
         x, _ = scaled(as_samples(data, min_length=lmax))
         n = x.size
 
-    dependence = None
-    if thresholds == "calibrated" and false_alarm_per_hour is not None:
-        if chunked:  # the head in pieces of the chunk size (bounded reads, as everywhere)
-            m = min(n, DEPENDENCE_SAMPLES)
-            head = np.concatenate([source.read(a, min(m, a + chunk)) for a in range(0, m, chunk)])
-        else:
-            head = x
-        dependence = tuple(round(c, 3) for c in noise_dependence(head))
-        th = hourly_thresholds(
-            lmin, lmax, seg, rate=1.0 / dt, per_hour=float(false_alarm_per_hour),
-            dependence=dependence, s_test=s_test,
-        )  # fmt: skip
-    elif thresholds == "calibrated":
-        th = calibrated_thresholds(lmin, lmax, seg, false_alarm=float(false_alarm))
-    else:
-        th = fixed_thresholds(lmax, k1, k2, s2)
+        def head(k: int) -> np.ndarray:
+            return x[:k]
 
-    if s_test == "band" and not float(s1) < float(np.nanmin(th.s2)):
-        raise AdavarInputError(
-            f"s_test='band' flags S outside [s1, s2], but s1 {float(s1):g} is not below s2 "
-            f"{float(np.nanmin(th.s2)):g}: give s1 < s2"
-        )
+    ctl = make_controller(**settings, head=head)
+    th = ctl.thresholds
+    dependence = ctl.dependence
     changes = None
     if method == "oracle":
         if change_times is None or len(change_times) == 0:
@@ -655,17 +330,7 @@ def adaptive_schedule(
         return np.zeros(1, dtype=np.int64)
 
     def run(ext: np.ndarray, offset: int, q0: int, q1: int, start_length: int) -> tuple:
-        m = q1 - q0
-        out = _outputs(m)
-        # about eight inner steps per centre (moments, tests, the length update)
-        end = _controller.run(
-            8 * m, read_only(ext, np.float64), offset, m, lmax, lmin, th.k1, th.k2,
-            float(s1), th.s2, seg, dl0, dl1,
-            _S_TEST_CODE[s_test], method != "kurtosis", combine == "and",
-            method in ("adaptive", "kurtosis"), given(q0, q1), *out, _segments(m), WARM_UP,
-            start_length,
-        )  # fmt: skip
-        return out, int(end)
+        return ctl.run(ext, offset, q1 - q0, start_length, given(q0, q1))
 
     # kept rows: the centres that are multiples of step
     c0 = -(-first // step) * step
@@ -676,7 +341,7 @@ def adaptive_schedule(
         if step > 1:  # copies: the full per-centre arrays are released
             out = tuple(a[c0 - first :: step].copy() for a in out)
     else:
-        out = _outputs(centres.size)
+        out = controller_outputs(centres.size)
         # pieces start at multiples of REANCHOR, where the running sums restart anyway
         piece = -(-chunk // REANCHOR) * REANCHOR
         length = lmax
