@@ -142,3 +142,16 @@ def test_stable32(data, table, stat):
     np.testing.assert_array_equal(printed, rows[:, 3])
     if table != "Cs5071A/mtie_decade.txt":  # that table prints N in its "#" column
         np.testing.assert_array_equal(got.n, rows[:, 2])
+
+
+def test_mtie_table_in_any_factor_order():
+    """The doubling table is built in increasing m whatever the order asked, exactly."""
+    rng = np.random.default_rng(5)
+    u = rng.standard_normal(300) + 1e6  # a frequency offset: MTIE ~ 1e6 m
+    ms = np.array([299, 1, 64, 63, 65, 2, 128, 3, 200], dtype=np.int64)
+    values, n = te.squared("mtie", u, ms)
+    ref = np.array([mtie_ref(u, int(m)) for m in ms])
+    np.testing.assert_allclose(np.sqrt(values), ref, rtol=1e-15, atol=0)
+    np.testing.assert_array_equal(n, 301 - ms)
+    order = np.argsort(ms)
+    np.testing.assert_array_equal(te.squared("mtie", u, ms[order])[0], values[order])

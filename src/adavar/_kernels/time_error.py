@@ -33,46 +33,62 @@ def dd_phase(u, xh, xl):  # pragma: no cover - compiled
         xh[k + 1], xl[k + 1] = two_sum(hi, lo)
 
 
+@jit(inline="always")
+def _above(ah, al, bh, bl):  # pragma: no cover - compiled
+    """``a > b`` for normalised double-doubles (their order is that of ``(high, low)``)."""
+    return ah > bh or (ah == bh and al > bl)
+
+
 @jit
 def mtie_values(xh, xl, ms, out):  # pragma: no cover - compiled
-    """``max_i (max - min of x[i .. i+m])`` for every ``m``, by monotone deques: O(N) per m.
+    """``max_i (max - min of x[i .. i+m])`` for every ``m``: a doubling (sparse) table.
 
-    Each index enters and leaves each deque once; the deques live in two index arrays.
-    The deques order the points by ``xh`` (a tie within one ulp of ``x`` may pick either
-    point, which changes the span by at most that ulp); the span itself is taken from both
-    parts, so a frequency offset costs no digits.
+    ``T_p[i]`` holds the maximum (and minimum) of the ``p + 1`` points ``x[i .. i+p]`` for
+    ``p`` a power of two; ``T_2p[i] = max(T_p[i], T_p[i+p])``, built in place. A window of
+    ``m + 1`` points with ``p <= m < 2p`` is the union of the two overlapping windows
+    starting at ``i`` and ``i + m - p``, so its extremes are two comparisons: O(N) per
+    factor with no data-dependent branching, and O(N log m) to build the levels, taken in
+    increasing ``m``. Extremes compare both parts of the double-double, so each is exact
+    and the span rounds once: a frequency offset costs no digits.
     """
     npts = xh.size
-    qmax = np.empty(npts, dtype=np.int64)
-    qmin = np.empty(npts, dtype=np.int64)
-    for idx in range(ms.size):
-        w = ms[idx] + 1  # a window of m + 1 points spans m sample intervals
-        hmax = 0
-        tmax = 0
-        hmin = 0
-        tmin = 0
+    mxh = xh.copy()  # level p = 0: every point its own window
+    mxl = xl.copy()
+    mnh = xh.copy()
+    mnl = xl.copy()
+    p = 0
+    for idx in np.argsort(ms):
+        m = ms[idx]
+        while (1 if p == 0 else 2 * p) <= m:  # raise the table to the largest p <= m
+            step = 1 if p == 0 else p
+            p = 1 if p == 0 else 2 * p
+            for i in range(npts - p):
+                j = i + step
+                if _above(mxh[j], mxl[j], mxh[i], mxl[i]):
+                    mxh[i] = mxh[j]
+                    mxl[i] = mxl[j]
+                if _above(mnh[i], mnl[i], mnh[j], mnl[j]):
+                    mnh[i] = mnh[j]
+                    mnl[i] = mnl[j]
         best = 0.0
-        for k in range(npts):
-            xk = xh[k]
-            while tmax > hmax and xk >= xh[qmax[tmax - 1]]:
-                tmax -= 1
-            qmax[tmax] = k
-            tmax += 1
-            while tmin > hmin and xk <= xh[qmin[tmin - 1]]:
-                tmin -= 1
-            qmin[tmin] = k
-            tmin += 1
-            first = k - w + 1
-            if qmax[hmax] < first:
-                hmax += 1
-            if qmin[hmin] < first:
-                hmin += 1
-            if first >= 0:
-                a = qmax[hmax]
-                b = qmin[hmin]
-                span = (xh[a] - xh[b]) + (xl[a] - xl[b])
-                if span > best:
-                    best = span
+        off = m - p
+        for i in range(npts - m):
+            j = i + off
+            if _above(mxh[j], mxl[j], mxh[i], mxl[i]):
+                hh = mxh[j]
+                hl = mxl[j]
+            else:
+                hh = mxh[i]
+                hl = mxl[i]
+            if _above(mnh[i], mnl[i], mnh[j], mnl[j]):
+                lh = mnh[j]
+                ll = mnl[j]
+            else:
+                lh = mnh[i]
+                ll = mnl[i]
+            span = (hh - lh) + (hl - ll)
+            if span > best:
+                best = span
         out[idx] = best
 
 
