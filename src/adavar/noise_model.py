@@ -93,7 +93,7 @@ from typing import Any
 import numpy as np
 
 from adavar import gls_fit
-from adavar._jit import get_num_threads
+from adavar._jit import SERIAL_WORK, get_num_threads
 from adavar._nnls import PARALLEL_MIN, nnls_parallel, nnls_serial, subsets
 from adavar.errors import AdavarInputError
 from adavar.results import ADEQUATE_P, NoiseFit, NoiseTerm
@@ -507,9 +507,12 @@ def _fit(
     coef_sig = np.empty((n_curves, 5))
     chi2 = np.empty(n_curves)
     npts = np.empty(n_curves, dtype=np.int64)
-    # one thread set (a short record's comparison, ADAVAR_THREADS=1): the serial kernel,
-    # so the parallel one is never compiled for it
-    parallel = n_curves >= PARALLEL_MIN and get_num_threads() > 1
+    # one thread set (a short record's comparison, ADAVAR_THREADS=1) or a few ms of work
+    # (about 25 ns per curve and tau): the serial kernel, so the parallel one (5 s to
+    # compile on a first run) is compiled only for stacks that gain from it
+    parallel = (
+        n_curves >= PARALLEL_MIN and n_curves * n_tau >= SERIAL_WORK and get_num_threads() > 1
+    )
     kernel = nnls_parallel if parallel else nnls_serial
     kernel(
         phi, a2, e2, n_reweight, sub_idx, sub_size, order, sel,
