@@ -54,6 +54,8 @@ NOT_FLAGS = {
     "lazy",
     # fit_noise(reference=): the whole-record fit, which the command makes itself
     "reference",
+    # davar(shift=): per-centre window offsets, which adaptive --method ici computes itself
+    "shift",
 }
 
 #: (function, commands that call it with the user's settings)
@@ -331,13 +333,17 @@ def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
                                 "50", *CONTROLLER_FLAGS, "--taus", "decade", "--edges",
                                 "valid", "--step", "2", "--confidence", "0.9", "--t0", "1",
                                 "--points-per-decade", "7", "--noise-type", "0",
-                                "--chunk-size", "64", "--edge-edf", "interior"])  # fmt: skip
+                                "--chunk-size", "64", "--edge-edf", "interior",
+                                "--ici-gamma", "2", "--ici-lengths", "30,60,90,120",
+                                "--ici-taus", "1,2", "--ici-sides", "centred", "--ici-edf",
+                                "engine"])  # fmt: skip
     assert code == 1 and "Stop" in err
     expected = {
         "method": "oracle", "change_times": [50.0], **CONTROLLER, "taus": "decade",
         "edges": "valid", "step": 2, "confidence": 0.9, "t0": 1.0, "points_per_decade": 7,
         "noise_type": 0, "data_type": "rate", "units": "deg/s", "chunk_size": 64,
-        "edge_edf": "interior",
+        "edge_edf": "interior", "ici_gamma": 2.0, "ici_lengths": [30, 60, 90, 120],
+        "ici_taus": [1, 2], "ici_sides": "centred", "ici_edf": "engine",
     }  # fmt: skip
     check(seen, adavar.adaptive_davar, expected)
     seen.clear()

@@ -23,11 +23,14 @@ multiples of ``step`` are kept.
 
 Methods: ``"adaptive"`` (A-DAVAR, ``f = f1 or f2``), ``"kurtosis"`` (DAVAR-K, the
 kurtosis-only controller of Wang/Zhu, ``f = f1``), ``"oracle"`` (the ideal schedule for known
-change times), ``"fixed"`` (DAVAR-L with ``L = lmax``, its kurtosis and S recorded along).
+change times), ``"fixed"`` (DAVAR-L with ``L = lmax``, its kurtosis and S recorded along),
+``"ici"`` (beyond the paper: the intersection-of-confidence-intervals rule of
+:mod:`adavar.ici`, with one-sided windows next to a change; not a kurtosis controller).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -39,6 +42,7 @@ from adavar.controller import REANCHOR, controller_outputs, make_controller
 from adavar.davar import davar
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
+from adavar.ici import ICI_GAMMA, ici_schedule
 from adavar.results import DavarResult
 from adavar.settings import CONTROLLER
 from adavar.statistics import (
@@ -65,7 +69,7 @@ __all__ = [
     "window_lengths",
 ]
 
-METHODS = ("adaptive", "kurtosis", "oracle", "fixed")
+METHODS = ("adaptive", "kurtosis", "oracle", "fixed", "ici")
 
 # ---------------------------------------------------------------------------------------
 # schedules
@@ -91,7 +95,10 @@ class Schedule:
     f1, f2, f : ndarray of bool, shape (N,)
         The kurtosis flag (Eq. 16), the S flag (Eq. 17) and their combination (Eq. 18); for
         ``"kurtosis"`` ``f = f1``; for ``"oracle"`` and ``"fixed"`` the flags the
-        adaptive controller would have raised on those windows.
+        adaptive controller would have raised on those windows. For ``"ici"`` (no
+        kurtosis test runs) ``kurtosis`` and ``s`` are NaN, ``f1`` and ``f2`` False and
+        ``f`` marks the centres whose window is not the centred ``lmax`` one (shorter, or
+        one-sided next to a change).
     centre : ndarray of int64
         Sample index of each centre.
     method : str
@@ -100,6 +107,9 @@ class Schedule:
         Every setting used, for reports.
     step : int
         The rows are the centres that are multiples of ``step`` (1: every centre).
+    shift : ndarray of int64 or None
+        ``"ici"``: offset of each window from its centre (a one-sided window next to a
+        change, see :mod:`adavar.ici`; ``davar(..., shift=)``); None: centred windows.
     """
 
     window: np.ndarray
@@ -113,6 +123,7 @@ class Schedule:
     thresholds: Thresholds
     parameters: dict[str, Any] = field(default_factory=dict)
     step: int = 1
+    shift: np.ndarray | None = None
 
 
 def oracle_schedule(
@@ -232,6 +243,11 @@ def adaptive_schedule(
     step: Length = 1,
     chunk_size: int | None = None,
     false_alarm_per_hour: float | None = None,
+    ici_gamma: float = ICI_GAMMA,
+    ici_lengths: Sequence[int] | None = None,
+    ici_taus: Sequence[int] = (1,),
+    ici_sides: str = "both",
+    ici_edf: str = "correlation",
 ) -> Schedule:
     """The window schedule of A-DAVAR, DAVAR-K, the oracle or a fixed window.
 
@@ -257,7 +273,11 @@ def adaptive_schedule(
         every multiple of REANCHOR, so a piece that starts there from the carried length
         repeats the sequential pass bit for bit). Held in memory: one piece and its
         per-centre outputs (about 40 bytes per centre of the piece) plus the ``N / step``
-        kept rows.
+        kept rows. ``method="ici"`` runs in memory only: a chunked input without
+        ``chunk_size`` is read into memory, an explicit ``chunk_size`` is an error.
+    ici_gamma, ici_lengths, ici_taus, ici_sides, ici_edf
+        The options of ``method="ici"`` (:func:`adavar.ici.ici_schedule`), see
+        :func:`adaptive_davar`.
 
     Returns
     -------
@@ -271,6 +291,19 @@ def adaptive_schedule(
     dt = resolve_tau0(rate, tau0)
     lmax, lmin, seg, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)
     chunked = chunk_size is not None or stream.is_chunked(data)
+    if method == "ici":  # not a kurtosis controller: its own module, in memory
+        if chunk_size is None and stream.is_chunked(data):  # a memory map, a lazy channel
+            source = stream.as_source(data)
+            data, chunked = source.read(0, source.size), False
+        if chunked:
+            raise AdavarInputError(
+                "method='ici' runs in memory: leave chunk_size (--chunk-size) out and pass the "
+                "record as an array (numpy.asarray), or use method='adaptive' out of core"
+            )
+        ici = dict(gamma=ici_gamma, lengths=ici_lengths, taus=ici_taus, sides=ici_sides,
+                   edf=ici_edf)  # fmt: skip
+        return _ici(data, lmax=lmax, lmin=lmin, seg=seg, edges=edges, step=step, dt=dt,
+                    options=ici)  # fmt: skip
     chunk = stream.DEFAULT_CHUNK
     if chunk_size is not None:
         chunk = stream.check_chunk_size(chunk_size)
@@ -383,6 +416,33 @@ def adaptive_schedule(
     )  # fmt: skip
 
 
+def _ici(
+    data: Any, *, lmax: int, lmin: int, seg: int, edges: str, step: int, dt: float,
+    options: dict,
+) -> Schedule:  # fmt: skip
+    """:func:`adavar.ici.ici_schedule` as a :class:`Schedule` (kurtosis fields NaN/False;
+    ``f``: the centred ``lmax`` window was not kept; ``parameters["ici_changes"]``: the
+    detected changes, samples)."""
+    if lmin > lmax:
+        raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
+    refuse_masked(data)
+    x, _ = scaled(as_samples(data, min_length=lmax))  # scale-free: run at scale 1 (exact)
+    ici = ici_schedule(x, lmax=lmax, lmin=lmin, edges=edges, step=step, **options)
+    size = ici.centre.size
+    nan = np.full(lmax + 1, np.nan)
+    # no kurtosis test runs: its thresholds are recorded as NaN, never as numbers
+    parameters = dict(ici.parameters, sample_rate=1.0 / dt, thresholds="none", k1=math.nan,
+                      k2=math.nan, s1=math.nan, s2=math.nan, l=seg,
+                      ici_changes=ici.changes.tolist())  # fmt: skip
+    return Schedule(
+        window=ici.window, kurtosis=np.full(size, np.nan), s=np.full(size, np.nan),
+        f1=np.zeros(size, dtype=bool), f2=np.zeros(size, dtype=bool),
+        f=(ici.window < lmax) | (ici.shift != 0), centre=ici.centre, method="ici",
+        thresholds=Thresholds(k1=nan, k2=nan, s2=nan, source="none (ICI)"),
+        parameters=parameters, step=step, shift=ici.shift,
+    )  # fmt: skip
+
+
 # ---------------------------------------------------------------------------------------
 # the surface
 
@@ -447,6 +507,11 @@ def adaptive_davar(
     chunk_size: int | None = None,
     edge_edf: str = "distinct",
     false_alarm_per_hour: float | None = None,
+    ici_gamma: float = ICI_GAMMA,
+    ici_lengths: Sequence[int] | None = None,
+    ici_taus: Sequence[int] = (1,),
+    ici_sides: str = "both",
+    ici_edf: str = "correlation",
 ) -> AdaptiveResult:
     """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
 
@@ -458,10 +523,16 @@ def adaptive_davar(
         mmap_mode="r")``) or a dask array is processed out of core.
     rate : float
         Sample rate in Hz (or give ``tau0``).
-    method : {"adaptive", "kurtosis", "oracle", "fixed"}
+    method : {"adaptive", "kurtosis", "oracle", "fixed", "ici"}
         ``"adaptive"``: A-DAVAR, docs/method.md section 8 (``f = f1 combine f2``);
         ``"kurtosis"``: DAVAR-K (``f = f1``); ``"oracle"``: the ideal schedule for
-        ``change_times``; ``"fixed"``: DAVAR-``lmax`` (kurtosis and flags recorded along).
+        ``change_times``; ``"fixed"``: DAVAR-``lmax`` (kurtosis and flags recorded along);
+        ``"ici"``: the intersection-of-confidence-intervals rule (docs/method.md section
+        11, :mod:`adavar.ici`), in memory only; the controller's settings (``k1`` ..
+        ``false_alarm_per_hour``) are not used, ``kurtosis``/``s`` are NaN, ``f1``/``f2``
+        False, ``f`` the centres whose window is not the centred ``lmax`` one, ``shift``
+        the one-sided windows, ``parameters["ici_changes"]`` the detected changes
+        (samples).
     lmax, lmin : int, str, Duration or timedelta
         Longest (start) and shortest window: samples (paper: 600, 400), or durations
         (``"10min"``, :func:`adavar.seconds`), rounded to whole samples of this record (a
@@ -508,6 +579,21 @@ def adaptive_davar(
 
     edge_edf : {"distinct", "interior"}
         EDF of a window that reaches into the mirrored extension, see :func:`adavar.davar`.
+    ici_gamma : float
+        ``method="ici"``: half-width of the intervals in standard normal units (default
+        :data:`adavar.ici.ICI_GAMMA`; smaller shortens more readily).
+    ici_lengths : sequence of int, optional
+        ``method="ici"``: the candidate lengths (samples), holding ``lmin`` and ending at
+        ``lmax``; those below ``lmin`` are probes. Default
+        :func:`adavar.ici.ici_candidates`.
+    ici_taus : sequence of int
+        ``method="ici"``: averaging factors of the estimates (default ``(1,)``).
+    ici_sides : {"both", "centred"}
+        ``method="ici"``: one-sided windows next to a change (default) or centred only.
+    ici_edf : {"correlation", "engine"}
+        ``method="ici"``: the estimates' EDF from the record's correlation (default) or the
+        engine's Greenhall EDF.
+
     Returns
     -------
     AdaptiveResult
@@ -530,7 +616,8 @@ def adaptive_davar(
         method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0,
         dl1=dl1, s_test=s_test, combine=combine, edges=edges, change_times=change_times,
         thresholds=thresholds, false_alarm=false_alarm, rate=rate, tau0=tau0,
-        false_alarm_per_hour=false_alarm_per_hour,
+        false_alarm_per_hour=false_alarm_per_hour, ici_gamma=ici_gamma, ici_lengths=ici_lengths,
+        ici_taus=ici_taus, ici_sides=ici_sides, ici_edf=ici_edf,
     )  # fmt: skip
     surface_options = dict(
         rate=rate, data_type=dtype, taus=taus, edges=edges, confidence=confidence, tau0=tau0,
@@ -541,6 +628,9 @@ def adaptive_davar(
     if step < 1:
         raise AdavarInputError("step must be a positive integer")
     min_length = 4 if dtype == "phase" else 3
+    if method == "ici" and chunk_size is None and stream.is_chunked(data):
+        source = stream.as_source(data)  # ICI runs in memory: read the record once
+        data = source.read(0, source.size)
     if chunk_size is not None or stream.is_chunked(data):
         source = stream.as_source(data)
         if source.size < min_length:
@@ -566,16 +656,20 @@ def adaptive_davar(
         x = as_samples(data, min_length=min_length)
         u = x if dtype == "rate" else np.diff(x)
         sched = adaptive_schedule(u, **controller)
+        shift = sched.shift
         if edges == "valid":
             # the schedule covers the centres where an lmax window fits; others are not
             # computed
             full = np.full(u.size, lmax, dtype=np.int64)
             full[sched.centre] = sched.window
             window = full
+            if shift is not None:
+                shift = np.zeros(u.size, dtype=np.int64)
+                shift[sched.centre] = sched.shift
         else:
             window = sched.window
             window.flags.writeable = False  # shared with the surface, not copied
-        surface = davar(x, window=window, step=step, **surface_options)
+        surface = davar(x, window=window, step=step, shift=shift, **surface_options)
         # the surface's centres are every step-th of the schedule's: slices, no copies
         first = int(surface.centre[0] - sched.centre[0])
         rows = slice(first, first + step * (surface.centre.size - 1) + 1, step)

@@ -134,8 +134,9 @@ _MAD_TO_STD = 1.482602218505602  # 1 / Phi^-1(3/4)
 class _Method:
     name: str
     label: str
-    kind: str  # "fixed", "kurtosis", "adaptive", "oracle"
+    kind: str  # "fixed", "kurtosis", "adaptive", "oracle", "ici"
     window: int = 0
+    options: tuple[tuple[str, Any], ...] = ()
 
 
 def default_methods(lmin: int = 400, lmax: int = 600) -> tuple[str, ...]:
@@ -165,6 +166,10 @@ def _parse_method(name: str, k2: float, thresholds: str = "paper") -> _Method:
                        "kurtosis")  # fmt: skip
     if key == "oracle":
         return _Method("oracle", "oracle", "oracle")
+    if key == "ici":
+        return _Method("ici", "ICI", "ici")
+    if key in ("ici-centred", "ici-centered"):
+        return _Method("ici-centred", "ICI (centred)", "ici", options=(("ici_sides", "centred"),))
     if key.startswith("davar-"):
         try:
             length = int(key[6:])
@@ -174,7 +179,7 @@ def _parse_method(name: str, k2: float, thresholds: str = "paper") -> _Method:
             return _Method(f"davar-{length}", f"DAVAR-{length}", "fixed", length)
     raise AdavarInputError(
         f"unknown method {name!r}: use davar-<L> (a fixed window of L >= 3 samples), davar-k, "
-        "a-davar or oracle"
+        "a-davar, oracle, ici or ici-centred"
     )
 
 
@@ -574,8 +579,9 @@ class EdfCache:
         al = tuple(int(a) for a in alpha)
         # a window reaching into the mirrored ends has fewer distinct terms (as in davar)
         n = result.n_samples - (1 if result.data_type == "phase" else 0)
+        centre = result.centre if result.shift is None else result.centre + result.shift
         overhang = (
-            window_overhang(result.centre, result.window, n)
+            window_overhang(centre, result.window, n)
             if result.edges == "mirror"
             else np.zeros(np.size(result.window), dtype=np.int64)
         )
@@ -681,8 +687,10 @@ def compare(
         arguments override them).
     methods : sequence of str, optional
         From ``"davar-<L>"`` (fixed window of ``L`` samples), ``"davar-k"`` (the kurtosis
-        controller, ``f = f1``), ``"a-davar"`` (the adaptive controller) and ``"oracle"``
-        (the ideal schedule; needs ``change_times``). Default
+        controller, ``f = f1``), ``"a-davar"`` (the adaptive controller), ``"oracle"``
+        (the ideal schedule; needs ``change_times``), ``"ici"`` (the
+        intersection-of-confidence-intervals window of :mod:`adavar.ici`, with one-sided
+        windows, its defaults) and ``"ici-centred"`` (the same, centred windows only). Default
         :func:`default_methods` ``(lmin, lmax)``.
     rate : float, optional
         Sample rate in Hz (default 1, or the scenario's).
@@ -854,12 +862,15 @@ def run_comparison(
                 sched = adaptive_schedule(
                     x, method=spec.kind, rate=fs,
                     change_times=changes if spec.kind == "oracle" else None, **controller,
+                    **dict(spec.options),
                 )  # fmt: skip
                 window = sched.window
+            shift = None if sched is None else sched.shift  # ICI's one-sided windows
             if edf_cache is None:
                 result = davar(
                     x, window=window, rate=fs, taus=taus, confidence=confidence,
                     noise_type=noise_type, points_per_decade=points_per_decade, units=units,
+                    shift=shift,
                 )  # fmt: skip
                 try:
                     fit = fit_noise(result, terms=terms)
@@ -867,7 +878,8 @@ def run_comparison(
                     raise AdavarInputError(str(exc)) from None
             else:
                 result = davar(x, window=window, rate=fs, taus=taus, confidence=None,
-                               points_per_decade=points_per_decade, units=units)  # fmt: skip
+                               points_per_decade=points_per_decade, units=units,
+                               shift=shift)  # fmt: skip
                 alpha = np.broadcast_to(np.asarray(noise_type, dtype=np.int64), result.m.shape)
                 fit = fit_avar(result.tau, result.avar, edf_cache.cells(result, alpha),
                                terms=terms)  # fmt: skip

@@ -249,7 +249,7 @@ def _edge_classes(
     stat: str = "oadev",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Extra EDF rows for the windows that hold mirrored samples (few: near the two ends)."""
-    overhang = window_overhang(sched.centre, sched.length, n)
+    overhang = window_overhang(sched.window_centre, sched.length, n)
     edge = np.flatnonzero(overhang > 0)
     if edge.size == 0:
         return table, window_class
@@ -388,7 +388,7 @@ def _chunked_avar(
     or so.
     """
     pad = sched.pad_before
-    centre, length = sched.centre, sched.length
+    centre, length = sched.window_centre, sched.length
     bounds, los, his = _centre_groups(
         read_only(centre), read_only(length), pad, int(chunk), GROUP_GAP
     )
@@ -454,7 +454,7 @@ def _lazy_avar(
     if after:
         parts.append(u[n - after :][::-1])
     ext = da.concatenate(parts) if len(parts) > 1 else u
-    centre, length = sched.centre, sched.length
+    centre, length = sched.window_centre, sched.length
     # blocks of at most LAZY_BLOCK_VALUES output values, at least one window each
     rows = max(1, LAZY_BLOCK_VALUES // max(1, ms.size))
     span = int(min(chunk, max(2 * int(length.max()), rows * sched.step)))
@@ -490,6 +490,7 @@ def davar(
     lazy: bool | None = None,
     edge_edf: str = "distinct",
     gaps: str = "error",
+    shift: Sequence[int] | np.ndarray | None = None,
 ) -> DavarResult:
     """Dynamic Allan variance: the overlapping Allan (or Hadamard, modified) variance of a
     sliding window.
@@ -579,6 +580,14 @@ def davar(
         bit for bit. Computed in memory (a chunked record with NaN is read into memory;
         not with an explicit ``chunk_size`` nor a lazy surface). See
         :mod:`adavar.davar_gaps`.
+    shift : array_like of int, optional
+        Windows that do not centre on their centre: the row of centre ``p`` is computed on
+        the window of its length centred at ``p + shift`` (one value per sample or per
+        computed centre, as ``window``), e.g. a one-sided window ending at ``p``
+        (``shift = -(L // 2)``) or starting there (``shift = (L - 1) // 2``), which the
+        adaptive window of :mod:`adavar.ici` uses next to a change. The EDF of a row
+        follows its actual window (its overhang into the mirrored ends); the result keeps
+        the offsets (``result.shift``). Not with ``gaps="omit"`` on a record with NaN.
     units : str, optional
         Declared unit of the *rate* (e.g. ``"deg/s"``; for phase input the unit of its
         derivative: angle in deg gives ``"deg/s"``), carried to the fit's unit conversions
@@ -656,6 +665,11 @@ def davar(
         from adavar.davar_gaps import gap_davar, missing_record
 
         found = missing_record(data, gaps=gaps, chunk_size=chunk_size, lazy=lazy)
+        if found is not None and shift is not None:
+            raise AdavarInputError(
+                "shifted windows (shift=) are not supported on a record with missing "
+                "samples: fill the gaps first, or use centred windows"
+            )
         if found is not None:
             return gap_davar(
                 found[0], found[1], notes=found[2], window=window, stat=name, rate=rate,
@@ -696,7 +710,7 @@ def davar(
     # a duration (``"10min"``, ``adavar.seconds(600)``) is samples of this record
     window = to_samples(window, dt, "window")
     step = to_samples(step, dt, "step")
-    sched = window_schedule(n, window, edges=edges, step=step)
+    sched = window_schedule(n, window, edges=edges, step=step, shift=shift)
     longest = int(sched.length.max())
     ms, notes = tau_factors(taus, longest // 3, dt, points_per_decade)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
@@ -735,7 +749,7 @@ def davar(
             avar = _chunked_avar(inc, sched, ms, scale, chunk, name)
         else:
             avar = _window_surface(
-                name, sched.extend(u), ms, sched.centre, sched.length,
+                name, sched.extend(u), ms, sched.window_centre, sched.length,
                 offset=sched.pad_before, scale=scale,
                 chunk=_chunk_size(sched.centre.size, longest, sched.step),
             )  # fmt: skip
@@ -767,6 +781,7 @@ def davar(
         edf_table=table,
         window_class=window_class,
         bound_table=bounds,
+        shift=sched.shift,
     )
     if name == "oadev":
         return DavarResult(**surface)

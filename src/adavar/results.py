@@ -169,6 +169,9 @@ class DavarResult:
         (every term is kept: :attr:`n_terms`). With it, ``edf_table`` and ``bound_table``
         have one row per centre (``window_class`` is ``arange(T)``): each cell's EDF
         follows its own count.
+    shift : ndarray of int64, shape (T,), or None
+        Offset of each row's window from its centre (``davar(..., shift=)``; the window of
+        centre ``p`` is centred at ``p + shift``), or None: every window centred.
     """
 
     time: np.ndarray
@@ -190,6 +193,7 @@ class DavarResult:
     window_class: np.ndarray | None = None
     bound_table: np.ndarray | None = None
     terms: np.ndarray | None = None
+    shift: np.ndarray | None = None
     _cache: dict[str, np.ndarray] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -286,7 +290,13 @@ class DavarResult:
         if self.avar_low is not None and self.avar_high is not None:
             data_vars["avar_low"] = (("time", "tau"), self.avar_low)
             data_vars["avar_high"] = (("time", "tau"), self.avar_high)
+        if self.shift is not None:  # one-sided windows (davar(shift=), adaptive ICI)
+            data_vars["shift"] = ("time", self.shift)
         ds = xr.Dataset(data_vars, coords={"time": self.time, "tau": self.tau})
+        if self.shift is not None:
+            ds["shift"].attrs.update(
+                units="samples", long_name="offset of the window's centre from the centre"
+            )
         ds["time"].attrs.update(units="s", long_name="window centre time")
         ds["tau"].attrs.update(units="s", long_name="averaging time")
         unit2 = f"({self.units})^2" if self.units else "input unit squared"

@@ -82,6 +82,10 @@ class WindowSchedule:
         ``"mirror"`` or ``"valid"``.
     step : int
         Spacing of the candidate centres.
+    shift : ndarray of int64 or None
+        Offset of each window from its centre (None: every window centred on its centre).
+        The window of centre ``p`` is the one centred at ``p + shift``: a one-sided window
+        (:mod:`adavar.ici`) is a centred window at a shifted centre.
     """
 
     centre: np.ndarray
@@ -91,11 +95,18 @@ class WindowSchedule:
     n_samples: int
     edges: str
     step: int
+    shift: np.ndarray | None = None
+
+    @property
+    def window_centre(self) -> np.ndarray:
+        """The sample each window is centred on (``centre + shift``; the window kernels'
+        centres)."""
+        return self.centre if self.shift is None else self.centre + self.shift
 
     @property
     def start(self) -> np.ndarray:
         """First sample of each window, counted in the *extended* record."""
-        return window_start(self.centre, self.length) + self.pad_before
+        return window_start(self.window_centre, self.length) + self.pad_before
 
     def extend(self, samples: np.ndarray) -> np.ndarray:
         """The record with its mirrored ends (the array that ``start`` indexes)."""
@@ -157,7 +168,7 @@ def _as_lengths(window: Any, n_samples: int) -> np.ndarray | int:
 
 
 def window_schedule(
-    n_samples: int, window: Any, *, edges: str = "mirror", step: int = 1
+    n_samples: int, window: Any, *, edges: str = "mirror", step: int = 1, shift: Any = None
 ) -> WindowSchedule:
     """Centres, lengths and starts of the DAVAR windows of a record.
 
@@ -177,6 +188,11 @@ def window_schedule(
         the record.
     step : int
         Spacing of the centres: samples ``0, step, 2 step, ...`` are candidates.
+    shift : array_like of int, optional
+        Offset of each window from its centre, in the forms ``window`` takes (one per
+        sample or one per candidate centre): the window of centre ``p`` holds
+        ``p + shift - (L - 1) // 2 .. p + shift - (L - 1) // 2 + L - 1``. None (default):
+        centred windows. ``edges="valid"`` keeps the centres whose shifted window fits.
 
     Returns
     -------
@@ -186,7 +202,7 @@ def window_schedule(
     ------
     AdavarInputError
         A window shorter than 3 samples or longer than the record, a bad ``step`` or
-        ``edges``, a window array of the wrong length, or no valid centre.
+        ``edges``, a window or shift array of the wrong length, or no valid centre.
     """
     if edges not in EDGES:
         raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
@@ -194,6 +210,9 @@ def window_schedule(
     n_samples = int(n_samples)
     lengths = _as_lengths(window, n_samples)
     candidates = np.arange(0, n_samples, step, dtype=np.int64)
+    offsets = _as_shift(shift, n_samples, candidates, step)
+    if offsets is not None and isinstance(lengths, int):
+        lengths = np.full(candidates.size, lengths, dtype=np.int64)  # per-window starts
     if isinstance(lengths, int):
         length = None
     elif lengths.size == n_samples:
@@ -214,10 +233,12 @@ def window_schedule(
         last = int(candidates[-1]) if candidates.size else 0
         lowest, highest = first - before, last + after + 1
     else:
-        start = window_start(candidates, length)
+        start = window_start(candidates if offsets is None else candidates + offsets, length)
         if edges == "valid":
             keep = (start >= 0) & (start + length <= n_samples)
             candidates, length, start = candidates[keep], length[keep], start[keep]
+            if offsets is not None:
+                offsets = offsets[keep]
         lowest = int(start.min()) if start.size else 0
         highest = int((start + length).max()) if start.size else 0
     if candidates.size == 0:
@@ -237,4 +258,27 @@ def window_schedule(
         n_samples=n_samples,
         edges=edges,
         step=step,
+        shift=offsets,
     )
+
+
+def _as_shift(shift: Any, n_samples: int, candidates: np.ndarray, step: int) -> np.ndarray | None:
+    """The per-candidate window offsets (int64), or None for centred windows."""
+    if shift is None:
+        return None
+    arr = np.asarray(shift)
+    if arr.ndim != 1 or not np.issubdtype(arr.dtype, np.integer):
+        raise AdavarInputError("shift must be a 1-D array of whole numbers of samples")
+    if arr.size == n_samples:
+        arr = arr if step == 1 else arr[candidates]
+    elif arr.size != candidates.size:
+        per_centre = f" or {candidates.size} (one per centre)" if step > 1 else ""
+        raise AdavarInputError(
+            f"shift array has {arr.size} values; give {n_samples} (one per sample){per_centre}"
+        )
+    if arr.size and int(np.abs(arr).max()) > n_samples:
+        raise AdavarInputError(
+            f"a shift of {int(np.abs(arr).max())} samples is longer than the record "
+            f"({n_samples} samples): give offsets within it"
+        )
+    return arr.astype(np.int64)

@@ -619,8 +619,10 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
     )  # fmt: skip
     cmp_.add_argument(
         "--methods", type=parse_names, metavar="LIST",
-        help="comma-separated methods: davar-<L> (fixed window), davar-k, a-davar, oracle "
-        "(default: davar-LMIN,davar-LMAX,davar-k,a-davar)",
+        help="comma-separated methods: davar-<L> (fixed window), davar-k, a-davar, oracle, "
+        "ici (intersection of confidence intervals, one-sided windows next to a change), "
+        "ici-centred (the same, centred windows only) (default: "
+        "davar-LMIN,davar-LMAX,davar-k,a-davar)",
     )  # fmt: skip
     add_controller_arguments(cmp_, hourly=False)
     # the paper's windows stay the default of compare (its scenarios are the paper's)

@@ -24,6 +24,7 @@ from adavar.cli.options import (
     add_input_arguments,
     add_output_arguments,
     add_surface_arguments,
+    positive_float,
     seconds_list,
     window_length,
 )
@@ -447,7 +448,7 @@ def _davar_channel(
     if adaptive:
         result = adaptive_davar(
             samples, method=args.method, change_times=args.change_times,
-            **controller_settings(args), **common,
+            **controller_settings(args), **ici_settings(args), **common,
         )  # fmt: skip
     else:
         result = davar(samples, window=args.window, stat=args.stat,
@@ -468,7 +469,7 @@ def _davar_channel(
         if fit is not None:
             written.append("coefficients.csv")
         figure_stems = ["davar_surface", "davar_heatmap"]
-        if adaptive:
+        if adaptive and result.method != "ici":
             figure_stems.append("controller")
         if fit is not None:
             figure_stems.append(TERM_FILES[_coefficient_term(fit)])
@@ -529,6 +530,8 @@ def _davar_channel(
 
         lmax = int(result.parameters["lmax"]) if adaptive else int(args.window)
         changes = None if adaptive else _fixed_window_changes(args, samples, common, tau0)
+        if adaptive and result.method == "ici":  # its own change points (one-sided windows)
+            changes = [float(args.t0) + c * tau0 for c in result.parameters["ici_changes"]]
         events = find_events(
             result.window, result.centre, result.time, lmax, tau0,
             {name: fit.term(name).value for name in fit.terms}, t0=float(args.t0),
@@ -622,7 +625,7 @@ def _write_davar_channel(
         "davar_surface": davar_surface_figure(result),
         "davar_heatmap": davar_heatmap_figure(result),
     }
-    if adaptive:
+    if adaptive and result.method != "ici":  # ICI runs no kurtosis test: nothing to draw
         from adavar.plots import controller_figure
 
         figures["controller"] = controller_figure(
@@ -683,6 +686,56 @@ def add_davar_parser(sub: Any) -> argparse.ArgumentParser:
     return dav
 
 
+def _whole_list(text: str) -> list[int]:
+    """Comma-separated whole numbers >= 1 (``--ici-lengths``, ``--ici-taus``)."""
+    try:
+        values = [int(part) for part in text.replace(" ", "").split(",") if part]
+    except ValueError:
+        values = []
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated whole numbers >= 1 (e.g. 50,100,400,600), got {text!r}"
+        )
+    return values
+
+
+def add_ici_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The options of ``--method ici`` (:func:`adavar.ici.ici_schedule`)."""
+    from adavar.ici import ICI_EDF, ICI_GAMMA, ICI_SIDES
+
+    group = cmd.add_argument_group("ICI window (--method ici)")
+    group.add_argument(
+        "--ici-gamma", type=positive_float("standard deviations"), default=ICI_GAMMA,
+        metavar="G", help=f"half-width of the intervals in standard normal units (default "
+        f"{ICI_GAMMA:g}; smaller shortens the window more readily)",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-lengths", type=_whole_list, default=None, metavar="L,...",
+        help="candidate window lengths in samples, holding --lmin and ending at --lmax; "
+        "those below --lmin are probes (default: lmin/8, lmin/4, lmin/2, then 3 geometric "
+        "steps from lmin to lmax)",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-taus", type=_whole_list, default=[1], metavar="M,...",
+        help="averaging factors of the estimates (default 1: the white-noise level)",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-sides", choices=ICI_SIDES, default="both",
+        help="both: left, centred and right windows (default); centred: centred only",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-edf", choices=ICI_EDF, default="correlation",
+        help="EDF of the estimates: from the record's correlation (default) or the "
+        "engine's Greenhall EDF",
+    )  # fmt: skip
+
+
+def ici_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The ICI keywords of :func:`adavar.adaptive_davar` from the options."""
+    return dict(ici_gamma=args.ici_gamma, ici_lengths=args.ici_lengths, ici_taus=args.ici_taus,
+                ici_sides=args.ici_sides, ici_edf=args.ici_edf)  # fmt: skip
+
+
 def add_adaptive_parser(sub: Any) -> argparse.ArgumentParser:
     """Add ``adavar adaptive`` to the sub-command parsers ``sub``."""
     ada = sub.add_parser(
@@ -694,19 +747,24 @@ def add_adaptive_parser(sub: Any) -> argparse.ArgumentParser:
         "--s2), and regrows where the noise is stationary; then the surface, its per-cell "
         "bounds and the noise coefficients of every window, as for davar. --method kurtosis "
         "runs DAVAR-K (the kurtosis test alone), --method oracle the ideal schedule for "
-        "--change-times. The sampling rate and the unit are required: adavar never guesses.",
+        "--change-times, --method ici the window chosen by intersecting the confidence "
+        "intervals of candidate windows (--ici-* options; one-sided windows next to a change; "
+        "docs/method.md section 11). The sampling rate and the unit are required: adavar "
+        "never guesses.",
     )
     add_input_arguments(ada)
     ada.add_argument(
-        "--method", default="adaptive", choices=("adaptive", "kurtosis", "oracle"),
-        help="adaptive (A-DAVAR, default), kurtosis (DAVAR-K) or oracle (needs "
-        "--change-times)",
+        "--method", default="adaptive", choices=("adaptive", "kurtosis", "oracle", "ici"),
+        help="adaptive (A-DAVAR, default), kurtosis (DAVAR-K), oracle (needs "
+        "--change-times) or ici (intersection of confidence intervals, with one-sided "
+        "windows next to a change; docs/method.md section 11; in memory only)",
     )  # fmt: skip
     ada.add_argument(
         "--change-times", type=seconds_list, metavar="T,...",
         help="known change times in seconds, for --method oracle",
     )  # fmt: skip
     add_controller_arguments(ada)
+    add_ici_arguments(ada)
     add_surface_arguments(ada)
     ada.add_argument("--json", action="store_true", help="print one JSON object (a summary)")
     add_output_arguments(
