@@ -11,6 +11,8 @@ The public entry points:
 - :func:`adaptive_davar`: the paper's adaptive-window DAVAR (A-DAVAR) and its baselines
   (DAVAR-K, an oracle schedule, a fixed window), steered by the kurtosis and the sliding
   kurtosis contribution coefficient;
+- :class:`OnlineAdaptive`: the same adaptive window on a live stream, sample by sample, equal
+  to the offline pass (windows, N(t) and events with a fixed latency);
 - :func:`compare` / :func:`compare_seeds`: DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR on
   one signal (or the paper's scenarios, :func:`adavar.simulate.paper_scenario`, over many
   seeds): node tables beside the paper's, ground-truth tracking metrics;
@@ -49,6 +51,7 @@ _LAZY = {
     "NoiseTerm": "adavar.noise_model",
     "fit_avar": "adavar.noise_model",
     "fit_noise": "adavar.noise_model",
+    "OnlineAdaptive": "adavar.online",
     "compare_seeds": "adavar.paper.studies",
     "PowerLawFit": "adavar.power_law",
     "fit_power_law": "adavar.power_law",
@@ -68,6 +71,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from adavar.errors import AdavarInputError
     from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
     from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
+    from adavar.online import OnlineAdaptive
     from adavar.paper.studies import compare_seeds
     from adavar.power_law import PowerLawFit, fit_power_law
     from adavar.results import DavarResult, DeviationResult
@@ -112,6 +116,7 @@ __all__ = [
     "Duration",
     "NoiseFit",
     "NoiseTerm",
+    "OnlineAdaptive",
     "PowerLawFit",
     "adaptive_davar",
     "adaptive_schedule",

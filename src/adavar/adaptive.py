@@ -42,9 +42,9 @@ from adavar.controller import REANCHOR, controller_outputs, make_controller
 from adavar.davar import davar
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
-from adavar.ici import ICI_GAMMA, ici_schedule
+from adavar.ici import ici_schedule
 from adavar.results import DavarResult
-from adavar.settings import CONTROLLER
+from adavar.settings import CONTROLLER, ICI_GAMMA
 from adavar.statistics import (
     DATA_TYPE_ALIASES,
     as_samples,
@@ -581,7 +581,7 @@ def adaptive_davar(
         EDF of a window that reaches into the mirrored extension, see :func:`adavar.davar`.
     ici_gamma : float
         ``method="ici"``: half-width of the intervals in standard normal units (default
-        :data:`adavar.ici.ICI_GAMMA`; smaller shortens more readily).
+        :data:`adavar.settings.ICI_GAMMA`; smaller shortens more readily).
     ici_lengths : sequence of int, optional
         ``method="ici"``: the candidate lengths (samples), holding ``lmin`` and ending at
         ``lmax``; those below ``lmin`` are probes. Default

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Event", "change_times", "find_events", "flag_change_times"]
+__all__ = ["Event", "change_times", "find_events", "flag_change_times", "stretch_summary"]
 
 
 @dataclass(frozen=True)
@@ -106,7 +106,12 @@ def flag_change_times(
     return out
 
 
-def _summary(values: np.ndarray) -> dict[str, Any]:
+def stretch_summary(values: np.ndarray) -> dict[str, Any]:
+    """``{"median", "low", "high", "windows"}`` of a term's finite values over a stretch.
+
+    ``low`` and ``high`` are the 16 and 84 % points; all None (and ``windows`` 0) when no
+    value is finite. The summaries of :class:`Event` (and of :class:`adavar.OnlineAdaptive`).
+    """
     values = values[np.isfinite(values)]
     if values.size == 0:
         return {"median": None, "low": None, "high": None, "windows": 0}
@@ -175,8 +180,8 @@ def find_events(
             after = np.zeros(time.size, dtype=bool)
         events.append(Event(
             start_s=start, end_s=end,
-            before={n: _summary(v[before]) for n, v in series.items()},
-            during={n: _summary(v[during]) for n, v in series.items()},
-            after={n: _summary(v[after]) for n, v in series.items()},
+            before={n: stretch_summary(v[before]) for n, v in series.items()},
+            during={n: stretch_summary(v[during]) for n, v in series.items()},
+            after={n: stretch_summary(v[after]) for n, v in series.items()},
         ))  # fmt: skip
     return events

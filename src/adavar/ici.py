@@ -55,6 +55,7 @@ from scipy.stats import chi2
 from adavar import differences as diff
 from adavar.davar import edf_table
 from adavar.errors import AdavarInputError
+from adavar.settings import ICI_EDF, ICI_GAMMA, ICI_SIDES
 from adavar.statistics import as_samples, record_noise_types
 
 __all__ = [
@@ -69,16 +70,6 @@ __all__ = [
     "side_shift",
 ]
 
-#: ``sides=`` of :func:`ici_schedule`
-ICI_SIDES = ("both", "centred")
-#: ``edf=`` of :func:`ici_schedule`
-ICI_EDF = ("correlation", "engine")
-#: default threshold (benchmarks/bench_ici.py, docs/benchmarks.md): with the default
-#: candidates no stationary centre of scenario 1 (40 seeds) nor of the 200 Hz records got a
-#: shortened window (below 0.02 % on white and band-limited noise at gamma = 2), about 2 %
-#: a one-sided window of full length; the spread of N equals DAVAR-Lmax's (gamma = 2.5:
-#: 1.025 x, tracking 3.1 % instead of 3.3 %)
-ICI_GAMMA = 3.0
 #: default number of probe lengths below lmin (each half the next)
 ICI_PROBES = 3
 #: default number of steps from lmin to lmax (geometric)

@@ -100,6 +100,16 @@ class FitSettings:
 
 #: False events per hour of stationary data the command line's thresholds are calibrated for.
 HOURLY_FALSE_ALARMS = 0.1
+#: ``sides=`` of :func:`adavar.ici.ici_schedule`
+ICI_SIDES = ("both", "centred")
+#: ``edf=`` of :func:`adavar.ici.ici_schedule`
+ICI_EDF = ("correlation", "engine")
+#: default threshold of the ICI window (benchmarks/bench_ici.py, docs/benchmarks.md): with
+#: the default candidates no stationary centre of scenario 1 (40 seeds) nor of the 200 Hz
+#: records got a shortened window (below 0.02 % on white and band-limited noise at
+#: gamma = 2), about 2 % a one-sided window of full length; the spread of N equals
+#: DAVAR-Lmax's (gamma = 2.5: 1.025 x, tracking 3.1 % instead of 3.3 %)
+ICI_GAMMA = 3.0
 #: Default budget of ``--max-memory`` (MB): the surface and what is computed from it.
 DEFAULT_MAX_MEMORY_MB = 200
 #: More taus than this from ``taus="all"`` and the default becomes ``"log"`` (10 a decade).

@@ -14,6 +14,9 @@ Commands
     each change next to the paper's Table 1, ARW interval means, ground-truth confidence
     and tracking metrics (simulated scenarios), the kurtosis threshold crossings (Fig. 8);
     ``--out`` writes the tables (CSV, JSON) and the paper's figures.
+``adavar monitor SOURCE --rate HZ --units UNIT [...]``
+    The adaptive window on a live stream (standard input, a file being appended to, or a
+    UDP port): one JSON line per event as it is confirmed, a status line on a terminal.
 ``adavar demo [--out DIR] [--json] [--seed N]``
     The NIST SP 1065 check values, a simulated MEMS gyroscope and the paper's scenario 1.
 

@@ -31,7 +31,7 @@ from adavar.cli.options import (
 from adavar.cli.output import Status, channel_folders, guard_replacement, output_error, text_table
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
-from adavar.settings import HOURLY_FALSE_ALARMS
+from adavar.settings import HOURLY_FALSE_ALARMS, ICI_EDF, ICI_GAMMA, ICI_SIDES
 from adavar.windows import MIN_WINDOW
 from adavar.writers import (
     SURFACE_FORMATS,
@@ -701,8 +701,6 @@ def _whole_list(text: str) -> list[int]:
 
 def add_ici_arguments(cmd: argparse.ArgumentParser) -> None:
     """The options of ``--method ici`` (:func:`adavar.ici.ici_schedule`)."""
-    from adavar.ici import ICI_EDF, ICI_GAMMA, ICI_SIDES
-
     group = cmd.add_argument_group("ICI window (--method ici)")
     group.add_argument(
         "--ici-gamma", type=positive_float("standard deviations"), default=ICI_GAMMA,

@@ -17,6 +17,7 @@ from adavar.cli.config import with_config
 from adavar.cli.davar import add_adaptive_parser, add_davar_parser
 from adavar.cli.demo import add_demo_parser
 from adavar.cli.kalibr import add_kalibr_parser
+from adavar.cli.monitor import add_monitor_parser
 from adavar.cli.options import (
     EXIT_INTERNAL,
     EXIT_INTERRUPTED,
@@ -45,7 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Allan-family statistics with confidence intervals and IEEE Std 952 "
         "noise-coefficient fits (avar), the dynamic Allan variance of a sliding window with "
         "the noise coefficients over time (davar), fixed and adaptive windows side by side "
-        "(compare), and a demonstration (demo).",
+        "(compare), the adaptive window on a live stream (monitor), and a demonstration (demo).",
     )
     parser.add_argument("--version", action="version", version=f"adavar {__version__}")
     parser.add_argument(
@@ -60,6 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     report_parser = add_report_parser(sub)
     add_batch_parser(sub, report_parser)
     add_kalibr_parser(sub)
+    add_monitor_parser(sub)
     add_simulate_parser(sub)
     add_demo_parser(sub)
     for cmd in sub.choices.values():  # read by with_config before parsing; listed for --help
@@ -95,7 +97,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "choose a command: avar (deviation of a data file), davar (dynamic Allan "
                 "variance of a data file), adaptive (A-DAVAR), compare (fixed and adaptive "
                 "windows side by side), report (HTML report), batch (many files, on a "
-                "cluster), kalibr (imu.yaml), simulate or demo (see 'adavar --help')"
+                "cluster), kalibr (imu.yaml), monitor (a live stream), simulate or demo (see "
+                "'adavar --help')"
             )
         return int(args.handler(args))
     except SystemExit as exc:  # --help, --version

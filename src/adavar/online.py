@@ -1,0 +1,760 @@
+"""The adaptive window live: A-DAVAR sample by sample, equal to the offline pass.
+
+:class:`OnlineAdaptive` takes a record in pushes of any size (one sample to millions) and
+gives, as the samples arrive, the window schedule of :func:`adavar.adaptive_davar`, the
+noise coefficients ``N(t)`` of the emitted windows and the non-stationary stretches of
+:func:`adavar.events.find_events`, each as soon as it is determined.
+
+How it stays equal to the offline pass
+--------------------------------------
+The controller (:mod:`adavar.controller`) restarts its running sums at every multiple of
+:data:`adavar.controller.REANCHOR` centres, so a run of centres that starts at such a
+centre from the length in force there repeats the sequential pass bit for bit (the
+out-of-core path of :func:`adavar.adaptive_schedule` rests on the same property). Each push
+runs the controller from the last multiple of REANCHOR reached, over every centre whose
+longest window (``Lmax``) now lies inside the samples received, and carries the length in
+force at the last multiple of REANCHOR to the next push, which runs again the at most
+``REANCHOR - 1`` centres after it (a few microseconds). The left mirror (docs/method.md
+section 6) is known from the first ``Lmax / 2 + 1`` samples; the right one only at
+:meth:`OnlineAdaptive.finish`, which runs the last ``Lmax / 2`` centres. The record is
+used at the scale ``2**-k`` of its first non-zero push (``k = 0`` for data within about
+5e-20 .. 2e19): scaling by a power of two is exact, so every sum, moment and decision is
+the offline one times a power of two and the windows are identical, whatever ``k`` the
+offline pass chose from the whole record (short of fourth powers leaving the float64
+range, which the offline scale avoids).
+
+Latency
+-------
+The row of centre ``c`` is emitted when sample ``c + Lmax // 2`` arrives (:attr:`latency`).
+Hourly calibrated thresholds (``thresholds="calibrated"`` with ``false_alarm_per_hour``)
+need the record's short-range correlation, which the offline pass measures on its first
+:data:`adavar.thresholds.DEPENDENCE_SAMPLES` samples: the online pass waits for as many
+(or for :meth:`~OnlineAdaptive.finish`) before its first row, unless ``dependence`` is
+given. An event is emitted as soon as the change out of its stretch is detected: a change
+time is estimated at the leading edge (``centre + Lmax // 2``) of the last full window
+before the window shrinks, so with the row latency of ``Lmax // 2`` the event comes with
+the sample after its ``end_s`` (up to ``step`` samples later). Its ``before`` and
+``during`` summaries are final then; its ``after`` summary is final when the next change
+is detected or at :meth:`~OnlineAdaptive.finish` (:attr:`OnlineAdaptive.final_count`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from adavar._jit import get_num_threads
+from adavar.adaptive import record_windows, window_lengths
+from adavar.controller import REANCHOR, Controller, make_controller
+from adavar.davar import edf_table
+from adavar.differences import window_avar
+from adavar.durations import Length
+from adavar.edf import STAT_ALPHA_RANGE
+from adavar.errors import AdavarInputError
+from adavar.events import Event, stretch_summary
+from adavar.noise_model import fit_avar
+from adavar.settings import CONTROLLER
+from adavar.statistics import data_exponent, resolve_tau0, tau_factors, unscale
+from adavar.terms import TERM_NAMES
+from adavar.thresholds import DEPENDENCE_SAMPLES, hourly_thresholds, noise_dependence
+
+__all__ = ["ONLINE_METHODS", "OnlineAdaptive"]
+
+#: controllers that run live (the oracle needs the change times, a fixed window no pass)
+ONLINE_METHODS = ("adaptive", "kurtosis")
+
+
+def _check_noise_type(noise_type: Any, size: int) -> np.ndarray:
+    """alpha per tau from an integer or one integer per tau (no record to identify it)."""
+    if isinstance(noise_type, str):
+        raise AdavarInputError(
+            f"noise_type={noise_type!r}: a live stream has no whole record to identify the "
+            "noise type on; give an integer alpha (0: white rate noise, the default) or one "
+            "per tau"
+        )
+    alpha = np.atleast_1d(np.asarray(noise_type))
+    if not np.issubdtype(alpha.dtype, np.integer) or alpha.ndim != 1:
+        raise AdavarInputError("noise_type must be an integer alpha or one integer per tau")
+    if alpha.size == 1:
+        alpha = np.full(size, int(alpha[0]))
+    elif alpha.size != size:
+        raise AdavarInputError(
+            f"noise_type has {alpha.size} values but there are {size} taus: give one"
+        )
+    lo, hi = STAT_ALPHA_RANGE["oadev"]
+    if alpha.min() < lo or alpha.max() > hi:
+        raise AdavarInputError(f"noise_type alpha must lie in {lo} .. {hi} for the Allan variance")
+    return alpha.astype(np.int64)
+
+
+class _Rows:
+    """Append-only columns in growable arrays (amortised O(1) a row), trimmed in front."""
+
+    def __init__(self, names: Sequence[str], dtypes: Sequence[Any]) -> None:
+        self.capacity = 1024
+        self.data = {n: np.empty(1024, dtype=d) for n, d in zip(names, dtypes, strict=True)}
+        self.start = 0  # index in the arrays of the first row held
+        self.first = 0  # index (over all rows ever) of the first row held
+        self.size = 0  # rows held
+
+    def append(self, **columns: np.ndarray) -> None:
+        count = len(next(iter(columns.values())))
+        capacity = self.capacity
+        if self.start + self.size + count > capacity:  # move the rows down, or grow
+            if self.size + count > capacity // 2:
+                capacity = max(2 * capacity, 2 * (self.size + count))
+            for name, array in self.data.items():
+                moved = array if capacity == self.capacity else np.empty(capacity, array.dtype)
+                moved[: self.size] = array[self.start : self.start + self.size]
+                self.data[name] = moved
+            self.capacity = capacity
+            self.start = 0
+        end = self.start + self.size
+        for name, value in columns.items():
+            self.data[name][end : end + count] = value
+        self.size += count
+
+    def column(self, name: str) -> np.ndarray:
+        """The held rows of ``name`` (a view: valid until the next append)."""
+        return self.data[name][self.start : self.start + self.size]
+
+    def last(self, name: str) -> Any:
+        return self.data[name][self.start + self.size - 1]
+
+    def drop_before(self, index: int) -> None:
+        """Forget the rows before ``index`` (over all rows ever)."""
+        cut = min(self.size, max(0, index - self.first))
+        self.start += cut
+        self.first += cut
+        self.size -= cut
+
+
+class OnlineAdaptive:
+    """A-DAVAR on a live stream: the schedule, N(t) and events as the samples arrive.
+
+    The results equal those of the offline pass on the same record:
+    ``.window`` is ``adaptive_davar(x, rate=rate, ..., step=step).window`` bit for bit,
+    ``.coefficients`` (``.arw``) is ``fit_noise(that result, terms=terms)`` to rounding
+    (1e-12 relative) when the offline pass is given ``taus``, ``noise_type`` and
+    ``edge_edf`` alike, and ``.events`` after :meth:`finish` is
+    :func:`adavar.events.find_events` of those windows and coefficients with
+    ``duration = t0 + n / rate`` (what ``adavar adaptive`` reports). See the module
+    docstring for how and for the latencies.
+
+    Parameters
+    ----------
+    rate : float
+        Sample rate, Hz.
+    lmax, lmin, l : int, str, Duration or timedelta
+        Longest (start) and shortest window and the S test's leading segment: samples or
+        durations, as in :func:`adavar.adaptive_davar`. ``lmin`` and ``l`` not given: two
+        thirds and a sixth of ``lmax`` (:func:`adavar.adaptive.record_windows`; the paper's
+        400 and 100 of 600).
+    method : {"adaptive", "kurtosis"}
+        A-DAVAR or DAVAR-K.
+    k1, k2, s1, s2, dl0, dl1, s_test, combine, thresholds, false_alarm, false_alarm_per_hour
+        As in :func:`adavar.adaptive_davar` (the paper's values and thresholds by
+        default).
+    dependence : (float, float), optional
+        The record's ``(c2, c4)`` (:func:`adavar.thresholds.noise_dependence`) for hourly
+        thresholds, given instead of measured on the first
+        :data:`~adavar.thresholds.DEPENDENCE_SAMPLES` samples: no wait at the start, and
+        the windows equal the offline ones when it equals the offline measurement (see
+        ``.parameters["dependence"]`` of a previous run).
+    step : int, str, Duration or timedelta
+        Keep the rows of the centres that are multiples of ``step`` (as
+        ``adaptive_davar(..., step=step)``); the controller still visits every centre.
+    terms : sequence of str or None
+        The noise terms fitted to every kept row (default N only, ``"angle_random_walk"``);
+        None or empty: no DAVAR rows and no fit (events then carry no summaries).
+    taus : {"octave", "all", "decade", "log"} or sequence of float
+        Averaging times of the rows (default octave: with the default windows every EDF
+        of the offline surface is then exact, so N(t) matches it to rounding; see Notes).
+    noise_type : int or sequence of int
+        alpha of the EDF per tau (default 0, white rate noise); ``"record"`` needs a whole
+        record and is refused.
+    edge_edf : {"distinct", "interior"}
+        EDF of the windows that reach into the mirror, as :func:`adavar.davar`.
+    units : str, optional
+        Declared unit of the rate samples (carried to the fit).
+    t0 : float
+        Time of the first sample, s.
+    fit_options : dict, optional
+        More keywords of :func:`adavar.fit_avar` (``n_reweight``, ``spacing``,
+        ``tau_range``, ``bandwidth``, ``reference``).
+    fit_batch : int
+        Fit the rows in batches of at least this many (default 1: every push). A larger
+        batch amortises the per-call cost of the fit on small pushes; the coefficients
+        then trail the schedule by up to ``fit_batch`` rows (flushed whenever an event needs
+        them and at :meth:`finish`).
+    keep : {"all", "recent"}
+        ``"all"``: every row is kept (``N / step`` rows of window, centre, time and
+        coefficients, about 40 bytes each). ``"recent"``: only the rows the pending event
+        summaries need (those since the last change, at least the last ``lmax``), for an
+        endless stream; ``.first_row`` says which row ``.window[0]`` is. The exact
+        percentiles of the summaries need every row since the last change: 32 bytes a
+        row with N, so an unbroken stationary day at 200 Hz holds 550 MB at ``step=1``
+        and 28 MB at ``step=20``.
+
+    Attributes
+    ----------
+    window, centre, time : ndarray
+        Window length (int64), centre (samples, int64) and time (s) of each kept row so far.
+    coefficients : dict of str to ndarray
+        Each fitted term's value at the rows fitted so far (``.arw`` for N).
+    events : list of Event
+        The stretches confirmed so far (:class:`adavar.events.Event`), the first
+        ``final_count`` of them with every summary final.
+    latency : int
+        Samples between a centre and the emission of its row (``lmax // 2``).
+
+    Raises
+    ------
+    AdavarInputError
+        For a setting out of range (at construction), a non-finite or non-numeric sample
+        (at :meth:`push`), a push after :meth:`finish`, or a record shorter than ``lmax``
+        (at :meth:`finish`).
+
+    Notes
+    -----
+    Cost: the controller is O(1) per sample plus ``REANCHOR`` centres and a Python call per
+    push; the rows' variances O(M) per kept row; the fit a few microseconds per kept row
+    (``docs/benchmarks.md``, "Online adaptive pass"). Memory: with ``keep="recent"`` the
+    last push, the samples of one ``REANCHOR`` block and a window (before hourly
+    thresholds are set, the first ``DEPENDENCE_SAMPLES``), the rows since the last change,
+    and the events. N(t) equals the offline one to rounding when the offline EDF table is
+    exact (at most 4096 (length, tau) pairs or 32 lengths per tau: octave taus, or every
+    tau on short windows); beyond that the offline surface interpolates the EDF between
+    lengths, and N differs by up to about 1e-6 relative (``taus="all"`` with the default
+    windows: 7.9e-7 at worst, 2e-16 in the median on the 200 Hz sensor simulator).
+
+    Examples
+    --------
+    >>> import numpy as np, adavar
+    >>> live = adavar.OnlineAdaptive(rate=100.0, lmax=600)
+    >>> x = np.random.default_rng(0).standard_normal(20_000)
+    >>> for piece in np.array_split(x, 7):
+    ...     new_events = live.push(piece)
+    >>> last_events = live.finish()
+    >>> bool(np.array_equal(live.window, adavar.adaptive_davar(x, rate=100.0).window))
+    True
+    """
+
+    def __init__(
+        self,
+        *,
+        rate: float,
+        lmax: Length = CONTROLLER.lmax,
+        lmin: Length | None = None,
+        l: Length | None = None,  # noqa: E741 - the paper's name
+        method: str = "adaptive",
+        k1: float = CONTROLLER.k1,
+        k2: float = CONTROLLER.k2,
+        s1: float = CONTROLLER.s1,
+        s2: float = CONTROLLER.s2,
+        dl0: int = CONTROLLER.dl0,
+        dl1: int = CONTROLLER.dl1,
+        s_test: str = CONTROLLER.s_test,
+        combine: str = CONTROLLER.combine,
+        thresholds: str = CONTROLLER.thresholds,
+        false_alarm: float = CONTROLLER.false_alarm,
+        false_alarm_per_hour: float | None = None,
+        dependence: tuple[float, float] | None = None,
+        step: Length = 1,
+        terms: Sequence[str] | None = ("angle_random_walk",),
+        taus: str | Sequence[float] = "octave",
+        noise_type: int | Sequence[int] = 0,
+        edge_edf: str = "distinct",
+        units: str | None = None,
+        t0: float = 0.0,
+        fit_options: dict[str, Any] | None = None,
+        fit_batch: int = 1,
+        keep: str = "all",
+    ) -> None:
+        if method not in ONLINE_METHODS:
+            raise AdavarInputError(
+                f"method {method!r} does not run live: use 'adaptive' or 'kurtosis'"
+            )
+        if keep not in ("all", "recent"):
+            raise AdavarInputError(f"unknown keep {keep!r}: use 'all' or 'recent'")
+        if edge_edf not in ("distinct", "interior"):
+            raise AdavarInputError(f"unknown edge_edf {edge_edf!r}: use 'distinct' or 'interior'")
+        dt = resolve_tau0(rate, None)
+        big = window_lengths(dt, lmax=lmax, lmin=5, l=1, step=1)[0]
+        _, small, seg = record_windows(0, big)
+        lmax, lmin, seg, step = window_lengths(
+            dt, lmax=big, lmin=small if lmin is None else lmin, l=seg if l is None else l,
+            step=step,
+        )  # fmt: skip
+        if (
+            isinstance(fit_batch, bool)
+            or not isinstance(fit_batch, (int, np.integer))
+            or (fit_batch < 1)
+        ):
+            raise AdavarInputError(f"fit_batch must be an integer >= 1, got {fit_batch!r}")
+        try:
+            self.t0 = float(t0)
+        except (TypeError, ValueError):
+            raise AdavarInputError(f"t0 must be a number of seconds, got {t0!r}") from None
+        self.rate = float(rate)
+        self.tau0 = dt
+        self.lmax, self.lmin, self.segment, self.step = lmax, lmin, seg, step
+        self.method = method
+        self.keep = keep
+        self.units = units
+        self.fit_batch = int(fit_batch)
+        self.latency = lmax // 2
+        self._pad = lmax // 2 + 1  # mirror samples each side, as the offline pass
+        self._settings = dict(
+            method=method, lmax=lmax, lmin=lmin, seg=seg, dl0=dl0, dl1=dl1, k1=k1, k2=k2,
+            s1=s1, s2=s2, s_test=s_test, combine=combine, thresholds=thresholds,
+            false_alarm=false_alarm, false_alarm_per_hour=false_alarm_per_hour, rate=1.0 / dt,
+        )  # fmt: skip
+        self._hourly = thresholds == "calibrated" and false_alarm_per_hour is not None
+        quick = self._settings | {"thresholds": "paper"} if self._hourly else self._settings
+        self._ctl: Controller | None = None
+        checked = make_controller(**quick)
+        if self._hourly and dependence is not None:
+            dep = tuple(float(c) for c in dependence)
+            if len(dep) != 2 or not all(math.isfinite(c) and c >= 1.0 for c in dep):
+                raise AdavarInputError(
+                    f"dependence must be (c2, c4), two numbers >= 1, got {dependence!r}"
+                )
+            th = hourly_thresholds(
+                lmin, lmax, seg, rate=1.0 / dt, per_hour=float(false_alarm_per_hour),
+                dependence=dep, s_test=s_test,
+            )  # fmt: skip
+            self._ctl = dataclasses.replace(checked, thresholds=th, dependence=dep)
+        elif not self._hourly:
+            self._ctl = checked
+        # the rows' variances and their fit
+        self.terms = tuple(terms) if terms else ()
+        if self.terms:
+            unknown = [t for t in self.terms if t not in TERM_NAMES]
+            if unknown:
+                raise AdavarInputError(
+                    f"unknown term {unknown[0]!r}: use some of {', '.join(TERM_NAMES)}"
+                )
+            self._ms, _ = tau_factors(taus, lmax // 3, dt, 10)
+            self._ms = np.ascontiguousarray(self._ms, dtype=np.int64)
+            self._alpha = _check_noise_type(noise_type, self._ms.size)
+            self.tau = self._ms * dt
+        self._edge_edf = edge_edf
+        self._fit_options = dict(fit_options or {})
+        self._edf_rows: dict[tuple[int, int], np.ndarray] = {}
+        # the samples: scaled by 2**-k, record indices [x0, x0 + x.size)
+        self._k: int | None = None
+        self._x = np.empty(max(4 * lmax, 1 << 16))
+        self._x0 = 0
+        self._xn = 0  # samples held
+        self._n = 0  # samples received
+        self._q = 0  # first centre not yet settled (a multiple of REANCHOR)
+        self._length = lmax  # the length in force at centre _q
+        self._emitted = 0  # centres whose row has been emitted
+        self._finished = False
+        # the kept rows and their coefficients
+        self._rows = _Rows(("window", "centre", "time"), (np.int64, np.int64, float))
+        self._coef = _Rows(self.terms, (float,) * len(self.terms))
+        self._fitted = 0  # rows (over all ever) with coefficients
+        self._pending: list[tuple[np.ndarray, np.ndarray]] = []  # rows to fit
+        self._trimmed_at = 0  # rows held after the last trim (keep="recent")
+        # events: the kept change times, the state at the last kept row, the stretches
+        self._changes: list[float] = []
+        self._last_short = False
+        self._last_centre: int | None = None
+        self._opening: dict[str, Any] = {}  # the "before" of the open stretch
+        self.events: list[Event] = []
+        self.final_count = 0
+
+    # ------------------------------------------------------------------ results so far
+
+    @property
+    def window(self) -> np.ndarray:
+        """Window length of every kept row so far (int64)."""
+        return self._rows.column("window").copy()
+
+    @property
+    def centre(self) -> np.ndarray:
+        """Centre (sample index) of every kept row so far."""
+        return self._rows.column("centre").copy()
+
+    @property
+    def time(self) -> np.ndarray:
+        """Time (s) of every kept row so far: ``t0 + centre / rate``."""
+        return self._rows.column("time").copy()
+
+    @property
+    def first_row(self) -> int:
+        """Index, over all rows emitted, of ``window[0]`` (0 unless ``keep="recent"``)."""
+        return self._rows.first
+
+    @property
+    def coefficients(self) -> dict[str, np.ndarray]:
+        """Each fitted term's value at the rows fitted so far (from ``first_row``)."""
+        return {name: self._coef.column(name).copy() for name in self.terms}
+
+    @property
+    def arw(self) -> np.ndarray:
+        """N(t): the angle (velocity) random walk at the rows fitted so far."""
+        if "angle_random_walk" not in self.terms:
+            raise AdavarInputError("N was not fitted: include 'angle_random_walk' in terms")
+        return self._coef.column("angle_random_walk").copy()
+
+    @property
+    def latest(self) -> dict[str, Any]:
+        """The last emitted row (cheap, for a status line): ``time``, ``window`` and each
+        fitted term's value at the last fitted row; empty before the first row."""
+        if self._rows.size == 0:
+            return {}
+        out: dict[str, Any] = {
+            "time": float(self._rows.last("time")),
+            "window": int(self._rows.last("window")),
+        }
+        if self._coef.size:
+            out.update({name: float(self._coef.last(name)) for name in self.terms})
+        return out
+
+    @property
+    def waiting(self) -> int:
+        """Samples still needed before the first row can be computed: the head the hourly
+        thresholds are measured on (0 once they are set), or the first half window."""
+        if self._ctl is None:
+            return max(0, DEPENDENCE_SAMPLES - self._n)
+        return max(0, self.lmax // 2 + 1 - self._n)
+
+    @property
+    def samples(self) -> int:
+        """Samples received."""
+        return self._n
+
+    @property
+    def parameters(self) -> dict[str, Any]:
+        """The controller's settings (``dependence`` once measured)."""
+        out = {k: v for k, v in self._settings.items() if k != "seg"}
+        out.update(l=self.segment, step=self.step, sample_rate=self.rate)
+        ctl = self._ctl
+        out["dependence"] = None if ctl is None or ctl.dependence is None else list(ctl.dependence)
+        return out
+
+    # ------------------------------------------------------------------ feeding
+
+    def push(self, samples: Any) -> list[Event]:
+        """Add samples and run the pass over every centre they complete.
+
+        Parameters
+        ----------
+        samples : array_like
+            The next samples of the record (1-D, any length; ints and float32 are promoted).
+
+        Returns
+        -------
+        list of Event
+            The stretches confirmed by these samples (also appended to :attr:`events`).
+
+        Raises
+        ------
+        AdavarInputError
+            A non-numeric, non-finite or multi-channel input, or a push after :meth:`finish`.
+        """
+        if self._finished:
+            raise AdavarInputError("this pass is finished: start a new OnlineAdaptive")
+        x = self._check(samples)
+        if x.size == 0:
+            return []
+        if self._k is None and np.any(x):
+            self._k = data_exponent(x)  # any power of two is exact; this keeps sums in range
+        if self._k:
+            x = np.ldexp(x, -self._k)
+        self._append(x)
+        return self._advance(final=False)
+
+    def finish(self) -> list[Event]:
+        """End the record: the right mirror, the last ``lmax // 2`` rows, the final events.
+
+        Returns
+        -------
+        list of Event
+            The stretches confirmed at the end (the last one may have ``end_s`` None);
+            every summary of :attr:`events` is then final.
+
+        Raises
+        ------
+        AdavarInputError
+            If fewer than ``lmax`` samples were pushed.
+        """
+        if self._finished:
+            return []
+        if self._n < self.lmax:
+            raise AdavarInputError(
+                f"the record has {self._n} samples; at least {self.lmax} are needed"
+            )
+        self._finished = True
+        new = self._advance(final=True)
+        self._flush_fit()
+        new += self._close_events()
+        return new
+
+    # ------------------------------------------------------------------ internals
+
+    @staticmethod
+    def _check(samples: Any) -> np.ndarray:
+        if type(samples) is np.ndarray and samples.dtype == np.float64 and samples.ndim == 1:
+            if np.isfinite(samples).all():  # the common case, checked cheaply
+                return samples
+        try:
+            x = np.asarray(samples)
+        except Exception as exc:  # pragma: no cover - exotic containers
+            raise AdavarInputError(f"cannot read the samples as an array: {exc}") from None
+        if x.dtype == object or not (np.issubdtype(x.dtype, np.number) or x.dtype == bool):
+            raise AdavarInputError("samples must be numeric: push a 1-D array of numbers")
+        if np.iscomplexobj(x):
+            raise AdavarInputError("samples must be real-valued, not complex")
+        if x.ndim == 0:
+            x = x.reshape(1)
+        elif x.ndim != 1:
+            raise AdavarInputError(
+                f"samples must be one channel (1-D); got shape {x.shape}: push one column"
+            )
+        x = np.asarray(x, dtype=np.float64)
+        finite = np.isfinite(x)
+        if not finite.all():
+            first = int(np.argmin(finite))
+            raise AdavarInputError(
+                f"sample {first} of this push is {float(x[first])!r}: the pass needs finite "
+                "samples; drop or interpolate missing ones before pushing"
+            )
+        return x
+
+    def _append(self, x: np.ndarray) -> None:
+        # drop what no window will read again (the head is kept until the thresholds exist)
+        if self._ctl is not None:
+            oldest = min(self._q, self._emitted)
+            if self._pending:  # rows waiting for their fit read their windows again
+                oldest = min(oldest, int(self._pending[0][0][0]))
+            keep_from = max(0, oldest - self._pad - 1)
+            if keep_from - self._x0 > self._x.size // 2:
+                cut = keep_from - self._x0
+                self._x[: self._xn - cut] = self._x[cut : self._xn]
+                self._x0 += cut
+                self._xn -= cut
+        need = self._xn + x.size
+        if need > self._x.size:
+            grown = np.empty(max(need, 2 * self._x.size))
+            grown[: self._xn] = self._x[: self._xn]
+            self._x = grown
+        self._x[self._xn : need] = x
+        self._xn = need
+        self._n += x.size
+
+    def _extended(self, r0: int, r1: int, final: bool) -> np.ndarray:
+        """Record samples ``r0 .. r1 - 1`` with the mirror (time reversal) beyond the ends."""
+        n = self._n
+        if r0 >= 0 and r1 <= n:  # inside the record: a view
+            return self._x[r0 - self._x0 : r1 - self._x0]
+        if r1 > n and not final:  # pragma: no cover - internal consistency
+            raise AssertionError("internal: a window beyond the samples received")
+        idx = np.arange(r0, r1)
+        idx = np.where(idx < 0, -1 - idx, idx)
+        idx = np.where(idx >= n, 2 * n - 1 - idx, idx)
+        return self._x[idx - self._x0]
+
+    def _make_controller(self, final: bool) -> bool:
+        if self._ctl is not None:
+            return True
+        if self._n < DEPENDENCE_SAMPLES and not final:
+            return False
+        head = self._x[: min(self._xn, DEPENDENCE_SAMPLES)]  # held from sample 0 until now
+        dep = tuple(round(c, 3) for c in noise_dependence(head))
+        th = hourly_thresholds(
+            self.lmin, self.lmax, self.segment, rate=self.rate,
+            per_hour=float(self._settings["false_alarm_per_hour"]), dependence=dep,
+            s_test=str(self._settings["s_test"]),
+        )  # fmt: skip
+        quick = make_controller(**(self._settings | {"thresholds": "paper"}))
+        self._ctl = dataclasses.replace(quick, thresholds=th, dependence=dep)
+        return True
+
+    def _advance(self, *, final: bool) -> list[Event]:
+        if not self._make_controller(final):
+            return []
+        ctl = self._ctl
+        assert ctl is not None
+        n = self._n
+        avail = n if final else n - self.lmax // 2  # centres whose every window fits
+        q = self._q
+        if avail <= max(q, self._emitted):
+            return []
+        pad = self._pad
+        ext = self._extended(q - pad, avail + pad if final else avail + self.lmax // 2, final)
+        # one thread: no speculative segments (their warm-up is pure overhead there)
+        segments = 1 if get_num_threads() == 1 else None
+        out, end_length = ctl.run(ext, pad, avail - q, self._length, segments=segments)
+        window = out[0]
+        settled = q + (avail - q) // REANCHOR * REANCHOR
+        if final:
+            settled = avail
+        self._length = int(window[settled - q]) if settled < avail else end_length
+        self._q = settled
+        e0, self._emitted = self._emitted, avail
+        first = -(-e0 // self.step) * self.step
+        centres = np.arange(first, avail, self.step, dtype=np.int64)
+        if centres.size == 0:
+            return []
+        lengths = window[e0 - q :] if self.step == 1 else window[centres - q]
+        with np.errstate(over="ignore"):
+            times = self.t0 + centres / self.rate  # as davar: an integral rate rounds once
+        start_row = self._rows.first + self._rows.size
+        self._rows.append(window=lengths, centre=centres, time=times)
+        if self.terms:
+            self._pending.append((centres, lengths))
+            if final or start_row + centres.size - self._fitted >= self.fit_batch:
+                self._flush_fit()
+        return self._scan_changes(start_row, lengths, centres)
+
+    def _flush_fit(self) -> None:
+        """Variances and fit of the kept rows not yet fitted."""
+        if not self.terms:
+            return
+        if not self._pending:
+            return
+        total = self._rows.first + self._rows.size
+        if len(self._pending) == 1:
+            centres, lengths = self._pending[0]
+        else:
+            centres = np.concatenate([c for c, _ in self._pending])
+            lengths = np.concatenate([w for _, w in self._pending])
+        self._pending = []
+        final = self._finished
+        c0, c1 = int(centres[0]), int(centres[-1])
+        pad = self._pad
+        ext = self._extended(c0 - pad, c1 + pad + 1 if final else c1 + self.lmax // 2 + 1, final)
+        avar = window_avar(ext, self._ms, centres - c0, lengths, offset=pad)
+        avar = unscale(avar, 2 * (self._k or 0), "Allan variances", underflow=False)
+        edf = self._edf(centres, lengths)
+        fit = fit_avar(self.tau, avar, edf, terms=self.terms, units=self.units,
+                       **self._fit_options)  # fmt: skip
+        self._coef.append(**{name: fit.term(name).value for name in self.terms})
+        self._fitted = total
+
+    def _edf(self, centres: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+        """EDF of each row: exact per (length, overhang), as the offline surface's table."""
+        start = centres - (lengths - 1) // 2
+        over = np.maximum(0, -start)
+        if self._finished:
+            over = over + np.maximum(0, start + lengths - self._n)
+        if self._edge_edf == "interior":
+            over = np.zeros_like(over)
+        keys = lengths * (self.lmax + 1) + over
+        distinct, inverse = np.unique(keys, return_inverse=True)
+        rows = []
+        for key in distinct.tolist():
+            length, h = divmod(key, self.lmax + 1)
+            row = self._edf_rows.get((length, h))
+            if row is None:
+                row = edf_table(np.array([length]), self._ms, self._alpha,
+                                overhang=None if h == 0 else np.array([h]))[0]  # fmt: skip
+                self._edf_rows[(length, h)] = row
+            rows.append(row)
+        return np.stack(rows)[inverse.ravel()]
+
+    # ------------------------------------------------------------------ events
+
+    def _values(self, above: float, below: float) -> dict[str, dict[str, Any]]:
+        """The summaries over the held rows with ``above < time < below``."""
+        if not self.terms:
+            return {}
+        self._flush_fit()
+        time = self._rows.column("time")  # increasing: the rows are a contiguous range
+        lo = int(np.searchsorted(time, above, side="right"))
+        hi = max(lo, int(np.searchsorted(time, below, side="left")))
+        return {name: stretch_summary(self._coef.column(name)[lo:hi]) for name in self.terms}
+
+    def _scan_changes(self, start_row: int, lengths: np.ndarray, centres: np.ndarray) -> list:
+        """The changes the new rows reveal (:func:`adavar.events.change_times`)."""
+        if not self._last_short and int(lengths.min()) >= self.lmax:  # nothing shrank
+            self._last_centre = int(centres[-1])
+            if self.keep == "recent" and self._rows.size > 2 * self._trimmed_at + self.lmax:
+                self._trim()
+            return []
+        short = lengths < self.lmax
+        before = np.concatenate(([self._last_short], short[:-1]))
+        starts = np.flatnonzero(short & ~before)
+        new: list[Event] = []
+        for a in starts.tolist():
+            if a > 0:
+                c = centres[a - 1]
+            elif self._last_centre is not None:
+                c = np.int64(self._last_centre)
+            else:
+                c = centres[a]
+            when = float(self.t0 + (c + self.lmax // 2) * self.tau0)
+            # a window that regrows a step and shrinks again saw the same change
+            if self._changes and not when - self._changes[-1] > 0.25 * self.lmax * self.tau0:
+                continue
+            new += self._on_change(when)
+        self._last_short = bool(short[-1])
+        self._last_centre = int(centres[-1])
+        if self.keep == "recent" and (new or self._rows.size > 2 * self._trimmed_at + self.lmax):
+            self._trim()  # amortised: the held rows are read when they have doubled
+        return new
+
+    def _on_change(self, when: float) -> list[Event]:
+        margin = 0.5 * self.lmax * self.tau0
+        changes = self._changes
+        changes.append(when)
+        k = len(changes) - 1
+        previous = changes[k - 1] if k > 0 else -np.inf
+        between = self._values(previous + margin, when - margin)
+        out: list[Event] = []
+        if k % 2 == 0:  # a stretch opens: its "before" is the previous one's "after"
+            if k >= 2:
+                self.events[-1] = dataclasses.replace(self.events[-1], after=between)
+                self.final_count = len(self.events)
+            self._opening = between
+        else:  # it closes: confirmed, its "after" is final at the next change or the end
+            start = changes[k - 1]
+            during = self._values(start + margin, when - margin)
+            empty = self._values(np.inf, -np.inf)
+            event = Event(start_s=start, end_s=when, before=self._opening, during=during,
+                          after=empty)  # fmt: skip
+            self.events.append(event)
+            out.append(event)
+        return out
+
+    def _close_events(self) -> list[Event]:
+        """At the end: the last stretch's "after", or an open stretch to the record's end."""
+        margin = 0.5 * self.lmax * self.tau0
+        changes = self._changes
+        out: list[Event] = []
+        if len(changes) % 2 == 1:
+            start = changes[-1]
+            stop = self.t0 + self._n / self.rate
+            during = self._values(start + margin, stop - margin)
+            empty = self._values(np.inf, -np.inf)
+            event = Event(start_s=start, end_s=None, before=self._opening, during=during,
+                          after=empty)  # fmt: skip
+            self.events.append(event)
+            out.append(event)
+        elif changes:
+            end = changes[-1]
+            after = self._values(end + margin, np.inf)
+            self.events[-1] = dataclasses.replace(self.events[-1], after=after)
+        self.final_count = len(self.events)
+        return out
+
+    def _trim(self) -> None:
+        """keep="recent": rows before the last change (and older than lmax rows) go."""
+        last = self._changes[-1] if self._changes else -np.inf
+        since = int(np.searchsorted(self._rows.column("time"), last, side="right"))
+        recent = max(0, self._rows.size - max(1, self.lmax // self.step))
+        self._drop_rows(self._rows.first + min(since, recent))
+        self._trimmed_at = self._rows.size
+
+    def _drop_rows(self, index: int) -> None:
+        index = min(index, self._fitted)  # rows not yet fitted stay
+        self._rows.drop_before(index)
+        self._coef.drop_before(index)

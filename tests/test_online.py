@@ -1,0 +1,211 @@
+"""adavar.OnlineAdaptive: the live pass equals the offline one (windows, N(t), events)."""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import adavar
+from adavar.errors import AdavarInputError
+from adavar.events import find_events
+from adavar.online import OnlineAdaptive
+from adavar.simulate import sensor
+
+RATE = 200.0
+N_TERM = "angle_random_walk"
+
+
+@functools.cache
+def record(n: int = 24_000, seed: int = 1) -> np.ndarray:
+    """A realistic 200 Hz gyro log (filtered, quantised) with a x3 noise burst."""
+    x = sensor(n, rate=RATE, bandwidth=40, lsb=1 / 131, angle_random_walk=0.01,
+               bias_instability=0.002, rate_random_walk=1e-4, seed=seed)  # fmt: skip
+    x[n // 3 : n // 3 + 3000] *= 3.0
+    x.flags.writeable = False
+    return x
+
+
+def pushed(x: np.ndarray, sizes, **options) -> OnlineAdaptive:
+    """``x`` pushed in pieces of the given sizes (cycled), then finished."""
+    live = OnlineAdaptive(rate=RATE, **options)
+    i = k = 0
+    while i < x.size:
+        size = int(sizes[k % len(sizes)])
+        live.push(x[i : i + size])
+        i += size
+        k += 1
+    live.finish()
+    return live
+
+
+def offline(x: np.ndarray, step: int = 1, **controller):
+    """The offline result, its N(t) and events as ``adavar adaptive`` reports them."""
+    result = adavar.adaptive_davar(x, rate=RATE, taus="octave", noise_type=0, step=step,
+                                   **controller)  # fmt: skip
+    arw = adavar.fit_noise(result, terms=(N_TERM,)).angle_random_walk.value
+    lmax = int(result.parameters["lmax"])
+    events = find_events(result.window, result.centre, result.time, lmax, 1 / RATE,
+                         {N_TERM: arw}, duration=x.size / RATE)  # fmt: skip
+    return result, arw, events
+
+
+def assert_same(live: OnlineAdaptive, x: np.ndarray, step: int = 1, **controller) -> None:
+    result, arw, events = offline(x, step=step, **controller)
+    assert live.window.dtype == np.int64
+    assert np.array_equal(live.window, result.window)
+    assert np.array_equal(live.centre, result.centre)
+    assert np.array_equal(live.time, result.time)
+    np.testing.assert_allclose(live.arw, arw, rtol=1e-12, atol=0)
+    assert [e.as_dict() for e in live.events] == [e.as_dict() for e in events]
+    assert live.final_count == len(live.events)
+
+
+SETTINGS = [
+    pytest.param(dict(method="adaptive"), id="adaptive-paper"),
+    pytest.param(dict(method="kurtosis"), id="kurtosis-paper"),
+    pytest.param(dict(method="adaptive", thresholds="calibrated"), id="adaptive-calibrated"),
+    pytest.param(
+        dict(method="kurtosis", thresholds="calibrated", false_alarm_per_hour=0.1),
+        id="kurtosis-hourly",
+    ),
+    pytest.param(dict(thresholds="calibrated", false_alarm_per_hour=0.1), id="adaptive-hourly"),
+]
+
+
+@pytest.mark.parametrize("controller", SETTINGS)
+def test_equals_offline(controller):
+    x = record()
+    live = pushed(x, [1, 7, 333, 4096, 513, 20_000], **controller)
+    assert_same(live, x, **controller)
+    assert live.events  # the burst is seen
+
+
+@settings(max_examples=3, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(sizes=st.lists(st.integers(40, 9000), min_size=1, max_size=6))
+def test_any_push_sizes(sizes):
+    x = record(12_000, seed=3)
+    controller = dict(lmax=240, lmin=160, l=40)
+    assert_same(pushed(x, sizes, **controller), x, **controller)
+
+
+def test_step_recent_and_input_types():
+    x = record()
+    step = 7
+    live = pushed(x, [2500], step=step, keep="recent")
+    result, _, events = offline(x, step=step)
+    assert [e.as_dict() for e in live.events] == [e.as_dict() for e in events]
+    held = live.window.size
+    assert held < result.window.size  # only the recent rows are held ...
+    assert np.array_equal(live.window, result.window[live.first_row :])  # ... unchanged
+    counts = np.round(np.asarray(x) * 131).astype(np.int16)  # the sensor's integer counts
+    for data in (counts, counts.astype(np.float32)):
+        live = pushed(data, [999, 10_000], step=step)
+        assert np.array_equal(live.window, offline(data.astype(float), step=step)[0].window)
+
+
+def test_scale_and_given_dependence():
+    x = np.asarray(record(12_000, seed=5)) * 1e30  # scaled by the first push's power of two
+    controller = dict(lmax=240, lmin=160, l=40)
+    assert_same(pushed(x, [100, 5000], **controller), x, **controller)
+    hourly = dict(thresholds="calibrated", false_alarm_per_hour=0.1)
+    measured = pushed(x, [12_000], **hourly).parameters["dependence"]
+    live = OnlineAdaptive(rate=RATE, dependence=tuple(measured), **hourly)
+    live.push(x[:2000])
+    assert live.window.size == 2000 - live.latency  # no wait for the head
+    live.push(x[2000:])
+    live.finish()
+    assert np.array_equal(live.window, offline(x, **hourly)[0].window)
+
+
+def test_hourly_waits_for_the_head():
+    """Past DEPENDENCE_SAMPLES the thresholds are those of the record's head."""
+    from adavar.thresholds import DEPENDENCE_SAMPLES
+
+    n = DEPENDENCE_SAMPLES + 60_000
+    x = sensor(n, rate=RATE, bandwidth=40, lsb=1 / 131, angle_random_walk=0.01, seed=7)
+    x[DEPENDENCE_SAMPLES + 10_000 : DEPENDENCE_SAMPLES + 14_000] *= 3.0
+    controller = dict(thresholds="calibrated", false_alarm_per_hour=0.1, lmax=2000,
+                      lmin=1334, l=333)  # fmt: skip
+    live = OnlineAdaptive(rate=RATE, step=50, terms=None, **controller)
+    live.push(x[: DEPENDENCE_SAMPLES - 1])
+    assert live.window.size == 0 and live.waiting == 1  # waiting for the head
+    live.push(x[DEPENDENCE_SAMPLES - 1 :])
+    assert live.window.size > 0
+    live.finish()
+    sched = adavar.adaptive_schedule(x, rate=RATE, step=50, **controller)
+    assert np.array_equal(live.window, sched.window)
+    assert live.parameters["dependence"] == sched.parameters["dependence"]
+
+
+def test_latency_and_mirror():
+    x = record(12_000)
+    live = OnlineAdaptive(rate=RATE, lmax=240, lmin=160, l=40)
+    assert live.latency == 120
+    for i in range(0, 3000, 250):
+        live.push(x[i : i + 250])
+        assert live.window.size == i + 250 - live.latency  # every centre a latency back
+    live.push(x[3000:])
+    assert live.window.size == x.size - live.latency
+    assert live.finish() == [] or live.events
+    assert live.window.size == x.size  # the last centres with the right mirror
+    assert live.latest["window"] == live.window[-1]
+    assert live.push  # the object stays readable after finish
+    with pytest.raises(AdavarInputError, match="finished"):
+        live.push([1.0])
+
+
+@pytest.mark.parametrize(
+    ("samples", "fragment"),
+    [
+        ([1.0, float("nan")], "sample 1 of this push is nan"),
+        ([1.0, float("inf")], "interpolate missing ones"),
+        (["a", "b"], "numeric"),
+        (np.zeros((3, 2)), "one channel"),
+        ([1 + 2j], "real-valued"),
+    ],
+)
+def test_bad_samples(samples, fragment):
+    live = OnlineAdaptive(rate=RATE, lmax=60, lmin=40, l=10)
+    with pytest.raises(AdavarInputError, match=fragment) as info:
+        live.push(samples)
+    assert "\n" not in str(info.value)
+
+
+def test_bad_settings_and_short_record():
+    for options, fragment in [
+        (dict(method="oracle"), "does not run live"),
+        (dict(keep="some"), "keep"),
+        (dict(lmax=600, lmin=401), "even"),
+        (dict(noise_type="record"), "no whole record"),
+        (dict(terms=("nonsense",)), "unknown term"),
+        (dict(fit_batch=0), "fit_batch"),
+        (
+            dict(thresholds="calibrated", false_alarm_per_hour=0.1, dependence=(0.5, 1.0)),
+            "dependence",
+        ),
+    ]:
+        with pytest.raises(AdavarInputError, match=fragment):
+            OnlineAdaptive(rate=RATE, **options)
+    live = OnlineAdaptive(rate=RATE, lmax=60, lmin=40, l=10)
+    live.push(np.zeros(10))
+    live.push(5.0)  # a scalar is one sample
+    with pytest.raises(AdavarInputError, match="at least 60"):
+        live.finish()
+
+
+def test_fit_batch_and_no_terms():
+    x = record(12_000)
+    controller = dict(lmax=240, lmin=160, l=40)
+    batched = pushed(x, [50], fit_batch=500, **controller)
+    assert_same(batched, x, **controller)
+    bare = pushed(x, [3000], terms=None, **controller)
+    assert np.array_equal(bare.window, batched.window)
+    assert bare.coefficients == {}
+    assert [e.start_s for e in bare.events] == [e.start_s for e in batched.events]
+    assert all(e.before == {} for e in bare.events)
+    with pytest.raises(AdavarInputError, match="angle_random_walk"):
+        _ = bare.arw
