@@ -5,12 +5,15 @@
 * with N(t) (the N-only fit of every kept window, octave taus) at ``step`` 1 and 10;
 * against the offline pass on the same record in the same run (``adaptive_schedule``, and
   ``adaptive_davar`` + ``fit_noise``), as a ratio; every online result is checked equal to
-  the offline one.
+  the offline one;
+* ``method="ici"`` (schedule only, push sizes 100 .. 1e5, best of 2) against
+  ``adaptive_schedule(method="ici")`` with the same ``ici_edf_samples`` (``--ici-only``:
+  this part alone).
 
 The record: the realistic 200 Hz sensor (40 Hz filter, 1/131 LSB) with two x3 bursts,
 ``--n`` samples (default 2e6), Lmax = 600, the paper's thresholds.
 
-Run: ``python benchmarks/bench_online.py [--n 2000000]``.
+Run: ``python benchmarks/bench_online.py [--n 2000000] [--ici-only]``.
 """
 
 from __future__ import annotations
@@ -32,6 +35,9 @@ from adavar.simulate import sensor
 
 RATE = 200.0
 PUSHES = (1, 10, 100, 1000, 10_000, 100_000)
+ICI_PUSHES = (100, 1000, 10_000, 100_000)
+#: the ICI pass's EDF head, online and offline alike
+ICI = dict(method="ici", ici_edf_samples=1 << 16)
 
 
 def busy(stop) -> None:  # pragma: no cover - another process
@@ -70,13 +76,43 @@ def schedule_rows(x: np.ndarray, n: int) -> list[str]:
     return [f"| {p} | {t:.3g} | {r / 1e6:.3f} M/s |" for p, t, r in rows]
 
 
+def ici_part(x: np.ndarray, n: int) -> None:
+    """method="ici": samples per second of push, the offline pass, equality."""
+    OnlineAdaptive(rate=RATE, terms=None, **ICI).push(x[: 1 << 17])  # compile
+    adavar.adaptive_schedule(x[: 1 << 17], rate=RATE, **ICI)
+    start = time.perf_counter()
+    sched = adavar.adaptive_schedule(x, rate=RATE, **ICI)
+    t_sched = time.perf_counter() - start
+    print(f"\nICI: offline adaptive_schedule(method='ici'): {n / t_sched / 1e6:.3f} M samples/s")
+    print("\n| ICI push size | schedule only, one core | online / offline | equal |")
+    print("|---|---|---|---|")
+    for push in ICI_PUSHES:
+        best, same = 0.0, True
+        for _ in range(2):
+            rate, live = online(x, push, n, terms=None, keep="recent", **ICI)
+            live.finish()
+            best = max(best, rate)
+            same &= bool(np.array_equal(live.window, sched.window[live.first_row :]))
+        print(f"| {push} | {best / 1e6:.3f} M/s | {best * t_sched / n:.2f} | {same} |")
+    _, live = online(x, 10_000, n, terms=None, **ICI)
+    live.finish()
+    print(f"\nICI windows and shifts equal (push 1e4): "
+          f"{np.array_equal(live.window, sched.window) and np.array_equal(live.shift, sched.shift)}"
+          f"; latency {live.latency} samples")  # fmt: skip
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=2_000_000)
-    n = parser.parse_args().n
+    parser.add_argument("--ici-only", action="store_true", help="the method='ici' part only")
+    args = parser.parse_args()
+    n = args.n
     numba.set_num_threads(1)
     print(f"Machine: {describe()}; Numba threads: {numba.get_num_threads()}")
     x = the_record(n)
+    if args.ici_only:
+        ici_part(x, n)
+        return
     OnlineAdaptive(rate=RATE).push(x[:5000])  # compile
     adavar.adaptive_schedule(x[:5000], rate=RATE)
 
@@ -111,6 +147,8 @@ def main() -> None:
             )
             print(f"| step {step}, fit_batch {batch} | {push} | {rate / 1e6:.3f} M/s "
                   f"| {n / t_off / 1e6:.3f} M/s | {rate * t_off / n:.2f} | {same} |")  # fmt: skip
+
+    ici_part(x, n)
 
     stop = mp.Event()
     proc = mp.Process(target=busy, args=(stop,), daemon=True)

@@ -270,3 +270,30 @@ def test_same_events_as_adaptive(tmp_path, capsys):
     for obj in printed:
         del obj["event"], obj["units"], obj["final"]
     assert printed == offline and offline
+
+
+def test_ici_stdin_same_events_as_adaptive(tmp_path, capsys, monkeypatch):
+    """--method ici through standard input prints adaptive --method ici's events."""
+    import io
+
+    rng = np.random.default_rng(18)
+    x = rng.standard_normal(6000)
+    x[3000:4000] *= 3.0
+    path = tmp_path / "rec.txt"
+    np.savetxt(path, x)
+    flags = ["--rate", "1", "--units", "deg/s", "--lmax", "600", "--method", "ici",
+             "--ici-edf-samples", "2000"]  # fmt: skip
+    code, out, err = run(capsys, ["adaptive", str(path), *flags, "--taus", "octave",
+                                  "--noise-type", "0", "--terms", "N", "--json"])  # fmt: skip
+    assert code == 0, err
+    offline = json.loads(out)["events"]
+    monkeypatch.setattr(sys, "stdin", io.StringIO(path.read_text()))
+    code, out, err = run(capsys, ["monitor", "-", *flags, "--final"])  # "after" final
+    assert code == 0, err
+    printed = [json.loads(line) for line in out.splitlines()]
+    for obj in printed:
+        del obj["event"], obj["units"], obj["final"]
+    assert printed == offline and len(offline) == 1
+    monkeypatch.setattr(sys, "stdin", io.StringIO("1\n"))
+    assert_one_line_error(*run(capsys, ["monitor", "-", *flags, "--ici-edf", "engine"]),
+                          "ici_edf='correlation'")  # fmt: skip

@@ -336,7 +336,7 @@ def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
                                 "--chunk-size", "64", "--edge-edf", "interior",
                                 "--ici-gamma", "2", "--ici-lengths", "30,60,90,120",
                                 "--ici-taus", "1,2", "--ici-sides", "centred", "--ici-edf",
-                                "engine"])  # fmt: skip
+                                "engine", "--ici-edf-samples", "5000"])  # fmt: skip
     assert code == 1 and "Stop" in err
     expected = {
         "method": "oracle", "change_times": [50.0], **CONTROLLER, "taus": "decade",
@@ -344,6 +344,7 @@ def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
         "noise_type": 0, "data_type": "rate", "units": "deg/s", "chunk_size": 64,
         "edge_edf": "interior", "ici_gamma": 2.0, "ici_lengths": [30, 60, 90, 120],
         "ici_taus": [1, 2], "ici_sides": "centred", "ici_edf": "engine",
+        "ici_edf_samples": 5000,
     }  # fmt: skip
     check(seen, adavar.adaptive_davar, expected)
     seen.clear()

@@ -13,6 +13,7 @@ import adavar
 from adavar.errors import AdavarInputError
 from adavar.events import find_events
 from adavar.online import OnlineAdaptive
+from adavar.paper.scenarios import paper_scenario
 from adavar.simulate import sensor
 
 RATE = 200.0
@@ -209,3 +210,110 @@ def test_fit_batch_and_no_terms():
     assert all(e.before == {} for e in bare.events)
     with pytest.raises(AdavarInputError, match="angle_random_walk"):
         _ = bare.arw
+
+
+# ---------------------------------------------------------------------------------------
+# method="ici": the windows, sides, changes, N(t) and events of adaptive_davar(method="ici")
+
+ICI = dict(method="ici", lmax=1200, lmin=800, ici_edf_samples=8000)
+
+
+@functools.cache
+def ici_record(n: int = 30_000, seed: int = 4) -> np.ndarray:
+    """The realistic 200 Hz log with a x3 and a x1.5 stretch of noise."""
+    x = sensor(n, rate=RATE, bandwidth=40, lsb=1 / 131, angle_random_walk=0.005,
+               bias_instability=0.002, rate_random_walk=1e-4, seed=seed)  # fmt: skip
+    x[6000:11_000] *= 3.0
+    x[18_000:24_000] *= 1.5
+    x.flags.writeable = False
+    return x
+
+
+@functools.cache
+def ici_offline(x_key: str, step: int = 1, rate: float = RATE, **options):
+    """The offline ICI result, its N(t) and the events ``adavar adaptive`` reports."""
+    x = ici_record() if x_key == "sensor" else scenario_record()
+    result = adavar.adaptive_davar(x, rate=rate, taus="octave", noise_type=0, step=step,
+                                   **ICI | options)  # fmt: skip
+    arw = adavar.fit_noise(result, terms=(N_TERM,)).angle_random_walk.value
+    lmax = int(result.parameters["lmax"])
+    changes = [0.0 + c * (1 / rate) for c in result.parameters["ici_changes"]]  # as the CLI
+    events = find_events(result.window, result.centre, result.time, lmax, 1 / rate,
+                         {N_TERM: arw}, duration=x.size / rate, changes=changes)  # fmt: skip
+    return result, arw, events
+
+
+@functools.cache
+def scenario_record() -> np.ndarray:
+    x = np.asarray(paper_scenario(1, seed=5).data, dtype=float)
+    x.flags.writeable = False
+    return x
+
+
+def assert_same_ici(live: OnlineAdaptive, x_key: str, **options) -> None:
+    result, arw, events = ici_offline(x_key, **options)
+    rows = slice(live.first_row, None)
+    assert np.array_equal(live.window, result.window[rows])
+    assert np.array_equal(live.shift, result.shift[rows])  # the side of every centre
+    assert np.array_equal(live.centre, result.centre[rows])
+    assert live.ici_changes == result.parameters["ici_changes"]
+    np.testing.assert_allclose(live.arw, arw[rows], rtol=1e-12, atol=0)
+    assert [e.as_dict() for e in live.events] == [e.as_dict() for e in events]
+    assert live.final_count == len(live.events)
+
+
+def test_ici_equals_offline():
+    x = ici_record()
+    live = pushed(x, [1, 333, 4096, 20_000], **ICI)
+    assert_same_ici(live, "sensor")
+    assert len(live.events) == 2  # the x3 and the x1.5 stretch
+    assert np.any(live.shift != 0)  # one-sided windows next to the changes
+    # the paper's scenario 1 (1 Hz, x3 from 3000 to 4000 s), Lmax 600, Lmin 400
+    options = dict(lmax=600, lmin=400, ici_edf_samples=3000)
+    live = OnlineAdaptive(rate=1.0, **ICI | options)
+    for piece in np.array_split(scenario_record(), 13):
+        live.push(piece)
+    live.finish()
+    assert_same_ici(live, "scenario", rate=1.0, **options)
+    (event,) = live.events  # the x3 stretch, found within 10 s of each end
+    assert abs(event.start_s - 3000) <= 10 and abs(event.end_s - 4000) <= 10
+
+
+@settings(max_examples=2, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(sizes=st.lists(st.integers(1, 12_000), min_size=1, max_size=5))
+def test_ici_any_push_sizes(sizes):
+    assert_same_ici(pushed(ici_record(), [max(s, 200) for s in sizes], **ICI), "sensor")
+
+
+def test_ici_step_recent_latency_and_refusals():
+    x = ici_record()
+    live = pushed(x, [2500], step=7, keep="recent", **ICI)
+    assert_same_ici(live, "sensor", step=7)
+    assert live.first_row > 0  # only the recent rows are held
+    live = OnlineAdaptive(rate=RATE, **ICI)
+    assert live.latency == 600 + 1200 - 2  # an engine unit (lmax / 2 centres) and lmax
+    assert live.waiting == 8000  # the EDF's head
+    live.push(x[:7999])
+    assert live.window.size == 0
+    live.push(x[7999:12_000])
+    assert live.window.size >= 12_000 - live.latency - 1  # outside runs of tied sides
+    assert live.parameters["ici_edf_samples"] == 8000
+    with pytest.raises(AdavarInputError, match="ici_edf='correlation'"):
+        OnlineAdaptive(rate=RATE, method="ici", ici_edf="engine")
+    with pytest.raises(AdavarInputError, match="ici_edf_samples"):
+        OnlineAdaptive(rate=RATE, method="ici", ici_edf_samples=None)
+
+
+def test_ici_edf_samples_offline():
+    """ici_edf_samples: the EDF of the first K samples; the whole record when K covers it."""
+    from adavar.ici import ici_schedule
+
+    x = np.asarray(ici_record()[:9000])
+    whole = ici_schedule(x, lmax=1200, lmin=800)
+    assert whole.parameters["ici_edf_samples"] is None
+    assert np.array_equal(ici_schedule(x, lmax=1200, lmin=800, edf_samples=x.size).edf,
+                          whole.edf)  # fmt: skip
+    head = ici_schedule(x, lmax=1200, lmin=800, edf_samples=4000)
+    assert not np.array_equal(head.edf, whole.edf)
+    with pytest.raises(AdavarInputError, match="ici_edf_samples"):
+        ici_schedule(x, lmax=1200, lmin=800, edf_samples=1)

@@ -248,6 +248,7 @@ def adaptive_schedule(
     ici_taus: Sequence[int] = (1,),
     ici_sides: str = "both",
     ici_edf: str = "correlation",
+    ici_edf_samples: int | None = None,
 ) -> Schedule:
     """The window schedule of A-DAVAR, DAVAR-K, the oracle or a fixed window.
 
@@ -275,7 +276,7 @@ def adaptive_schedule(
         per-centre outputs (about 40 bytes per centre of the piece) plus the ``N / step``
         kept rows. ``method="ici"`` runs in memory only: a chunked input without
         ``chunk_size`` is read into memory, an explicit ``chunk_size`` is an error.
-    ici_gamma, ici_lengths, ici_taus, ici_sides, ici_edf
+    ici_gamma, ici_lengths, ici_taus, ici_sides, ici_edf, ici_edf_samples
         The options of ``method="ici"`` (:func:`adavar.ici.ici_schedule`), see
         :func:`adaptive_davar`.
 
@@ -301,7 +302,7 @@ def adaptive_schedule(
                 "record as an array (numpy.asarray), or use method='adaptive' out of core"
             )
         ici = dict(gamma=ici_gamma, lengths=ici_lengths, taus=ici_taus, sides=ici_sides,
-                   edf=ici_edf)  # fmt: skip
+                   edf=ici_edf, edf_samples=ici_edf_samples)  # fmt: skip
         return _ici(data, lmax=lmax, lmin=lmin, seg=seg, edges=edges, step=step, dt=dt,
                     options=ici)  # fmt: skip
     chunk = stream.DEFAULT_CHUNK
@@ -512,6 +513,7 @@ def adaptive_davar(
     ici_taus: Sequence[int] = (1,),
     ici_sides: str = "both",
     ici_edf: str = "correlation",
+    ici_edf_samples: int | None = None,
 ) -> AdaptiveResult:
     """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
 
@@ -593,6 +595,11 @@ def adaptive_davar(
     ici_edf : {"correlation", "engine"}
         ``method="ici"``: the estimates' EDF from the record's correlation (default) or the
         engine's Greenhall EDF.
+    ici_edf_samples : int, optional
+        ``method="ici"``, ``ici_edf="correlation"``: measure the correlation on the first
+        ``ici_edf_samples`` samples only (what :class:`adavar.OnlineAdaptive` knows when it
+        starts; its default is :data:`adavar.online_ici.ICI_EDF_SAMPLES`); default None:
+        the whole record.
 
     Returns
     -------
@@ -618,6 +625,7 @@ def adaptive_davar(
         thresholds=thresholds, false_alarm=false_alarm, rate=rate, tau0=tau0,
         false_alarm_per_hour=false_alarm_per_hour, ici_gamma=ici_gamma, ici_lengths=ici_lengths,
         ici_taus=ici_taus, ici_sides=ici_sides, ici_edf=ici_edf,
+        ici_edf_samples=ici_edf_samples,
     )  # fmt: skip
     surface_options = dict(
         rate=rate, data_type=dtype, taus=taus, edges=edges, confidence=confidence, tau0=tau0,

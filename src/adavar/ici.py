@@ -30,14 +30,18 @@ contrast, its largest value within ``lmax / 2``).
 EDF. ``edf="correlation"`` (default) takes the record's short-range correlation into
 account: for a Gaussian sequence of second differences with autocorrelation ``rho_k``, the
 mean of ``n`` of their squares has ``nu = n / sum_{|k| < n} (1 - |k|/n) rho_k**2`` degrees
-of freedom; ``rho`` is measured on the whole record (lags up to ``2m + 64``). On white rate
+of freedom; ``rho`` is measured on the whole record (lags up to ``2m + 64``; on its first
+``edf_samples`` with that option, what a live pass knows). On white rate
 noise at ``m = 1`` that is ``nu = 2n/3`` (267 for ``L = 400`` in simulation, where the
 Greenhall EDF of the engine gives 312); on a sensor's band-limited noise it is smaller
 still. ``edf="engine"`` uses :func:`adavar.davar.edf_table` with the record's noise type.
 
 Cost: one call of the DAVAR engine per (side, candidate length) and per centred half, O(N)
 each: O(N J) in all (7 candidates, 1.44e6 samples: 7.7 s on 2 cores, 3x the kurtosis
-controller), and O(N M) memory.
+controller), and O(N M) memory. The engine works in units of :func:`ici_block` centres
+aligned on centre 0, which makes every value independent of how much of the record is
+known: :class:`adavar.OnlineAdaptive` (``method="ici"``, :mod:`adavar.online_ici`)
+repeats the schedule bit for bit.
 """
 
 from __future__ import annotations
@@ -64,10 +68,22 @@ __all__ = [
     "ICI_PROBES",
     "ICI_SIDES",
     "ICI_STEPS",
+    "IciOptions",
     "IciSchedule",
+    "IciStats",
+    "change_reach",
+    "correlation_edf",
+    "ici_block",
     "ici_candidates",
+    "ici_centre_stats",
+    "ici_contrast",
+    "ici_edf",
+    "ici_options",
     "ici_schedule",
+    "ici_side_parts",
+    "settle_ties",
     "side_shift",
+    "side_windows",
 ]
 
 #: default number of probe lengths below lmin (each half the next)
@@ -284,13 +300,17 @@ def correlation_edf(x: np.ndarray, lengths: np.ndarray, ms: np.ndarray) -> np.nd
     return out
 
 
-def _intervals(v: np.ndarray, nu: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarray]:
-    """Log-domain chi-square interval of each variance ``v`` with ``nu`` degrees of freedom."""
+def interval_offsets(nu: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(log(chi2_{1-q}(nu) / nu), log(chi2_q(nu) / nu))``, ``q = Phi(-gamma)``: what the
+    interval of a log variance with ``nu`` degrees of freedom subtracts (once per EDF)."""
     q = float(ndtr(-gamma))
+    return np.log(chi2.isf(q, nu) / nu), np.log(chi2.ppf(q, nu) / nu)
+
+
+def _intervals(v: np.ndarray, offsets: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, ...]:
+    """Log-domain chi-square interval of each variance ``v`` (:func:`interval_offsets`)."""
     y = np.log(np.maximum(v, np.finfo(float).tiny))
-    lo = y - np.log(chi2.isf(q, nu) / nu)
-    hi = y - np.log(chi2.ppf(q, nu) / nu)
-    return lo, hi
+    return y - offsets[0], y - offsets[1]
 
 
 class _Chain:
@@ -324,6 +344,194 @@ class _Chain:
             self.sel_hi[self.alive] = hi[self.alive]
 
 
+def ici_block(lmax: int) -> int:
+    """Centres per unit of work of the DAVAR engine in the ICI pass (``window_avar``'s
+    ``chunk``): half of ``lmax``, within 64 .. 4096.
+
+    A window's variance is computed within its unit (a local reference and prefix sums
+    over the unit's span), so its value, to the last bit, depends on which centres share
+    the unit: units of a fixed size aligned on centre 0 make the estimate of every centre
+    independent of how much of the record is known, which is what lets
+    :class:`adavar.OnlineAdaptive` repeat the offline decisions. A unit is computed once
+    all of its windows are known: half of ``lmax`` keeps that wait below ``lmax / 2``
+    while the span (unit plus window) stays at most three times the unit's centres.
+    """
+    return int(min(4096, max(64, -(-int(lmax) // 2))))
+
+
+@dataclass(frozen=True)
+class IciOptions:
+    """The checked options of the ICI rule (:func:`ici_options`)."""
+
+    lmax: int
+    lmin: int
+    lengths: np.ndarray
+    ms: np.ndarray
+    gamma: float
+    sides: str
+    edf: str
+    edf_samples: int | None
+
+    @property
+    def halves(self) -> np.ndarray:
+        """The half of each candidate (the centred window's two halves)."""
+        return self.lengths // 2
+
+
+def ici_options(
+    *,
+    lmax: int,
+    lmin: int,
+    lengths: Sequence[int] | np.ndarray | None = None,
+    taus: Sequence[int] = (1,),
+    gamma: float = ICI_GAMMA,
+    sides: str = "both",
+    edf: str = "correlation",
+    edf_samples: int | None = None,
+) -> IciOptions:
+    """The options of :func:`ici_schedule` checked, candidates resolved.
+
+    Raises
+    ------
+    AdavarInputError
+        A bad option (the message names the keyword and what to give).
+    """
+    for name, value in (("lmax", lmax), ("lmin", lmin)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+            raise AdavarInputError(f"{name} must be a positive whole number, got {value!r}")
+    if lmin > lmax:
+        raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
+    if edf_samples is not None and (
+        isinstance(edf_samples, bool)
+        or not isinstance(edf_samples, (int, np.integer))
+        or edf_samples < 2
+    ):
+        raise AdavarInputError(
+            f"ici_edf_samples must be a whole number of samples >= 2 (or None: the whole "
+            f"record), got {edf_samples!r}"
+        )
+    cand, ms, g = _check_options(lmin, lmax, lengths, taus, gamma, sides, edf)
+    return IciOptions(
+        lmax=int(lmax), lmin=int(lmin), lengths=cand, ms=ms, gamma=g, sides=sides, edf=edf,
+        edf_samples=None if edf_samples is None else int(edf_samples),
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class IciStats:
+    """What the intersection rule found at each of a run of centres (pointwise).
+
+    Attributes
+    ----------
+    adapted : ndarray of int64, shape (3, T)
+        Adapted length of the left, centred and right windows (0: side not run).
+    lo, hi : dict of int to ndarray, shape (T, M)
+        Each side's interval of its adapted window.
+    last : dict of int to tuple
+        ``sides="both"``: the left and right ``lmax`` windows' ``(lo, hi)``.
+    """
+
+    adapted: np.ndarray
+    lo: dict[int, np.ndarray]
+    hi: dict[int, np.ndarray]
+    last: dict[int, tuple[np.ndarray, np.ndarray]]
+
+
+def ici_centre_stats(
+    ext: np.ndarray,
+    offset: int,
+    centres: np.ndarray,
+    options: IciOptions,
+    nu: np.ndarray,
+    nu_half: np.ndarray,
+    *,
+    n_samples: int | None = None,
+) -> IciStats:
+    """The intersection rule at ``centres`` (pointwise: each centre on its own).
+
+    Parameters
+    ----------
+    ext : ndarray of float64
+        Samples (mirror-extended) holding every candidate window of every centre.
+    offset : int
+        Index in ``ext`` of sample 0 of the record.
+    centres : ndarray of int64
+        Consecutive centres of the pass, starting at a multiple of :func:`ici_block`
+        centres from its first one (the engine's units then hold the same centres whatever
+        part of the record is given, and the values are those of the whole pass, bit for
+        bit).
+    options : IciOptions
+    nu, nu_half : ndarray, shape (J, M)
+        EDF of each candidate and of its half.
+    n_samples : int, optional
+        Length of the record for ``edges="valid"`` (only windows inside it are candidates);
+        None: mirror.
+
+    Returns
+    -------
+    IciStats
+    """
+    cand, ms, g = options.lengths, options.ms, options.gamma
+    block = ici_block(options.lmax)
+    # the chi-square quantiles once per EDF row (the same numbers as per call, bit for bit)
+    off, off_half = interval_offsets(nu, g), interval_offsets(nu_half, g)
+    halves = options.halves
+    side_list = (CENTRED,) if options.sides == "centred" else (LEFT, CENTRED, RIGHT)
+
+    def interval(at: np.ndarray, length: int, offsets: tuple) -> tuple:
+        """The log-domain interval of the windows of ``length`` centred at ``at``, and
+        whether each window lies where it may (edges="valid": inside the record)."""
+        v = diff.window_avar(ext, ms, at, np.full(at.size, length, dtype=np.int64),
+                             offset=offset, chunk=block)  # fmt: skip
+        lo_, hi_ = _intervals(v, (offsets[0][None, :], offsets[1][None, :]))
+        if n_samples is None:
+            return lo_, hi_, None
+        start = at - (length - 1) // 2
+        return lo_, hi_, (start >= 0) & (start + length <= n_samples)
+
+    # each side's chain, in order of length, kept as a running intersection (O(T M) memory)
+    chains = {s: _Chain(centres.size, ms.size) for s in side_list}
+    last: dict[int, tuple] = {}
+    for j, L in enumerate(int(v) for v in cand):
+        for s in side_list:
+            chain = chains[s]
+            if s == CENTRED and halves[j] >= 3 * ms[-1]:
+                # the centred window must also agree with its own two halves (a change
+                # inside it sets them apart even where the neighbouring lengths agree)
+                h = int(halves[j])
+                for at in (centres + side_shift(LEFT, h), centres + 1 + side_shift(RIGHT, h)):
+                    chain.add(*interval(at, h, (off_half[0][j], off_half[1][j])), closes=None)
+            entry = interval(centres + side_shift(s, L), L, (off[0][j], off[1][j]))
+            chain.add(*entry, closes=j)
+            if j == cand.size - 1 and s != CENTRED:
+                last[s] = entry[:2]
+    adapted = np.zeros((3, centres.size), dtype=np.int64)
+    for s in side_list:
+        index = chains[s].index
+        adapted[s + 1] = np.where(index >= 0, cand[np.maximum(index, 0)], 0)
+    return IciStats(
+        adapted=adapted, lo={s: chains[s].sel_lo for s in side_list},
+        hi={s: chains[s].sel_hi for s in side_list}, last=last,
+    )  # fmt: skip
+
+
+def ici_edf(x: np.ndarray, options: IciOptions) -> tuple[np.ndarray, np.ndarray]:
+    """EDF of each candidate and of its half, ``(nu, nu_half)``, shapes (J, M).
+
+    ``edf="correlation"``: :func:`correlation_edf` on the first ``edf_samples`` samples
+    of ``x`` (all of them when None); ``"engine"``: the Greenhall EDF for the noise type
+    identified on the whole of ``x``.
+    """
+    cand, ms = options.lengths, options.ms
+    if options.edf == "correlation":
+        head = x if options.edf_samples is None else x[: options.edf_samples]
+        return correlation_edf(head, cand, ms), correlation_edf(head, options.halves, ms)
+    phase = diff.anchored_phase(x, cluster_stats=True)
+    alpha, _ = record_noise_types(phase, ms, 2, data_type="rate")
+    alpha = np.asarray(alpha, dtype=np.int64)
+    return edf_table(cand, ms, alpha), edf_table(options.halves, ms, alpha)
+
+
 def ici_schedule(
     x: np.ndarray,
     *,
@@ -336,6 +544,7 @@ def ici_schedule(
     edf: str = "correlation",
     edges: str = "mirror",
     step: int = 1,
+    edf_samples: int | None = None,
 ) -> IciSchedule:
     """The ICI adaptive window of every centre (module notes).
 
@@ -367,6 +576,10 @@ def ici_schedule(
         windows inside the record.
     step : int
         Every ``step``-th centre (the rule is pointwise: only those are computed).
+    edf_samples : int, optional
+        ``edf="correlation"``: measure the correlation on the first ``edf_samples``
+        samples only (what a live pass knows, :class:`adavar.OnlineAdaptive`); default
+        None: the whole record.
 
     Returns
     -------
@@ -377,94 +590,65 @@ def ici_schedule(
     AdavarInputError
         Bad options (the message names the keyword and what to give).
     """
-    for name, value in (("lmax", lmax), ("lmin", lmin), ("step", step)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise AdavarInputError(f"{name} must be a positive whole number, got {value!r}")
-    if lmin > lmax:
-        raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
+    if isinstance(step, bool) or not isinstance(step, (int, np.integer)) or step < 1:
+        raise AdavarInputError(f"step must be a positive whole number, got {step!r}")
     if edges not in ("mirror", "valid"):
         raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
-    cand, ms, g = _check_options(lmin, lmax, lengths, taus, gamma, sides, edf)
+    opts = ici_options(lmax=lmax, lmin=lmin, lengths=lengths, taus=taus, gamma=gamma,
+                       sides=sides, edf=edf, edf_samples=edf_samples)  # fmt: skip
+    cand, ms, g = opts.lengths, opts.ms, opts.gamma
     x = np.ascontiguousarray(as_samples(x, min_length=lmax), dtype=np.float64)
     n = x.size
     first = (lmax - 1) // 2 if edges == "valid" else 0
     n_c = n - lmax + 1 if edges == "valid" else n
     c0 = -(-first // step) * step
     centres = np.arange(c0, first + n_c, step, dtype=np.int64)
-    if edf == "correlation":
-        nu = correlation_edf(x, cand, ms)
-    else:
-        phase = diff.anchored_phase(x, cluster_stats=True)
-        alpha, _ = record_noise_types(phase, ms, 2, data_type="rate")
-        nu = edf_table(cand, ms, np.asarray(alpha, dtype=np.int64))
-    alpha = alpha if edf == "engine" else None
+    nu, nu_half = ici_edf(x, opts)
     pad = lmax
     ext = np.pad(x, pad, mode="symmetric")
-    side_list = (CENTRED,) if sides == "centred" else (LEFT, CENTRED, RIGHT)
-    halves = cand // 2
-    nu_half = correlation_edf(x, halves, ms) if edf == "correlation" else edf_table(
-        halves, ms, np.asarray(alpha, dtype=np.int64))  # fmt: skip
-
-    def interval(at: np.ndarray, length: int, nu_row: np.ndarray) -> tuple:
-        """The log-domain interval of the windows of ``length`` centred at ``at``, and
-        whether each window lies where it may (edges="valid": inside the record)."""
-        v = diff.window_avar(ext, ms, at, np.full(at.size, length, dtype=np.int64), offset=pad)
-        lo_, hi_ = _intervals(v, nu_row[None, :], g)
-        start = at - (length - 1) // 2
-        fits = (start >= 0) & (start + length <= n) if edges == "valid" else None
-        return lo_, hi_, fits
-
-    # each side's chain, in order of length, kept as a running intersection (O(T M) memory)
-    chains = {s: _Chain(centres.size, ms.size) for s in side_list}
-    last: dict[int, tuple] = {}
-    for j, L in enumerate(int(v) for v in cand):
-        for s in side_list:
-            chain = chains[s]
-            if s == CENTRED and halves[j] >= 3 * ms[-1]:
-                # the centred window must also agree with its own two halves (a change
-                # inside it sets them apart even where the neighbouring lengths agree)
-                h = int(halves[j])
-                for at in (centres + side_shift(LEFT, h), centres + 1 + side_shift(RIGHT, h)):
-                    chain.add(*interval(at, h, nu_half[j]), closes=None)
-            entry = interval(centres + side_shift(s, L), L, nu[j])
-            chain.add(*entry, closes=j)
-            if j == cand.size - 1 and s != CENTRED:
-                last[s] = entry
-    index = {s: chains[s].index for s in side_list}
-    lo = {s: chains[s].sel_lo for s in side_list}
-    hi = {s: chains[s].sel_hi for s in side_list}
-    adapted = np.zeros((3, centres.size), dtype=np.int64)
-    for s in side_list:
-        adapted[s + 1] = np.where(index[s] >= 0, cand[np.maximum(index[s], 0)], 0)
+    stats = ici_centre_stats(ext, pad, centres, opts, nu, nu_half,
+                             n_samples=n if edges == "valid" else None)  # fmt: skip
+    adapted = stats.adapted
     side = np.zeros(centres.size, dtype=np.int8)
     conflict = np.zeros(centres.size, dtype=bool)
     changes = np.zeros(0, dtype=np.int64)
     if sides == "both":
-        side, conflict = _choose_sides(adapted, lo, hi)
+        side, conflict = _choose_sides(adapted, stats.lo, stats.hi)
         # a change: where the left and right lmax windows disagree most (the two-sample
         # moving-window contrast peaks at a change), the largest within lmax / 2 either side
-        split, contrast = _contrast(last[LEFT][0], last[LEFT][1], last[RIGHT][0],
-                                    last[RIGHT][1])  # fmt: skip
-        reach = max(1, lmax // (2 * step))
+        split, contrast = ici_contrast(*stats.last[LEFT], *stats.last[RIGHT])
+        reach = change_reach(lmax, step)
         top = maximum_filter1d(contrast, size=2 * reach + 1, mode="nearest")
         peak = split & (contrast >= top)
         peak[1:] &= ~peak[:-1]  # a flat top counts once
         changes = centres[peak]
-    chosen = np.take_along_axis(adapted, (side.astype(np.int64) + 1)[None, :], axis=0)[0]
-    window = np.maximum(chosen, lmin)
-    shift = np.zeros(centres.size, dtype=np.int64)
-    for s in (LEFT, RIGHT):
-        here = side == s
-        shift[here] = side_shift(s, window[here])
+    window, shift = side_windows(adapted, side, lmin)
     parameters = dict(
         method="ici", lmax=int(lmax), lmin=int(lmin), ici_lengths=cand.tolist(),
         ici_taus=ms.tolist(), ici_gamma=g, ici_sides=sides, ici_edf=edf, edges=edges,
+        ici_edf_samples=opts.edf_samples,
     )  # fmt: skip
     return IciSchedule(
         window=window, shift=shift, side=side, adapted=adapted, conflict=conflict,
         changes=changes, centre=centres, lengths=cand, ms=ms, edf=nu, gamma=g,
         parameters=parameters,
     )  # fmt: skip
+
+
+def change_reach(lmax: int, step: int = 1) -> int:
+    """Centres either side within which a change's contrast must be the largest."""
+    return max(1, int(lmax) // (2 * int(step)))
+
+
+def side_windows(adapted: np.ndarray, side: np.ndarray, lmin: int) -> tuple[np.ndarray, ...]:
+    """``(window, shift)`` of each centre from the adapted lengths and the chosen side."""
+    chosen = np.take_along_axis(adapted, (side.astype(np.int64) + 1)[None, :], axis=0)[0]
+    window = np.maximum(chosen, lmin)
+    shift = np.zeros(side.size, dtype=np.int64)
+    for s in (LEFT, RIGHT):
+        here = side == s
+        shift[here] = side_shift(s, window[here])
+    return window, shift
 
 
 def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
@@ -475,7 +659,7 @@ def _runs(flags: np.ndarray) -> list[tuple[int, int]]:
                     strict=True))  # fmt: skip
 
 
-def _contrast(
+def ici_contrast(
     llo: np.ndarray, lhi: np.ndarray, rlo: np.ndarray, rhi: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Whether two sets of intervals (T, M) are apart, and the standardised difference of
@@ -484,6 +668,40 @@ def _contrast(
     se = np.hypot(lhi[:, 0] - llo[:, 0], rhi[:, 0] - rlo[:, 0])
     diff_ = 0.5 * ((rlo[:, 0] + rhi[:, 0]) - (llo[:, 0] + lhi[:, 0]))
     return apart, np.abs(diff_) / np.maximum(se, np.finfo(float).tiny)
+
+
+def ici_side_parts(adapted: np.ndarray, lo: dict, hi: dict) -> tuple[np.ndarray, ...]:
+    """The pointwise part of the side choice (:func:`_choose_sides`).
+
+    Returns ``(side, tie, conflict, contrast)``: the side of each centre where it is
+    decided on its own; ``tie``, the centres where the left and right windows tie but
+    disagree, whose side is settled over their run (the change at the largest
+    ``contrast`` of the run); ``conflict``, the left and right intervals apart.
+    """
+    (llo, lhi), (clo, chi_), (rlo, rhi) = ((lo[s], hi[s]) for s in (LEFT, CENTRED, RIGHT))
+    conflict, contrast = ici_contrast(llo, lhi, rlo, rhi)
+    left, centred, right = adapted
+    best = np.maximum(np.maximum(left, right), centred)
+    side = np.zeros(adapted.shape[1], dtype=np.int8)
+    side[(right == best) & (centred < best)] = RIGHT
+    side[(left == best) & (centred < best)] = LEFT
+    both = (left == best) & (right == best) & (centred < best)
+    # a tie of the two sides: the one the centred window agrees with (it shares half of
+    # each), else the one nearer to it; where the two disagree, the contrast rule below
+    ly, cy, ry = 0.5 * (llo + lhi), 0.5 * (clo + chi_), 0.5 * (rlo + rhi)
+    left_nearer = np.sum(np.abs(ly - cy), axis=1) <= np.sum(np.abs(ry - cy), axis=1)
+    side[both & left_nearer] = LEFT
+    side[both & ~left_nearer] = RIGHT
+    return side, both & conflict, conflict, contrast
+
+
+def settle_ties(side: np.ndarray, tie: np.ndarray, contrast: np.ndarray) -> None:
+    """In place: each run of ``tie`` goes left before its largest ``contrast``, right from
+    there (the runs must be whole: a run cut at an end is settled as it is)."""
+    for a, b in _runs(tie):
+        peak = a + int(np.argmax(contrast[a:b]))
+        side[a:peak] = LEFT
+        side[peak:b] = RIGHT
 
 
 def _choose_sides(adapted: np.ndarray, lo: dict, hi: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -495,25 +713,6 @@ def _choose_sides(adapted: np.ndarray, lo: dict, hi: dict) -> tuple[np.ndarray, 
     to the side away from the change, located at the largest standardised contrast of the
     two windows within the run of such ties.
     """
-    t = np.arange(adapted.shape[1])
-    (llo, lhi), (clo, chi_), (rlo, rhi) = ((lo[s], hi[s]) for s in (LEFT, CENTRED, RIGHT))
-
-    conflict, contrast = _contrast(llo, lhi, rlo, rhi)
-    left, centred, right = adapted
-    best = np.maximum(np.maximum(left, right), centred)
-    side = np.zeros(t.size, dtype=np.int8)
-    side[(right == best) & (centred < best)] = RIGHT
-    side[(left == best) & (centred < best)] = LEFT
-    both = (left == best) & (right == best) & (centred < best)
-    # a tie of the two sides: the one the centred window agrees with (it shares half of
-    # each), else the one nearer to it; where the two disagree, the contrast rule below
-    ly, cy, ry = 0.5 * (llo + lhi), 0.5 * (clo + chi_), 0.5 * (rlo + rhi)
-    left_nearer = np.sum(np.abs(ly - cy), axis=1) <= np.sum(np.abs(ry - cy), axis=1)
-    side[both & left_nearer] = LEFT
-    side[both & ~left_nearer] = RIGHT
-    both &= conflict
-    for a, b in _runs(both):
-        peak = a + int(np.argmax(contrast[a:b]))
-        side[a:peak] = LEFT
-        side[peak:b] = RIGHT
+    side, tie, conflict, contrast = ici_side_parts(adapted, lo, hi)
+    settle_ties(side, tie, contrast)
     return side, conflict

@@ -36,6 +36,26 @@ before the window shrinks, so with the row latency of ``Lmax // 2`` the event co
 the sample after its ``end_s`` (up to ``step`` samples later). Its ``before`` and
 ``during`` summaries are final then; its ``after`` summary is final when the next change
 is detected or at :meth:`~OnlineAdaptive.finish` (:attr:`OnlineAdaptive.final_count`).
+
+The ICI window (``method="ici"``)
+---------------------------------
+:mod:`adavar.online_ici` repeats :func:`adavar.ici.ici_schedule` (docs/method.md section
+11) bit for bit: the DAVAR engine computes the candidates' variances in units of
+:func:`adavar.ici.ici_block` centres (``lmax / 2``) aligned on centre 0, offline and
+online alike, so every estimate, interval and decision is the offline one. A unit is
+computed when the right ``lmax`` window of its last centre has arrived: the row of centre
+``c`` comes by sample ``c + ici_block(lmax) + lmax - 2`` (:attr:`OnlineAdaptive.latency`,
+about ``1.5 lmax``, not ``lmax / 2``: a right-sided window at ``c`` ends at
+``c + lmax - 1``). Where the left and right windows tie but disagree (a few centres at a
+change), a centre's side depends on its whole run of such centres: those rows come when
+the run closes. A change at ``c`` is final once the contrast ``lmax / 2`` centres after it
+is known (about ``2 lmax`` after ``c``), and becomes an event when the rows up to it have
+been emitted. The EDF is measured on the first ``ici_edf_samples`` samples (default
+:data:`adavar.settings.ICI_EDF_SAMPLES`, 2**16): nothing is emitted before they have
+arrived, and the offline pass equals the online one given the same ``ici_edf_samples``.
+The intervals are log variances, which scaling by a power of two shifts by a rounded
+constant: the equality holds when the data's magnitude lies within about 5e-20 .. 2e19 (no
+scaling, online or offline).
 """
 
 from __future__ import annotations
@@ -57,15 +77,16 @@ from adavar.edf import STAT_ALPHA_RANGE
 from adavar.errors import AdavarInputError
 from adavar.events import Event, stretch_summary
 from adavar.noise_model import fit_avar
-from adavar.settings import CONTROLLER
+from adavar.online_ici import ICI_EDF_SAMPLES, IciTracker
+from adavar.settings import CONTROLLER, ICI_GAMMA
 from adavar.statistics import data_exponent, resolve_tau0, tau_factors, unscale
 from adavar.terms import TERM_NAMES
 from adavar.thresholds import DEPENDENCE_SAMPLES, hourly_thresholds, noise_dependence
 
 __all__ = ["ONLINE_METHODS", "OnlineAdaptive"]
 
-#: controllers that run live (the oracle needs the change times, a fixed window no pass)
-ONLINE_METHODS = ("adaptive", "kurtosis")
+#: methods that run live (the oracle needs the change times, a fixed window no pass)
+ONLINE_METHODS = ("adaptive", "kurtosis", "ici")
 
 
 def _check_noise_type(noise_type: Any, size: int) -> np.ndarray:
@@ -154,8 +175,12 @@ class OnlineAdaptive:
         durations, as in :func:`adavar.adaptive_davar`. ``lmin`` and ``l`` not given: two
         thirds and a sixth of ``lmax`` (:func:`adavar.adaptive.record_windows`; the paper's
         400 and 100 of 600).
-    method : {"adaptive", "kurtosis"}
-        A-DAVAR or DAVAR-K.
+    method : {"adaptive", "kurtosis", "ici"}
+        A-DAVAR, DAVAR-K, or the intersection-of-confidence-intervals window
+        (docs/method.md section 11; module notes: its latency is about ``1.5 lmax``). For
+        ``"ici"`` the kurtosis settings (``k1`` .. ``dependence``) are not used and the
+        windows, ``.shift`` and the change points equal
+        ``adaptive_davar(x, method="ici", ici_edf_samples=K, ...)``'s.
     k1, k2, s1, s2, dl0, dl1, s_test, combine, thresholds, false_alarm, false_alarm_per_hour
         As in :func:`adavar.adaptive_davar` (the paper's values and thresholds by
         default).
@@ -199,6 +224,15 @@ class OnlineAdaptive:
         percentiles of the summaries need every row since the last change: 32 bytes a
         row with N, so an unbroken stationary day at 200 Hz holds 550 MB at ``step=1``
         and 28 MB at ``step=20``.
+    ici_gamma, ici_lengths, ici_taus, ici_sides
+        ``method="ici"``: as in :func:`adavar.adaptive_davar`.
+    ici_edf : {"correlation"}
+        ``method="ici"``: the EDF from the correlation of the first ``ici_edf_samples``
+        samples; ``"engine"`` (the whole record's noise type) is refused.
+    ici_edf_samples : int
+        ``method="ici"``: samples the EDF is measured on before the first row (default
+        :data:`adavar.settings.ICI_EDF_SAMPLES`, 2**16, 5.5 minutes at 200 Hz); give the
+        offline pass the same.
 
     Attributes
     ----------
@@ -209,24 +243,38 @@ class OnlineAdaptive:
     events : list of Event
         The stretches confirmed so far (:class:`adavar.events.Event`), the first
         ``final_count`` of them with every summary final.
+    shift : ndarray of int64
+        ``method="ici"``: the offset of each kept row's window from its centre (a
+        one-sided window, as ``adaptive_davar(...).shift``); zeros otherwise.
+    ici_changes : list of int
+        ``method="ici"``: the change points found so far (samples), as
+        ``adaptive_davar(..., method="ici").parameters["ici_changes"]``; empty otherwise.
     latency : int
-        Samples between a centre and the emission of its row (``lmax // 2``).
+        Samples between a centre and the emission of its row: ``lmax // 2``; for
+        ``method="ici"`` ``ici_block(lmax) + lmax - 2`` (about ``1.5 lmax``), longer for
+        the centres of a run of tied, disagreeing sides (module notes).
 
     Raises
     ------
     AdavarInputError
         For a setting out of range (at construction), a non-finite or non-numeric sample
         (at :meth:`push`), a push after :meth:`finish`, or a record shorter than ``lmax``
-        (at :meth:`finish`).
+        (at :meth:`finish`); ``method="ici"`` with ``ici_edf="engine"`` or
+        ``ici_edf_samples=None``.
 
     Notes
     -----
-    Cost: the controller is O(1) per sample plus ``REANCHOR`` centres and a Python call per
-    push; the rows' variances O(M) per kept row; the fit a few microseconds per kept row
-    (``docs/benchmarks.md``, "Online adaptive pass"). Memory: with ``keep="recent"`` the
-    last push, the samples of one ``REANCHOR`` block and a window (before hourly
-    thresholds are set, the first ``DEPENDENCE_SAMPLES``), the rows since the last change,
-    and the events. N(t) equals the offline one to rounding when the offline EDF table is
+    Cost: ``method="ici"``: each engine unit of ``ici_block(lmax)`` centres is computed
+    once, when complete (O(J) window variances a centre, J the candidates), the side and
+    change rules over the newly computed centres only: O(N J) in all, the same work as
+    offline. Otherwise the controller is O(1) per sample plus ``REANCHOR`` centres and a
+    Python call per push; the rows' variances O(M) per kept row; the fit a few
+    microseconds per kept row (``docs/benchmarks.md``, "Online adaptive pass"). Memory:
+    with ``keep="recent"`` the last push, the samples of one ``REANCHOR`` block and a
+    window (before hourly thresholds are set, the first ``DEPENDENCE_SAMPLES``; ICI: an
+    engine unit and two ``lmax``, the first ``ici_edf_samples`` until the EDF is set, and
+    the state of an open run of tied sides), the rows since the last change, and the
+    events. N(t) equals the offline one to rounding when the offline EDF table is
     exact (at most 4096 (length, tau) pairs or 32 lengths per tau: octave taus, or every
     tau on short windows); beyond that the offline surface interpolates the EDF between
     lengths, and N differs by up to about 1e-6 relative (``taus="all"`` with the default
@@ -274,10 +322,16 @@ class OnlineAdaptive:
         fit_options: dict[str, Any] | None = None,
         fit_batch: int = 1,
         keep: str = "all",
+        ici_gamma: float = ICI_GAMMA,
+        ici_lengths: Sequence[int] | None = None,
+        ici_taus: Sequence[int] = (1,),
+        ici_sides: str = "both",
+        ici_edf: str = "correlation",
+        ici_edf_samples: int | None = ICI_EDF_SAMPLES,
     ) -> None:
         if method not in ONLINE_METHODS:
             raise AdavarInputError(
-                f"method {method!r} does not run live: use 'adaptive' or 'kurtosis'"
+                f"method {method!r} does not run live: use 'adaptive', 'kurtosis' or 'ici'"
             )
         if keep not in ("all", "recent"):
             raise AdavarInputError(f"unknown keep {keep!r}: use 'all' or 'recent'")
@@ -309,6 +363,16 @@ class OnlineAdaptive:
         self.fit_batch = int(fit_batch)
         self.latency = lmax // 2
         self._pad = lmax // 2 + 1  # mirror samples each side, as the offline pass
+        self._ahead = lmax // 2  # samples after a centre its window reads
+        self._ici: IciTracker | None = None
+        if method == "ici":  # windows reach lmax - 1 samples either side of their centre
+            self._ici = IciTracker(lmax=lmax, lmin=lmin, lengths=ici_lengths, taus=ici_taus,
+                                   gamma=ici_gamma, sides=ici_sides, edf=ici_edf,
+                                   edf_samples=ici_edf_samples)  # fmt: skip
+            self.latency = self._ici.latency
+            self._pad, self._ahead = lmax, lmax - 1
+            self._ici_queue: list[int] = []  # changes waiting for their rows
+        self.ici_changes: list[int] = []
         self._settings = dict(
             method=method, lmax=lmax, lmin=lmin, seg=seg, dl0=dl0, dl1=dl1, k1=k1, k2=k2,
             s1=s1, s2=s2, s_test=s_test, combine=combine, thresholds=thresholds,
@@ -317,8 +381,10 @@ class OnlineAdaptive:
         self._hourly = thresholds == "calibrated" and false_alarm_per_hour is not None
         quick = self._settings | {"thresholds": "paper"} if self._hourly else self._settings
         self._ctl: Controller | None = None
-        checked = make_controller(**quick)
-        if self._hourly and dependence is not None:
+        checked = None if self._ici else make_controller(**quick)
+        if checked is None:
+            pass  # ICI: no kurtosis controller; its EDF is measured on the head
+        elif self._hourly and dependence is not None:
             dep = tuple(float(c) for c in dependence)
             if len(dep) != 2 or not all(math.isfinite(c) and c >= 1.0 for c in dep):
                 raise AdavarInputError(
@@ -357,10 +423,12 @@ class OnlineAdaptive:
         self._emitted = 0  # centres whose row has been emitted
         self._finished = False
         # the kept rows and their coefficients
-        self._rows = _Rows(("window", "centre", "time"), (np.int64, np.int64, float))
+        columns = ("window", "centre", "time") + (("shift",) if self._ici else ())
+        self._rows = _Rows(columns, (np.int64, np.int64, float, np.int64)[: len(columns)])
         self._coef = _Rows(self.terms, (float,) * len(self.terms))
         self._fitted = 0  # rows (over all ever) with coefficients
-        self._pending: list[tuple[np.ndarray, np.ndarray]] = []  # rows to fit
+        # rows to fit: centres, lengths, shifts (None: centred)
+        self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
         self._trimmed_at = 0  # rows held after the last trim (keep="recent")
         # events: the kept change times, the state at the last kept row, the stretches
         self._changes: list[float] = []
@@ -381,6 +449,14 @@ class OnlineAdaptive:
     def centre(self) -> np.ndarray:
         """Centre (sample index) of every kept row so far."""
         return self._rows.column("centre").copy()
+
+    @property
+    def shift(self) -> np.ndarray:
+        """Offset of each kept row's window from its centre (``method="ici"``: a one-sided
+        window next to a change, as ``adaptive_davar(...).shift``; 0 otherwise)."""
+        if self._ici is None:
+            return np.zeros(self._rows.size, dtype=np.int64)
+        return self._rows.column("shift").copy()
 
     @property
     def time(self) -> np.ndarray:
@@ -422,6 +498,10 @@ class OnlineAdaptive:
     def waiting(self) -> int:
         """Samples still needed before the first row can be computed: the head the hourly
         thresholds are measured on (0 once they are set), or the first half window."""
+        if self._ici is not None:
+            if not self._ici.ready:
+                return max(0, int(self._ici.options.edf_samples or 0) - self._n)
+            return max(0, self.lmax - self._n)
         if self._ctl is None:
             return max(0, DEPENDENCE_SAMPLES - self._n)
         return max(0, self.lmax // 2 + 1 - self._n)
@@ -433,7 +513,13 @@ class OnlineAdaptive:
 
     @property
     def parameters(self) -> dict[str, Any]:
-        """The controller's settings (``dependence`` once measured)."""
+        """The controller's settings (``dependence`` once measured; ICI: its options)."""
+        if self._ici is not None:
+            o = self._ici.options
+            return dict(method="ici", lmax=self.lmax, lmin=self.lmin, l=self.segment,
+                        step=self.step, sample_rate=self.rate, ici_lengths=o.lengths.tolist(),
+                        ici_taus=o.ms.tolist(), ici_gamma=o.gamma, ici_sides=o.sides,
+                        ici_edf=o.edf, ici_edf_samples=o.edf_samples)  # fmt: skip
         out = {k: v for k, v in self._settings.items() if k != "seg"}
         out.update(l=self.segment, step=self.step, sample_rate=self.rate)
         ctl = self._ctl
@@ -531,7 +617,7 @@ class OnlineAdaptive:
 
     def _append(self, x: np.ndarray) -> None:
         # drop what no window will read again (the head is kept until the thresholds exist)
-        if self._ctl is not None:
+        if self._ctl is not None or (self._ici is not None and self._ici.ready):
             oldest = min(self._q, self._emitted)
             if self._pending:  # rows waiting for their fit read their windows again
                 oldest = min(oldest, int(self._pending[0][0][0]))
@@ -563,6 +649,11 @@ class OnlineAdaptive:
         return self._x[idx - self._x0]
 
     def _make_controller(self, final: bool) -> bool:
+        if self._ici is not None:  # the ICI EDF, measured on the head as offline
+            head_size = int(self._ici.options.edf_samples or 0)
+            if not self._ici.ready and (self._n >= head_size or final):
+                self._ici.set_edf(self._x[: min(self._xn, head_size)])
+            return self._ici.ready
         if self._ctl is not None:
             return True
         if self._n < DEPENDENCE_SAMPLES and not final:
@@ -581,6 +672,8 @@ class OnlineAdaptive:
     def _advance(self, *, final: bool) -> list[Event]:
         if not self._make_controller(final):
             return []
+        if self._ici is not None:
+            return self._advance_ici(final)
         ctl = self._ctl
         assert ctl is not None
         n = self._n
@@ -610,10 +703,44 @@ class OnlineAdaptive:
         start_row = self._rows.first + self._rows.size
         self._rows.append(window=lengths, centre=centres, time=times)
         if self.terms:
-            self._pending.append((centres, lengths))
+            self._pending.append((centres, lengths, None))
             if final or start_row + centres.size - self._fitted >= self.fit_batch:
                 self._flush_fit()
         return self._scan_changes(start_row, lengths, centres)
+
+    def _advance_ici(self, final: bool) -> list[Event]:
+        """The ICI rows and changes the samples complete (:mod:`adavar.online_ici`)."""
+        tracker = self._ici
+        assert tracker is not None
+        first, window, shift, changes = tracker.advance(self._extended, self._n, final)
+        self._q, self._emitted = tracker.computed, tracker.emitted
+        if window.size:
+            start = -(-first // self.step) * self.step
+            centres = np.arange(start, first + window.size, self.step, dtype=np.int64)
+            lengths, shifts = window[centres - first], shift[centres - first]
+            if centres.size:
+                with np.errstate(over="ignore"):
+                    times = self.t0 + centres / self.rate  # as davar
+                start_row = self._rows.first + self._rows.size
+                self._rows.append(window=lengths, centre=centres, time=times, shift=shifts)
+                if self.terms:
+                    self._pending.append((centres, lengths, shifts))
+                    if final or start_row + centres.size - self._fitted >= self.fit_batch:
+                        self._flush_fit()
+        self._ici_queue += changes
+        self.ici_changes += changes
+        new: list[Event] = []
+        # a change's summaries read the rows before it: wait until they are emitted
+        while self._ici_queue and (final or self._ici_queue[0] < tracker.emitted):
+            c = self._ici_queue.pop(0)
+            when = float(self.t0 + c * self.tau0)  # as adavar adaptive's ici_changes
+            # a change within lmax / 4 of the last one is the same (find_events)
+            if self._changes and not when - self._changes[-1] > 0.25 * self.lmax * self.tau0:
+                continue
+            new += self._on_change(when)
+        if self.keep == "recent" and (new or self._rows.size > 2 * self._trimmed_at + self.lmax):
+            self._trim()
+        return new
 
     def _flush_fit(self) -> None:
         """Variances and fit of the kept rows not yet fitted."""
@@ -623,18 +750,22 @@ class OnlineAdaptive:
             return
         total = self._rows.first + self._rows.size
         if len(self._pending) == 1:
-            centres, lengths = self._pending[0]
+            centres, lengths, shifts = self._pending[0]
         else:
-            centres = np.concatenate([c for c, _ in self._pending])
-            lengths = np.concatenate([w for _, w in self._pending])
+            centres = np.concatenate([c for c, _, _ in self._pending])
+            lengths = np.concatenate([w for _, w, _ in self._pending])
+            shifts = None
+            if self._ici is not None:
+                shifts = np.concatenate([h for _, _, h in self._pending if h is not None])
         self._pending = []
         final = self._finished
         c0, c1 = int(centres[0]), int(centres[-1])
         pad = self._pad
-        ext = self._extended(c0 - pad, c1 + pad + 1 if final else c1 + self.lmax // 2 + 1, final)
-        avar = window_avar(ext, self._ms, centres - c0, lengths, offset=pad)
+        ext = self._extended(c0 - pad, c1 + pad + 1 if final else c1 + self._ahead + 1, final)
+        at = centres if shifts is None else centres + shifts  # a one-sided window's centre
+        avar = window_avar(ext, self._ms, at - c0, lengths, offset=pad)
         avar = unscale(avar, 2 * (self._k or 0), "Allan variances", underflow=False)
-        edf = self._edf(centres, lengths)
+        edf = self._edf(at, lengths)
         fit = fit_avar(self.tau, avar, edf, terms=self.terms, units=self.units,
                        **self._fit_options)  # fmt: skip
         self._coef.append(**{name: fit.term(name).value for name in self.terms})

@@ -110,6 +110,10 @@ ICI_EDF = ("correlation", "engine")
 #: gamma = 2), about 2 % a one-sided window of full length; the spread of N equals
 #: DAVAR-Lmax's (gamma = 2.5: 1.025 x, tracking 3.1 % instead of 3.3 %)
 ICI_GAMMA = 3.0
+#: samples the live ICI pass (:class:`adavar.OnlineAdaptive`, ``adavar monitor --method
+#: ici``) measures its correlation EDF on before its first row (5.5 min at 200 Hz); the
+#: offline pass equals it given ``ici_edf_samples`` the same
+ICI_EDF_SAMPLES = 1 << 16
 #: Default budget of ``--max-memory`` (MB): the surface and what is computed from it.
 DEFAULT_MAX_MEMORY_MB = 200
 #: More taus than this from ``taus="all"`` and the default becomes ``"log"`` (10 a decade).

@@ -21,17 +21,18 @@ from adavar.cli.options import (
     TERM_FILES,
     UsageError,
     add_controller_arguments,
+    add_ici_arguments,
     add_input_arguments,
     add_output_arguments,
     add_surface_arguments,
-    positive_float,
+    ici_settings,
     seconds_list,
     window_length,
 )
 from adavar.cli.output import Status, channel_folders, guard_replacement, output_error, text_table
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
-from adavar.settings import HOURLY_FALSE_ALARMS, ICI_EDF, ICI_GAMMA, ICI_SIDES
+from adavar.settings import HOURLY_FALSE_ALARMS
 from adavar.windows import MIN_WINDOW
 from adavar.writers import (
     SURFACE_FORMATS,
@@ -684,54 +685,6 @@ def add_davar_parser(sub: Any) -> argparse.ArgumentParser:
     )
     dav.set_defaults(handler=_cmd_davar)
     return dav
-
-
-def _whole_list(text: str) -> list[int]:
-    """Comma-separated whole numbers >= 1 (``--ici-lengths``, ``--ici-taus``)."""
-    try:
-        values = [int(part) for part in text.replace(" ", "").split(",") if part]
-    except ValueError:
-        values = []
-    if not values or min(values) < 1:
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated whole numbers >= 1 (e.g. 50,100,400,600), got {text!r}"
-        )
-    return values
-
-
-def add_ici_arguments(cmd: argparse.ArgumentParser) -> None:
-    """The options of ``--method ici`` (:func:`adavar.ici.ici_schedule`)."""
-    group = cmd.add_argument_group("ICI window (--method ici)")
-    group.add_argument(
-        "--ici-gamma", type=positive_float("standard deviations"), default=ICI_GAMMA,
-        metavar="G", help=f"half-width of the intervals in standard normal units (default "
-        f"{ICI_GAMMA:g}; smaller shortens the window more readily)",
-    )  # fmt: skip
-    group.add_argument(
-        "--ici-lengths", type=_whole_list, default=None, metavar="L,...",
-        help="candidate window lengths in samples, holding --lmin and ending at --lmax; "
-        "those below --lmin are probes (default: lmin/8, lmin/4, lmin/2, then 3 geometric "
-        "steps from lmin to lmax)",
-    )  # fmt: skip
-    group.add_argument(
-        "--ici-taus", type=_whole_list, default=[1], metavar="M,...",
-        help="averaging factors of the estimates (default 1: the white-noise level)",
-    )  # fmt: skip
-    group.add_argument(
-        "--ici-sides", choices=ICI_SIDES, default="both",
-        help="both: left, centred and right windows (default); centred: centred only",
-    )  # fmt: skip
-    group.add_argument(
-        "--ici-edf", choices=ICI_EDF, default="correlation",
-        help="EDF of the estimates: from the record's correlation (default) or the "
-        "engine's Greenhall EDF",
-    )  # fmt: skip
-
-
-def ici_settings(args: argparse.Namespace) -> dict[str, Any]:
-    """The ICI keywords of :func:`adavar.adaptive_davar` from the options."""
-    return dict(ici_gamma=args.ici_gamma, ici_lengths=args.ici_lengths, ici_taus=args.ici_taus,
-                ici_sides=args.ici_sides, ici_edf=args.ici_edf)  # fmt: skip
 
 
 def add_adaptive_parser(sub: Any) -> argparse.ArgumentParser:

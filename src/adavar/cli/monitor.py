@@ -29,8 +29,10 @@ from adavar.cli.options import (
     EXIT_OK,
     UsageError,
     add_controller_arguments,
+    add_ici_arguments,
     check_arguments,
     finite_float,
+    ici_settings,
     length_arg,
     number_tuple,
     parse_noise_type,
@@ -40,6 +42,7 @@ from adavar.cli.options import (
     positive_int,
 )
 from adavar.errors import AdavarInputError
+from adavar.settings import ICI_EDF_SAMPLES
 
 __all__ = ["add_monitor_parser"]
 
@@ -92,10 +95,13 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
         "complete file",
     )  # fmt: skip
     cmd.add_argument(
-        "--method", default="adaptive", choices=("adaptive", "kurtosis"),
-        help="adaptive (A-DAVAR, default) or kurtosis (DAVAR-K)",
+        "--method", default="adaptive", choices=("adaptive", "kurtosis", "ici"),
+        help="adaptive (A-DAVAR, default), kurtosis (DAVAR-K) or ici (intersection of "
+        "confidence intervals, one-sided windows next to a change: docs/method.md section "
+        "11; its rows come about 1.5 Lmax after their centre)",
     )  # fmt: skip
     add_controller_arguments(cmd)
+    add_ici_arguments(cmd)
     defaults = {  # a stream has no length: the paper's 600 samples and its proportions
         "lmax": "longest window: samples, or a duration such as 6s or 10min (default: 600 "
         "samples, the paper's)",
@@ -103,6 +109,11 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
         "segment": "leading segment of the S test: samples or a duration (default: a sixth "
         "of Lmax)",
     }
+    defaults["ici_edf_samples"] = (
+        "measure the correlation EDF of --method ici on the first K samples (default "
+        f"{ICI_EDF_SAMPLES}); no row before they have arrived. 'adavar adaptive --method ici "
+        "--ici-edf-samples K' gives the same windows"
+    )
     for action in cmd._actions:
         if action.dest in defaults:
             action.help = defaults[action.dest]
@@ -380,11 +391,14 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
         if getattr(args, name) is None:
             settings.pop(name)
     fit_options = {} if args.bandwidth is None else {"bandwidth": args.bandwidth}
+    ici = ici_settings(args)
+    if ici["ici_edf_samples"] is None:  # a stream has no whole record to measure it on
+        ici["ici_edf_samples"] = ICI_EDF_SAMPLES
     live = OnlineAdaptive(
         rate=args.rate, method=args.method, **settings, l=args.segment, dependence=args.dependence,
         step=args.step, terms=args.terms, taus=args.taus, noise_type=args.noise_type,
         edge_edf=args.edge_edf, units=args.units.strip(), t0=args.t0,
-        fit_options=fit_options, fit_batch=args.fit_batch, keep="recent",
+        fit_options=fit_options, fit_batch=args.fit_batch, keep="recent", **ici,
     )  # fmt: skip
     text = args.input_format == "text"
     decode = _TextDecoder(args.column) if text else _BinaryDecoder(

@@ -17,6 +17,9 @@ from adavar.settings import (
     DEFAULT_MAX_MEMORY_MB,
     FIT,
     HOURLY_FALSE_ALARMS,
+    ICI_EDF,
+    ICI_GAMMA,
+    ICI_SIDES,
     MAX_ALL_TAUS,
     MAX_POINTS_PER_DECADE,
 )
@@ -653,3 +656,57 @@ def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     add_fit_arguments(cmd)
     add_chunk_argument(cmd)
+
+
+def whole_list(text: str) -> list[int]:
+    """Comma-separated whole numbers >= 1 (``--ici-lengths``, ``--ici-taus``)."""
+    try:
+        values = [int(part) for part in text.replace(" ", "").split(",") if part]
+    except ValueError:
+        values = []
+    if not values or min(values) < 1:
+        raise argparse.ArgumentTypeError(
+            f"expected comma-separated whole numbers >= 1 (e.g. 50,100,400,600), got {text!r}"
+        )
+    return values
+
+
+def add_ici_arguments(cmd: argparse.ArgumentParser) -> None:
+    """The options of ``--method ici`` (:func:`adavar.ici.ici_schedule`)."""
+    group = cmd.add_argument_group("ICI window (--method ici)")
+    group.add_argument(
+        "--ici-gamma", type=positive_float("standard deviations"), default=ICI_GAMMA,
+        metavar="G", help=f"half-width of the intervals in standard normal units (default "
+        f"{ICI_GAMMA:g}; smaller shortens the window more readily)",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-lengths", type=whole_list, default=None, metavar="L,...",
+        help="candidate window lengths in samples, holding --lmin and ending at --lmax; "
+        "those below --lmin are probes (default: lmin/8, lmin/4, lmin/2, then 3 geometric "
+        "steps from lmin to lmax)",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-taus", type=whole_list, default=[1], metavar="M,...",
+        help="averaging factors of the estimates (default 1: the white-noise level)",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-sides", choices=ICI_SIDES, default="both",
+        help="both: left, centred and right windows (default); centred: centred only",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-edf", choices=ICI_EDF, default="correlation",
+        help="EDF of the estimates: from the record's correlation (default) or the "
+        "engine's Greenhall EDF",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-edf-samples", type=positive_int, default=None, metavar="K",
+        help="measure the correlation EDF on the first K samples only (what 'adavar "
+        "monitor --method ici' knows when it starts; default: the whole record)",
+    )  # fmt: skip
+
+
+def ici_settings(args: argparse.Namespace) -> dict[str, object]:
+    """The ICI keywords of :func:`adavar.adaptive_davar` from the options."""
+    return dict(ici_gamma=args.ici_gamma, ici_lengths=args.ici_lengths, ici_taus=args.ici_taus,
+                ici_sides=args.ici_sides, ici_edf=args.ici_edf,
+                ici_edf_samples=args.ici_edf_samples)  # fmt: skip
