@@ -93,7 +93,7 @@ from typing import Any
 import numpy as np
 
 from adavar import gls_fit
-from adavar._jit import SERIAL_WORK, get_num_threads
+from adavar._jit import SERIAL_WORK, get_num_threads, read_only
 from adavar._nnls import PARALLEL_MIN, nnls_parallel, nnls_serial, subsets
 from adavar.errors import AdavarInputError
 from adavar.results import ADEQUATE_P, NoiseFit, NoiseTerm
@@ -514,10 +514,13 @@ def _fit(
         n_curves >= PARALLEL_MIN and n_curves * n_tau >= SERIAL_WORK and get_num_threads() > 1
     )
     kernel = nnls_parallel if parallel else nnls_serial
+    # inputs as read-only views: one compiled version whether a caller's array is writable
+    # or not (a broadcast EDF row is read-only, a stacked one is not)
     kernel(
-        phi, a2, e2, n_reweight, sub_idx, sub_size, order, sel,
-        tau_ref ** (-powers.astype(float)), weighted, share,
-        coefficients, coef_sig, chi2, npts,
+        read_only(phi, np.float64), read_only(a2, np.float64), read_only(e2, np.float64),
+        n_reweight, read_only(sub_idx), read_only(sub_size), read_only(order), read_only(sel),
+        read_only(tau_ref ** (-powers.astype(float)), np.float64), weighted,
+        read_only(share, np.float64), coefficients, coef_sig, chi2, npts,
     )  # fmt: skip
 
     if np.all(share == 1.0):

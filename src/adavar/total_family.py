@@ -70,6 +70,7 @@ from typing import Any, Final
 import numpy as np
 
 from adavar import edf as edf_mod
+from adavar._jit import read_only
 from adavar._kernels.total_family import MIN_BLOCK, left_sums, pvar_sums
 from adavar.errors import AdavarInputError
 
@@ -295,8 +296,9 @@ def _block(m: int) -> int:
 
 def _total_sum(u: np.ndarray, reversed_u: np.ndarray, m: int, integrate: bool) -> float:
     """``sum_n sum_j D_j**2`` over every subsequence (see the kernel module)."""
-    forward, middle = left_sums(u, m, integrate, True, _block(m))
-    backward, _ = left_sums(reversed_u, m, integrate, False, _block(m))
+    # read-only views, as every kernel sharing sample_median takes its samples: one version
+    forward, middle = left_sums(read_only(u, np.float64), m, integrate, True, _block(m))
+    backward, _ = left_sums(read_only(reversed_u, np.float64), m, integrate, False, _block(m))
     return max(forward + backward - 2.0 * middle, 0.0)
 
 
@@ -320,7 +322,7 @@ def _pvar(u: np.ndarray, m: int) -> tuple[float, int]:
         n = u.size - 1
         return float(np.dot(d, d)) / (2.0 * n), n
     n = u.size + 1 - 2 * m
-    total = pvar_sums(u, m, max(2 * m, MIN_BLOCK))
+    total = pvar_sums(read_only(u, np.float64), m, max(2 * m, MIN_BLOCK))
     return 72.0 * total / (n * float(m) ** 6), n
 
 
