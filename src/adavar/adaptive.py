@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 
 from adavar import stream
-from adavar.controller import REANCHOR, controller_outputs, make_controller
+from adavar.controller import REANCHOR, check_whole, controller_outputs, make_controller
 from adavar.davar import davar
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
@@ -204,19 +204,13 @@ def window_lengths(
     A duration rounds to the nearest sample; a duration ``lmin`` then takes the nearest
     length of ``lmax``'s parity (the window keeps the parity of its length).
     """
-    big = _check_int("lmax", to_samples(lmax, dt, "lmax"), 5)
-    small = _check_int("lmin", to_samples(lmin, dt, "lmin"), 5)
+    big = check_whole("lmax", to_samples(lmax, dt, "lmax"), 5)
+    small = check_whole("lmin", to_samples(lmin, dt, "lmin"), 5)
     if is_duration(lmin) and (big - small) % 2:
         small = small + 1 if small + 1 <= big else small - 1
-    seg = _check_int("l", to_samples(l, dt, "l"), 1)
-    every = _check_int("step", to_samples(step, dt, "step"), 1)
+    seg = check_whole("l", to_samples(l, dt, "l"), 1)
+    every = check_whole("step", to_samples(step, dt, "step"), 1)
     return big, small, seg, every
-
-
-def _check_int(name: str, value: Any, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise AdavarInputError(f"{name} must be an integer >= {minimum}, got {value!r}")
-    return int(value)
 
 
 def adaptive_schedule(

@@ -47,6 +47,7 @@ __all__ = [
     "S_TESTS",
     "WARM_UP",
     "Controller",
+    "check_whole",
     "controller_outputs",
     "make_controller",
 ]
@@ -427,7 +428,8 @@ class Controller:
         return out, int(end)
 
 
-def _check_int(name: str, value: object, minimum: int) -> int:
+def check_whole(name: str, value: object, minimum: int) -> int:
+    """``value`` as an int, or an AdavarInputError naming ``name`` (bools are refused)."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise AdavarInputError(f"{name} must be an integer >= {minimum}, got {value!r}")
     return int(value)
@@ -486,11 +488,11 @@ def make_controller(
         raise AdavarInputError(f"unknown combine {combine!r}: use 'or' or 'and'")
     if thresholds not in ("paper", "calibrated"):
         raise AdavarInputError(f"unknown thresholds {thresholds!r}: use 'paper' or 'calibrated'")
-    lmax = _check_int("lmax", lmax, 5)
-    lmin = _check_int("lmin", lmin, 5)
-    seg = _check_int("l", seg, 1)
-    dl0 = _check_int("dl0", dl0, 0)
-    dl1 = _check_int("dl1", dl1, 0)
+    lmax = check_whole("lmax", lmax, 5)
+    lmin = check_whole("lmin", lmin, 5)
+    seg = check_whole("l", seg, 1)
+    dl0 = check_whole("dl0", dl0, 0)
+    dl1 = check_whole("dl1", dl1, 0)
     if lmin > lmax:
         raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
     if (lmax - lmin) % 2 or dl0 % 2 or dl1 % 2:
