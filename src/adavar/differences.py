@@ -38,6 +38,7 @@ __all__ = [
     "cluster_lag1",
     "cluster_sums",
     "fused_lag1",
+    "fused_lag1_levels",
     "modified_sums",
     "overlapping_sums",
     "strided_sums",
@@ -99,14 +100,15 @@ def _block_cluster_stats(rb, total, m, k_first, count, kc, out):  # pragma: no c
 
 
 @jit
-def _anchored_prefix(u, shift, nlev):  # pragma: no cover - compiled
+def _anchored_prefix(u, shift, nlev, stats, fused):  # pragma: no cover - compiled
+    # stats (zeros, one row of 8 per block and level) and fused come from the caller:
+    # allocating them here would compile np.zeros for 3-D and 2-D arrays (0.3 s cold)
     n = u.size
     npts = n + 1
     nb = (npts + BLOCK - 1) >> SHIFT
     r = np.empty(npts)
     tot_h = np.zeros(nb)
     tot_l = np.zeros(nb)
-    stats = np.zeros((nb, max(nlev, 1), 8))
     for b in prange(nb):
         j0 = b << SHIFT
         j1 = min(j0 + BLOCK, npts)
@@ -142,7 +144,77 @@ def _anchored_prefix(u, shift, nlev):  # pragma: no cover - compiled
         hh[b] = ah
         hl[b] = al
         ah, al = dd_add(ah, al, tot_h[b], tot_l[b])
-    return r, hh, hl, stats
+
+    # per level m = 2**lev, from the block moments: the order-0 lag-1 statistics of the
+    # detrended m-cluster sums, fused[lev] = (r1, den, zmax, ok), the least-squares line
+    # removed algebraically; ok = 0 (and r1 NaN) with fewer than 8 clusters, or where the
+    # series is so dominated by its trend that the algebra would cancel away the noise.
+    # (Written out here, scalars only: a helper kernel, or array temporaries, cost about
+    # 0.4 s more to compile on a cold cache.)
+    for lev in range(nlev):
+        fused[lev, 0] = np.nan
+        fused[lev, 1] = 0.0
+        fused[lev, 2] = 0.0
+        fused[lev, 3] = 0.0
+        c = n >> lev
+        if c < 8:
+            continue
+        z1 = 0.0
+        zt = 0.0
+        z2 = 0.0
+        zin = 0.0
+        zs = 0.0  # lag products inside blocks, and of the pairs straddling block boundaries
+        zmax = 0.0
+        z_first = 0.0
+        z_last = 0.0
+        for b in range(nb):
+            if stats[b, lev, 7] <= 0:  # the blocks holding clusters are a prefix
+                break
+            z1 += stats[b, lev, 0]
+            zt += stats[b, lev, 1]
+            z2 += stats[b, lev, 2]
+            zin += stats[b, lev, 3]
+            if stats[b, lev, 4] > zmax:
+                zmax = stats[b, lev, 4]
+            if b == 0:
+                z_first = stats[b, lev, 5]
+            else:
+                zs += z_last * stats[b, lev, 5]
+            z_last = stats[b, lev, 6]
+        cf = 1.0 * c  # exact; its square rounds once, as the integer's would
+        kc = 0.5 * (cf - 1.0)
+        stt = cf * (cf * cf - 1.0) / 12.0
+        alpha = z1 / cf
+        beta = zt / stt
+        den = z2 - cf * alpha * alpha - stt * beta * beta
+        fused[lev, 1] = den
+        fused[lev, 2] = zmax
+        if not den > 1e-8 * z2:
+            continue
+        # t_first = -kc, t_last = kc: the abscissae of the first and last clusters
+        cross1 = alpha * (z1 - z_last) + beta * (zt - kc * z_last) + beta * (z1 - z_last)
+        cross2 = alpha * (z1 - z_first) + beta * (zt + kc * z_first) - beta * (z1 - z_first)
+        lines = (
+            (cf - 1.0) * alpha * alpha
+            + alpha * beta * (cf - 1.0 - 2.0 * kc)
+            + beta * beta * (stt - kc * kc - kc)
+        )
+        fused[lev, 0] = ((zin + zs) - cross1 - cross2 + lines) / den
+        fused[lev, 3] = 1.0
+    return r, hh, hl
+
+
+def _median(values: np.ndarray) -> float:
+    """``numpy.median`` of a short finite array, bit for bit, without its overhead."""
+    n = values.size
+    half = n // 2
+    part = values.copy()
+    part.partition((half - 1, half, n - 1) if n > 1 else (0,))
+    if part[-1] != part[-1]:  # a NaN sorts last and makes the median NaN
+        return float("nan")
+    if n % 2:
+        return float(part[half])
+    return float((part[half - 1] + part[half]) / 2)
 
 
 class AnchoredPhase:
@@ -159,7 +231,7 @@ class AnchoredPhase:
         coefficients annihilate linear sequences (all the ones used here) do not depend on it.
     """
 
-    __slots__ = ("cluster_stats", "hh", "hl", "r", "shift")
+    __slots__ = ("cluster_stats", "fused", "hh", "hl", "r", "shift")
 
     def __init__(
         self,
@@ -168,6 +240,7 @@ class AnchoredPhase:
         hl: np.ndarray,
         shift: float,
         cluster_stats: np.ndarray | None = None,
+        fused: np.ndarray | None = None,
     ) -> None:
         self.r = r
         self.hh = hh
@@ -175,6 +248,8 @@ class AnchoredPhase:
         self.shift = shift
         #: per block and level m = 2**lev: the moments of :func:`_block_cluster_stats`
         self.cluster_stats = cluster_stats
+        #: per level: the order-0 lag-1 statistics computed from them (r1, den, zmax, ok)
+        self.fused = fused
 
     @property
     def n_points(self) -> int:
@@ -214,11 +289,14 @@ def anchored_phase(
     """
     u = np.ascontiguousarray(increments, dtype=np.float64)
     if shift is None:
-        shift = float(np.median(u[:BLOCK])) if u.size else 0.0
-    r, hh, hl, stats = _anchored_prefix(
-        read_only(u), float(shift), FUSED_LEVELS if cluster_stats else 0
-    )
-    return AnchoredPhase(r, hh, hl, shift, stats if cluster_stats else None)
+        shift = _median(u[:BLOCK]) if u.size else 0.0
+    nlev = FUSED_LEVELS if cluster_stats else 0
+    stats = np.zeros((1 + (u.size >> SHIFT), max(nlev, 1), 8))  # a row per anchor block
+    fused = np.empty((max(nlev, 1), 4))
+    r, hh, hl = _anchored_prefix(read_only(u), float(shift), nlev, stats, fused)
+    if not cluster_stats:
+        return AnchoredPhase(r, hh, hl, shift)
+    return AnchoredPhase(r, hh, hl, shift, stats, fused)
 
 
 # ---------------------------------------------------------------------------------------
@@ -310,7 +388,7 @@ def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs):  # pragma: no
     for t in range(nt):
         imax = max(imax, starts[t] + counts[t])
     nsb = (imax + SUPERBLOCK - 1) // SUPERBLOCK
-    partial = np.zeros((nsb, nt))
+    partial = np.zeros(nsb * nt)  # [sb, t] flat: a 2-D np.zeros costs 0.15 s to compile
     for sb in prange(nsb):
         b0 = sb * SUPERBLOCK
         b1 = b0 + SUPERBLOCK
@@ -330,10 +408,13 @@ def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs):  # pragma: no
                 else:
                     acc += _run_sq3(r, c, i, e, m)
                 i = e
-            partial[sb, t] = acc
+            partial[sb * nt + t] = acc
     out = np.zeros(nt)
     for t in range(nt):
-        out[t] = np.sum(partial[:, t])
+        total = 0.0  # in superblock order, as np.sum would (and without compiling it)
+        for sb in range(nsb):
+            total += partial[sb * nt + t]
+        out[t] = total
     return out
 
 
@@ -389,8 +470,8 @@ def _modified_sums(r, hh, hl, ms, counts):  # pragma: no cover - compiled
             c += e
         total = s + c
         acc = total * total
-        enter = np.empty(_MOD_CHUNK)
-        leave = np.empty(_MOD_CHUNK)
+        enter = np.empty(min(_MOD_CHUNK, max(count - 1, 0)))  # no more than one chunk needs
+        leave = np.empty(enter.size)
         j = 1
         while j < count:
             n = min(_MOD_CHUNK, count - j)
@@ -437,9 +518,11 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
     parallel chunks instead of materialising and refitting the series: O(N/m) time, O(1)
     extra memory. ``dmax`` <= 3.
     """
+    # (arrays are flat and reduced by loops, in chunk order as np.sum would: 2-D and 3-D
+    # np.zeros, np.sum, np.max, np.full cost over a second of compilation on a cold cache)
     nch = max(1, min(256, count // 8192))
     kc = 0.5 * (count - 1)
-    part1 = np.zeros((nch, 3))
+    part1 = np.zeros(nch * 3)  # [ch, 0..2]
     for ch in prange(nch):
         k0 = (count * ch) // nch
         k1 = (count * (ch + 1)) // nch
@@ -451,17 +534,23 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
             sz += z
             stz += (k - kc) * z
             zmax = max(zmax, abs(z))
-        part1[ch, 0] = sz
-        part1[ch, 1] = stz
-        part1[ch, 2] = zmax
+        part1[3 * ch] = sz
+        part1[3 * ch + 1] = stz
+        part1[3 * ch + 2] = zmax
+    sz = 0.0
+    stz = 0.0
+    zmax = 0.0  # the largest of non-negative numbers
+    for ch in range(nch):
+        sz += part1[3 * ch]
+        stz += part1[3 * ch + 1]
+        zmax = max(zmax, part1[3 * ch + 2])
     stt = count * (count * count - 1.0) / 12.0
-    a = np.sum(part1[:, 0]) / count
-    b = np.sum(part1[:, 1]) / stt if stt > 0 else 0.0
-    zmax = np.max(part1[:, 2])
+    a = sz / count
+    b = stz / stt if stt > 0 else 0.0
 
     # per chunk and order d: sum x, sum x^2, sum x_{k-1} x_k (pairs whose later index is here)
     nd = dmax + 1
-    part2 = np.zeros((nch, 4, 3))
+    part2 = np.zeros(nch * 12)  # [ch, d, 0..2]
     for ch in prange(nch):
         k0 = (count * ch) // nch
         k1 = (count * (ch + 1)) // nch
@@ -501,18 +590,19 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
             q1 = x1
             q2 = x2
             q3 = x3
-        part2[ch, 0, 0] = a0
-        part2[ch, 0, 1] = b0
-        part2[ch, 0, 2] = c0
-        part2[ch, 1, 0] = a1
-        part2[ch, 1, 1] = b1
-        part2[ch, 1, 2] = c1
-        part2[ch, 2, 0] = a2
-        part2[ch, 2, 1] = b2
-        part2[ch, 2, 2] = c2
-        part2[ch, 3, 0] = a3
-        part2[ch, 3, 1] = b3
-        part2[ch, 3, 2] = c3
+        at = 12 * ch
+        part2[at] = a0
+        part2[at + 1] = b0
+        part2[at + 2] = c0
+        part2[at + 3] = a1
+        part2[at + 4] = b1
+        part2[at + 5] = c1
+        part2[at + 6] = a2
+        part2[at + 7] = b2
+        part2[at + 8] = c2
+        part2[at + 9] = a3
+        part2[at + 10] = b3
+        part2[at + 11] = c3
 
     # first and last values of each order, for the centred lag-1 sum (count >= 4)
     h = np.empty(4)
@@ -521,30 +611,37 @@ def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compile
         h[q] = cluster_sum(r, hh, hl, q * m, m) - (a + b * (q - kc))
         k = count - 4 + q
         t[q] = cluster_sum(r, hh, hl, k * m, m) - (a + b * (k - kc))
-    first = np.array(
-        [h[0], h[1] - h[0], (h[2] - h[1]) - (h[1] - h[0]), h[3] - 3 * h[2] + 3 * h[1] - h[0]]
-    )
-    last = np.array(
-        [t[3], t[3] - t[2], (t[3] - t[2]) - (t[2] - t[1]), t[3] - 3 * t[2] + 3 * t[1] - t[0]]
-    )
+    first = np.empty(4)
+    first[0] = h[0]
+    first[1] = h[1] - h[0]
+    first[2] = (h[2] - h[1]) - (h[1] - h[0])
+    first[3] = h[3] - 3 * h[2] + 3 * h[1] - h[0]
+    last = np.empty(4)
+    last[0] = t[3]
+    last[1] = t[3] - t[2]
+    last[2] = (t[3] - t[2]) - (t[2] - t[1])
+    last[3] = t[3] - 3 * t[2] + 3 * t[1] - t[0]
 
-    r1 = np.full(nd, np.nan)
+    r1 = np.empty(nd)
     den = np.zeros(nd)
-    n = np.zeros(nd, dtype=np.int64)
     for d in range(nd):
+        r1[d] = np.nan
         c = count - d
-        n[d] = max(c, 0)
         if c < 2:
             continue
-        s1 = np.sum(part2[:, d, 0])
-        s2 = np.sum(part2[:, d, 1])
-        s11 = np.sum(part2[:, d, 2])
+        s1 = 0.0
+        s2 = 0.0
+        s11 = 0.0
+        for ch in range(nch):
+            s1 += part2[12 * ch + 3 * d]
+            s2 += part2[12 * ch + 3 * d + 1]
+            s11 += part2[12 * ch + 3 * d + 2]
         mean = s1 / c
         den[d] = s2 - c * mean * mean
         num = s11 - mean * ((s1 - last[d]) + (s1 - first[d])) + (c - 1) * mean * mean
         if den[d] > 0:
             r1[d] = num / den[d]
-    return r1, den, n, zmax
+    return r1, den, zmax
 
 
 # ---------------------------------------------------------------------------------------
@@ -562,18 +659,24 @@ def overlapping_sums(
 
     By default ``i`` runs over every start that keeps ``i + order * m`` inside the data.
     """
-    ms = np.asarray(ms, dtype=np.int64)
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
     coefs = SECOND if order == 2 else THIRD
-    if starts is None:
-        starts = np.zeros_like(ms)
-    if counts is None:
+    if starts is None and counts is None:  # every start: only an empty sum can go wrong
         counts = phase.n_points - order * ms
-    starts = np.ascontiguousarray(starts, dtype=np.int64)
-    counts = np.ascontiguousarray(counts, dtype=np.int64)
-    if np.any(counts < 1) or np.any(starts < 0):
-        raise ValueError("internal: empty or out-of-range difference sum")
-    if np.any(starts + counts - 1 + order * ms >= phase.n_points):
-        raise ValueError("internal: difference sum runs past the data")
+        starts = np.zeros(ms.size, dtype=np.int64)
+        if ms.size and counts.min() < 1:
+            raise ValueError("internal: empty or out-of-range difference sum")
+    else:
+        if starts is None:
+            starts = np.zeros_like(ms)
+        if counts is None:
+            counts = phase.n_points - order * ms
+        starts = np.ascontiguousarray(starts, dtype=np.int64)
+        counts = np.ascontiguousarray(counts, dtype=np.int64)
+        if np.any(counts < 1) or np.any(starts < 0):
+            raise ValueError("internal: empty or out-of-range difference sum")
+        if np.any(starts + counts - 1 + order * ms >= phase.n_points):
+            raise ValueError("internal: difference sum runs past the data")
     return overlapping_sums_kernel(phase.r, phase.hh, phase.hl, ms, starts, counts, coefs)
 
 
@@ -589,9 +692,9 @@ def strided_sums(phase: AnchoredPhase, ms: np.ndarray, order: int) -> tuple[np.n
 
 def modified_sums(phase: AnchoredPhase, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """MVAR numerators ``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2``; returns (sums, counts)."""
-    ms = np.asarray(ms, dtype=np.int64)
-    counts = phase.n_points - 3 * ms + 1
-    if np.any(counts < 1):
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    counts = (phase.n_points + 1) - 3 * ms
+    if ms.size and counts.min() < 1:
         raise ValueError("internal: empty difference sum")
     return _modified_sums(phase.r, phase.hh, phase.hl, ms, counts), counts
 
@@ -606,52 +709,48 @@ def cluster_lag1(phase: AnchoredPhase, m: int, dmax: int):
     count = (phase.n_points - 1) // m
     if count < 8 or not 0 <= dmax <= 3:
         raise ValueError("internal: lag-1 statistics need >= 8 clusters and dmax <= 3")
-    return _cluster_lag1_sums(phase.r, phase.hh, phase.hl, int(m), count, int(dmax))
+    r1, den, zmax = _cluster_lag1_sums(phase.r, phase.hh, phase.hl, int(m), count, int(dmax))
+    return r1, den, np.maximum(count - np.arange(dmax + 1), 0), zmax
+
+
+def fused_lag1_levels(phase: AnchoredPhase):
+    """Order-0 lag-1 statistics of every fused level ``m = 1, 2, 4, ...`` at once.
+
+    The quantity of ``cluster_lag1(phase, m, 0)`` for each ``m = 2**level`` below
+    ``2**FUSED_LEVELS``, from the moments gathered during integration (no further pass over
+    the data), with the least-squares line removed algebraically. Returns ``None`` without
+    moments, else ``(r1, den, counts, zmax, ok)``, one entry per level: ``ok`` is False
+    where there are fewer than 8 clusters or the series is so dominated by its trend that
+    the algebraic removal would lose the noise (the caller then streams the data with
+    :func:`cluster_lag1`); ``r1`` is NaN there.
+    """
+    out = phase.fused  # computed with the moments, by _anchored_prefix
+    if out is None:
+        return None
+    counts = (phase.n_points - 1) >> np.arange(out.shape[0], dtype=np.int64)
+    return out[:, 0], out[:, 1], counts, out[:, 2], out[:, 3] > 0
 
 
 def fused_lag1(phase: AnchoredPhase, m: int):
     """Order-0 lag-1 autocorrelation of the detrended m-cluster sums from the fused moments.
 
     Same quantity as ``cluster_lag1(phase, m, 0)`` but from the moments gathered during
-    integration (no further pass over the data), with the least-squares line removed
-    algebraically. Returns ``None`` when ``m`` is not a fused level, or when the series is so
-    dominated by its trend that the algebraic removal would lose the noise (the caller then
-    streams the data with :func:`cluster_lag1`).
+    integration (one level of :func:`fused_lag1_levels`). Returns ``None`` when ``m`` is not
+    a fused level, or when the series is too short or so dominated by its trend that the
+    algebraic removal would lose the noise (the caller then streams the data with
+    :func:`cluster_lag1`).
     """
     if phase.cluster_stats is None or m & (m - 1) or m >= (1 << FUSED_LEVELS):
         return None
-    st = phase.cluster_stats[:, m.bit_length() - 1, :]
-    c = (phase.n_points - 1) // m
-    if c < 8:
+    level = m.bit_length() - 1
+    r1, den, c, zmax, ok = fused_lag1_levels(phase)
+    if not ok[level]:
         return None
-    used = st[:, 7] > 0
-    blocks = st[used]
-    z1, zt, z2 = blocks[:, 0].sum(), blocks[:, 1].sum(), blocks[:, 2].sum()
-    # lag products inside blocks, plus the pairs that straddle block boundaries
-    zl = blocks[:, 3].sum() + float(np.dot(blocks[:-1, 6], blocks[1:, 5]))
-    z_first, z_last = blocks[0, 5], blocks[-1, 6]
-    kc = 0.5 * (c - 1)
-    stt = c * (c * c - 1.0) / 12.0
-    t_first, t_last = -kc, kc
-    alpha = z1 / c
-    beta = zt / stt
-    den = z2 - c * alpha * alpha - stt * beta * beta
-    if not den > 1e-8 * z2:  # trend-dominated: the algebra would cancel away the noise
-        return None
-    cross1 = alpha * (z1 - z_last) + beta * (zt - t_last * z_last) + beta * (z1 - z_last)
-    cross2 = alpha * (z1 - z_first) + beta * (zt - t_first * z_first) - beta * (z1 - z_first)
-    lines = (
-        (c - 1) * alpha * alpha
-        + alpha * beta * (c - 1 - 2 * t_last)
-        + beta * beta * (stt - t_last * t_last - t_last)
-    )
-    num = zl - cross1 - cross2 + lines
-    zmax = float(blocks[:, 4].max())
     return (
-        np.array([num / den]),
-        np.array([den]),
-        np.array([c], dtype=np.int64),
-        zmax,
+        r1[level : level + 1],
+        den[level : level + 1],
+        c[level : level + 1].astype(np.int64),
+        float(zmax[level]),
     )
 
 

@@ -62,12 +62,15 @@ __all__ = [
     "STAT_ALPHA_RANGE",
     "TOTDEV_EDF_METHODS",
     "NoiseIdError",
+    "chi2_bounds",
     "chi2_interval",
+    "chi2_quantiles",
     "edf",
     "greenhall_edf",
     "identify_noise",
     "identify_noise_b1",
     "identify_noise_lag1",
+    "interval_table",
 ]
 
 #: Smallest EDF :func:`edf` returns. A variance estimate carries at least one degree of
@@ -210,6 +213,24 @@ def _sz(t: np.ndarray, f: float, alpha: int, d: int) -> np.ndarray:
     return total
 
 
+@lru_cache(maxsize=1 << 14)
+def _sz_squared(j: int, s: float, f: float, alpha: int, d: int) -> np.ndarray:
+    """``sz(k/S, F, alpha, d)^2`` at lags ``k = 0..J``: the same for every record length.
+
+    A DAVAR asks for thousands of lengths at one (m, alpha), and they share this (the
+    record length only moves the weights of :func:`_basic_sum`).
+    """
+    lags = np.arange(j + 1, dtype=np.float64)
+    out = _sz(lags / s, f, alpha, d) ** 2
+    out.flags.writeable = False
+    return out
+
+
+def _sz0_squared(f: float, alpha: int, d: int) -> float:
+    """``sz(0, F, alpha, d)^2``, the normalisation of every basic sum."""
+    return float(_sz_squared(0, 1.0, f, alpha, d)[0])
+
+
 def _basic_sum(j: int, m_terms: float, s: float, f: float, alpha: int, d: int) -> float:
     """Greenhall Eq. (10): sum of squared normalised autocovariances over lags 0..J.
 
@@ -217,7 +238,7 @@ def _basic_sum(j: int, m_terms: float, s: float, f: float, alpha: int, d: int) -
     J <= J_max, so this is a bounded, vectorised evaluation whatever the record length.
     """
     lags = np.arange(j + 1, dtype=np.float64)
-    sz2 = _sz(lags / s, f, alpha, d) ** 2
+    sz2 = _sz_squared(j, s, f, alpha, d)
     weights = 2.0 * (1.0 - lags / m_terms)
     weights[0] = 1.0
     weights[-1] = 1.0 - j / m_terms  # J = 0 cannot occur: M >= 1 so J >= 1
@@ -308,7 +329,7 @@ def greenhall_edf(
     if modified:  # case 1, all alpha, F = 1
         if j <= j_max:
             inv = _basic_sum(j, n_terms, stride, 1.0, alpha, d) / (
-                _sz(np.zeros(1), 1.0, alpha, d)[0] ** 2 * n_terms
+                _sz0_squared(1.0, alpha, d) * n_terms
             )
         elif r > d + 1:
             a0, a1 = _TABLE1[alpha][d]
@@ -316,7 +337,7 @@ def greenhall_edf(
         else:
             m_prime = j_max / r
             inv = _basic_sum(j_max, j_max, m_prime, 1.0, alpha, d) / (
-                _sz(np.zeros(1), 1.0, alpha, d)[0] ** 2 * j_max
+                _sz0_squared(1.0, alpha, d) * j_max
             )
         return 1.0 / inv
 
@@ -326,7 +347,7 @@ def greenhall_edf(
             # stays short; for m (d+1) > Jmax it uses exact samples (F = inf) instead
             f_eff = float(m) if m * (d + 1) <= j_max else math.inf
             inv = _basic_sum(j, n_terms, stride, f_eff, alpha, d) / (
-                _sz(np.zeros(1), f_eff, alpha, d)[0] ** 2 * n_terms
+                _sz0_squared(f_eff, alpha, d) * n_terms
             )
         elif r > d + 1:
             a0, a1 = _TABLE2[alpha][d]
@@ -334,14 +355,14 @@ def greenhall_edf(
         else:
             m_prime = j_max / r
             inv = _basic_sum(j_max, j_max, m_prime, math.inf, alpha, d) / (
-                _sz(np.zeros(1), math.inf, alpha, d)[0] ** 2 * j_max
+                _sz0_squared(math.inf, alpha, d) * j_max
             )
         return 1.0 / inv
 
     if alpha == 1:  # case 3, unmodified flicker PM
         if j <= j_max:
             inv = _basic_sum(j, n_terms, stride, float(m), 1, d) / (
-                _sz(np.zeros(1), float(m), 1, d)[0] ** 2 * n_terms
+                _sz0_squared(float(m), 1, d) * n_terms
             )
         else:
             b0, b1 = _TABLE3[d]
@@ -532,7 +553,68 @@ def chi2_interval(
     if np.any(v < 0) or np.any(np.isinf(v)):
         raise ValueError("var must be non-negative and finite")
     v, k = np.broadcast_arrays(v, k)
-    # chi2.ppf(q, k) is 2 gammaincinv(k / 2, q), bit for bit, without scipy.stats' overhead
-    low = v * k / (2.0 * gammaincinv(0.5 * k, 0.5 * (1.0 + c)))
-    high = v * k / (2.0 * gammaincinv(0.5 * k, 0.5 * (1.0 - c)))
-    return low, high
+    return chi2_bounds(v, k, *chi2_quantiles(k, c))
+
+
+def chi2_bounds(
+    var: np.ndarray, edf: np.ndarray, upper: np.ndarray, lower: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(var * edf / upper, var * edf / lower)``: :func:`chi2_interval` given the quantiles.
+
+    ``upper, lower`` are :func:`chi2_quantiles` of ``edf``; nothing is checked.
+    """
+    spread = var * edf
+    return spread / upper, spread / lower
+
+
+def chi2_quantiles(edf: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
+    """``chi2.ppf((1 + c) / 2, edf)`` and ``chi2.ppf((1 - c) / 2, edf)``, unchecked.
+
+    ``chi2.ppf(q, k)`` is ``2 gammaincinv(k / 2, q)``, bit for bit, without scipy.stats'
+    import and per-call overhead. The bounds of :func:`chi2_interval` are ``var * edf``
+    divided by these (:func:`chi2_bounds`).
+    """
+    half = 0.5 * np.asarray(edf, dtype=np.float64)
+    c = float(confidence)
+    return 2.0 * gammaincinv(half, 0.5 * (1.0 + c)), 2.0 * gammaincinv(half, 0.5 * (1.0 - c))
+
+
+def interval_table(
+    stat: str,
+    alpha: np.ndarray,
+    ms: np.ndarray,
+    n_phase: int,
+    confidence: float,
+    *,
+    totdev_edf: str = "sp1065",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """EDF and chi-square quantiles of a whole tau grid, cached by the grid.
+
+    ``(edf, upper, lower)``: :func:`edf` at every ``(alpha, m)`` pair, and
+    :func:`chi2_quantiles` of those EDFs, as read-only arrays. A record of the same length,
+    taus and noise types as an earlier one (repeated analyses, channels, windows) takes
+    them from the cache.
+    """
+    alpha = np.ascontiguousarray(alpha, dtype=np.int64)
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    return _interval_table(
+        str(stat).lower(),
+        alpha.tobytes(),
+        ms.tobytes(),
+        int(n_phase),
+        float(confidence),
+        str(totdev_edf).lower(),
+    )
+
+
+@lru_cache(maxsize=256)
+def _interval_table(
+    stat: str, alpha: bytes, ms: bytes, n_phase: int, confidence: float, method: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    alphas, factors = np.frombuffer(alpha, np.int64).tolist(), np.frombuffer(ms, np.int64).tolist()
+    pairs = zip(alphas, factors, strict=True)
+    values = np.array([edf(stat, a, m, n_phase, totdev_edf=method) for a, m in pairs])
+    upper, lower = chi2_quantiles(values, confidence)
+    for table in (values, upper, lower):
+        table.flags.writeable = False
+    return values, upper, lower

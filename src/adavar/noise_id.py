@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from functools import lru_cache
 from typing import Final
 
 import numpy as np
@@ -59,6 +60,10 @@ MIN_POINTS_B1: Final[int] = 10
 
 #: Expected R(n) = MVAR / AVAR of white FM for m >> 1 (SP 1065 5.5.5: 0.50).
 RN_WHITE_FM: Final[float] = 0.5
+
+#: a lag-1 residual whose RMS is below this times the raw series' largest magnitude is
+#: rounding, not noise (``alpha_from_lag1``)
+_RESIDUAL_FLOOR: Final = float(1e3 * np.finfo(np.float64).eps)
 
 _DATA_TYPES: Final[dict[str, str]] = {
     "phase": "phase",
@@ -214,7 +219,7 @@ def alpha_from_lag1(
     """
     kind = _data_type(data_type)
     offset = 2 if kind == "phase" else 0  # alpha = beta + 2 for phase data
-    floor = (1e3 * np.finfo(np.float64).eps * scale) ** 2
+    floor = (_RESIDUAL_FLOOR * scale) ** 2
     for d in range(int(dmax) + 1):
         if not den[d] > floor * sizes[d]:
             raise NoiseIdError("no noise left after removing the trend: cannot identify it")
@@ -223,7 +228,7 @@ def alpha_from_lag1(
         delta = r1[d] / (1.0 + r1[d])
         if d >= dmin and (delta < 0.25 or d >= dmax):
             alpha = -2.0 * (delta + d) + offset
-            alpha_int = int(offset - 2 * d - np.rint(2.0 * delta))
+            alpha_int = offset - 2 * d - round(2.0 * delta)  # round() as np.rint: half to even
             return alpha_int, float(alpha)
     raise AssertionError("unreachable: d reaches dmax")  # pragma: no cover
 
@@ -234,8 +239,18 @@ def fill_unidentified(alpha: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
     Too few clusters at the longest taus is the usual reason. With none identified at all,
     white noise (alpha 0) is assumed and a note says so. Returns ``(alpha int64, notes)``.
     """
+    if isinstance(alpha, list):  # the usual case: identified up to some tau, none beyond
+        known = 0
+        while known < len(alpha) and math.isfinite(alpha[known]):
+            known += 1
+        if known and not any(map(math.isfinite, alpha[known:])):
+            filled = alpha[:known] + [alpha[known - 1]] * (len(alpha) - known)
+            return np.array(filled, dtype=np.int64), ()
     alpha = np.array(alpha, dtype=np.float64)
     known = np.flatnonzero(np.isfinite(alpha))
+    if known.size and known[-1] == known.size - 1:
+        alpha[known.size :] = alpha[known.size - 1]
+        return alpha.astype(np.int64), ()
     if known.size == 0:
         alpha[:] = 0.0
         return alpha.astype(np.int64), (
@@ -270,18 +285,32 @@ def rn_theory_pm(m: int) -> tuple[float, float]:
     return white, mvar / avar
 
 
+#: (alpha, mu) of the B1 test from white-most to red-most; B1(N, mu) increases with mu
+_B1_CANDIDATES: Final = ((1, -2), (0, -1), (-1, 0), (-2, 1))
+
+
+@lru_cache(maxsize=1024)
+def _b1_boundaries(n: int) -> tuple[float, ...]:
+    """Geometric means of adjacent candidates' B1(n, mu): the boundaries between the types."""
+    return tuple(
+        math.sqrt(_b1_theory(n, mu_lo) * _b1_theory(n, mu_hi))
+        for (_, mu_lo), (_, mu_hi) in itertools.pairwise(_B1_CANDIDATES)
+    )
+
+
 def _b1_alpha(y: np.ndarray) -> int:
     """alpha in {1 (PM), 0, -1, -2} whose B1(N, mu) is nearest (geometrically) to the data's."""
     n = y.size
-    avar = 0.5 * float(np.mean(np.diff(y) ** 2))
+    total = np.add.reduce  # what ndarray.sum, np.mean and np.var sum with
+    step = y[1:] - y[:-1]
+    avar = 0.5 * float(total(step * step) / step.size)  # np.mean(np.diff(y) ** 2), bit for bit
     if not avar > 0.0:
         raise NoiseIdError("the series is constant: no noise to identify")
-    ratio = float(np.var(y, ddof=1)) / avar
-    # (alpha, mu) from white-most to red-most; B1(N, mu) increases with mu
-    candidates = [(1, -2), (0, -1), (-1, 0), (-2, 1)]
-    alpha = candidates[0][0]
-    for (_, mu_lo), (a_hi, mu_hi) in itertools.pairwise(candidates):
-        if ratio <= math.sqrt(_b1_theory(n, mu_lo) * _b1_theory(n, mu_hi)):
+    centred = y - total(y) / n
+    ratio = float(total(centred * centred) / (n - 1)) / avar  # np.var(y, ddof=1), ditto
+    alpha = _B1_CANDIDATES[0][0]
+    for boundary, (a_hi, _) in zip(_b1_boundaries(n), _B1_CANDIDATES[1:], strict=True):
+        if ratio <= boundary:
             break
         alpha = a_hi
     return alpha
@@ -352,7 +381,16 @@ def identify_noise_b1(
     """
     kind = _data_type(data_type)
     x = _as_series(z)
-    y = np.diff(x) if kind == "phase" else x
+    alpha = _b1_rate_alpha(np.diff(x) if kind == "phase" else x, dmax, min_points)
+    if alpha == 1 and rn_ratio is not None:
+        if m is None:
+            raise ValueError("rn_ratio needs the averaging factor m")
+        alpha = _b1_pm_by_rn(rn_ratio, int(m))
+    return alpha
+
+
+def _b1_rate_alpha(y: np.ndarray, dmax: int, min_points: int = MIN_POINTS_B1) -> int:
+    """B1 alpha of a finite rate series, before R(n) (:func:`identify_noise_b1`)."""
     n = y.size
     if n < max(int(min_points), 4):  # >= 3 values left after the dmax=3 difference
         raise NoiseIdError(f"B1 noise identification needs >= {min_points} rate values, got {n}")
@@ -360,17 +398,18 @@ def identify_noise_b1(
     if alpha == -2 and dmax >= 3:
         # differencing raises alpha by 2: RWFM -> 0, FWFM -> -1, RRFM -> -2
         alpha = min(-2, _b1_alpha(np.diff(y)) - 2)
-
-    if alpha == 1 and rn_ratio is not None:
-        if m is None:
-            raise ValueError("rn_ratio needs the averaging factor m")
-        if m >= 4:  # below that, MVAR ~ AVAR for any noise and R(n) carries no information
-            white, flicker = rn_theory_pm(int(m))
-            if flicker > white and rn_ratio < math.sqrt(white * flicker):
-                alpha = 2
-            elif flicker < RN_WHITE_FM and rn_ratio > math.sqrt(flicker * RN_WHITE_FM):
-                alpha = 0
     return alpha
+
+
+def _b1_pm_by_rn(rn_ratio: float, m: int) -> int:
+    """alpha of a B1 "PM" (1) as R(n) decides it: white PM 2, flicker PM 1 or white FM 0."""
+    if m >= 4:  # below that, MVAR ~ AVAR for any noise and R(n) carries no information
+        white, flicker = rn_theory_pm(m)
+        if flicker > white and rn_ratio < math.sqrt(white * flicker):
+            return 2
+        if flicker < RN_WHITE_FM and rn_ratio > math.sqrt(flicker * RN_WHITE_FM):
+            return 0
+    return 1
 
 
 def identify_noise(
@@ -555,7 +594,7 @@ def alpha_from_phase_lag1(
         A degenerate series.
     """
     r1, den, size, scale = phase_stats
-    floor = (1e3 * np.finfo(np.float64).eps * scale) ** 2
+    floor = (_RESIDUAL_FLOOR * scale) ** 2
     if den > floor * size and r1 > -1.0:
         delta = r1 / (1.0 + r1)
         if delta < 0.25:
@@ -577,7 +616,7 @@ NOISE_ID_RULES = ("sp1065", "stable32")
 
 def rn_ratio(avar: float, mvar: float) -> float | None:
     """R(n) = MVAR / AVAR, or None where it is undefined."""
-    return mvar / avar if avar > 0 and np.isfinite(mvar) else None
+    return mvar / avar if avar > 0 and math.isfinite(mvar) else None
 
 
 def pm_with_rn(alpha: int, m: int, rn) -> int:
@@ -605,9 +644,11 @@ def b1_with_rn(z: np.ndarray, m: int, dmax: int, rn, *, strict: bool = False) ->
     % of white or flicker PM records): R(n) of white FM (0.5) is far from both PM values.
     ``strict`` keeps to SP 1065 (and Stable32's tables): R(n) only where B1 says PM.
     """
-    alpha = identify_noise_b1(z, data_type="rate", dmax=dmax)
+    alpha = _b1_rate_alpha(_as_series(z), dmax)  # identify_noise_b1(z, data_type="rate")
     if alpha == 1:
-        alpha = identify_noise_b1(z, data_type="rate", dmax=dmax, rn_ratio=rn(), m=m)
+        ratio = rn()
+        if ratio is not None:  # identify_noise_b1(..., rn_ratio=ratio, m=m), without B1 again
+            alpha = _b1_pm_by_rn(ratio, int(m))
     elif alpha == 0 and m >= 4 and not strict:
         ratio = rn()
         if ratio is not None:

@@ -79,11 +79,10 @@ def resolve_tau0(rate: float | None, tau0: float | None) -> float:
         value = float(value)
     except (TypeError, ValueError):
         raise AdavarInputError(f"{name} must be a number, got {value!r}") from None
-    if not np.isfinite(value) or value <= 0:
+    if not math.isfinite(value) or value <= 0:
         raise AdavarInputError(f"{name} must be a positive number, got {value!r}")
-    with np.errstate(over="ignore", divide="ignore"):
-        step = value if name == "tau0" else 1.0 / value
-    if not (_TINY <= step < np.inf):
+    step = value if name == "tau0" else 1.0 / value  # a Python float: inf, not an error
+    if not (_TINY <= step < math.inf):
         raise AdavarInputError(
             f"{name} = {value!r} gives a sample interval of {step!r} s, outside the normal "
             "float64 range (2.2e-308 .. 1.8e308): give the rate in Hz (or tau0 in seconds)"
@@ -137,15 +136,23 @@ def as_samples(data: object, *, min_length: int = 3, missing_hint: str = "") -> 
     float32 and integer input is promoted to float64 (the sums need the precision).
     ``missing_hint`` is added to the error about a NaN sample (a way out the caller has).
     """
+    return _samples_and_range(data, min_length, missing_hint)[0]
+
+
+def _samples_and_range(
+    data: object, min_length: int, missing_hint: str
+) -> tuple[np.ndarray, float, float]:
+    """:func:`as_samples`, and the record's smallest and largest value (0, 0 if empty)."""
     refuse_masked(data)
     try:
         x = np.asarray(data)
     except Exception as exc:  # pragma: no cover - exotic containers
         raise AdavarInputError(f"cannot read the data as an array: {exc}") from None
-    if x.dtype == object or not (np.issubdtype(x.dtype, np.number) or x.dtype == bool):
-        raise AdavarInputError("data must be numeric: pass a 1-D array of samples")
-    if np.iscomplexobj(x):
-        raise AdavarInputError("data must be real-valued, not complex")
+    if x.dtype != np.float64:  # float64 is numeric and real
+        if x.dtype == object or not (np.issubdtype(x.dtype, np.number) or x.dtype == bool):
+            raise AdavarInputError("data must be numeric: pass a 1-D array of samples")
+        if np.iscomplexobj(x):
+            raise AdavarInputError("data must be real-valued, not complex")
     if x.ndim != 1:
         x = np.squeeze(x)
         if x.ndim != 1:
@@ -155,15 +162,17 @@ def as_samples(data: object, *, min_length: int = 3, missing_hint: str = "") -> 
     if x.size < min_length:
         raise AdavarInputError(f"the record has {x.size} samples; at least {min_length} are needed")
     x = np.asarray(x, dtype=np.float64)
-    finite = np.isfinite(x)
-    if not finite.all():
+    # min and max are NaN or infinite exactly when some sample is: the range checks them all
+    low, high = (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
+    if not (math.isfinite(low) and math.isfinite(high)):
+        finite = np.isfinite(x)
         first = int(np.argmin(finite))
         value = float(x[first])
         hint = missing_hint if math.isnan(value) else ""
         raise AdavarInputError(
             f"sample {first} is {value!r}: {hint}remove or interpolate non-finite samples first"
         )
-    return x
+    return x, low, high
 
 
 # ---------------------------------------------------------------------------------------
@@ -181,7 +190,12 @@ def data_exponent(x: np.ndarray) -> int:
     """
     if x.size == 0:
         return 0
-    big = max(abs(float(np.max(x))), abs(float(np.min(x))))
+    return _range_exponent(float(x.min()), float(x.max()))
+
+
+def _range_exponent(low: float, high: float) -> int:
+    """:func:`data_exponent` of a record whose values lie in ``[low, high]`` (its extremes)."""
+    big = max(abs(high), abs(low))
     if not 0.0 < big < math.inf:
         return 0
     exponent = math.frexp(big)[1]
@@ -308,12 +322,102 @@ def _m_max(stat: str, n_points: int) -> int:
     return (n_points - 1) // 3  # hdev, ohdev
 
 
-def _rn_in_memory(phase: diff.AnchoredPhase, m: int) -> float | None:
-    ms = np.array([m], dtype=np.int64)
-    n_avar = phase.n_points - 2 * m
-    avar = diff.overlapping_sums(phase, ms, 2)[0] / (2.0 * m * m * n_avar)
-    sums, n = diff.modified_sums(phase, ms)
-    return rn_ratio(float(avar), float(sums[0] / (2.0 * m**4 * n[0])))
+def _rn_in_memory(
+    phase: diff.AnchoredPhase, ms: Sequence[int], avar: dict[int, float] | None = None
+) -> dict[int, float | None]:
+    """R(n) = MVAR / AVAR at each of ``ms`` (one call of each kernel for all of them).
+
+    ``avar`` may hold the overlapping Allan variances already known (by ``m``).
+    """
+    ms = sorted(set(ms))
+    avar = {} if avar is None else avar
+    need = [m for m in ms if m not in avar]
+    if need:
+        sums = diff.overlapping_sums(phase, np.array(need, dtype=np.int64), 2).tolist()
+        avar = avar | {
+            m: total / (2.0 * m * m * (phase.n_points - 2 * m))
+            for m, total in zip(need, sums, strict=True)
+        }
+    mod_sums, counts = diff.modified_sums(phase, np.array(ms, dtype=np.int64))
+    return {
+        m: rn_ratio(avar[m], mod_sum / (2.0 * m**4 * count))
+        for m, mod_sum, count in zip(ms, mod_sums.tolist(), counts.tolist(), strict=True)
+    }
+
+
+class _RnTable:
+    """R(n) of the in-memory record by ``m``, computed when first asked for.
+
+    The first request computes it for every tau of ``candidates`` (the B1 taus, which
+    usually all need it) in one pass of each kernel; ``avar`` (by ``m``) are overlapping
+    Allan variances known already.
+    """
+
+    def __init__(
+        self,
+        phase: diff.AnchoredPhase,
+        candidates: Sequence[int],
+        avar: dict[int, float] | None = None,
+    ) -> None:
+        self.phase = phase
+        self.pending = set(candidates)
+        self.avar = avar
+        self.ratios: dict[int, float | None] = {}
+
+    def __call__(self, m: int) -> float | None:
+        if m not in self.ratios:
+            self.ratios.update(_rn_in_memory(self.phase, self.pending | {m}, self.avar))
+            self.pending.clear()
+        return self.ratios[m]
+
+
+def _rate_noise_type(
+    phase: diff.AnchoredPhase, m: int, dmax: int, fused: dict[int, tuple]
+) -> float:
+    """Lag-1 alpha of rate data at one tau of >= MIN_POINTS_LAG1 clusters (NaN: none).
+
+    Riley & Greenhall's rule (:func:`adavar.noise_id.alpha_from_lag1`) on the linearly
+    detrended m-cluster sums. Most taus stop at ``d = 0`` (``delta < 0.25``), so that order
+    comes first: for a short ``m`` from ``fused`` (:func:`_fused_order0`: the moments
+    gathered while integrating), else from one streaming pass; the other taus take a pass
+    for every order up to ``dmax``.
+    """
+    stats = fused.get(m) or _lag1_lists(diff.cluster_lag1(phase, m, 0))
+    r1 = stats[0][0]
+    if not (r1 == -1.0 or r1 / (1.0 + r1) < 0.25):  # delta = -inf at r1 = -1 stops too
+        stats = _lag1_lists(diff.cluster_lag1(phase, m, dmax))
+    try:
+        alpha = edf_mod.alpha_from_lag1(*stats, data_type="rate", dmax=len(stats[0]) - 1)[0]
+    except edf_mod.NoiseIdError:
+        return math.nan
+    return edf_mod.clamp_alpha(alpha, dmax)
+
+
+def _fused_order0(phase: diff.AnchoredPhase) -> dict[int, tuple]:
+    """Order-0 lag-1 statistics of the fused levels by ``m``, as :func:`_lag1_lists` gives.
+
+    Only the usable levels (:func:`adavar.differences.fused_lag1_levels`); empty without the
+    fused moments.
+    """
+    levels = diff.fused_lag1_levels(phase)
+    if levels is None:
+        return {}
+    r1, den, counts, zmax, usable = (values.tolist() for values in levels)
+    return {
+        1 << level: ([r1[level]], [den[level]], [counts[level]], zmax[level])
+        for level in range(len(usable))
+        if usable[level]
+    }
+
+
+def _lag1_lists(stats: tuple) -> tuple:
+    """``(r1, den, sizes, scale)`` of :func:`adavar.differences.cluster_lag1` as Python numbers.
+
+    The same IEEE arithmetic in :func:`adavar.noise_id.alpha_from_lag1`, without NumPy
+    scalars' per-operation overhead.
+    """
+    r1, den, sizes, scale = stats
+    return r1.tolist(), den.tolist(), sizes.tolist(), float(scale)
 
 
 def record_noise_types(
@@ -323,6 +427,7 @@ def record_noise_types(
     *,
     data_type: str = "rate",
     noise_id: str = "sp1065",
+    avar: np.ndarray | None = None,
 ):
     """Power-law noise exponent per tau: lag-1 ACF, B1 + R(n) fallback, else the neighbour's.
 
@@ -331,47 +436,56 @@ def record_noise_types(
     (:mod:`adavar.noise_id`) and a "white PM" there is checked by R(n);
     ``noise_id="stable32"`` identifies phase data on the m-averaged rate as before
     (clamped) and uses R(n) only where B1 says PM. Short series go to the B1 ratio.
+    ``avar``, if given, is the overlapping Allan variance of ``phase`` at every ``m`` (the
+    OADEV being computed): R(n) then takes it instead of recomputing it.
     """
     strict = noise_id == "stable32"
     on_phase = data_type == "phase" and not strict
-    alpha = np.full(ms.size, np.nan)
-    for k, m in enumerate(ms):
-        m = int(m)
-        count = (phase.n_points - 1) // m
+    ms = np.asarray(ms, dtype=np.int64).tolist()
+    n_increments = phase.n_points - 1
+    lag1, b1 = edf_mod.MIN_POINTS_LAG1, edf_mod.MIN_POINTS_B1
+    # B1 between the two; fewer clusters: not identified (the neighbour's type is taken)
+    short = [m for m in ms if b1 <= n_increments // m < lag1]
+    known = None
+    if avar is not None and short:
+        known = dict(zip(ms, avar.tolist(), strict=True))
+    rn = _RnTable(phase, short, known)
+    fused = {} if on_phase else _fused_order0(phase)
+    alpha = []
+    for m in ms:
+        count = n_increments // m
         try:
-            if count >= edf_mod.MIN_POINTS_LAG1:
-                pstats = None
+            if count >= lag1:
                 if on_phase:
-                    z = diff.cluster_differences(phase.r, phase.hh, phase.hl, m, count)
-                    pstats = edf_mod.decimated_phase_lag1(z)
-                    got = edf_mod.alpha_from_phase_lag1(pstats, None, dmax=dmax)
-                    if got is not None:
-                        alpha[k] = pm_with_rn(got, m, lambda m=m: _rn_in_memory(phase, m))
-                        continue
-                rate_dmax = dmax - 1 if on_phase else dmax
-                # most taus stop at d = 0 (delta < 0.25): try that cheaper pass first, from
-                # the moments gathered while integrating when m is short
-                stats = diff.fused_lag1(phase, m) or diff.cluster_lag1(phase, m, 0)
-                r1, den, sizes, scale = stats
-                if not r1[0] / (1.0 + r1[0]) < 0.25:
-                    stats = diff.cluster_lag1(phase, m, rate_dmax)
-                if on_phase:
-                    alpha[k] = edf_mod.alpha_from_phase_lag1(pstats, stats, dmax=dmax)
+                    alpha.append(_phase_noise_type(phase, m, count, dmax, rn))
                 else:
-                    r1, den, sizes, scale = stats
-                    alpha[k] = edf_mod.clamp_alpha(
-                        edf_mod.alpha_from_lag1(
-                            r1, den, sizes, scale, data_type="rate", dmax=r1.size - 1
-                        )[0],
-                        dmax,
-                    )
-            else:
+                    alpha.append(_rate_noise_type(phase, m, dmax, fused))
+            elif count >= b1:
                 z = diff.cluster_sums(phase, m) / m
-                rn = lambda m=m: _rn_in_memory(phase, m)  # noqa: E731 - evaluated if needed
-                alpha[k] = b1_with_rn(z, m, dmax, rn, strict=strict)
+                alpha.append(b1_with_rn(z, m, dmax, lambda m=m: rn(m), strict=strict))
+            else:
+                alpha.append(math.nan)
         except edf_mod.NoiseIdError:
-            continue
+            alpha.append(math.nan)
     return edf_mod.fill_unidentified(alpha)
+
+
+def _phase_noise_type(
+    phase: diff.AnchoredPhase, m: int, count: int, dmax: int, rn: _RnTable
+) -> int:
+    """SP 1065 lag-1 alpha of phase data at one tau: the decimated phase, then the sums."""
+    z = diff.cluster_differences(phase.r, phase.hh, phase.hl, m, count)
+    pstats = edf_mod.decimated_phase_lag1(z)
+    got = edf_mod.alpha_from_phase_lag1(pstats, None, dmax=dmax)
+    if got is not None:
+        return pm_with_rn(got, m, lambda: rn(m))
+    # most taus stop at d = 0 (delta < 0.25): try that cheaper pass first, from the moments
+    # gathered while integrating when m is short
+    stats = diff.fused_lag1(phase, m) or diff.cluster_lag1(phase, m, 0)
+    r1 = stats[0]
+    if not r1[0] / (1.0 + r1[0]) < 0.25:
+        stats = diff.cluster_lag1(phase, m, dmax - 1)
+    return edf_mod.alpha_from_phase_lag1(pstats, stats, dmax=dmax)
 
 
 TOTVAR_BIAS: dict[int, float] = {-1: 1.0 / (3.0 * np.log(2.0)), -2: 0.75}
@@ -521,7 +635,6 @@ def deviation(
     Noise identification streams the record as well
     (:func:`adavar.stream.noise_types`).
     """
-    keywords = {k: v for k, v in locals().items() if k != "data"}  # every keyword, for gaps
     spec = ext.spec_of(stat)
     if stat not in STATISTICS and spec is None:
         raise AdavarInputError(f"unknown stat {stat!r}: use one of {', '.join(ALL_STATISTICS)}")
@@ -540,6 +653,7 @@ def deviation(
     if gaps != "error":  # adavar.gaps imports this module: loaded on first use
         from adavar.gaps import deviation_omitting_gaps
 
+        keywords = {k: v for k, v in locals().items() if k in _DEVIATION_KEYWORDS}
         return deviation_omitting_gaps(data, **keywords)
     refuse_masked(data)
 
@@ -552,7 +666,10 @@ def deviation(
         increments = source if dtype == "rate" else stream.DifferencedSource(source)
         n_samples, n_points = source.size, increments.size + 1
     else:
-        x, exponent = scaled(as_samples(data, min_length=min_length, missing_hint=_OMIT_HINT))
+        x, low, high = _samples_and_range(data, min_length, _OMIT_HINT)
+        exponent = _range_exponent(low, high)
+        if exponent:
+            x = np.ldexp(x, -exponent)  # scaled(x), with the range already known
         u = x if dtype == "rate" else np.diff(x)
         n_samples, n_points = x.size, u.size + 1
 
@@ -593,9 +710,10 @@ def deviation(
         kernels = sstat
     m2 = ms.astype(np.float64) ** 2
 
+    oavar = None  # the overlapping AVAR of the phase, for R(n), when it is computed anyway
     if stat == "oadev":
         n = n_points - 2 * ms
-        var = kernels.overlapping_sums(phase, ms, 2) / (2.0 * m2 * n)
+        var = oavar = kernels.overlapping_sums(phase, ms, 2) / (2.0 * m2 * n)
     elif stat == "adev":
         sums, n = kernels.strided_sums(phase, ms, 2)
         var = sums / (2.0 * m2 * n)
@@ -624,7 +742,8 @@ def deviation(
             extended = diff.anchored_phase(np.pad(u, pad, mode="symmetric"), shift=phase.shift)
             sums = diff.overlapping_sums(extended, ms, 2, starts=starts, counts=n)
         var = sums / (2.0 * m2 * n)
-    var = var * scale
+    if scale != 1.0:
+        var = var * scale
     tau = ms * step
     if stat == "tdev":
         var = var * (ms * step_mantissa) ** 2 / 3.0
@@ -642,19 +761,18 @@ def deviation(
             )
         else:
             alpha, id_notes = record_noise_types(
-                phase, ms, dmax, data_type=dtype, noise_id=noise_id
+                phase, ms, dmax, data_type=dtype, noise_id=noise_id, avar=oavar
             )
         notes = notes + id_notes
-        edf_values = np.array(
-            [
-                edf_mod.edf(stat, int(a), int(m), n_points, totdev_edf=totdev_edf)
-                for a, m in zip(alpha, ms, strict=True)
-            ]
+        edf_values, upper, lower = edf_mod.interval_table(
+            stat, alpha, ms, n_points, float(confidence), totdev_edf=totdev_edf
         )
         if stat == "totdev" and totdev_bias:
             bias = np.array([TOTVAR_BIAS.get(int(a), 0.0) for a in alpha])
             var = var / (1.0 - bias * ms / (n_points - 1))
-        var_low, var_high = edf_mod.chi2_interval(var, edf_values, float(confidence))
+        # edf_mod.chi2_interval's bounds; nothing to check: var is finite, edf >= 1
+        var_low, var_high = edf_mod.chi2_bounds(var, edf_values, upper, lower)
+        edf_values = edf_values.copy()  # the result's own (the table is shared)
         low = unscale(np.sqrt(var_low), exponent, "deviations")
         high = unscale(np.sqrt(var_high), exponent, "deviations")
 
@@ -662,6 +780,12 @@ def deviation(
         tau, unscale(np.sqrt(var), exponent, "deviations"), low, high, edf_values, n, ms,
         alpha, stat, dtype, step, confidence, n_samples, units, notes,
     )  # fmt: skip
+
+
+#: the keywords of :func:`deviation` (passed on to the gaps path)
+_DEVIATION_KEYWORDS = frozenset(
+    deviation.__code__.co_varnames[1 : 1 + deviation.__code__.co_kwonlyargcount]
+)
 
 
 def _extended_deviation(

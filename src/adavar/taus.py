@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import lru_cache
 
 import numpy as np
 
@@ -52,26 +53,13 @@ def averaging_factors(
     if isinstance(taus, str):
         key = taus.lower()
         if key == "all":
-            m = np.arange(1, m_max + 1)
-        elif key == "octave":
-            m = 2 ** np.arange(int(np.floor(np.log2(m_max))) + 1)
-        elif key == "decade":
-            exps = 10 ** np.arange(int(np.floor(np.log10(m_max))) + 1)
-            m = np.sort(np.concatenate([exps, 2 * exps, 4 * exps]))
-        elif key == "log":
-            if points_per_decade < 1:
-                raise AdavarInputError("points_per_decade must be a positive integer")
-            decades = np.log10(m_max)
-            k = max(int(np.ceil(decades * points_per_decade)) + 1, 2)
-            m = np.round(np.logspace(0.0, decades, k))
-        else:
+            return np.arange(1, m_max + 1, dtype=np.int64), ()
+        if key not in TAU_KEYWORDS:
             raise AdavarInputError(
                 f"unknown taus keyword {taus!r}: use one of {', '.join(TAU_KEYWORDS)} "
                 "or a list of taus in seconds"
             )
-        m = np.unique(m.astype(np.int64))
-        m = m[(m >= 1) & (m <= m_max)]
-        return m, ()
+        return _keyword_factors(key, int(m_max), points_per_decade).copy(), ()
 
     req = np.atleast_1d(np.asarray(taus, dtype=np.float64))
     if req.ndim != 1 or req.size == 0:
@@ -94,6 +82,26 @@ def averaging_factors(
             "the record's range"
         )
     return m, tuple(notes)
+
+
+@lru_cache(maxsize=64)
+def _keyword_factors(key: str, m_max: int, points_per_decade: int) -> np.ndarray:
+    """The factors of a sparse ``taus`` keyword, read-only (:func:`averaging_factors` copies)."""
+    if key == "octave":
+        m = 2 ** np.arange(int(np.floor(np.log2(m_max))) + 1)
+    elif key == "decade":
+        exps = 10 ** np.arange(int(np.floor(np.log10(m_max))) + 1)
+        m = np.sort(np.concatenate([exps, 2 * exps, 4 * exps]))
+    elif key == "log":
+        if points_per_decade < 1:
+            raise AdavarInputError("points_per_decade must be a positive integer")
+        decades = np.log10(m_max)
+        k = max(int(np.ceil(decades * points_per_decade)) + 1, 2)
+        m = np.round(np.logspace(0.0, decades, k))
+    m = np.unique(m.astype(np.int64))
+    m = m[(m >= 1) & (m <= m_max)]
+    m.flags.writeable = False
+    return m
 
 
 def tau_bounds(tau_range: object) -> tuple[float, float]:
