@@ -64,7 +64,7 @@ WARM_UP = 8192
 _S_TEST_CODE = {"upper": 0, "band": 1, "abs": 2}
 
 
-@jit(inline="always")
+@jit
 def _acc(h, lo, v):  # pragma: no cover - compiled
     """Double-double accumulation; only ``h + v`` is on the loop-carried path."""
     s, e = two_sum(h, v)
@@ -85,7 +85,7 @@ def _fresh_sums(x, i0, i1, anchor):  # pragma: no cover - compiled
     return h1, l1, h2, l2, h3, l3, h4, l4
 
 
-@jit(inline="always")
+@jit
 def _central(inv_n, s1, s2, s3, s4):  # pragma: no cover - compiled
     """Second and fourth central moments from power sums about an anchor near the mean."""
     d = s1 * inv_n
@@ -95,14 +95,14 @@ def _central(inv_n, s1, s2, s3, s4):  # pragma: no cover - compiled
     return m2, m4
 
 
-@jit(inline="always")
+@jit
 def _minus(h, lo, hs, ls):  # pragma: no cover - compiled
     """``(h + lo) - (hs + ls)`` rounded once the leading parts have cancelled exactly."""
     s, e = two_sum(h, -hs)
     return s + (e + (lo - ls))
 
 
-@jit(inline="always")
+@jit
 def _moments(
     h1, l1, h2, l2, h3, l3, h4, l4, g1, k1_, g2, k2_, g3, k3_, g4, k4_, inv_x, inv_c
 ):  # fmt: skip  # pragma: no cover - compiled

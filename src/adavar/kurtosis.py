@@ -119,7 +119,7 @@ def _anchor_scale(y, lo, hi, tmp):  # pragma: no cover - compiled
     return anchor, _power_of_two_scale(big)
 
 
-@jit(inline="always")
+@jit
 def _dd_accumulate(s, e, y, q):  # pragma: no cover - compiled
     """``(s, e) + y + q`` for a double ``y`` and a small correction ``q``, renormalised.
 
@@ -133,7 +133,7 @@ def _dd_accumulate(s, e, y, q):  # pragma: no cover - compiled
     return s, e - (s - t)
 
 
-@jit(inline="always")
+@jit
 def _add_powers(s1, e1, s2, e2, s3, e3, s4, e4, d):  # pragma: no cover - compiled
     """Add ``d, d**2, d**3, d**4`` (exact to eps**2: FMAs keep the products' errors)."""
     p2 = d * d
@@ -149,7 +149,7 @@ def _add_powers(s1, e1, s2, e2, s3, e3, s4, e4, d):  # pragma: no cover - compil
     return s1, e1, s2, e2, s3, e3, s4, e4
 
 
-@jit(inline="always")
+@jit
 def _store(row, s1, e1, s2, e2, s3, e3, s4, e4):  # pragma: no cover - compiled
     row[0] = s1
     row[1] = s2
@@ -204,7 +204,7 @@ def _suffix_moments(y, lo, hi, anchor, scale, Q):  # pragma: no cover - compiled
         _store(Q[j], s1, e1, s2, e2, s3, e3, s4, e4)
 
 
-@jit(inline="always")
+@jit
 def _raw_dd(P, a, b, k):  # pragma: no cover - compiled
     """``sum d[a:b]**(k+1)`` as a normalised double-double."""
     s, e = two_sum(P[b, k], -P[a, k])
@@ -268,7 +268,7 @@ def _direct_kurtosis(y, first, n, scale):  # pragma: no cover - compiled
     return n * m4 / (m2 * m2)
 
 
-@jit(inline="always")
+@jit
 def _sums_kurtosis(P, a, b, n, top, count):  # pragma: no cover - compiled
     """Kurtosis of ``n`` samples with raw sums ``P[b] - P[a]``, or -1 if not trustworthy.
 
@@ -369,7 +369,7 @@ def _sliding(y, starts, lengths, segment, chunk, workers, out):  # pragma: no co
 # record form: complements as merges of prefix and suffix moments
 
 
-@jit(inline="always")
+@jit
 def _merge(na, ma, a2, a3, a4, nb, mb, b2, b3, b4):  # pragma: no cover - compiled
     """Count, mean and central sums M2..M4 of the union of two sets (Pébay 2008)."""
     if na == 0.0:
@@ -456,7 +456,7 @@ def _grid_moments(x, anchor, scale, grid):  # pragma: no cover - compiled
     return pre, suf
 
 
-@jit(inline="always")
+@jit
 def _piece(P, a, b, n, offset):  # pragma: no cover - compiled
     """Moments of ``n`` chunk samples with raw sums ``P[b] - P[a]``, in the grid's frame."""
     if n == 0:

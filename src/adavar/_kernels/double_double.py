@@ -29,7 +29,7 @@ __all__ = [
 ]
 
 
-@jit(inline="always")
+@jit
 def two_sum(a, b):  # pragma: no cover - compiled
     """``a + b`` as (high, low), exactly, for any ``a``, ``b`` (Knuth)."""
     s = a + b
@@ -56,34 +56,34 @@ def fma(typingctx, a, b, c):  # pragma: no cover - compile-time
     return sig, codegen
 
 
-@jit(inline="always")
+@jit
 def fast_two_sum(a, b):  # pragma: no cover - compiled
     """``a + b`` as (high, low), for ``|a| >= |b|`` (or a == 0)."""
     s = a + b
     return s, b - (s - a)
 
 
-@jit(inline="always")
+@jit
 def dd_add(ah, al, bh, bl):  # pragma: no cover - compiled
     s, e = two_sum(ah, bh)
     return fast_two_sum(s, e + (al + bl))
 
 
-@jit(inline="always")
+@jit
 def dd_mul(ah, al, bh, bl):  # pragma: no cover - compiled
     p = ah * bh
     e = fma(ah, bh, -p)
     return fast_two_sum(p, e + (ah * bl + al * bh))
 
 
-@jit(inline="always")
+@jit
 def dd_mul_d(ah, al, b):  # pragma: no cover - compiled
     p = ah * b
     e = fma(ah, b, -p)
     return fast_two_sum(p, e + al * b)
 
 
-@jit(inline="always")
+@jit
 def dd_div_d(ah, al, b):  # pragma: no cover - compiled
     q = ah / b
     p = q * b
@@ -91,7 +91,7 @@ def dd_div_d(ah, al, b):  # pragma: no cover - compiled
     return fast_two_sum(q, (((ah - p) - e) + al) / b)
 
 
-@jit(inline="always")
+@jit
 def dd_scaled_add(ah: float, al: float, c: int, bh: float, bl: float) -> tuple[float, float]:
     """``a + c * b`` for a small integer ``c``, by repeated exact additions."""
     if c < 0:

@@ -290,7 +290,7 @@ def fit_moments(z, ok):  # pragma: no cover - compiled
     return mom
 
 
-@jit(inline="always")
+@jit
 def _order_step(x, v, prev, pok, a):  # pragma: no cover - compiled
     """One entry of one difference order into its accumulators ``a`` (a 7-tuple)."""
     n0, s1, s2, n1, spp, sprev, scur = a

@@ -33,7 +33,7 @@ def dd_phase(u, xh, xl):  # pragma: no cover - compiled
         xh[k + 1], xl[k + 1] = two_sum(hi, lo)
 
 
-@jit(inline="always")
+@jit
 def _above(ah, al, bh, bl):  # pragma: no cover - compiled
     """``a > b`` for normalised double-doubles (their order is that of ``(high, low)``)."""
     return ah > bh or (ah == bh and al > bl)

@@ -154,7 +154,7 @@ def _prefix_squares(d, n, q, full):  # pragma: no cover - compiled
     return big
 
 
-@jit(inline="always")
+@jit
 def _difference3(h0, h1, l0, l1, r0, r1):  # pragma: no cover - compiled
     """``(h1 + l1 + r1) - (h0 + l0 + r0)`` with the two leading differences exact."""
     s, e = two_sum(h1, -h0)
