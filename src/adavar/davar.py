@@ -35,7 +35,6 @@ from typing import Any
 import numba
 import numpy as np
 from scipy.interpolate import PchipInterpolator
-from scipy.stats import chi2
 
 from adavar import differences as diff
 from adavar import edf as edf_mod
@@ -227,16 +226,44 @@ def _edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str = "oadev") 
     if big.size:
         # grid index k: node round(START * 2**(k / PER_OCTAVE)); two nodes beyond each end
         pos = np.log2(big / EDF_GRID_START) * EDF_GRID_PER_OCTAVE
-        k = np.arange(max(0, int(np.floor(pos.min())) - 2), int(np.ceil(pos.max())) + 3)
-        nodes = np.unique(np.round(EDF_GRID_START * 2.0 ** (k / EDF_GRID_PER_OCTAVE)))
-        values = [edf_mod.edf(stat, alpha, m, int(g) + width) for g in nodes]
-        curve = PchipInterpolator(np.log(nodes), np.log(values))
+        k_lo = max(0, int(np.floor(pos.min())) - 2)
+        k_hi = int(np.ceil(pos.max())) + 3
+        nodes, values, curve = _edf_grid(stat, alpha, m, k_lo, k_hi)
         on_node = np.isin(big, nodes)
         vals = np.exp(curve(np.log(big)))
-        node_value = dict(zip(nodes.astype(np.int64).tolist(), values, strict=True))
-        vals[on_node] = [node_value[int(c)] for c in big[on_node]]
+        vals[on_node] = values[np.searchsorted(nodes, big[on_node])]
         out[~exact] = vals
     return out
+
+
+#: (stat, alpha, m) -> (k_lo, k_hi, nodes, values, curve) of :func:`_edf_grid`
+_EDF_GRIDS: dict[tuple[str, int, int], tuple[int, int, Any, Any, Any]] = {}
+
+
+def _edf_grid(stat: str, alpha: int, m: int, k_lo: int, k_hi: int) -> tuple[Any, Any, Any]:
+    """Nodes, exact EDFs and log-log PCHIP of the grid indices ``k_lo .. k_hi - 1`` (or more).
+
+    A PCHIP's piece between two nodes depends only on those nodes and one neighbour each
+    side, and every count asked for has two grid nodes beyond it: a grid kept from an
+    earlier call that spans the asked range gives the same values, so one curve per
+    (stat, alpha, m) serves every call (a DAVAR asks for the same m thousands of times).
+    """
+    key = (stat, alpha, m)
+    held = _EDF_GRIDS.get(key)
+    if held is not None and held[0] <= k_lo and k_hi <= held[1]:
+        return held[2], held[3], held[4]
+    if held is not None:
+        k_lo, k_hi = min(k_lo, held[0]), max(k_hi, held[1])
+    k = np.arange(k_lo, k_hi)
+    nodes = np.unique(np.round(EDF_GRID_START * 2.0 ** (k / EDF_GRID_PER_OCTAVE)))
+    nodes = nodes.astype(np.int64)
+    width = _term_width(stat, m)
+    values = np.array([edf_mod.edf(stat, alpha, m, int(g) + width) for g in nodes])
+    curve = PchipInterpolator(np.log(nodes), np.log(values))
+    if len(_EDF_GRIDS) > 4096:  # bounded: a long batch of unusual taus cannot grow it
+        _EDF_GRIDS.clear()
+    _EDF_GRIDS[key] = (k_lo, k_hi, nodes, values, curve)
+    return nodes, values, curve
 
 
 def _edge_classes(
@@ -265,8 +292,12 @@ def _bound_factors(table: np.ndarray, confidence: float) -> tuple[np.ndarray, np
     """``edf / chi2.ppf`` factors of the lower and upper bounds (0 where undefined)."""
     ok = np.isfinite(table)
     k = np.where(ok, table, 1.0)
-    flo = np.where(ok, k / chi2.ppf(0.5 * (1.0 + confidence), k), 0.0)
-    fhi = np.where(ok, k / chi2.ppf(0.5 * (1.0 - confidence), k), 0.0)
+    # the table repeats a few thousand distinct EDFs: each quantile once
+    distinct, where = np.unique(k, return_inverse=True)
+    upper, lower = edf_mod.chi2_quantiles(distinct, confidence)
+    where = where.reshape(k.shape)
+    flo = np.where(ok, k / upper[where], 0.0)
+    fhi = np.where(ok, k / lower[where], 0.0)
     return flo, fhi
 
 

@@ -53,8 +53,7 @@ from typing import Any
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d
-from scipy.special import ndtr
-from scipy.stats import chi2
+from scipy.special import chdtri, gammaincinv, ndtr
 
 from adavar import differences as diff
 from adavar.davar import edf_table
@@ -304,7 +303,8 @@ def interval_offsets(nu: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarr
     """``(log(chi2_{1-q}(nu) / nu), log(chi2_q(nu) / nu))``, ``q = Phi(-gamma)``: what the
     interval of a log variance with ``nu`` degrees of freedom subtracts (once per EDF)."""
     q = float(ndtr(-gamma))
-    return np.log(chi2.isf(q, nu) / nu), np.log(chi2.ppf(q, nu) / nu)
+    # scipy.stats.chi2's isf and ppf, without importing scipy.stats
+    return np.log(chdtri(nu, q) / nu), np.log(2.0 * gammaincinv(nu / 2, q) / nu)
 
 
 def _intervals(v: np.ndarray, offsets: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, ...]:

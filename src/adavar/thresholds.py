@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
-from scipy import stats
+from scipy.special import log_ndtr, ndtr, ndtri
 
 from adavar.errors import AdavarInputError
 from adavar.settings import CONTROLLER
@@ -58,7 +58,7 @@ def _kurtosis_quantile(q: float, n: int) -> float:
     """Kurtosis of ``n`` Gaussian samples with lower-tail probability ``q`` (Anscombe-Glynn)."""
     from scipy.optimize import brentq
 
-    z = stats.norm.ppf(q)
+    z = ndtri(q)
     e, sd, a = _anscombe_glynn(n)
     pole = e - sd * math.sqrt((a - 4.0) / 2.0)  # z -> -inf just above it
     lo = pole + 1e-9 * sd
@@ -75,6 +75,8 @@ def _s_quantile(q: float, length: int, seg: int, draws: int, seed: int) -> float
     The windows are drawn a batch of rows at a time from one stream: the same numbers as
     one ``(draws, length)`` array, in at most :data:`_DRAW_BATCH` values of memory.
     """
+    from scipy import stats  # lazy: scipy.stats costs about a second to import
+
     rng = np.random.default_rng(seed)
     rows = max(1, _DRAW_BATCH // length)
     s = np.empty(draws)
@@ -258,11 +260,11 @@ def _step_probability(per_sample: float, length: float) -> float:
     from scipy.optimize import brentq
 
     target = math.log(per_sample * length)
-    log_rate = lambda u: 2.0 * math.log(u) + float(stats.norm.logsf(u))  # noqa: E731
+    log_rate = lambda u: 2.0 * math.log(u) + float(log_ndtr(-u))  # noqa: E731
     if target >= log_rate(_LOWEST_LEVEL):  # more excursions asked than there are
-        return float(stats.norm.sf(_LOWEST_LEVEL))
+        return float(ndtr(-_LOWEST_LEVEL))
     u = brentq(lambda v: log_rate(v) - target, _LOWEST_LEVEL, 40.0, xtol=1e-10)
-    return float(stats.norm.sf(u))
+    return float(ndtr(-u))
 
 
 #: Lowest threshold level (sigma) of the per-hour calibration (the excursion rate peaks
@@ -293,7 +295,7 @@ def _s_tail(s: float, length: int, seg: int, c2: float, c4: float) -> float:
     mix = 3.0 * w * (1.0 - w) * var_ab * z[None, :] ** 2
     e = 3.0 * (length - 1) / (length + 1)
     needed = kc + (s * e - mix) / w
-    p = stats.norm.sf(_ag_z(needed, seg / c4))
+    p = ndtr(-_ag_z(needed, seg / c4))
     return float(_WEIGHTS @ p @ _WEIGHTS)
 
 
@@ -370,7 +372,7 @@ def hourly_thresholds(
     lo, hi, sv = [], [], []
     for n in nodes:
         q = _step_probability(per_sample, float(n) * c4)
-        z = stats.norm.isf(q)
+        z = -ndtri(q)
         lo.append(float(_ag_inverse(-z, n / c4)))
         hi.append(float(_ag_inverse(z, n / c4)))
         qs = _step_probability(per_sample, float(segment) * c4)
