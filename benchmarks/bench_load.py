@@ -1,7 +1,8 @@
 """Start-up, first run, text input and kernels on a busy machine, each against its peer.
 
 * start-up: ``import adavar`` and ``adavar --help`` (fresh processes, best of 5);
-* first run: ``adavar demo`` with an empty Numba cache directory, then warm;
+* first run: ``adavar demo`` with an empty Numba cache directory, then warm, then warm with
+  another process busy on one core; on its default two processes and on one;
 * text input: a 720k-row, 5-column CSV through adavar's reader and ``pandas.read_csv``;
 * memory: peak resident memory of ``avar``, ``davar``, ``adaptive`` and ``report`` on one
   hour at 200 Hz, against the sizes of the input and of what each writes;
@@ -50,15 +51,32 @@ def startup() -> list[str]:
 
 
 def first_run() -> list[str]:
-    with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as out:
-        env = {**os.environ, "NUMBA_CACHE_DIR": cache}
-        cmd = [sys.executable, "-m", "adavar.cli", "demo", "--out", f"{out}/d", "--force"]
-        start = time.perf_counter()
-        subprocess.run(cmd, check=True, capture_output=True, env=env)
-        cold = time.perf_counter() - start
-        warm = _best(cmd, repeats=2, env=env)
-    return [f"| adavar demo, empty Numba cache | {cold:.1f} s (target 15 s) |",
-            f"| adavar demo, warm | {warm:.1f} s (target 4 s) |"]  # fmt: skip
+    """``adavar demo`` cold and warm, on its default two processes and on one (``--workers
+    1``), and warm with another process busy on one core."""
+    lines = []
+    for workers in ("2", "1"):
+        with tempfile.TemporaryDirectory() as cache, tempfile.TemporaryDirectory() as out:
+            env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+            cmd = [sys.executable, "-m", "adavar.cli", "demo", "--out", f"{out}/d", "--force",
+                   "--workers", workers]  # fmt: skip
+            start = time.perf_counter()
+            subprocess.run(cmd, check=True, capture_output=True, env=env)
+            cold = time.perf_counter() - start
+            warm = _best(cmd, repeats=3, env=env)
+            stop = mp.Event()
+            spinner = mp.Process(target=_spin, args=(stop,))
+            spinner.start()
+            try:
+                busy = _best(cmd, repeats=2, env=env)
+            finally:
+                stop.set()
+                spinner.join()
+        lines += [
+            f"| adavar demo --workers {workers}, empty Numba cache | {cold:.1f} s (target 15 s) |",
+            f"| adavar demo --workers {workers}, warm | {warm:.1f} s (target 4 s) |",
+            f"| adavar demo --workers {workers}, warm, one core busy | {busy:.1f} s |",
+        ]
+    return lines
 
 
 def text_input() -> list[str]:

@@ -23,7 +23,12 @@ figures.
 
 from __future__ import annotations
 
+import contextlib
+import multiprocessing as mp
+import os
 import time
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,6 +68,7 @@ __all__ = [
     "NistRow",
     "PaperDemo",
     "run_demo",
+    "worker_pool",
 ]
 
 #: Averaging factors of the published NIST values.
@@ -275,17 +281,72 @@ def _gyro(seed: int) -> GyroDemo:
     )
 
 
-def _paper(seed: int) -> PaperDemo:
+def _seed_study(seed: int, count: int) -> SeedStudy:
+    """The node table's realisations (module level: a worker process runs it)."""
+    return compare_seeds(1, range(seed, seed + count))
+
+
+def _paper(seed: int, warm: Future[SeedStudy] | None, study: Future[SeedStudy] | None) -> PaperDemo:
     scenario = paper_scenario(1, seed=seed)
+    # first what the worker does not compile, then the comparison once it has compiled
+    # (on a first run) the kernels that the comparison shares with the seed study
+    kurtosis = kurtosis_study(scenario)
+    thresholds = threshold_study(scenario)
+    if warm is not None:
+        with contextlib.suppress(Exception):  # a failure here shows again below
+            warm.result()
+    comparison = compare(scenario)
     return PaperDemo(
-        comparison=compare(scenario),
-        kurtosis=kurtosis_study(scenario),
-        thresholds=threshold_study(scenario),
-        study=compare_seeds(1, range(seed, seed + PAPER_SEEDS)),
+        comparison=comparison,
+        kurtosis=kurtosis,
+        thresholds=thresholds,
+        study=_seed_study(seed, PAPER_SEEDS) if study is None else _result(study, seed),
     )
 
 
-def run_demo(seed: int = 2018, *, paper: bool = True) -> DemoResult:
+def _result(study: Future[SeedStudy], seed: int) -> SeedStudy:
+    try:
+        return study.result()
+    except BrokenProcessPool:  # the worker died (killed, out of memory): do it here
+        return _seed_study(seed, PAPER_SEEDS)
+
+
+def worker_pool(workers: int | None) -> ProcessPoolExecutor | None:
+    """One worker process for the seed study (and the caller's figures), or None.
+
+    ``workers=None`` takes a second process when this one may use two cores or more.
+    A pool that cannot start (no ``fork``/``spawn`` allowed, no semaphores) is no error:
+    the study then runs in this process.
+
+    Parameters
+    ----------
+    workers : int or None
+        1 for none, 2 (or more) for one, None for one where two cores are free to this
+        process.
+
+    Returns
+    -------
+    ProcessPoolExecutor or None
+        A pool of one process started by ``spawn``; the caller shuts it down.
+    """
+    if workers is None:
+        workers = 2 if len(os.sched_getaffinity(0)) >= 2 else 1
+    if workers < 2:
+        return None
+    try:
+        # spawn: a fresh interpreter, safe whatever threads (Numba's, OpenMP's) this one runs
+        return ProcessPoolExecutor(max_workers=1, mp_context=mp.get_context("spawn"))
+    except (OSError, ImportError, NotImplementedError):
+        return None
+
+
+def run_demo(
+    seed: int = 2018,
+    *,
+    paper: bool = True,
+    workers: int | None = 1,
+    executor: ProcessPoolExecutor | None = None,
+) -> DemoResult:
     """Run the demonstration (a few seconds).
 
     Parameters
@@ -295,6 +356,15 @@ def run_demo(seed: int = 2018, *, paper: bool = True) -> DemoResult:
         scenario 1.
     paper : bool
         Also run the paper's scenario 1 (about 3 s).
+    workers : int or None
+        Processes to use: 1 runs everything in this one; 2 runs the paper's
+        :data:`PAPER_SEEDS` realisations (:func:`adavar.paper.studies.compare_seeds`) in a
+        second process meanwhile, which also splits a first run's compilation between two
+        cores; None takes 2 when this process may use two cores. The results are the
+        same either way.
+    executor : ProcessPoolExecutor, optional
+        A pool of one worker (:func:`worker_pool`) to use instead of ``workers``; left
+        running, for the caller's further work (the command line draws figures in it).
 
     Returns
     -------
@@ -303,9 +373,21 @@ def run_demo(seed: int = 2018, *, paper: bool = True) -> DemoResult:
         the paper's scenario 1.
     """
     start = time.perf_counter()
-    nist, nist_results, mean, std = _nist()
-    gyro = _gyro(int(seed))
-    paper_part = _paper(int(seed)) if paper else None
+    own = executor is None
+    pool = (worker_pool(workers) if paper else None) if own else executor
+    try:
+        warm = study = None
+        if pool is not None:
+            # one realisation first: on a first run it compiles the kernels the comparison
+            # needs while this process compiles the statistics' and the kurtosis study's
+            warm = pool.submit(_seed_study, int(seed), 1)
+            study = pool.submit(_seed_study, int(seed), PAPER_SEEDS)
+        nist, nist_results, mean, std = _nist()
+        gyro = _gyro(int(seed))
+        paper_part = _paper(int(seed), warm, study) if paper else None
+    finally:
+        if own and pool is not None:
+            pool.shutdown(wait=False, cancel_futures=True)
     return DemoResult(
         nist=nist,
         nist_results=nist_results,

@@ -64,6 +64,7 @@ __all__ = [
     "kurtosis_windows_figure",
     "rate_unit",
     "save_figure",
+    "study_figures",
     "term_label",
     "term_unit",
     "threshold_figure",
@@ -900,6 +901,37 @@ def arw_comparison_figure(
     return fig
 
 
+def study_figures(
+    kurtosis: KurtosisStudy | None,
+    thresholds: ThresholdStudy | None,
+    *,
+    units: str | None = None,
+) -> dict[str, Figure]:
+    """The paper's kurtosis figures (Figs. 6-8) by file stem, those of :func:`comparison_figures`.
+
+    Parameters
+    ----------
+    kurtosis : KurtosisStudy or None
+        ``fig06_kurtosis_windows`` and ``fig07_contribution``.
+    thresholds : ThresholdStudy or None
+        ``fig08_thresholds``.
+    units : str, optional
+        Unit of the samples.
+
+    Returns
+    -------
+    dict
+        File stem -> Figure, for the studies given.
+    """
+    figs: dict[str, Figure] = {}
+    if kurtosis is not None:
+        figs["fig06_kurtosis_windows"] = kurtosis_windows_figure(kurtosis, units=units)
+        figs["fig07_contribution"] = contribution_figure(kurtosis, units=units)
+    if thresholds is not None:
+        figs["fig08_thresholds"] = threshold_figure(thresholds)
+    return figs
+
+
 def comparison_figures(
     comparison: Comparison,
     *,
@@ -929,12 +961,7 @@ def comparison_figures(
         method, or else the first adaptive one).
     """
     unit = units if units is not None else comparison.units
-    figs: dict[str, Figure] = {}
-    if kurtosis is not None:
-        figs["fig06_kurtosis_windows"] = kurtosis_windows_figure(kurtosis, units=unit)
-        figs["fig07_contribution"] = contribution_figure(kurtosis, units=unit)
-    if thresholds is not None:
-        figs["fig08_thresholds"] = threshold_figure(thresholds)
+    figs = study_figures(kurtosis, thresholds, units=unit)
     runs = list(comparison.methods.values())
     adaptive = comparison.methods.get("a-davar") or next(
         (r for r in runs if r.schedule is not None), None

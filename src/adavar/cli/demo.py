@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from adavar import __version__
-from adavar.cli.compare import compare_figures, compare_report, compare_tables, crossings_json
-from adavar.cli.options import EXIT_OK, parse_seed
+from adavar.cli.compare import compare_report, compare_tables, crossings_json
+from adavar.cli.options import EXIT_OK, parse_seed, positive_int
 from adavar.cli.output import (
     Status,
     deviation_table,
@@ -122,15 +122,27 @@ def _demo_report(demo: Any) -> str:
     )  # fmt: skip
 
 
-def _cmd_demo(args: argparse.Namespace) -> int:
-    from adavar.demo import GYRO_BANDWIDTH, GYRO_BIAS, GYRO_LSB, run_demo
-    from adavar.plots import deviation_figure, save_figure
+def _save_study_figures(
+    kurtosis: Any, thresholds: Any, units: str | None, folder: str
+) -> list[str]:
+    """Draw and write the paper's Figs. 6-8 into ``folder`` (the demo's worker runs it)."""
+    from adavar.plots import save_figure, study_figures
 
-    start = time.perf_counter()
-    _check_demo_out(args.out, args.force)
-    status = Status()
-    status("NIST check values, a simulated gyro and the paper's scenario 1")
-    demo = run_demo(seed=args.seed)
+    figures = study_figures(kurtosis, thresholds, units=units)
+    for stem, fig in figures.items():
+        save_figure(fig, Path(folder) / stem)
+    return list(figures)
+
+
+def _demo_outputs(
+    args: argparse.Namespace, status: Status, demo: Any, pool: Any
+) -> tuple[list[str], str]:
+    """Draw, tabulate and write the demo's folder; the worker draws Figs. 6-8 meanwhile.
+
+    Returns the files written and the JSON text.
+    """
+    from adavar.plots import comparison_figures, deviation_figure, save_figure
+
     gyro = demo.gyro
     status("drawing the figures")
     fig = deviation_figure(
@@ -138,7 +150,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         title=f"Simulated MEMS gyro ({gyro.n_samples:,} samples at {gyro.rate:g} Hz, "
         f"seed {gyro.seed})",
     )  # fmt: skip
-    files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json"]
     tables: dict[str, str] = {}
     figures: dict[str, Any] = {}
     paper = demo.paper
@@ -151,21 +162,27 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             ).items()
         }
         descriptions = {f"paper_{name}": text for name, text in descriptions.items()}
-        figures = compare_figures(paper.comparison, paper.kurtosis, paper.thresholds)
-        files += [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg"))]
-    files.append("report.html")
-    status("building the HTML report")
-    html = _demo_report(demo)
-    payload = _demo_json(demo, str(args.out), files, descriptions)
-    text = dumps(payload)
-    status(f"writing {args.out}")
+        figures = comparison_figures(paper.comparison)
     try:
         with atomic_directory(args.out, replace=True) as tmp:
+            studies: Any = []
+            if paper is not None:
+                study_args = (paper.kurtosis, paper.thresholds, paper.comparison.units, str(tmp))
+                studies = (_save_study_figures(*study_args) if pool is None
+                           else pool.submit(_save_study_figures, *study_args))  # fmt: skip
             save_figure(fig, tmp / "gyro_oadev")
             for name, body in tables.items():
                 (tmp / name).write_text(body, encoding="utf-8")
             for stem, paper_fig in figures.items():
                 save_figure(paper_fig, tmp / stem)
+            status("building the HTML report")
+            html = _demo_report(demo)
+            stems = studies if isinstance(studies, list) else studies.result()
+            files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json", *tables,
+                     *(f"{stem}.{ext}" for stem in [*stems, *figures] for ext in ("png", "svg")),
+                     "report.html"]  # fmt: skip
+            text = dumps(_demo_json(demo, str(args.out), files, descriptions))
+            status(f"writing {args.out}")
             (tmp / "demo.json").write_text(text + "\n", encoding="utf-8")
             (tmp / "report.html").write_text(html, encoding="utf-8")
             (tmp / DEMO_MARKER).write_text(
@@ -173,8 +190,27 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             )
     except OSError as exc:
         raise output_error(args.out, exc) from None
+    return files, text
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from adavar.demo import GYRO_BANDWIDTH, GYRO_BIAS, GYRO_LSB, run_demo, worker_pool
+
+    start = time.perf_counter()
+    _check_demo_out(args.out, args.force)
+    status = Status()
+    status("NIST check values, a simulated gyro and the paper's scenario 1")
+    pool = worker_pool(args.workers)
+    try:
+        demo = run_demo(seed=args.seed, executor=pool)
+        files, text = _demo_outputs(args, status, demo, pool)
+    finally:
+        if pool is not None:
+            pool.shutdown(wait=False, cancel_futures=True)
     status.close()
     elapsed = time.perf_counter() - start
+    gyro = demo.gyro
+    paper = demo.paper
 
     if args.json:
         print(text)
@@ -236,6 +272,11 @@ def add_demo_parser(sub: Any) -> argparse.ArgumentParser:
     demo.add_argument(
         "--seed", type=parse_seed, default=2018, metavar="N", help="seed of the simulated gyro"
     )
+    demo.add_argument(
+        "--workers", metavar="N", type=positive_int, default=None,
+        help="processes: 1 runs everything in one; 2 (the default where two cores are "
+        "free to this process) runs the paper's realisations in a second one meanwhile",
+    )  # fmt: skip
     demo.add_argument(
         "--force", action="store_true",
         help="replace --out even if it is another adavar output than a demo's (never a "

@@ -1,0 +1,49 @@
+"""``adavar demo`` in two processes: the worker's seed study is the one computed here."""
+
+from __future__ import annotations
+
+from concurrent.futures import Future
+from concurrent.futures.process import BrokenProcessPool
+
+import numpy as np
+import pytest
+
+from adavar import demo
+
+from .cli_helpers import assert_one_line_error, run
+
+
+def _same_study(a, b):
+    assert a.seeds == b.seeds
+    assert a.methods == b.methods
+    for table in ("nodes", "arw", "confidence", "tracking"):
+        for method in a.methods:
+            np.testing.assert_array_equal(getattr(a, table)[method], getattr(b, table)[method])
+    for threshold in a.crossings:
+        np.testing.assert_array_equal(a.crossings[threshold], b.crossings[threshold])
+
+
+def test_worker_process_gives_the_in_process_seed_study():
+    pool = demo.worker_pool(2)
+    if pool is None:
+        pytest.skip("this machine cannot start a second process")
+    with pool:
+        remote = pool.submit(demo._seed_study, 2018, 2).result(timeout=600)
+    _same_study(remote, demo._seed_study(2018, 2))
+
+
+def test_one_worker_runs_in_process():
+    assert demo.worker_pool(1) is None
+
+
+def test_a_dead_worker_falls_back_to_this_process(monkeypatch):
+    monkeypatch.setattr(demo, "PAPER_SEEDS", 1)
+    dead: Future = Future()
+    dead.set_exception(BrokenProcessPool("killed"))
+    _same_study(demo._result(dead, 2018), demo._seed_study(2018, 1))
+
+
+def test_demo_workers_must_be_positive(capsys, tmp_path):
+    code, out, err = run(capsys, ["demo", "--out", str(tmp_path / "d"), "--workers", "0"])
+    assert_one_line_error(code, out, err, "--workers")
+    assert not (tmp_path / "d").exists()
