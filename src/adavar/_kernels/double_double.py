@@ -91,7 +91,7 @@ def dd_div_d(ah, al, b):  # pragma: no cover - compiled
     return fast_two_sum(q, (((ah - p) - e) + al) / b)
 
 
-@jit
+@jit(inline="always")  # called in hot loops where LLVM would not inline it
 def dd_scaled_add(ah: float, al: float, c: int, bh: float, bl: float) -> tuple[float, float]:
     """``a + c * b`` for a small integer ``c``, by repeated exact additions."""
     if c < 0:
