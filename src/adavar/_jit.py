@@ -38,20 +38,11 @@ get_num_threads = numba.get_num_threads
 
 def thread_setting() -> int | None:
     """``ADAVAR_THREADS`` as a thread count (None when unset), applied to Numba."""
-    text = os.environ.get("ADAVAR_THREADS", "").strip()
-    if not text:
-        return None
-    try:
-        count = int(text)
-    except ValueError:
-        count = 0
-    if count < 1:
-        from adavar.errors import AdavarInputError
+    from adavar.settings import requested_threads
 
-        raise AdavarInputError(
-            f"ADAVAR_THREADS={text!r} is not a positive whole number: give e.g. "
-            "ADAVAR_THREADS=1, or unset it for every core"
-        )
+    count = requested_threads()
+    if count is None:
+        return None
     count = min(count, numba.config.NUMBA_NUM_THREADS)
     numba.set_num_threads(count)
     return count

@@ -15,7 +15,14 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, fields
 from typing import Any
 
-__all__ = ["ANALYSIS_DEFAULTS", "CONTROLLER", "FIT", "ControllerSettings", "FitSettings"]
+__all__ = [
+    "ANALYSIS_DEFAULTS",
+    "CONTROLLER",
+    "FIT",
+    "ControllerSettings",
+    "FitSettings",
+    "requested_threads",
+]
 
 
 @dataclass(frozen=True)
@@ -158,3 +165,34 @@ ANALYSIS_DEFAULTS: dict[str, Any] = {
     "thresholds": "calibrated", "false_alarm": None, "false_alarm_per_hour": HOURLY_FALSE_ALARMS,
     **_FIT_OPTIONS,
 }  # fmt: skip
+
+
+def requested_threads() -> int | None:
+    """``ADAVAR_THREADS`` as a thread count, or None when it is unset (without Numba).
+
+    :func:`adavar._jit.thread_setting` applies it to Numba; the text reader's threads
+    (:func:`adavar.readers.textscan.parse_threads`) read it here, so reading a file does
+    not import Numba.
+
+    Raises
+    ------
+    AdavarInputError
+        When it is set to anything but a positive whole number.
+    """
+    import os
+
+    text = os.environ.get("ADAVAR_THREADS", "").strip()
+    if not text:
+        return None
+    try:
+        count = int(text)
+    except ValueError:
+        count = 0
+    if count < 1:
+        from adavar.errors import AdavarInputError
+
+        raise AdavarInputError(
+            f"ADAVAR_THREADS={text!r} is not a positive whole number: give e.g. "
+            "ADAVAR_THREADS=1, or unset it for every core"
+        )
+    return count

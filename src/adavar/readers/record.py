@@ -246,6 +246,10 @@ def _handle_nan(raw: RawRecord, policy: str, src: str, meta: dict[str, Any]) -> 
         return raw
     if _all_finite_by_file(raw):
         return raw
+    if all(np.isfinite(v).all() for v in raw.channels.values()) and (
+        raw.time is None or np.isfinite(raw.time).all()
+    ):
+        return raw  # the common case, without an N-row mask
     names = list(raw.channels)
     n = len(raw.channels[names[0]])
     bad_t = None if raw.time is None else ~np.isfinite(raw.time)
@@ -384,6 +388,13 @@ def _keep_nan(
     )
 
 
+def _farthest(lo: float, hi: float, centre: float) -> float:
+    """The largest ``|x - centre|`` of values ``x`` from ``lo`` to ``hi``: exactly the
+    largest of the values' own (rounding ``x - centre`` is monotonic in ``x``), without an
+    N-sample array."""
+    return max(abs(lo - centre), abs(hi - centre))
+
+
 def sampling_interval(
     dt: np.ndarray, step: float, tol: float, resolution: float
 ) -> tuple[float, float, bool]:
@@ -402,7 +413,8 @@ def sampling_interval(
     reg = dt if regular.all() else dt[regular]
     mean = float(np.mean(reg))
     runs = 1 + dt.size - reg.size  # gap-free stretches
-    if float(np.max(np.abs(reg - mean))) > 4.0 * resolution + 2e-9 * mean:
+    lo, hi = float(reg.min()), float(reg.max())
+    if _farthest(lo, hi, mean) > 4.0 * resolution + 2e-9 * mean:
         return mean, 1.0 / mean, False  # the intervals vary more than the stamps' rounding
     for digits in range(1, 7):
         for value, is_rate in ((1.0 / mean, True), (mean, False)):
@@ -411,7 +423,7 @@ def sampling_interval(
             slack = 2.0 * resolution + 1e-9 * cand
             if abs(mean - cand) > 2.0 * resolution * runs / reg.size + 1e-12 * cand:
                 continue
-            if float(np.max(np.abs(reg - cand))) <= slack:
+            if _farthest(lo, hi, cand) <= slack:
                 return cand, (rounded if is_rate else 1.0 / rounded), True
     return mean, 1.0 / mean, False
 
@@ -482,8 +494,7 @@ def finish_record(
     meta["mean_interval"] = interval if not nominal else 1.0 / found
     long_ = np.flatnonzero(dt > (1.0 + tol) * step)
     short = np.flatnonzero(dt < (1.0 - tol) * step)
-    jitter = np.abs(dt - step) / step
-    meta["max_jitter"] = float(jitter.max())
+    meta["max_jitter"] = _farthest(float(dt.min()), float(dt.max()), step) / step
     meta["n_gaps"] = int(long_.size)
     meta["gap_list"] = [
         {"after": where(int(i)), "t": float(t[i]), "size": float(dt[i])}

@@ -185,9 +185,12 @@ def _time_from_table(
     else:
         values = values.astype(np.float64, copy=False)
         finite = np.isfinite(values)
-        first = float(values[np.argmax(finite)]) if finite.any() else math.nan
-        rel = (values - first) * factor
-        largest = float(np.max(np.abs(values[finite]))) if finite.any() else 0.0
+        stamps = values if finite.all() else values[finite]
+        first = float(stamps[0]) if stamps.size else math.nan
+        rel = values - first
+        rel *= factor
+        # the largest |stamp|, from the extremes (no N-sample |values| array)
+        largest = max(abs(float(stamps.max())), abs(float(stamps.min()))) if stamps.size else 0.0
         resolution = float(np.spacing(largest)) * factor  # float rounding of a stamp
     if how.startswith("assumed"):
         _check_seconds(values, first, name, src)
@@ -210,6 +213,9 @@ def _check_seconds(values: np.ndarray, first: float, name: str, src: str) -> Non
     if values.size < 2:
         return
     if values.dtype.kind == "f":
+        head = values[:64]
+        if not np.array_equal(head, np.round(head), equal_nan=True):
+            return  # a fraction among the first stamps: not whole numbers
         finite = values[np.isfinite(values)]
         if finite.size < 2 or not np.array_equal(finite, np.round(finite)):
             return

@@ -7,7 +7,10 @@ lines (:data:`HEAD` bytes, to find the header and the first data row) and last l
 in blocks of :data:`BLOCK` bytes: each block is checked (NUL bytes, UTF-8), its comment and
 blank lines taken out, and parsed by pandas' C parser when pandas is installed (NumPy
 otherwise); the columns grow block by block into NumPy arrays, so the memory used is the
-samples' and one block's, not the text's.
+samples' and a few blocks', not the text's. The blocks are read and parsed on a few threads
+at once (:func:`parse_threads`; pandas' C parser lets go of the GIL), a block in parts when
+that reads the same; what they give, and the first error, are those of reading the blocks
+one after the other.
 
 Every line keeps its number in the file (1-based, counting comments and the header), so
 that every message names the row an editor shows.
@@ -18,7 +21,13 @@ from __future__ import annotations
 import codecs
 import csv
 import io
-from collections.abc import Iterator, Sequence
+import itertools
+import os
+import threading
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from contextlib import closing
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +40,10 @@ from adavar.readers.table import MISSING, is_iso
 
 #: Bytes read at a time from a text file.
 BLOCK = 8 << 20
+#: The most threads parsing blocks of a text file at once.
+THREADS = 4
+#: The least bytes of a part of a block parsed on a thread of its own.
+_MIN_PART = 1 << 20
 #: Bytes at the start of a file searched for the header and the first data row.
 HEAD = 1 << 20
 #: Bytes at the end of a file whose lines choose the delimiter.
@@ -194,70 +207,161 @@ def open_text(path: Path, src: str, n_head: int = 1001, n_tail: int = 50) -> Tex
 
 
 class _View(io.RawIOBase):
-    """A read-only file over a buffer, for pandas (no copy of the block is made)."""
+    """A read-only file over a block, for pandas: its one ``read`` hands over the block
+    itself (no copy is made)."""
 
-    def __init__(self, data: bytes | memoryview) -> None:
-        self.view = memoryview(data)
+    def __init__(self, data: bytes) -> None:
+        self.data = data
         self.pos = 0
 
     def readable(self) -> bool:
         return True
 
     def readinto(self, b: Any) -> int:
-        n = min(len(b), len(self.view) - self.pos)
-        b[:n] = self.view[self.pos : self.pos + n]
+        n = min(len(b), len(self.data) - self.pos)
+        b[:n] = self.data[self.pos : self.pos + n]
         self.pos += n
         return n
 
+    def read(self, size: int = -1) -> bytes:
+        """What is left, whatever ``size``: pandas' C parser tokenizes the bytes it is
+        given, so the whole block in one piece spares it a copy and a call back into Python
+        (and the GIL, which other threads may hold) every 256 KiB."""
+        piece = self.data if self.pos == 0 else self.data[self.pos :]
+        self.pos = len(self.data)
+        return piece
 
-def iter_blocks(
-    path: Path, offset: int, number: int, src: str
-) -> Iterator[tuple[memoryview, int, int]]:
-    """(block of whole lines, number of its first line, number of lines) from byte
-    ``offset`` on, each checked for NUL bytes and UTF-8. A block is a view of one buffer
-    read into again for the next block (fresh 8 MiB buffers cost more than the parsing
-    around them): use it before asking for the next one."""
-    buf = bytearray(BLOCK)
-    with open(path, "rb") as f:
-        f.seek(offset)
-        while True:
-            got = f.readinto(buf)
-            if not got:
-                return
-            nul = buf.find(b"\x00", 0, got)
-            if nul >= 0:
-                row = number + buf.count(b"\n", 0, nul)
-                raise fail(f"{src}: row {row} holds NUL bytes (binary data, not text): {_FORMATS}")
-            end = buf.rfind(b"\n", 0, got) + 1
-            if end == 0 and got == len(buf):  # a line longer than the buffer
-                if len(buf) >= MAX_LINE:
-                    raise fail(
-                        f"{src}: row {number} is longer than {MAX_LINE >> 20} MiB: this is not "
-                        "a table of samples (check the file)"
-                    )
-                f.seek(-got, 1)
-                buf = bytearray(2 * len(buf))
+
+#: Bytes at the end of a block's window read first, to find its last line end.
+_PROBE = 64 << 10
+_SEEK = threading.Lock()  # reads at an offset where there is no os.pread
+
+
+def _read_at(f: Any, pos: int, size: int) -> bytes:
+    """``size`` bytes from byte ``pos`` of unbuffered file ``f`` (fewer at its end), from
+    any thread."""
+    pieces: list[bytes] = []
+    while size > 0:
+        if hasattr(os, "pread"):
+            piece = os.pread(f.fileno(), size, pos)
+        else:  # pragma: no cover - Windows
+            with _SEEK:
+                f.seek(pos)
+                piece = f.read(size)
+        if not piece:
+            break
+        pieces.append(piece)
+        pos += len(piece)
+        size -= len(piece)
+    return pieces[0] if len(pieces) == 1 else b"".join(pieces)
+
+
+@dataclass
+class _Part:
+    """Part ``index`` of the ``parts`` of a block: ``size`` bytes from byte ``pos``
+    (``data`` when already read). The last part carries the rest of the block's window
+    after it (checked for NUL bytes too); ``too_long``: the block's first line is longer
+    than :data:`MAX_LINE`."""
+
+    pos: int
+    size: int
+    index: int = 0
+    parts: int = 1
+    rest: bytes = b""
+    data: bytes | None = None
+    too_long: bool = False
+
+
+def _cuts(f: Any, pos: int, size: int, parts: int) -> list[int]:
+    """Where ``parts`` parts of the ``size`` bytes from ``pos`` start: each after the first
+    line end past an equal share; ``[pos]`` (one part) when a share has no line end within
+    :data:`_PROBE` bytes."""
+    cuts = [pos]
+    for k in range(1, parts):
+        target = pos + k * size // parts
+        probe = _read_at(f, target, min(_PROBE, pos + size - target))
+        cut = probe.find(b"\n") + 1
+        if not cut or target + cut >= pos + size or target + cut <= cuts[-1]:
+            return [pos]
+        cuts.append(target + cut)
+    return cuts
+
+
+def _parts(f: Any, offset: int, width: int, parts: Callable[[int], int]) -> Iterator[_Part]:
+    """The blocks of unbuffered file ``f`` from byte ``offset`` on: windows of ``width``
+    bytes (doubled past a longer line) cut after their last line end, the last line of the
+    file whole; each in ``parts(size)`` parts cut at line ends. Only the ends of a window
+    and of its parts are read here, unless it holds no line end: the parts themselves are
+    read by :func:`_load`, on the threads that parse them."""
+    pos = offset
+    while True:
+        got = min(width, os.fstat(f.fileno()).st_size - pos)  # the window's bytes
+        if got > _PROBE:
+            probe = _read_at(f, pos + got - _PROBE, _PROBE)
+            cut = probe.rfind(b"\n") + 1
+            if len(probe) == _PROBE and cut:
+                size = got - _PROBE + cut
+                cuts = _cuts(f, pos, size, parts(size))
+                ends = [*cuts[1:], pos + size]
+                for k, (start, end) in enumerate(zip(cuts, ends, strict=True)):
+                    rest = probe[cut:] if k == len(cuts) - 1 else b""
+                    yield _Part(start, end - start, k, len(cuts), rest)
+                pos += size
                 continue
-            last = end == 0  # the last line, without a line end
-            if last:
-                end = got
-            elif end < got:
-                f.seek(end - got, 1)
-            codes = np.frombuffer(buf, np.uint8, count=end)
-            count = int(np.count_nonzero(codes == 10)) + last
-            view = memoryview(buf)[:end]
-            if codes.max() >= 128:
-                _check_utf8(view, number, src)
-            yield view, number, count
-            number += count
+        raw = _read_at(f, pos, width)
+        if not raw:
+            return
+        end = raw.rfind(b"\n") + 1
+        if end == 0 and len(raw) == width:  # a line longer than the window
+            if b"\x00" in raw or width >= MAX_LINE:
+                yield _Part(pos, 0, rest=raw, data=b"", too_long=b"\x00" not in raw)
+                return
+            width *= 2
+            continue
+        end = end or len(raw)  # the last line, without line end
+        yield _Part(pos, end, rest=raw[end:], data=raw if end == len(raw) else raw[:end])
+        pos += end
 
 
-def _check_utf8(view: memoryview, number: int, src: str) -> None:
-    try:
-        codecs.utf_8_decode(view, "strict", True)
-    except UnicodeDecodeError as exc:
-        row = number + view[: exc.start].tobytes().count(b"\n")
-        raise not_utf8(src, f" (row {row})") from None
+class _AtRow(Exception):
+    """A problem of a block's text (``"nul"``, ``"utf8"``, ``"long"``) at line ``row``,
+    counted from the block's first line (which the reader knows when it gets there)."""
+
+    def __init__(self, what: str, row: int) -> None:
+        super().__init__(what, row)
+        self.what, self.row = what, row
+
+    def error(self, number: int, src: str) -> Exception:
+        """The message, for a block whose first line is line ``number``."""
+        row = number + self.row
+        if self.what == "nul":
+            return fail(f"{src}: row {row} holds NUL bytes (binary data, not text): {_FORMATS}")
+        if self.what == "utf8":
+            return not_utf8(src, f" (row {row})")
+        return fail(
+            f"{src}: row {row} is longer than {MAX_LINE >> 20} MiB: this is not a table of "
+            "samples (check the file)"
+        )
+
+
+def _load(f: Any, part: _Part) -> tuple[bytes, int, _AtRow | None, _AtRow | None]:
+    """A part's bytes and number of lines, and its problems (lines counted from its
+    first): a NUL byte (also in the rest of its window), invalid UTF-8 (decoded only when
+    it holds other than ASCII), a line longer than :data:`MAX_LINE`."""
+    if part.too_long:
+        return b"", 0, _AtRow("long", 0), None
+    data = _read_at(f, part.pos, part.size) if part.data is None else part.data
+    nul = (data + part.rest if b"\x00" in part.rest else data).find(b"\x00")
+    if nul >= 0:
+        return data, 0, _AtRow("nul", data.count(b"\n", 0, nul)), None
+    codes = np.frombuffer(data, np.uint8)
+    count = int(np.count_nonzero(codes == 10)) + (data[-1:] not in (b"", b"\n"))  # last line
+    if codes.max() >= 128:
+        try:
+            codecs.utf_8_decode(data, "strict", True)
+        except UnicodeDecodeError as exc:
+            return data, count, None, _AtRow("utf8", data.count(b"\n", 0, exc.start))
+    return data, count, None, None
 
 
 def read_line(path: Path, number: int) -> str:
@@ -282,7 +386,7 @@ def _pandas() -> Any:
     return pandas
 
 
-def _clean(block: memoryview, number: int) -> tuple[list[str], list[int]]:
+def _clean(block: bytes, number: int) -> tuple[list[str], list[int]]:
     """The block's data lines (stripped; comments and blank lines left out), and their
     numbers."""
     texts: list[str] = []
@@ -307,11 +411,11 @@ class Layout:
     spaced: bool = True  # blanks after separators or quotes: pandas skips initial blanks
 
 
-def _first_row_fits(data: bytes | memoryview, lay: Layout) -> bool:
+def _first_row_fits(data: bytes, lay: Layout) -> bool:
     """Whether the block's first row has at most ``n_cols`` fields: pandas sizes the table
     by it, and with more fields there it would drop the extra ones with only a warning
     (more fields on a later row are an error)."""
-    head = bytes(memoryview(data)[: 1 << 20])
+    head = data[: 1 << 20]
     lines = head.split(b"\n", 8)
     if len(head) < len(data):
         lines = lines[:-1]  # the last piece may be cut
@@ -322,31 +426,67 @@ def _first_row_fits(data: bytes | memoryview, lay: Layout) -> bool:
     return len(head) == len(data)
 
 
-def _pandas_block(
-    pd: Any, data: bytes | memoryview, n_rows: int, lay: Layout, text_cols: set[int]
+def _exact_first_row(data: bytes, lay: Layout) -> bool:
+    """Whether the block's first line has exactly ``n_cols`` fields (no quote, no CR within
+    it): pandas then sizes the table by them, and a later row with more fields is an error
+    (so no extra column is needed to see it)."""
+    if lay.delim is None or lay.n_cols < 2:
+        return False
+    head = data[: 1 << 16]
+    end = head.find(b"\n")
+    if end < 0 and len(head) < len(data):
+        return False
+    line = head[: end if end >= 0 else len(head)].removesuffix(b"\r")
+    return (
+        b'"' not in line
+        and b"\r" not in line
+        and line.count(lay.delim.encode("utf-8")) == lay.n_cols - 1
+    )
+
+
+def _read_frame(
+    pd: Any, data: bytes, lay: Layout, text_cols: set[int], width: int, retry: bool = True
 ) -> Any:
-    """The block's columns (pandas Series) parsed by pandas' C parser, or None when the
-    Python path must look at it: a row with too many or too few fields, a blank line (the
-    row count differs), a quoted line end."""
-    if not _first_row_fits(data, lay):
-        return None
-    names = list(range(lay.n_cols + 1))  # one more: a row with an extra field shows in it
+    """The block as a pandas DataFrame of ``width`` columns, or None when pandas' C parser
+    fails on it: a row with more fields (ParserError), a buffer overflow... Text where
+    numbers were expected is read again with blanks after separators skipped (``retry``;
+    without it, such a block is None)."""
     frame = None
     for spaced in (lay.spaced, True) if not lay.spaced and lay.delim is not None else (True,):
         try:
             frame = pd.read_csv(
                 _View(data), sep=r"\s+" if lay.delim is None else lay.delim, header=None,
-                names=names, index_col=False, dtype=dict.fromkeys(text_cols, str) or None,
-                na_values=_NA_VALUES, keep_default_na=False, skipinitialspace=spaced,
-                engine="c", low_memory=False, decimal=lay.decimal, encoding="utf-8",
+                names=list(range(width)), index_col=False,
+                dtype=dict.fromkeys(text_cols, str) or None, na_values=_NA_VALUES,
+                keep_default_na=False, skipinitialspace=spaced, engine="c", low_memory=False,
+                decimal=lay.decimal, encoding="utf-8",
             )  # fmt: skip
-        except Exception:  # ParserError (a row with too many fields), a buffer overflow...
+        except Exception:
             return None
         if all(_numeric_dtype(frame[j].dtype) for j in range(lay.n_cols) if j not in text_cols):
-            break  # else: text where numbers were expected: again, blanks after separators
-    if frame is None:  # pragma: no cover - the loop runs at least once
+            return frame
+        if not retry:
+            return None
+    return frame  # text where numbers were expected, also with blanks skipped
+
+
+def _pandas_block(
+    pd: Any, data: bytes, n_rows: int, lay: Layout, text_cols: set[int], retry: bool = True
+) -> Any:
+    """The block's columns (pandas Series) parsed by pandas' C parser, or None when the
+    Python path must look at it: a row with too many or too few fields, a blank line (the
+    row count differs), a quoted line end (and, without ``retry``, text where numbers were
+    expected)."""
+    if not _first_row_fits(data, lay):
         return None
-    if len(frame) != n_rows or frame[lay.n_cols].notna().any():
+    frame = None
+    if _exact_first_row(data, lay):  # n_cols columns: a longer row is a ParserError
+        frame = _read_frame(pd, data, lay, text_cols, lay.n_cols, retry)
+    if frame is None:  # one more column: a row with an extra field shows in it
+        frame = _read_frame(pd, data, lay, text_cols, lay.n_cols + 1, retry)
+        if frame is None or frame[lay.n_cols].notna().any():
+            return None
+    if len(frame) != n_rows:
         return None
     if lay.n_cols > 1:
         short = np.flatnonzero(frame[lay.n_cols - 1].isna().to_numpy())
@@ -528,55 +668,212 @@ def _all_missing(piece: Any) -> bool:
     return all(c.strip().casefold() in MISSING for c in _cells(piece))
 
 
-def _contains(view: memoryview, sub: bytes) -> bool:
-    """Whether a block (a view from the start of its buffer) holds ``sub``."""
-    return view.obj.find(sub, 0, view.nbytes) >= 0  # type: ignore[union-attr]
+@dataclass
+class _Parsed:
+    """A block, or a part of one, read and parsed (on a worker thread, see
+    :func:`read_columns`): its bytes and number of lines, and the problems of its text
+    (:func:`_load`); its pandas columns, or None for the Python path; its data lines when
+    they were cleaned of comment and blank lines (else None) and their line numbers; every
+    data row's line number (both counted from its first line); the columns read as text
+    (``text_cols``), and the error raised, if any."""
+
+    data: bytes
+    n_lines: int
+    pieces: list[Any] | None
+    texts: list[str] | None = None
+    numbers: Sequence[int] = ()
+    line_numbers: np.ndarray = field(default_factory=lambda: np.empty(0, np.int64))
+    text_cols: frozenset[int] = frozenset()
+    error: Exception | None = None
+    nul: _AtRow | None = None
+    utf8: _AtRow | None = None
+
+
+def _parse_block(
+    pd: Any, block: bytes, n_lines: int, lay: Layout, text_cols: frozenset[int], part: bool = False
+) -> _Parsed:
+    """A block's pieces: pandas' C parser on the block (cleaned of comment lines first), or
+    on its cleaned lines when the raw block does not parse; None for the Python path. A
+    ``part`` of a block is parsed only the way the whole block would be at first (no second
+    try with blanks skipped): its pieces are None where the block needs another way."""
+    texts: list[str] | None = None
+    numbers: Sequence[int] = ()
+    data = block
+    if b"#" in block or b"%" in block:  # comment lines: out with them
+        texts, numbers = _clean(block, 0)
+        data = ("\n".join(texts) + "\n").encode("utf-8")
+        line_numbers = np.asarray(numbers, dtype=np.int64)
+    else:
+        line_numbers = np.arange(n_lines, dtype=np.int64)
+    pieces = None
+    if pd is not None:
+        if line_numbers.size:
+            pieces = _pandas_block(pd, data, line_numbers.size, lay, set(text_cols), not part)
+        if pieces is None and texts is None and not part:  # blank lines, say: clean, again
+            texts, numbers = _clean(block, 0)
+            line_numbers = np.asarray(numbers, dtype=np.int64)
+            if texts:
+                data = ("\n".join(texts) + "\n").encode("utf-8")
+                pieces = _pandas_block(pd, data, line_numbers.size, lay, set(text_cols))
+    if pieces is None and texts is None and not part:
+        texts, numbers = _clean(block, 0)
+        line_numbers = np.asarray(numbers, dtype=np.int64)
+    return _Parsed(block, n_lines, pieces, texts, numbers, line_numbers, text_cols)
+
+
+def _read_part(pd: Any, f: Any, part: _Part, lay: Layout, text_cols: frozenset[int]) -> _Parsed:
+    """A part read, checked and parsed (:func:`_parse_block`, as a part when the block
+    has others). Problems and errors are kept for the reader to raise when it gets to the
+    block (after the blocks before it)."""
+    data, n_lines, nul, utf8 = _load(f, part)
+    try:
+        if nul is not None or utf8 is not None:
+            parsed = _Parsed(data, n_lines, None)
+        else:
+            parsed = _parse_block(pd, data, n_lines, lay, text_cols, part.parts > 1)
+    except Exception as exc:
+        parsed = _Parsed(data, n_lines, None, error=exc)
+    parsed.text_cols, parsed.nul, parsed.utf8 = text_cols, nul, utf8
+    return parsed
+
+
+def _in_step(parts: list[_Parsed], text_cols: frozenset[int]) -> bool:
+    """Whether the parts of a block read as the whole block would: all through pandas at
+    the first try, all raw or all cleaned of comment lines, with the block's
+    ``text_cols``, and each column of one dtype in every part."""
+    if any(p.pieces is None or p.text_cols != text_cols for p in parts):
+        return False
+    if len({p.texts is None for p in parts}) > 1:
+        return False
+    dtypes = [[piece.dtype for piece in p.pieces] for p in parts]  # type: ignore[union-attr]
+    return all(d == dtypes[0] for d in dtypes)
+
+
+def parse_threads(data_bytes: int) -> int:
+    """Threads parsing the blocks of ``data_bytes`` of text at once: one when the text
+    fits in one block; else the cores this process may use, at most :data:`THREADS` and
+    ``ADAVAR_THREADS``."""
+    blocks = -(-data_bytes // BLOCK)
+    if blocks < 2:
+        return 1
+    from adavar.settings import requested_threads
+
+    affinity = getattr(os, "sched_getaffinity", None)
+    cores = len(affinity(0)) if affinity is not None else os.cpu_count() or 1
+    return max(1, min(cores, THREADS, blocks, requested_threads() or cores))
+
+
+def _in_order(
+    items: Iterator[Any], work: Callable[..., Any], threads: int
+) -> Iterator[tuple[Any, Any]]:
+    """``(item, work(*item))`` for every item, in order, with ``work`` running on up to
+    ``threads`` threads ahead of the caller (``threads`` items at most besides the one the
+    caller holds). An error raised by ``items`` comes after the items before it."""
+    if threads < 2:
+        for item in items:
+            yield item, work(*item)
+        return
+    pending: deque[tuple[Any, Future[Any]]] = deque()
+    error: Exception | None = None
+    with ThreadPoolExecutor(threads, thread_name_prefix="adavar-text") as pool:
+        try:
+            while True:
+                try:
+                    item = next(items)
+                except StopIteration:
+                    break
+                except Exception as exc:  # a NUL byte, say: raised after the blocks before
+                    error = exc
+                    break
+                pending.append((item, pool.submit(work, *item)))
+                if len(pending) > threads:
+                    done, future = pending.popleft()
+                    yield done, future.result()
+            while pending:
+                done, future = pending.popleft()
+                yield done, future.result()
+        finally:
+            for _, future in pending:
+                future.cancel()
+    if error is not None:
+        raise error
 
 
 def read_columns(
     path: Path, offset: int, number: int, lay: Layout, data_bytes: int
 ) -> tuple[list[Column], np.ndarray]:
     """The columns of the data rows from byte ``offset`` (line ``number``) to the end, and
-    every data row's line number."""
+    every data row's line number.
+
+    The text is read in blocks (:func:`_parts`), and each block in parts that are read,
+    checked and parsed on :func:`parse_threads` threads (pandas' C parser lets go of the
+    GIL), a few parts ahead of the block added to the columns. The parts of a block stand
+    for the whole block when they parse the plain way with the same column types (else the
+    block is parsed whole); a block is parsed as text in the columns found to be text in
+    the blocks before it (``text_cols``), and parsed again when a block it overtook made
+    another column text; every problem is raised when the reader gets to its block: the
+    result and the first error are those of reading the blocks one by one.
+    """
     pd = _pandas()
     columns = [Column() for _ in range(lay.n_cols)]
     rows: _Grow | None = None
     capacity = 0
-    for block, first, n_lines in iter_blocks(path, offset, number, lay.src):
-        texts: list[str] | None = None
-        data: bytes | memoryview = block
-        if _contains(block, b"#") or _contains(block, b"%"):  # comment lines: out with them
-            texts, numbers = _clean(block, first)
-            data = ("\n".join(texts) + "\n").encode("utf-8")
-            line_numbers = np.asarray(numbers, dtype=np.int64)
-        else:
-            line_numbers = np.arange(first, first + n_lines, dtype=np.int64)
-        if rows is None:  # capacity from the first block's bytes per row
-            per_row = max(1.0, len(block) / max(1, n_lines))
-            capacity = int(1.05 * data_bytes / per_row) + 1024
-            rows = _Grow(capacity, np.int64)
-        pieces = None
-        if pd is not None:
-            text_cols = {j for j, c in enumerate(columns) if c.kind in ("iso", "text")}
-            if line_numbers.size:
-                pieces = _pandas_block(pd, data, line_numbers.size, lay, text_cols)
-            if pieces is None and texts is None:  # blank lines, say: clean, then again
-                texts, numbers = _clean(block, first)
-                line_numbers = np.asarray(numbers, dtype=np.int64)
-                if texts:
-                    data = ("\n".join(texts) + "\n").encode("utf-8")
-                    pieces = _pandas_block(pd, data, line_numbers.size, lay, text_cols)
-        if pieces is None:
-            if texts is None:
-                texts, numbers = _clean(block, first)
-                line_numbers = np.asarray(numbers, dtype=np.int64)
-            if not texts:
-                continue
-            pieces = _python_block(texts, numbers, lay)
-        for column, piece in zip(columns, pieces, strict=True):
-            column.add(piece, line_numbers, capacity, lay.decimal)
-        rows.append(line_numbers)
+    threads = parse_threads(data_bytes) if pd is not None else 1  # NumPy: holds the GIL
+    # a block is read in parts once the one before read plain (through pandas, no text
+    # column), until the parts of a block do not read as the whole block would
+    split = [False, threads < 2]  # [now, never again]
+
+    def text_cols() -> frozenset[int]:
+        return frozenset(j for j, c in enumerate(columns) if c.kind in ("iso", "text"))
+
+    def parts(size: int) -> int:
+        return threads if split[0] and not split[1] and size >= threads * _MIN_PART else 1
+
+    with open(path, "rb", buffering=0) as f:
+        jobs = ((pd, f, part, lay, text_cols()) for part in _parts(f, offset, BLOCK, parts))
+        block: list[_Parsed] = []
+        with closing(_in_order(jobs, _read_part, threads)) as done:
+            for (_, _, part, _, _), parsed in done:
+                block.append(parsed)
+                if part.index < part.parts - 1:
+                    continue
+                got, block, now = block, [], text_cols()
+                lines = [0, *itertools.accumulate(p.n_lines for p in got)]
+                for problem in ("nul", "utf8"):
+                    for start, p in zip(lines, got, strict=False):
+                        if getattr(p, problem) is not None:
+                            raise getattr(p, problem).error(number + start, lay.src)
+                if len(got) > 1 and not _in_step(got, now):  # parse the block whole
+                    split[1] = True
+                    got = [_parse_block(pd, b"".join(p.data for p in got), lines[-1], lay, now)]
+                elif got[0].text_cols != now:  # a block before made a column text
+                    got = [_parse_block(pd, got[0].data, lines[-1], lay, now)]
+                elif got[0].error is not None:
+                    raise got[0].error
+                if rows is None:  # capacity from the first block's bytes per row
+                    per_row = max(1.0, sum(len(p.data) for p in got) / max(1, lines[-1]))
+                    capacity = int(1.05 * data_bytes / per_row) + 1024
+                    rows = _Grow(capacity, np.int64)
+                for start, p in zip(lines, got, strict=False):
+                    _add(columns, rows, p, number + start, capacity, lay)
+                number += lines[-1]
+                split[0] = all(p.pieces is not None for p in got) and not text_cols()
     n = 0 if rows is None else rows.n
     for column in columns:
         column.finish(n)
     return columns, (np.empty(0, np.int64) if rows is None else rows.result())
+
+
+def _add(
+    columns: list[Column], rows: _Grow, parsed: _Parsed, first: int, capacity: int, lay: Layout
+) -> None:
+    """Add a parsed block (or part) whose first line is line ``first`` to the columns."""
+    pieces, line_numbers = parsed.pieces, parsed.line_numbers
+    line_numbers += first
+    if pieces is None:
+        if not parsed.texts:
+            return
+        pieces = _python_block(parsed.texts, [first + k for k in parsed.numbers], lay)
+    for column, piece in zip(columns, pieces, strict=True):
+        column.add(piece, line_numbers, capacity, lay.decimal)
+    rows.append(line_numbers)
