@@ -85,7 +85,7 @@ def test_fused_levels_match_the_materialised_series(n, seed, kind):
         assert zmax[level] == pytest.approx(np.abs(z).max(), rel=1e-9)
         want_r1, want_den = _lag1_reference(z) if np.ptp(z) > 0 else (math.nan, 0.0)
         if not ok[level]:  # refused only where the trend (or nothing) dominates
-            assert kind in ("steep", "constant") or not want_den > 1e-6 * np.dot(z, z)
+            assert kind in ("steep", "constant") or not want_den > 2e-6 * np.dot(z, z)
             assert diff.fused_lag1(p, m) is None
             continue
         assert r1[level] == pytest.approx(want_r1, abs=1e-8)

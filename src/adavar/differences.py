@@ -189,7 +189,8 @@ def _anchored_prefix(u, shift, nlev, stats, fused):  # pragma: no cover - compil
         den = z2 - cf * alpha * alpha - stt * beta * beta
         fused[lev, 1] = den
         fused[lev, 2] = zmax
-        if not den > 1e-8 * z2:
+        # below 1e-6 the cancellation would cost r1 more than 1e-9: stream the data instead
+        if not den > 1e-6 * z2:
             continue
         # t_first = -kc, t_last = kc: the abscissae of the first and last clusters
         cross1 = alpha * (z1 - z_last) + beta * (zt - kc * z_last) + beta * (z1 - z_last)
