@@ -373,7 +373,9 @@ def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path, monkeypatch
     assert set(PAPER_DEMO_FILES) <= names, set(PAPER_DEMO_FILES) - names
 
     monkeypatch.setattr("adavar.demo.PAPER_SEEDS", 2)
-    code, out, err = run(capsys, ["demo", "--out", str(out_dir), "--json", "--seed", "5"])
+    # one process (the worker's path is the first run's, and tests/test_demo.py's)
+    argv = ["demo", "--out", str(out_dir), "--json", "--seed", "5", "--workers", "1"]
+    code, out, err = run(capsys, argv)
     assert code == 0, err
     payload = json.loads(out)
     rows = payload["nist"]["rows"]

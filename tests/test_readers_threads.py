@@ -92,7 +92,7 @@ def test_threads_and_parts_read_as_one_block_after_another(tmp_path, blocks, nam
     blocks(1 << 20, 1)
     expected = [outcome(path, **o) for o in options]
     for block, threads, parts in [(4096, 1, False), (4096, 3, False), (4096, 2, True),
-                                  (2048, 3, True), (300, 2, True)]:  # fmt: skip
+                                  (2048, 3, True), (700, 2, True)]:  # fmt: skip
         blocks(block, threads, parts)
         assert [outcome(path, **o) for o in options] == expected, (block, threads, parts)
 
