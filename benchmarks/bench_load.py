@@ -167,7 +167,9 @@ def _kernel_times(max_n: int) -> dict[int, tuple[float, float]]:
         x = np.random.default_rng(1).standard_normal(n)
         adavar.deviation(x, rate=1.0)  # compile
         best = np.inf
-        for _ in range(5 if n < 10**7 else 2):
+        # sub-millisecond calls: enough repeats for both sides to reach their steady speed
+        repeats = 20 if n <= 10**5 else 5 if n < 10**7 else 2
+        for _ in range(repeats):
             start = time.perf_counter()
             adavar.deviation(x, rate=1.0)
             best = min(best, time.perf_counter() - start)
@@ -175,7 +177,7 @@ def _kernel_times(max_n: int) -> dict[int, tuple[float, float]]:
         try:
             import allantools
 
-            for _ in range(3 if n < 10**7 else 1):
+            for _ in range(repeats if n <= 10**5 else 3 if n < 10**7 else 1):
                 start = time.perf_counter()
                 allantools.oadev(x, rate=1.0, taus="octave")
                 peer = min(peer, time.perf_counter() - start)
@@ -206,10 +208,10 @@ def kernels(max_n: int) -> list[str]:
                 spinner.join()
             times = eval(done.stdout.strip().splitlines()[-1])  # our own output
             for n, (ours, peer) in times.items():
-                ratio = f"peer/adavar {peer / ours:.1f}" if np.isfinite(peer) else "-"
+                ratio = f"peer/adavar {peer / ours:.2f}" if np.isfinite(peer) else "-"
                 lines.append(f"| deviation (with intervals), N = {n:.0e}, {label}, threads "
-                             f"{threads or 'default'} | {1e3 * ours:.1f} ms | allantools.oadev "
-                             f"(no intervals) {1e3 * peer:.1f} ms: {ratio} |")  # fmt: skip
+                             f"{threads or 'default'} | {1e3 * ours:.3g} ms | allantools.oadev "
+                             f"(no intervals) {1e3 * peer:.3g} ms: {ratio} |")  # fmt: skip
     return lines
 
 
