@@ -117,38 +117,30 @@ def _numbered(n, width=10):
 @pytest.mark.parametrize(("threads", "parts"), [(1, False), (3, False), (2, True)])
 def test_the_first_problem_in_the_file_is_raised(tmp_path, blocks, threads, parts):
     blocks(1024, threads, parts)
-    n = 2000
-    # a ragged row before a NUL byte several blocks later: the ragged row
-    data = bytearray(_numbered(n))
-    data[4 + 10 * 300 : 4 + 10 * 300 + 10] = b"0300,0,30\n"
-    data[4 + 10 * 1500 + 3] = 0
-    with pytest.raises(AdavarInputError, match=r"row 302 has 3 fields, expected 2"):
-        read_record(write(tmp_path, "a.csv", bytes(data)), rate=1)
-    # invalid UTF-8 in a block and a NUL byte past its last line end, in the rest of its
-    # window: the window is checked for NUL bytes first. Block k holds data rows 102 k to
-    # 102 k + 101 (1020 bytes), its window 4 bytes of the next row.
-    data = bytearray(_numbered(n))
-    data[4 + 10 * 1050 + 2] = 0xFF
-    data[4 + 10 * 1122 + 3] = 0
-    with pytest.raises(AdavarInputError, match=r"row 1124 holds NUL bytes"):
-        read_record(write(tmp_path, "b.csv", bytes(data)), rate=1)
-    data[4 + 10 * 1122 + 3] = ord("0")
-    with pytest.raises(AdavarInputError, match=r"not a UTF-8 text file \(row 1052\)"):
-        read_record(write(tmp_path, "b2.csv", bytes(data)), rate=1)
-    # invalid UTF-8 late in a later block (in its second part, when in parts)
-    data = bytearray(_numbered(n))
-    data[4 + 10 * 1700 + 1] = 0xC3
-    with pytest.raises(AdavarInputError, match=r"not a UTF-8 text file \(row 1702\)"):
-        read_record(write(tmp_path, "c.csv", bytes(data)), rate=1)
-    # a short row and a NUL byte in the same later block, the NUL byte after it
-    data = bytearray(_numbered(n))
-    data[4 + 10 * 1650 + 4 : 4 + 10 * 1650 + 9] = b"     "  # "1650     ": one field
-    data[4 + 10 * 1690 + 3] = 0
-    with pytest.raises(AdavarInputError, match=r"row 1692 holds NUL bytes"):
-        read_record(write(tmp_path, "d.csv", bytes(data)), rate=1)
-    data[4 + 10 * 1690 + 3] = ord("0")
-    with pytest.raises(AdavarInputError, match=r"row 1652 has 1 fields, expected 2"):
-        read_record(write(tmp_path, "e.csv", bytes(data)), rate=1)
+
+    def row(k, col=0):  # byte offset of column ``col`` of data row k (rows of 10 bytes)
+        return 4 + 10 * k + col
+
+    cases = [
+        # a ragged row before a NUL byte several blocks later: the ragged row
+        ([(row(300), b"0300,0,30\n"), (row(1500, 3), b"\0")], r"row 302 has 3 fields, expected 2"),
+        # invalid UTF-8 in a block and a NUL byte past its last line end, in the rest of its
+        # window: the window is checked for NUL bytes first. Block k holds data rows 102 k
+        # to 102 k + 101 (1020 bytes), its window 4 bytes of the next row.
+        ([(row(1050, 2), b"\xff"), (row(1122, 3), b"\0")], r"row 1124 holds NUL bytes"),
+        ([(row(1050, 2), b"\xff")], r"not a UTF-8 text file \(row 1052\)"),
+        # invalid UTF-8 late in a later block (in its second part, when in parts)
+        ([(row(1700, 1), b"\xc3")], r"not a UTF-8 text file \(row 1702\)"),
+        # a short row and a NUL byte in the same later block, the NUL byte after it
+        ([(row(1650, 4), b"     "), (row(1690, 3), b"\0")], r"row 1692 holds NUL bytes"),
+        ([(row(1650, 4), b"     ")], r"row 1652 has 1 fields, expected 2"),  # "1650     "
+    ]
+    for k, (edits, message) in enumerate(cases):
+        data = bytearray(_numbered(2000))
+        for at, new in edits:
+            data[at : at + len(new)] = new
+        with pytest.raises(AdavarInputError, match=message):
+            read_record(write(tmp_path, f"{k}.csv", bytes(data)), rate=1)
 
 
 @pytest.mark.parametrize("threads", [1, 2])
