@@ -330,7 +330,9 @@ def worker_pool(workers: int | None) -> ProcessPoolExecutor | None:
         A pool of one process started by ``spawn``; the caller shuts it down.
     """
     if workers is None:
-        workers = 2 if len(os.sched_getaffinity(0)) >= 2 else 1
+        affinity = getattr(os, "sched_getaffinity", None)  # Linux; elsewhere every core
+        cores = len(affinity(0)) if affinity is not None else os.cpu_count() or 1
+        workers = 2 if cores >= 2 else 1
     if workers < 2:
         return None
     try:
