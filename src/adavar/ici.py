@@ -53,9 +53,10 @@ from typing import Any
 
 import numpy as np
 from scipy.ndimage import maximum_filter1d
-from scipy.special import chdtri, gammaincinv, ndtr
+from scipy.special import ndtr
 
 from adavar import differences as diff
+from adavar import edf as edf_mod
 from adavar.davar import edf_table
 from adavar.errors import AdavarInputError
 from adavar.settings import ICI_EDF, ICI_GAMMA, ICI_SIDES
@@ -303,8 +304,9 @@ def interval_offsets(nu: np.ndarray, gamma: float) -> tuple[np.ndarray, np.ndarr
     """``(log(chi2_{1-q}(nu) / nu), log(chi2_q(nu) / nu))``, ``q = Phi(-gamma)``: what the
     interval of a log variance with ``nu`` degrees of freedom subtracts (once per EDF)."""
     q = float(ndtr(-gamma))
-    # scipy.stats.chi2's isf and ppf, without importing scipy.stats
-    return np.log(chdtri(nu, q) / nu), np.log(2.0 * gammaincinv(nu / 2, q) / nu)
+    # the chi2 quantiles at 1 - q and q: those of a two-sided interval of confidence 1 - 2q
+    upper, lower = edf_mod.chi2_quantiles(nu, 1.0 - 2.0 * q)
+    return np.log(upper / nu), np.log(lower / nu)
 
 
 def _intervals(v: np.ndarray, offsets: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, ...]:
