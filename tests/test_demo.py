@@ -43,6 +43,26 @@ def test_a_dead_worker_falls_back_to_this_process(monkeypatch):
     _same_study(demo._result(dead, 2018), demo._seed_study(2018, 1))
 
 
+def test_figures_are_drawn_here_when_the_worker_is_gone():
+    from adavar.cli import demo as cli_demo
+
+    class DeadPool:
+        def submit(self, *args):
+            raise BrokenProcessPool("killed")
+
+    calls = []
+    draw = lambda *args: calls.append(args) or ["fig"]  # noqa: E731
+    assert cli_demo._submit(DeadPool(), draw, 1, 2) == ["fig"]
+    died: Future = Future()
+    died.set_exception(BrokenProcessPool("killed during the drawing"))
+    assert cli_demo._result_or_here(died, draw, 3) == ["fig"]
+    assert calls == [(1, 2), (3,)]
+    other: Future = Future()
+    other.set_exception(OSError("disk full"))  # a real error is not hidden
+    with pytest.raises(OSError, match="disk full"):
+        cli_demo._result_or_here(other, draw, 4)
+
+
 def test_demo_workers_must_be_positive(capsys, tmp_path):
     code, out, err = run(capsys, ["demo", "--out", str(tmp_path / "d"), "--workers", "0"])
     assert_one_line_error(code, out, err, "--workers")

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
+from concurrent.futures import Future
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
@@ -134,6 +137,24 @@ def _save_study_figures(
     return list(figures)
 
 
+def _submit(pool: Any, func: Any, *args: Any) -> Any:
+    """``func(*args)`` in the worker (a future), or here (its result) without a live one."""
+    if pool is not None:
+        with contextlib.suppress(BrokenProcessPool, RuntimeError):  # dead, or shut down
+            return pool.submit(func, *args)
+    return func(*args)
+
+
+def _result_or_here(done: Any, func: Any, *args: Any) -> Any:
+    """The result of :func:`_submit`; ``func(*args)`` here if the worker died meanwhile."""
+    if not isinstance(done, Future):
+        return done
+    try:
+        return done.result()
+    except BrokenProcessPool:
+        return func(*args)
+
+
 def _demo_outputs(
     args: argparse.Namespace, status: Status, demo: Any, pool: Any
 ) -> tuple[list[str], str]:
@@ -166,10 +187,10 @@ def _demo_outputs(
     try:
         with atomic_directory(args.out, replace=True) as tmp:
             studies: Any = []
+            study_args: tuple[Any, ...] = ()
             if paper is not None:
                 study_args = (paper.kurtosis, paper.thresholds, paper.comparison.units, str(tmp))
-                studies = (_save_study_figures(*study_args) if pool is None
-                           else pool.submit(_save_study_figures, *study_args))  # fmt: skip
+                studies = _submit(pool, _save_study_figures, *study_args)
             save_figure(fig, tmp / "gyro_oadev")
             for name, body in tables.items():
                 (tmp / name).write_text(body, encoding="utf-8")
@@ -177,7 +198,7 @@ def _demo_outputs(
                 save_figure(paper_fig, tmp / stem)
             status("building the HTML report")
             html = _demo_report(demo)
-            stems = studies if isinstance(studies, list) else studies.result()
+            stems = _result_or_here(studies, _save_study_figures, *study_args)
             files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json", *tables,
                      *(f"{stem}.{ext}" for stem in [*stems, *figures] for ext in ("png", "svg")),
                      "report.html"]  # fmt: skip
