@@ -420,9 +420,13 @@ class PowerLawFit:
     @property
     def p_value(self) -> float:
         """Probability of a chi2 at least this large if the model is right."""
-        from scipy.stats import chi2 as chi2_dist
+        # scipy.stats.chi2.sf(x, k) is chdtrc(k, x) for x >= 0 (and 1 below), without
+        # importing scipy.stats
+        from scipy.special import chdtrc
 
-        return float(chi2_dist.sf(self.chi2, self.dof)) if self.dof > 0 else math.nan
+        if not self.dof > 0:
+            return math.nan
+        return float(chdtrc(self.dof, np.maximum(self.chi2, 0.0)))
 
     @property
     def fitted_dev(self) -> np.ndarray:

@@ -295,9 +295,13 @@ def flicker(
     w = math.sqrt(math.pi * h_minus1) * _rng(seed).standard_normal(n)
     if n == 1:
         return w
-    from scipy.signal import fftconvolve  # lazy: scipy.signal costs 0.4 s to import
+    from scipy import fft
 
-    return np.asarray(fftconvolve(w, _kasdin_walter_coefficients(n, 1.0))[:n], np.float64)
+    # the linear convolution as scipy.signal.fftconvolve computes it (same transforms, same
+    # length), without importing scipy.signal (a second, most of it scipy.stats)
+    size = fft.next_fast_len(2 * n - 1, real=True)
+    spectrum = fft.rfft(w, size) * fft.rfft(_kasdin_walter_coefficients(n, 1.0), size)
+    return np.asarray(fft.irfft(spectrum, size)[:n], np.float64)
 
 
 def markov(
@@ -351,9 +355,11 @@ def markov(
     x = np.empty(n)
     x[0] = std * z[0]
     if n > 1:
-        from scipy.signal import lfilter
+        from adavar.iir import sosfilt
 
-        x[1:], _ = lfilter([innovation], [1.0, -phi], z[1:], zi=[phi * x[0]])
+        # x[k] = phi x[k-1] + innovation z[k]: one first-order section
+        section = np.array([[innovation, 0.0, 0.0, 1.0, -phi, 0.0]])
+        x[1:] = sosfilt(section, z[1:], np.array([[phi * x[0], 0.0]]))
     return x
 
 
@@ -754,11 +760,10 @@ def sensor(
 
 def _low_pass(x: FloatArray, bandwidth: float, rate: float, order: int) -> FloatArray:
     """Butterworth low-pass, unit DC gain, initial state steady at the first sample."""
-    from scipy.signal import butter, sosfilt, sosfilt_zi
+    from adavar.iir import butter_lowpass_sos, sosfilt, sosfilt_zi
 
-    sos = butter(order, bandwidth, btype="low", fs=rate, output="sos")
-    y, _ = sosfilt(sos, x, zi=sosfilt_zi(sos) * x[0])
-    return np.asarray(y, dtype=np.float64)
+    sos = butter_lowpass_sos(order, bandwidth, rate)
+    return sosfilt(sos, x, sosfilt_zi(sos) * x[0])
 
 
 def _as_tuple(value: object) -> tuple:
