@@ -109,7 +109,7 @@ class DavarStatResult(DavarResult):
         return ds
 
 
-#: up to this many (length, tau) pairs every EDF is computed exactly (about 50 us each)
+#: up to this many (length, tau) pairs every EDF is computed exactly
 EDF_EXACT_PAIRS = 4096
 #: beyond it, lengths per tau at which the EDF is computed exactly; others are interpolated
 EDF_EXACT_LENGTHS = 32
@@ -177,9 +177,9 @@ def edf_table(
             repeats = np.maximum(0, overhang[rows] - width // 2)
             effective = np.maximum(1, np.round(terms * terms / (terms + 2 * repeats)))
             inner = repeats == 0  # no repeated term: the interior window's exact EDF
-            table[rows[inner], t] = [
-                edf_mod.edf(stat, int(a), m, int(c) + width) for c in effective[inner]
-            ]
+            table[rows[inner], t] = edf_mod.edf_lengths(
+                stat, int(a), m, effective[inner].astype(np.int64) + width
+            )
             if (~inner).any():
                 counts, where = np.unique(effective[~inner].astype(np.int64), return_inverse=True)
                 table[rows[~inner], t] = _edf_of_counts(counts, int(a), m, stat)[where.ravel()]
@@ -192,12 +192,12 @@ def edf_table(
         if lv.size == 0:
             continue
         if exact_everywhere or lv.size <= EDF_EXACT_LENGTHS:
-            table[valid[:, t], t] = [edf_mod.edf(stat, int(a), int(m), int(L) + 1) for L in lv]
+            table[valid[:, t], t] = edf_mod.edf_lengths(stat, int(a), int(m), lv + 1)
             continue
         x = lv - 3 * m + 1
         nodes = np.unique(np.round(np.geomspace(x[0], x[-1], EDF_EXACT_LENGTHS)))
         nodes = nodes.astype(np.int64)
-        values = [edf_mod.edf(stat, int(a), int(m), int(g + 3 * m - 1) + 1) for g in nodes]
+        values = edf_mod.edf_lengths(stat, int(a), int(m), nodes + 3 * m)
         curve = PchipInterpolator(np.log(nodes), np.log(values))
         table[valid[:, t], t] = np.exp(curve(np.log(x)))
     return table
@@ -221,7 +221,7 @@ def _edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str = "oadev") 
     width = _term_width(stat, m)
     exact = counts <= EDF_GRID_START
     out = np.empty(counts.size)
-    out[exact] = [edf_mod.edf(stat, alpha, m, int(c) + width) for c in counts[exact]]
+    out[exact] = edf_mod.edf_lengths(stat, alpha, m, counts[exact] + width)
     big = counts[~exact]
     if big.size:
         # grid index k: node round(START * 2**(k / PER_OCTAVE)); two nodes beyond each end
@@ -258,7 +258,7 @@ def _edf_grid(stat: str, alpha: int, m: int, k_lo: int, k_hi: int) -> tuple[Any,
     nodes = np.unique(np.round(EDF_GRID_START * 2.0 ** (k / EDF_GRID_PER_OCTAVE)))
     nodes = nodes.astype(np.int64)
     width = _term_width(stat, m)
-    values = np.array([edf_mod.edf(stat, alpha, m, int(g) + width) for g in nodes])
+    values = edf_mod.edf_lengths(stat, alpha, m, nodes + width)
     curve = PchipInterpolator(np.log(nodes), np.log(values))
     if len(_EDF_GRIDS) > 4096:  # bounded: a long batch of unusual taus cannot grow it
         _EDF_GRIDS.clear()

@@ -7,7 +7,8 @@ length and the power-law noise type at that averaging time. This module provides
 * :func:`greenhall_edf`, the general EDF algorithm of Greenhall & Riley, "Uncertainty of
   stability variances based on finite differences" (35th PTTI, 2003), for every variance built
   from d-th differences of phase (Allan d=2, Hadamard d=3; modified or not; overlapping or not);
-* :func:`edf`, the dispatcher by statistic name, including the SP 1065 total-variance EDF;
+* :func:`edf`, the dispatcher by statistic name, including the SP 1065 total-variance EDF,
+  and :func:`edf_lengths`, the same at many record lengths at once (what a DAVAR asks for);
 * :func:`identify_noise_lag1` (lag-1 autocorrelation, Riley & Greenhall 2004, SP 1065 5.6),
   :func:`identify_noise_b1` (Barnes B1 ratio, SP 1065 5.5.4) and :func:`identify_noise`
   (the Stable32 policy: lag-1 ACF, else B1, else give up with :class:`NoiseIdError`);
@@ -29,10 +30,12 @@ autocorrelation", Proc. 18th EFTF (2004).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import lru_cache
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.special import gammaincinv
 
 # noise identification lives in adavar.noise_id; re-exported so existing imports keep working
@@ -66,6 +69,7 @@ __all__ = [
     "chi2_interval",
     "chi2_quantiles",
     "edf",
+    "edf_lengths",
     "greenhall_edf",
     "identify_noise",
     "identify_noise_b1",
@@ -156,7 +160,7 @@ def _sw(t: np.ndarray, alpha: int) -> np.ndarray:
     return np.where(a > 0, out, 0.0)
 
 
-def _sx_flicker_pm(t: np.ndarray, f: float) -> np.ndarray:
+def _sx_flicker_pm(t: np.ndarray, f: float | np.ndarray) -> np.ndarray:
     """sx(t, F, 1) = F^2 [2 sw(t) - sw(t - 1/F) - sw(t + 1/F)] without cancellation.
 
     With u = 1/(F |t|) < 1, exactly sx = -2 ln|t| - g(u) / u^2 where
@@ -164,18 +168,20 @@ def _sx_flicker_pm(t: np.ndarray, f: float) -> np.ndarray:
          = 3 u^2 - sum_{k>=2} 4 u^(2k) / (2k (2k-1) (2k-2)).
     The direct F^2 second difference loses ~F^2 eps relative accuracy, i.e. everything at
     F ~ 1e8; the series keeps full precision for any F (needed: F = m is unbounded).
+    ``f`` is a float > 1, or an array of them broadcasting against ``t`` (one F per row).
     """
-    h = 1.0 / f
     a = np.abs(t)
+    f = np.asarray(f, dtype=np.float64)  # a float, or one per row
+    fb, h = np.broadcast_to(f, a.shape), np.broadcast_to(1.0 / f, a.shape)
     out = np.empty_like(a)
     near = a <= h  # includes t = 0; here the direct formula has no cancellation problem
     if near.any():
-        tn = t[near]
-        out[near] = f * f * (2.0 * _sw(tn, 1) - _sw(tn - h, 1) - _sw(tn + h, 1))
+        tn, hn, fn = t[near], h[near], fb[near]
+        out[near] = fn * fn * (2.0 * _sw(tn, 1) - _sw(tn - hn, 1) - _sw(tn + hn, 1))
     far = ~near
     if far.any():
         af = a[far]
-        u = h / af
+        u = h[far] / af
         g_over_u2 = np.empty_like(u)
         small = u < 0.1
         us = u[small]
@@ -193,8 +199,17 @@ def _sx_flicker_pm(t: np.ndarray, f: float) -> np.ndarray:
     return out
 
 
-def _sx(t: np.ndarray, f: float, alpha: int) -> np.ndarray:
-    """Phase autocovariance sx(t, F, alpha) after a lowpass of width 1/F (Greenhall Eq. 8)."""
+def _sx(t: np.ndarray, f: float | np.ndarray, alpha: int) -> np.ndarray:
+    """Phase autocovariance sx(t, F, alpha) after a lowpass of width 1/F (Greenhall Eq. 8).
+
+    ``f`` is a float, or an array of finite F > 1 broadcasting against ``t`` (one per row:
+    the ``m'`` case of unmodified flicker PM, :func:`_greenhall_lengths`).
+    """
+    if np.ndim(f) > 0:
+        if alpha == 1:
+            return _sx_flicker_pm(t, f)
+        h = 1.0 / f
+        return f * f * (2.0 * _sw(t, alpha) - _sw(t - h, alpha) - _sw(t + h, alpha))
     if math.isinf(f):
         return _sw(t, alpha + 2)
     if alpha == 1 and f > 1:
@@ -203,7 +218,7 @@ def _sx(t: np.ndarray, f: float, alpha: int) -> np.ndarray:
     return f * f * (2.0 * _sw(t, alpha) - _sw(t - h, alpha) - _sw(t + h, alpha))
 
 
-def _sz(t: np.ndarray, f: float, alpha: int, d: int) -> np.ndarray:
+def _sz(t: np.ndarray, f: float | np.ndarray, alpha: int, d: int) -> np.ndarray:
     """Autocovariance of the d-th difference sequence, sz(t, F, alpha, d) (Greenhall Eq. 9)."""
     t = np.asarray(t, dtype=np.float64)
     total = np.zeros_like(t)
@@ -388,6 +403,174 @@ def greenhall_edf(
 
 
 # ---------------------------------------------------------------------------------------------
+# Greenhall & Riley EDF at many record lengths
+# ---------------------------------------------------------------------------------------------
+
+#: rows of ``m'`` sums evaluated at once by :func:`_mprime_rows` (bounds the temporaries)
+_MPRIME_ROWS: Final[int] = 1024
+#: at most this many ``m'`` sums are kept by :func:`_mprime_sums` (then it starts afresh)
+_MPRIME_KEPT: Final[int] = 1 << 16
+#: (alpha, d, F or None for F = m') -> {m': basic sum}, every m' sum computed so far
+_MPRIME_SUMS: dict[tuple[int, int, float | None], dict[float, float]] = {}
+
+
+def _too_short(n_phase: np.ndarray, need: int, message: Callable[[int], str]) -> None:
+    """Raise ``ValueError(message(n))`` for the first ``n`` of ``n_phase`` below ``need``."""
+    short = n_phase < need
+    if short.any():
+        raise ValueError(message(int(n_phase[np.argmax(short)])))
+
+
+def _mprime_rows(m_prime: np.ndarray, f: float | None, alpha: int, d: int) -> np.ndarray:
+    """``_basic_sum(J_max, J_max, m', F, alpha, d)`` at every ``m'`` (F = ``m'`` if None).
+
+    One row of ``J_max + 1`` lags per ``m'``, each reduced on its own (a pairwise sum of
+    fixed length): a value does not depend on the other ``m'`` asked for.
+    """
+    lags = np.arange(_J_MAX + 1, dtype=np.float64)
+    weights = 2.0 * (1.0 - lags / _J_MAX)
+    weights[0] = 1.0
+    weights[-1] = 1.0 - _J_MAX / _J_MAX
+    out = np.empty(m_prime.size)
+    for lo in range(0, m_prime.size, _MPRIME_ROWS):
+        rows = m_prime[lo : lo + _MPRIME_ROWS, None]
+        sz = _sz(lags / rows, rows if f is None else f, alpha, d)
+        out[lo : lo + _MPRIME_ROWS] = (sz * sz * weights).sum(axis=1)
+    return out
+
+
+def _mprime_sums(m_prime: np.ndarray, f: float | None, alpha: int, d: int) -> np.ndarray:
+    """:func:`_mprime_rows`, each ``m'`` computed once (a DAVAR asks for it again and again)."""
+    held = _MPRIME_SUMS.setdefault((alpha, d, f), {})
+    keys = m_prime.tolist()
+    out = np.array([held.get(k, math.nan) for k in keys])
+    missing = np.isnan(out)
+    if missing.any():
+        out[missing] = _mprime_rows(m_prime[missing], f, alpha, d)
+        tables = list(_MPRIME_SUMS.values())  # a snapshot: other threads may add a key
+        if sum(map(len, tables)) > _MPRIME_KEPT:
+            for table in tables:
+                table.clear()
+        held.update(zip(m_prime[missing].tolist(), out[missing].tolist(), strict=True))
+    return out
+
+
+@lru_cache(maxsize=1 << 12)
+def _explicit_sums(j: int, s: int, f: float, alpha: int, d: int) -> tuple[Any, Any, float]:
+    """``P``, ``Q`` by number of lags ``J = 1..j`` and ``sz(0)^2``, for :func:`_greenhall_lengths`.
+
+    ``BasicSum(J, M) = P[J] - Q[J] / M`` with ``P[J] = sz0^2 + 2 sum_{k<J} sz_k^2 + sz_J^2``
+    and ``Q[J] = 2 sum_{k<J} k sz_k^2 + J sz_J^2`` (``sz_k = sz(k/S, F, alpha, d)``).
+    """
+    sz2 = _sz_squared(j, s, f, alpha, d)
+    lags = np.arange(j + 1, dtype=np.float64)
+    below = np.concatenate(([0.0], np.cumsum(sz2[1:-1])))  # sum_{1 <= k < J} sz_k^2
+    moment = np.concatenate(([0.0], np.cumsum(lags[1:-1] * sz2[1:-1])))
+    p = np.concatenate(([math.nan], sz2[0] + 2.0 * below + sz2[1:]))
+    q = np.concatenate(([math.nan], 2.0 * moment + lags[1:] * sz2[1:]))
+    for table in (p, q):
+        table.flags.writeable = False
+    return p, q, _sz0_squared(f, alpha, d)
+
+
+def _greenhall_lengths(
+    alpha: int, d: int, m: int, n_phase: np.ndarray, *, overlapping: bool, modified: bool
+) -> np.ndarray:
+    """:func:`greenhall_edf` (``j_max`` = 100) at every record length of ``n_phase``.
+
+    The same cases and formulas, by groups: for one (alpha, d, m, estimator) the length
+    enters only through the number of terms M (with ``J = min(M, (d+1)S)``, ``r = M/S``).
+    Where ``J <= J_max`` the basic sum is ``P[J] - Q[J]/M`` (:func:`_explicit_sums`: one
+    closed form for all ``M >= (d+1)S``); the tables are closed forms in ``r``; the
+    ``m' = J_max / r`` sums are evaluated for all distinct M at once, and kept
+    (:func:`_mprime_sums`). Agrees with :func:`greenhall_edf` to a few ulps (summation
+    order), and each value depends on its own length only.
+
+    Parameters
+    ----------
+    alpha, d, m : int
+        As :func:`greenhall_edf`; ``alpha`` valid for ``d`` and ``m >= 1`` (not checked).
+    n_phase : ndarray of int64, shape (K,)
+        Record lengths, phase points.
+    overlapping, modified : bool
+        The estimator, as :func:`greenhall_edf`.
+
+    Returns
+    -------
+    ndarray, shape (K,)
+        The EDFs (not clipped).
+
+    Raises
+    ------
+    ValueError
+        A record shorter than one estimator term (the message of :func:`greenhall_edf`).
+    """
+    f_factor = 1 if modified else m
+    stride = m if overlapping else 1
+    span = m // f_factor + m * d
+    _too_short(
+        n_phase,
+        span,
+        lambda n: f"n_phase={n} is too short for d={d}, m={m}: need at least {span} phase points",
+    )
+    # M = 1 + S (N - L) // m, without the product (S is m or 1)
+    n_terms = 1 + (n_phase - span if overlapping else (n_phase - span) // m)
+
+    if not modified and alpha == 2:  # case 4, exact; the same sum as greenhall_edf
+        r = n_terms / stride
+        k_max = np.minimum(d, np.ceil(r) - 1.0)
+        c0 = math.comb(2 * d, d)
+        inv = np.zeros(r.shape)
+        for k in range(d + 1):
+            term = (1.0 if k == 0 else 2.0) * (1.0 - k / r) * (math.comb(2 * d, d + k) / c0) ** 2
+            inv += np.where(k <= k_max, term, 0.0)
+        return n_terms / inv
+
+    if modified:  # case 1: F = 1 throughout
+        f_sum = 1.0
+    elif alpha <= 0:  # case 2: F = m for a short explicit sum, else exact samples
+        f_sum = float(m) if m * (d + 1) <= _J_MAX else math.inf
+    else:  # case 3, flicker PM: F = m
+        f_sum = float(m)
+    j_all = (d + 1) * stride
+    j = np.minimum(n_terms, j_all)
+    explicit = j <= _J_MAX
+    p, q, sz0 = _explicit_sums(min(j_all, _J_MAX), stride, f_sum, alpha, d)
+    if explicit.all():
+        return 1.0 / ((p[j] - q[j] / n_terms) / (sz0 * n_terms))
+    out = np.empty(n_terms.shape)
+    je, me = j[explicit], n_terms[explicit]
+    out[explicit] = 1.0 / ((p[je] - q[je] / me) / (sz0 * me))
+
+    beyond = ~explicit
+    r = n_terms[beyond] / stride
+    tabled = r > d + 1
+    flicker = not modified and alpha == 1
+    norm = math.nan  # case 3's (b0 + b1 ln m)^2 beyond J_max
+    if flicker:
+        b0, b1 = _TABLE3[d]
+        norm = (b0 + b1 * math.log(m)) ** 2
+    values = np.empty(r.shape)
+    if tabled.any():
+        a0, a1 = (_TABLE1 if modified else _TABLE2)[alpha][d]
+        rt = r[tabled]
+        values[tabled] = 1.0 / ((a0 - a1 / rt) / (norm * rt if flicker else rt))
+    rescaled = ~tabled
+    if rescaled.any():
+        # m' = J_max / r: a sum over J_max lags at stride m' (F = 1, exact samples, or m')
+        terms, where = np.unique(n_terms[beyond][rescaled], return_inverse=True)
+        f_prime = None if flicker else (1.0 if modified else math.inf)
+        sums = _mprime_sums(_J_MAX / (terms / stride), f_prime, alpha, d)
+        if flicker:
+            inv = sums / (norm * _J_MAX)
+        else:
+            inv = sums / (_sz0_squared(1.0 if modified else math.inf, alpha, d) * _J_MAX)
+        values[rescaled] = (1.0 / inv)[where.ravel()]
+    out[beyond] = values
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
 # EDF by statistic
 # ---------------------------------------------------------------------------------------------
 
@@ -507,6 +690,93 @@ def _edf_cached(stat: str, alpha: int, m: int, n_phase: int, method: str = "sp10
     if not math.isfinite(value):  # pragma: no cover - defensive, the cases above are finite
         return EDF_FLOOR
     return max(value, EDF_FLOOR)
+
+
+def edf_lengths(
+    stat: str, alpha: int, m: int, n_phase: ArrayLike, *, totdev_edf: str = "sp1065"
+) -> np.ndarray:
+    """:func:`edf` of one statistic, noise type and averaging factor at many record lengths.
+
+    What a DAVAR asks for: the EDF of windows of many lengths at one tau. The same values
+    as ``[edf(stat, alpha, m, n) for n in n_phase]`` (to a few ulps: the sums are taken in
+    another order), computed by groups (:func:`_greenhall_lengths`) instead of one Greenhall
+    evaluation (~65 us) per length: ~10 us a call and a few ns a length, except lengths in
+    Greenhall's ``m'`` case (overlapping estimators with ``J_max < M <= (d+1) m``): 2-15 us
+    each the first time, then kept. Each value depends on its own length only, not on the
+    others asked for.
+
+    Parameters
+    ----------
+    stat : {"adev", "oadev", "mdev", "tdev", "hdev", "ohdev", "totdev"}
+        The statistic.
+    alpha : int
+        Power-law exponent of the rate PSD, clamped to :data:`STAT_ALPHA_RANGE` as by
+        :func:`edf`.
+    m : int
+        Averaging factor, ``tau = m * tau0``.
+    n_phase : array_like of int
+        Numbers of phase points of the records (rate samples + 1), any shape; repeats are
+        allowed.
+    totdev_edf : {"sp1065", "stable32", "legacy"}
+        Convention for ``stat="totdev"`` (ignored otherwise), as :func:`edf`.
+
+    Returns
+    -------
+    ndarray of float64, shape of ``n_phase``
+        The EDFs, finite and ``>= EDF_FLOOR``.
+
+    Raises
+    ------
+    ValueError
+        What :func:`edf` raises: an unknown ``stat`` or ``totdev_edf``, ``m < 1``, or a
+        record too short for one term (the message names the first such length).
+    """
+    method = str(totdev_edf).lower()
+    if method not in TOTDEV_EDF_METHODS:
+        raise ValueError(f"totdev_edf must be one of {TOTDEV_EDF_METHODS}, got {totdev_edf!r}")
+    stat = str(stat).lower()
+    if stat not in STAT_ALPHA_RANGE:
+        raise ValueError(f"unknown statistic {stat!r}; expected one of {sorted(STAT_ALPHA_RANGE)}")
+    m = int(m)
+    if m < 1:
+        raise ValueError(f"averaging factor m must be >= 1, got {m}")
+    lengths = np.asarray(n_phase)
+    n = lengths.astype(np.int64).ravel()
+    lo, hi = STAT_ALPHA_RANGE[stat]
+    a = min(max(int(alpha), lo), hi)
+    if stat == "totdev":
+        value = _totdev_lengths(a, m, n, method)
+    else:
+        d, overlapping, modified = _STAT_GREENHALL[stat]
+        value = _greenhall_lengths(a, d, m, n, overlapping=overlapping, modified=modified)
+    value = np.where(np.isfinite(value), np.maximum(value, EDF_FLOOR), EDF_FLOOR)
+    return value.reshape(lengths.shape)
+
+
+def _totdev_lengths(alpha: int, m: int, n_phase: np.ndarray, method: str) -> np.ndarray:
+    """The totdev branch of :func:`edf` (not clipped) at every length of ``n_phase``."""
+    _too_short(
+        n_phase,
+        2 * m + 1,
+        lambda n: f"n_phase={n} is too short for totdev at m={m}: need >= {2 * m + 1}",
+    )
+    n = n_phase.astype(np.float64)
+    if method == "stable32":
+        if alpha in _TOTVAR_BC:
+            b, c = _TOTVAR_BC[alpha]
+            return b * n / m - c
+        if alpha == 2:  # SP 1065 Table 5, as _edf_simple_avar
+            return (n + 1.0) * (n - 2.0 * m) / (2.0 * (n - m))
+        spans = np.log((n - 1.0) / (2.0 * m))
+        return np.exp(np.sqrt(spans * np.log((2.0 * m + 1.0) * (n - 1.0) / 4.0)))
+    if alpha in _TOTVAR_BC and (m > 1 or method == "legacy"):
+        b, c = _TOTVAR_BC[alpha]
+        return b * (n - 1.0) / m - c
+    value = _greenhall_lengths(alpha, 2, m, n_phase, overlapping=True, modified=False)
+    if alpha == 2 and method == "sp1065":
+        ends = TOTVAR_WPM_END_FACTOR * (m / (n - 1.0)) ** 2
+        value = 1.0 / (1.0 / value + ends)
+    return value
 
 
 # ---------------------------------------------------------------------------------------------
