@@ -141,7 +141,11 @@ def test_every_package_directory_is_a_package():
 
 def test_console_script_entry_point():
     scripts = PYPROJECT["project"]["scripts"]
-    assert scripts == {"adavar": "adavar.cli:main"}
+    # run() is main() and then an exit that skips the interpreter's final collection
+    assert scripts == {"adavar": "adavar.cli:run"}
     entry = [e for e in importlib.metadata.entry_points(group="console_scripts")
              if e.name == "adavar"]  # fmt: skip
-    assert entry and entry[0].value == "adavar.cli:main"
+    assert entry and entry[0].value == "adavar.cli:run"
+    from adavar.cli import main, run
+
+    assert callable(main) and callable(run)

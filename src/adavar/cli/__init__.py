@@ -36,7 +36,7 @@ import sys
 import types
 from typing import Any
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "run"]
 
 
 class _Package(types.ModuleType):
@@ -58,6 +58,6 @@ def __getattr__(name: str) -> Any:  # PEP 562: ``adavar.cli.options`` alone stay
 
         module = importlib.import_module("adavar.cli.main")
         # the function, not the module of the same name (the import bound that)
-        globals().update(build_parser=module.build_parser, main=module.main)
+        globals().update(build_parser=module.build_parser, main=module.main, run=module.run)
         return globals()[name]
     raise AttributeError(f"module 'adavar.cli' has no attribute {name!r}")

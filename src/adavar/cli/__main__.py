@@ -1,8 +1,6 @@
 """``python -m adavar.cli``."""
 
-import sys
-
-from adavar.cli.main import main
+from adavar.cli.main import run
 
 if __name__ == "__main__":  # not when a worker process imports it
-    sys.exit(main())
+    run()

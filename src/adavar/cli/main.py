@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import io as _stdio
 import os
 import sys
@@ -31,7 +32,7 @@ from adavar.cli.report import add_report_parser
 from adavar.cli.simulate import add_simulate_parser
 from adavar.errors import AdavarInputError
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "run"]
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -128,3 +129,16 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         return EXIT_INTERNAL
+
+
+def run() -> None:
+    """The console script ``adavar``: :func:`main`, then exit with its code.
+
+    The process ends right after, so the interpreter's final garbage collection, which
+    walks every object left (half a second after a demo), is skipped: the operating
+    system frees the memory. Library callers use :func:`main`, which leaves the
+    collector alone.
+    """
+    code = main()
+    gc.freeze()
+    sys.exit(code)
