@@ -36,11 +36,62 @@ def test_one_worker_runs_in_process():
     assert demo.worker_pool(1) is None
 
 
+class _FakePool:
+    """Futures never started (so cancellable), or done with ``outcome(first, count)``."""
+
+    def __init__(self, outcome=None):
+        self.outcome = outcome
+
+    def submit(self, func, first, count):
+        future: Future = Future()
+        if self.outcome is not None:
+            result = self.outcome(first, count)
+            if isinstance(result, BaseException):
+                future.set_exception(result)
+            else:
+                future.set_result(result)
+        return future
+
+
+def test_shared_study_is_the_study_of_every_seed(monkeypatch):
+    monkeypatch.setattr(demo, "PAPER_SEEDS", 6)
+    monkeypatch.setattr(demo, "SEED_CHUNK", 2)
+    assert demo._seed_chunks(2018) == [(2018, 1), (2019, 2), (2021, 2), (2023, 1)]
+    whole = demo._seed_study(2018, 6)
+    # the worker did the first two items; the others were never started: done here
+    done_two = lambda first, count: (  # noqa: E731
+        demo._seed_study(first, count) if first < 2021 else None
+    )
+
+    class HalfPool(_FakePool):
+        def submit(self, func, first, count):
+            return _FakePool(done_two if first < 2021 else None).submit(func, first, count)
+
+    shared = demo._SharedStudy(HalfPool(), 2018)
+    _same_study(shared.result(), whole)
+    # nothing started: everything here
+    _same_study(demo._SharedStudy(_FakePool(), 2018).result(), whole)
+
+
 def test_a_dead_worker_falls_back_to_this_process(monkeypatch):
-    monkeypatch.setattr(demo, "PAPER_SEEDS", 1)
-    dead: Future = Future()
-    dead.set_exception(BrokenProcessPool("killed"))
-    _same_study(demo._result(dead, 2018), demo._seed_study(2018, 1))
+    monkeypatch.setattr(demo, "PAPER_SEEDS", 3)
+    dead = _FakePool(lambda first, count: BrokenProcessPool("killed"))
+    shared = demo._SharedStudy(dead, 2018)
+    shared.wait_first()  # no error here: it shows (and is handled) in result()
+    _same_study(shared.result(), demo._seed_study(2018, 3))
+
+
+def test_concatenated_studies_refuse_other_settings():
+    from adavar.errors import AdavarInputError
+    from adavar.paper.studies import compare_seeds, concatenate_seed_studies
+
+    a = demo._seed_study(2018, 1)
+    other = compare_seeds(1, [2019], lmin=300)
+    with pytest.raises(AdavarInputError, match="same arguments"):
+        concatenate_seed_studies([a, other])
+    with pytest.raises(AdavarInputError, match="at least one"):
+        concatenate_seed_studies([])
+    assert concatenate_seed_studies([a]).seeds == (2018,)
 
 
 def test_figures_are_drawn_here_when_the_worker_is_gone():

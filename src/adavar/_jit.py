@@ -13,8 +13,10 @@ behave on a machine that is doing something else too:
 
 from __future__ import annotations
 
+import contextlib
 import os
 import types
+from collections.abc import Iterator
 
 # before the OpenMP runtime starts (it reads the policy once, when Numba loads it)
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
@@ -24,6 +26,7 @@ import numba
 __all__ = [
     "SERIAL_WORK",
     "TwinKernel",
+    "compilations",
     "get_num_threads",
     "jit",
     "parallel_jit",
@@ -46,6 +49,19 @@ def thread_setting() -> int | None:
     count = min(count, numba.config.NUMBA_NUM_THREADS)
     numba.set_num_threads(count)
     return count
+
+
+@contextlib.contextmanager
+def compilations() -> Iterator[list]:
+    """Record the kernels this process compiles meanwhile (not those loaded from the cache).
+
+    Yields a list that holds one entry per compilation once the block has run: empty
+    when every kernel came from the on-disk cache (a warm cache).
+    """
+    from numba.core import event
+
+    with event.install_recorder("numba:compile") as recorder:
+        yield recorder.buffer
 
 
 def _one_signature_per_type(dispatcher):

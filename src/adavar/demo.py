@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from adavar import simulate
+from adavar._jit import compilations
 from adavar.compare import Comparison, compare
 from adavar.datasets import nist_1000
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
@@ -45,6 +46,7 @@ from adavar.paper.studies import (
     SeedStudy,
     ThresholdStudy,
     compare_seeds,
+    concatenate_seed_studies,
     kurtosis_study,
     threshold_study,
 )
@@ -283,34 +285,74 @@ def _gyro(seed: int) -> GyroDemo:
     )
 
 
-def _seed_study(seed: int, count: int) -> SeedStudy:
-    """The node table's realisations (module level: a worker process runs it)."""
-    return compare_seeds(1, range(seed, seed + count))
+#: Realisations per work item of the node table: the main process takes the items the
+#: worker has not started once its own work is done (about 0.1 s a realisation, warm).
+SEED_CHUNK = 3
 
 
-def _paper(seed: int, warm: Future[SeedStudy] | None, study: Future[SeedStudy] | None) -> PaperDemo:
+def _seed_study(first: int, count: int) -> SeedStudy:
+    """Realisations ``first .. first + count - 1`` (module level: a worker process runs it)."""
+    return compare_seeds(1, range(first, first + count))
+
+
+def _seed_chunks(seed: int) -> list[tuple[int, int]]:
+    """``(first, count)`` of the work items: the first realisation alone, then chunks."""
+    chunks = [(seed, 1)]
+    for first in range(seed + 1, seed + PAPER_SEEDS, SEED_CHUNK):
+        chunks.append((first, min(SEED_CHUNK, seed + PAPER_SEEDS - first)))
+    return chunks
+
+
+class _SharedStudy:
+    """The node table's realisations, in a worker process and, at the end, in this one.
+
+    Every chunk is submitted to the worker in order; the first (one realisation) compiles,
+    on a first run, the kernels that the comparison needs. :meth:`result` runs here the
+    chunks the worker has not started, from the last, and waits for the others.
+    """
+
+    def __init__(self, pool: ProcessPoolExecutor, seed: int) -> None:
+        self.chunks = _seed_chunks(seed)
+        self.futures: list[Future[SeedStudy]] = [
+            pool.submit(_seed_study, first, count) for first, count in self.chunks
+        ]
+
+    def wait_first(self) -> None:
+        """Wait for the first realisation (a failure shows again in :meth:`result`)."""
+        with contextlib.suppress(Exception):
+            self.futures[0].result()
+
+    def result(self) -> SeedStudy:
+        parts: list[SeedStudy | None] = [None] * len(self.chunks)
+        for k in range(len(self.chunks) - 1, -1, -1):
+            if not self.futures[k].cancel():  # started (or queued in the pipe) in the worker
+                break
+            parts[k] = _seed_study(*self.chunks[k])
+        for k, future in enumerate(self.futures):
+            if parts[k] is None:
+                try:
+                    parts[k] = future.result()
+                except BrokenProcessPool:  # the worker died (killed, out of memory)
+                    parts[k] = _seed_study(*self.chunks[k])
+        return concatenate_seed_studies([p for p in parts if p is not None])
+
+
+def _paper(seed: int, shared: _SharedStudy | None, warm: bool) -> PaperDemo:
     scenario = paper_scenario(1, seed=seed)
     # first what the worker does not compile, then the comparison once it has compiled
-    # (on a first run) the kernels that the comparison shares with the seed study
+    # (on a first run) the kernels that the comparison shares with the seed study;
+    # with a warm cache (nothing compiled here so far) there is nothing to wait for
     kurtosis = kurtosis_study(scenario)
     thresholds = threshold_study(scenario)
-    if warm is not None:
-        with contextlib.suppress(Exception):  # a failure here shows again below
-            warm.result()
+    if shared is not None and not warm:
+        shared.wait_first()
     comparison = compare(scenario)
     return PaperDemo(
         comparison=comparison,
         kurtosis=kurtosis,
         thresholds=thresholds,
-        study=_seed_study(seed, PAPER_SEEDS) if study is None else _result(study, seed),
+        study=_seed_study(seed, PAPER_SEEDS) if shared is None else shared.result(),
     )
-
-
-def _result(study: Future[SeedStudy], seed: int) -> SeedStudy:
-    try:
-        return study.result()
-    except BrokenProcessPool:  # the worker died (killed, out of memory): do it here
-        return _seed_study(seed, PAPER_SEEDS)
 
 
 def _skip_final_collection() -> None:
@@ -387,15 +429,13 @@ def run_demo(
     own = executor is None
     pool = (worker_pool(workers) if paper else None) if own else executor
     try:
-        warm = study = None
-        if pool is not None:
-            # one realisation first: on a first run it compiles the kernels the comparison
-            # needs while this process compiles the statistics' and the kurtosis study's
-            warm = pool.submit(_seed_study, int(seed), 1)
-            study = pool.submit(_seed_study, int(seed), PAPER_SEEDS)
-        nist, nist_results, mean, std = _nist()
-        gyro = _gyro(int(seed))
-        paper_part = _paper(int(seed), warm, study) if paper else None
+        # on a first run the worker's first realisation compiles the kernels the
+        # comparison needs while this process compiles the statistics' and the kurtosis'
+        shared = _SharedStudy(pool, int(seed)) if pool is not None else None
+        with compilations() as compiled:
+            nist, nist_results, mean, std = _nist()
+            gyro = _gyro(int(seed))
+        paper_part = _paper(int(seed), shared, warm=not compiled) if paper else None
     finally:
         if own and pool is not None:
             pool.shutdown(wait=False, cancel_futures=True)

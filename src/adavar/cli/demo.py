@@ -125,13 +125,22 @@ def _demo_report(demo: Any) -> str:
     )  # fmt: skip
 
 
-def _save_study_figures(
-    kurtosis: Any, thresholds: Any, units: str | None, folder: str
+def _save_worker_figures(
+    gyro: Any, kurtosis: Any, thresholds: Any, units: str | None, folder: str
 ) -> list[str]:
-    """Draw and write the paper's Figs. 6-8 into ``folder`` (the demo's worker runs it)."""
-    from adavar.plots import save_figure, study_figures
+    """Draw and write the gyro's figure and the paper's Figs. 6-8 into ``folder``.
 
-    figures = study_figures(kurtosis, thresholds, units=units)
+    The demo's worker runs it while this process draws the comparison's figures (which
+    would be slow to send: the comparison holds four surfaces). Returns the stems.
+    """
+    from adavar.plots import deviation_figure, save_figure, study_figures
+
+    title = (
+        f"Simulated MEMS gyro ({gyro.n_samples:,} samples at {gyro.rate:g} Hz, seed {gyro.seed})"
+    )
+    figures = {"gyro_oadev": deviation_figure(gyro.result, gyro.fit, title=title)}
+    if kurtosis is not None:
+        figures.update(study_figures(kurtosis, thresholds, units=units))
     for stem, fig in figures.items():
         save_figure(fig, Path(folder) / stem)
     return list(figures)
@@ -158,19 +167,13 @@ def _result_or_here(done: Any, func: Any, *args: Any) -> Any:
 def _demo_outputs(
     args: argparse.Namespace, status: Status, demo: Any, pool: Any
 ) -> tuple[list[str], str]:
-    """Draw, tabulate and write the demo's folder; the worker draws Figs. 6-8 meanwhile.
+    """Draw, tabulate and write the demo's folder; the worker draws the gyro and Figs. 6-8.
 
     Returns the files written and the JSON text.
     """
-    from adavar.plots import comparison_figures, deviation_figure, save_figure
+    from adavar.plots import comparison_figures, save_figure
 
-    gyro = demo.gyro
     status("drawing the figures")
-    fig = deviation_figure(
-        gyro.result, gyro.fit,
-        title=f"Simulated MEMS gyro ({gyro.n_samples:,} samples at {gyro.rate:g} Hz, "
-        f"seed {gyro.seed})",
-    )  # fmt: skip
     tables: dict[str, str] = {}
     figures: dict[str, Any] = {}
     paper = demo.paper
@@ -183,24 +186,28 @@ def _demo_outputs(
             ).items()
         }
         descriptions = {f"paper_{name}": text for name, text in descriptions.items()}
-        figures = comparison_figures(paper.comparison)
     try:
         with atomic_directory(args.out, replace=True) as tmp:
-            studies: Any = []
-            study_args: tuple[Any, ...] = ()
+            worker_args: tuple[Any, ...] = (
+                demo.gyro,
+                None if paper is None else paper.kurtosis,
+                None if paper is None else paper.thresholds,
+                None if paper is None else paper.comparison.units,
+                str(tmp),
+            )
+            drawn = _submit(pool, _save_worker_figures, *worker_args)
             if paper is not None:
-                study_args = (paper.kurtosis, paper.thresholds, paper.comparison.units, str(tmp))
-                studies = _submit(pool, _save_study_figures, *study_args)
-            save_figure(fig, tmp / "gyro_oadev")
+                figures = comparison_figures(paper.comparison)
             for name, body in tables.items():
                 (tmp / name).write_text(body, encoding="utf-8")
             for stem, paper_fig in figures.items():
                 save_figure(paper_fig, tmp / stem)
             status("building the HTML report")
             html = _demo_report(demo)
-            stems = _result_or_here(studies, _save_study_figures, *study_args)
+            stems = _result_or_here(drawn, _save_worker_figures, *worker_args)
             files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json", *tables,
-                     *(f"{stem}.{ext}" for stem in [*stems, *figures] for ext in ("png", "svg")),
+                     *(f"{stem}.{ext}" for stem in [*stems[1:], *figures]
+                       for ext in ("png", "svg")),
                      "report.html"]  # fmt: skip
             text = dumps(_demo_json(demo, str(args.out), files, descriptions))
             status(f"writing {args.out}")

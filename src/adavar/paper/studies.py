@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import time as _time
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -42,6 +42,7 @@ __all__ = [
     "SeedStudy",
     "ThresholdStudy",
     "compare_seeds",
+    "concatenate_seed_studies",
     "finite_median",
     "kurtosis_study",
     "threshold_study",
@@ -433,6 +434,65 @@ class SeedStudy:
             "parameters": self.parameters, "elapsed_s": self.elapsed,
             "paper": {"reference": PAPER_REFERENCE},
         })  # fmt: skip
+
+
+def concatenate_seed_studies(parts: Sequence[SeedStudy]) -> SeedStudy:
+    """One :class:`SeedStudy` of the realisations of several, in the order given.
+
+    The realisations are independent, so ``compare_seeds(1, range(0, 10))`` equals the
+    concatenation of ``compare_seeds(1, range(0, 4))`` and ``compare_seeds(1, range(4, 10))``
+    (to the last bit; only ``elapsed`` differs): several processes can share a study.
+
+    Parameters
+    ----------
+    parts : sequence of SeedStudy
+        Studies of the same scenario with the same settings.
+
+    Returns
+    -------
+    SeedStudy
+        Its ``elapsed`` is the sum of the parts' (the work, not the wall-clock time).
+
+    Raises
+    ------
+    AdavarInputError
+        No part, or parts of another scenario, method, change, interval or setting.
+    """
+    if not parts:
+        raise AdavarInputError("give at least one SeedStudy")
+    first = parts[0]
+    for part in parts[1:]:
+        same = (
+            part.scenario == first.scenario
+            and part.variance_reading == first.variance_reading
+            and part.methods == first.methods
+            and part.change_times == first.change_times
+            and part.intervals == first.intervals
+            and part.crossing_window == first.crossing_window
+            and part.parameters == first.parameters
+            and part.crossings.keys() == first.crossings.keys()
+        )
+        if not same:
+            raise AdavarInputError(
+                "the studies differ in scenario, methods or settings: concatenate studies "
+                "made by compare_seeds with the same arguments but the seeds"
+            )
+
+    def joined(name: str) -> dict[Any, np.ndarray]:
+        return {
+            k: np.concatenate([getattr(p, name)[k] for p in parts]) for k in getattr(first, name)
+        }
+
+    return replace(
+        first,
+        seeds=tuple(s for p in parts for s in p.seeds),
+        nodes=joined("nodes"),
+        arw=joined("arw"),
+        confidence=joined("confidence"),
+        tracking=joined("tracking"),
+        crossings=joined("crossings"),
+        elapsed=float(sum(p.elapsed for p in parts)),
+    )
 
 
 def finite_median(values: np.ndarray) -> float:
