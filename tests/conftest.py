@@ -34,6 +34,10 @@ def _group_a() -> None:
     kurtosis_contribution(x, window=300, reference="record")
     for stat in ("mtotdev", "htotdev", "pdev"):
         adavar.deviation(x[:600], rate=1.0, stat=stat)
+    # the streamed noise identification: both workers reached it within seconds
+    from adavar.stream import noise_types
+
+    noise_types(x, np.array([1, 2, 4, 8]), 2)
 
 
 def _group_b() -> None:

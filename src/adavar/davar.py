@@ -34,7 +34,6 @@ from typing import Any
 
 import numba
 import numpy as np
-from scipy.interpolate import PchipInterpolator
 
 from adavar import differences as diff
 from adavar import edf as edf_mod
@@ -198,6 +197,8 @@ def edf_table(
         nodes = np.unique(np.round(np.geomspace(x[0], x[-1], EDF_EXACT_LENGTHS)))
         nodes = nodes.astype(np.int64)
         values = edf_mod.edf_lengths(stat, int(a), int(m), nodes + 3 * m)
+        from scipy.interpolate import PchipInterpolator  # lazy: 0.3 s to import
+
         curve = PchipInterpolator(np.log(nodes), np.log(values))
         table[valid[:, t], t] = np.exp(curve(np.log(x)))
     return table
@@ -259,6 +260,8 @@ def _edf_grid(stat: str, alpha: int, m: int, k_lo: int, k_hi: int) -> tuple[Any,
     nodes = nodes.astype(np.int64)
     width = _term_width(stat, m)
     values = edf_mod.edf_lengths(stat, alpha, m, nodes + width)
+    from scipy.interpolate import PchipInterpolator  # lazy: 0.3 s to import
+
     curve = PchipInterpolator(np.log(nodes), np.log(values))
     if len(_EDF_GRIDS) > 4096:  # bounded: a long batch of unusual taus cannot grow it
         _EDF_GRIDS.clear()

@@ -1,0 +1,197 @@
+"""Peak resident memory of every command against the sizes of its input and output.
+
+Each command runs in a fresh process on a simulated 200 Hz MEMS gyro log (three channels
+with ARW, bias instability, rate random walk and quantisation, a 50 Hz second-order
+Butterworth front end and a 1e-4 deg/s LSB; ``kalibr`` reads three accelerometer channels
+too), written as CSV with a time column. Printed per command and record length:
+
+* ``peak``: the command's peak RSS (``os.wait4``; for ``demo`` the larger of its two
+  processes);
+* ``imports``: the peak RSS of a process that only imports the modules the command had
+  loaded when it finished (so the numbers below are the command's data, not its code);
+* ``input``: the analysed samples as float64 (channels x samples x 8 bytes);
+* ``output``: the bytes the command wrote (folder, HTML, YAML or CSV);
+* ``/input``: ``(peak - imports) / input``; ``/output``: ``(peak - imports) / output``;
+* ``slope``: between the two record lengths, the extra peak per extra input byte: what a
+  command costs per sample of a long record (about 1-5 for "a few copies of the input"; a
+  command that holds surfaces grows with those instead).
+
+Run: ``python benchmarks/bench_memory.py [--minutes 5,20] [--only davar,report]``
+(about 2 minutes with the defaults on 2 cores; ``--minutes 30,120`` for the numbers in
+docs/benchmarks.md).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _machine import describe
+
+RATE = 200.0
+UNITS = ["--rate", "200", "--units", "deg/s"]
+GYRO = ["--column", "gx,gy,gz"]
+
+# run the command in-process through adavar.cli.main, then list the modules it loaded
+_DRIVER = (
+    "import sys, gc\n"
+    "from adavar.cli.main import main\n"
+    "code = main(sys.argv[2:])\n"
+    "open(sys.argv[1], 'w').write('\\n'.join(sorted(sys.modules)))\n"
+    "gc.freeze()\n"
+    "sys.exit(code)\n"
+)
+_IMPORTER = (
+    "import importlib, sys\n"
+    "for name in open(sys.argv[1]).read().split():\n"
+    "    if name.startswith('__') or name == 'this':\n"
+    "        continue\n"
+    "    try:\n"
+    "        importlib.import_module(name)\n"
+    "    except Exception:\n"
+    "        pass\n"
+)
+
+
+def _peak_mb(cmd: list[str], cwd: str) -> tuple[float, float, int, str]:
+    """Peak RSS (MB, the largest of the process and its descendants), seconds, exit code
+    and the tail of stderr of ``cmd``."""
+    start = time.perf_counter()
+    with tempfile.TemporaryFile() as err:
+        proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=err)
+        _, status, usage = os.wait4(proc.pid, 0)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        err.seek(0)
+        tail = err.read().decode(errors="replace").strip().splitlines()[-1:]
+    return usage.ru_maxrss / 1024.0, time.perf_counter() - start, proc.returncode, "".join(tail)
+
+
+def _size(path: Path) -> int:
+    if path.is_file():
+        return path.stat().st_size
+    return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
+
+
+def make_records(folder: Path, minutes: float, seed: int = 1) -> dict[str, Path]:
+    """The gyro CSV (time + gx, gy, gz), a copy for ``batch`` and a six-axis IMU CSV."""
+    from adavar.simulate import sensor
+
+    n = int(round(minutes * 60 * RATE))
+    gyro = dict(rate=RATE, angle_random_walk=0.005, bias_instability=0.002,
+                rate_random_walk=1e-4, quantization=1e-5, bandwidth=50.0, lsb=1e-4)  # fmt: skip
+    accel = dict(rate=RATE, angle_random_walk=0.002, rate_random_walk=1e-3)
+    cols = [sensor(n, seed=seed + k, **gyro) for k in range(3)]
+    cols += [sensor(n, seed=seed + k, **accel) for k in range(3, 6)]
+    cols[5] += 9.81
+    t = np.arange(n) / RATE
+    paths = {"gyro": folder / "gyro.csv", "gyro2": folder / "gyro2.csv", "imu": folder / "imu.csv"}
+    for key, k, head in (("gyro", 3, "time,gx,gy,gz"), ("imu", 6, "time,gx,gy,gz,ax,ay,az")):
+        np.savetxt(paths[key], np.column_stack([t, *cols[:k]]), delimiter=",", fmt="%.9g",
+                   header=head, comments="")  # fmt: skip
+    paths["gyro2"].write_bytes(paths["gyro"].read_bytes())
+    return paths
+
+
+def commands(paths: dict[str, Path], n: int) -> dict[str, tuple[list[str], str, int]]:
+    """Label -> (arguments, output name, analysed float64 values)."""
+    gyro, imu = str(paths["gyro"]), str(paths["imu"])
+    return {
+        "avar": (["avar", gyro, *GYRO, *UNITS, "--out", "out"], "out", 3 * n),
+        "davar --window 60s": (["davar", gyro, *GYRO, *UNITS, "--window", "60s", "--out", "out"],
+                               "out", 3 * n),  # fmt: skip
+        "adaptive": (["adaptive", gyro, *GYRO, *UNITS, "--out", "out"], "out", 3 * n),
+        "compare (gz)": (["compare", gyro, "--column", "gz", *UNITS, "--out", "out"], "out", n),
+        "report": (["report", gyro, *GYRO, *UNITS, "-o", "out.html"], "out.html", 3 * n),
+        "report --window 60s --adaptive": (
+            ["report", gyro, *GYRO, *UNITS, "--window", "60s", "--adaptive", "-o", "out.html"],
+            "out.html", 3 * n,
+        ),  # fmt: skip
+        "kalibr": (["kalibr", imu, "--gyro", "gx,gy,gz", "--accel", "ax,ay,az", "--gyro-units",
+                    "deg/s", "--accel-units", "m/s^2", "--time-column", "time",
+                    "--pinned", "bound", "-o", "imu.yaml"], "imu.yaml", 6 * n),  # fmt: skip
+        "batch (2 files, gz)": (["batch", gyro, str(paths["gyro2"]), "--column", "gz", *UNITS,
+                                 "--out", "out"], "out", 2 * n),  # fmt: skip
+        "batch --adaptive (2 files, gz)": (
+            ["batch", gyro, str(paths["gyro2"]), "--column", "gz", *UNITS, "--adaptive",
+             "--out", "out"], "out", 2 * n,
+        ),  # fmt: skip
+        "simulate": (["simulate", "-o", "sim.csv", "--n", str(n), "--rate", "200", "--arw",
+                      "0.005", "--bias-instability", "0.002", "--rrw", "1e-4", "--bandwidth",
+                      "50", "--lsb", "1e-4"], "sim.csv", n),  # fmt: skip
+        "demo": (["demo", "--out", "out"], "out", 0),
+    }
+
+
+def measure(minutes: list[float], only: set[str] | None) -> list[dict]:
+    """Every command at every record length, in fresh processes one at a time."""
+    rows = []
+    for m in minutes:
+        with tempfile.TemporaryDirectory() as tmp:
+            folder = Path(tmp)
+            n = int(round(m * 60 * RATE))
+            paths = make_records(folder, m)
+            for label, (args, out, values) in commands(paths, n).items():
+                if only and label.split()[0] not in only:
+                    continue
+                if label == "demo" and m != minutes[0]:
+                    continue  # its input does not change
+                work = folder / "work"
+                work.mkdir()
+                mods = folder / "modules.txt"
+                peak, wall, code, err = _peak_mb([sys.executable, "-c", _DRIVER, str(mods),
+                                                  *args], str(work))  # fmt: skip
+                base = np.nan
+                if mods.exists():
+                    base, _, _, _ = _peak_mb([sys.executable, "-c", _IMPORTER, str(mods)],
+                                             str(work))  # fmt: skip
+                written = _size(work / out) if (work / out).exists() else 0
+                rows.append(dict(command=label, minutes=m, input=values * 8.0, output=written,
+                                 peak=peak, base=base, wall=wall, code=code, err=err))  # fmt: skip
+                subprocess.run(["rm", "-rf", str(work)], check=True)
+                mods.unlink(missing_ok=True)
+                print(_line(rows[-1], None), flush=True, file=sys.stderr)
+    return rows
+
+
+def _line(r: dict, slope: float | None) -> str:
+    mb = 2**20
+    data = (r["peak"] - r["base"]) * mb
+    per_in = f"{data / r['input']:.1f}" if r["input"] else "-"
+    per_out = f"{data / r['output']:.1f}" if r["output"] else "-"
+    note = "" if r["code"] == 0 else f" (exit {r['code']}: {r['err'][:80]})"
+    return (f"| {r['command']} | {r['minutes']:g} min | {r['input'] / mb:.1f} MB | "
+            f"{r['output'] / mb:.1f} MB | {r['peak']:.0f} MB | {r['base']:.0f} MB | {per_in} | "
+            f"{per_out} | {'-' if slope is None else f'{slope:.1f}'} | {r['wall']:.1f} s{note} |")  # fmt: skip
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--minutes", default="5,20",
+                        help="record lengths in minutes, comma-separated (default: 5,20)")  # fmt: skip
+    parser.add_argument("--only", help="commands to run, comma-separated (e.g. davar,report)")
+    args = parser.parse_args()
+    minutes = [float(v) for v in args.minutes.split(",")]
+    only = set(args.only.split(",")) if args.only else None
+    print(f"machine: {describe()}", flush=True)
+    rows = measure(minutes, only)
+    print("| command | record | input | output | peak | imports | /input | /output | slope "
+          "| wall |\n|---|---|---|---|---|---|---|---|---|---|")  # fmt: skip
+    for r in rows:
+        same = [q for q in rows if q["command"] == r["command"]]
+        slope = None
+        if r is same[-1] and len(same) > 1 and same[-1]["input"] > same[0]["input"]:
+            slope = ((same[-1]["peak"] - same[0]["peak"]) * 2**20
+                     / (same[-1]["input"] - same[0]["input"]))  # fmt: skip
+        print(_line(r, slope))
+
+
+if __name__ == "__main__":
+    main()
