@@ -16,15 +16,14 @@ too), written as CSV with a time column. Printed per command and record length:
   command costs per sample of a long record (about 1-5 for "a few copies of the input"; a
   command that holds surfaces grows with those instead).
 
-Run: ``python benchmarks/bench_memory.py [--minutes 5,20] [--only davar,report]``
-(about 2 minutes with the defaults on 2 cores; ``--minutes 30,120`` for the numbers in
-docs/benchmarks.md).
+Run: ``python benchmarks/bench_memory.py [--minutes 4,12] [--only davar,report]``
+(under 3 minutes with the defaults on 2 cores; ``--minutes 30,120`` for the numbers in
+docs/benchmarks.md, about 12 minutes).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import subprocess
 import sys
 import tempfile
@@ -37,8 +36,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe
 
 RATE = 200.0
+#: Record lengths (minutes) by default: the whole run in under 3 minutes on 2 cores.
+DEFAULT_MINUTES = "4,12"
 UNITS = ["--rate", "200", "--units", "deg/s"]
-GYRO = ["--column", "gx,gy,gz"]
 
 # run the command in-process through adavar.cli.main, then list the modules it loaded
 _DRIVER = (
@@ -61,17 +61,27 @@ _IMPORTER = (
 )
 
 
+# a small parent that starts the command and reports its peak: a child started from this
+# (larger) process would inherit this process's peak as its own (Linux keeps the high-water
+# mark of the memory it replaces at exec)
+_LAUNCHER = (
+    "import os, subprocess, sys\n"
+    "proc = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL)\n"
+    "_, status, usage = os.wait4(proc.pid, 0)\n"
+    "print(usage.ru_maxrss, os.waitstatus_to_exitcode(status))\n"
+)
+
+
 def _peak_mb(cmd: list[str], cwd: str) -> tuple[float, float, int, str]:
     """Peak RSS (MB, the largest of the process and its descendants), seconds, exit code
-    and the tail of stderr of ``cmd``."""
+    and the last line of stderr of ``cmd``."""
     start = time.perf_counter()
-    with tempfile.TemporaryFile() as err:
-        proc = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.DEVNULL, stderr=err)
-        _, status, usage = os.wait4(proc.pid, 0)
-        proc.returncode = os.waitstatus_to_exitcode(status)
-        err.seek(0)
-        tail = err.read().decode(errors="replace").strip().splitlines()[-1:]
-    return usage.ru_maxrss / 1024.0, time.perf_counter() - start, proc.returncode, "".join(tail)
+    done = subprocess.run([sys.executable, "-S", "-c", _LAUNCHER, *cmd], cwd=cwd,
+                          capture_output=True, text=True, check=True)  # fmt: skip
+    wall = time.perf_counter() - start
+    peak, code = done.stdout.split()
+    tail = done.stderr.strip().splitlines()[-1:]
+    return int(peak) / 1024.0, wall, int(code), "".join(tail)
 
 
 def _size(path: Path) -> int:
@@ -84,7 +94,7 @@ def make_records(folder: Path, minutes: float, seed: int = 1) -> dict[str, Path]
     """The gyro CSV (time + gx, gy, gz), a copy for ``batch`` and a six-axis IMU CSV."""
     from adavar.simulate import sensor
 
-    n = int(round(minutes * 60 * RATE))
+    n = round(minutes * 60 * RATE)
     gyro = dict(rate=RATE, angle_random_walk=0.005, bias_instability=0.002,
                 rate_random_walk=1e-4, quantization=1e-5, bandwidth=50.0, lsb=1e-4)  # fmt: skip
     accel = dict(rate=RATE, angle_random_walk=0.002, rate_random_walk=1e-3)
@@ -100,43 +110,47 @@ def make_records(folder: Path, minutes: float, seed: int = 1) -> dict[str, Path]
     return paths
 
 
+#: Label -> (arguments, output name, channels analysed); GYRO, GYRO2, IMU, N: the records
+#: and the samples of one channel.
+COMMANDS = {
+    "avar": ("avar GYRO --column gx,gy,gz --out out", "out", 3),
+    "davar --window 60s": ("davar GYRO --column gx,gy,gz --window 60s --out out", "out", 3),
+    "adaptive": ("adaptive GYRO --column gx,gy,gz --out out", "out", 3),
+    "compare (gz)": ("compare GYRO --column gz --out out", "out", 1),
+    "report": ("report GYRO --column gx,gy,gz -o out.html", "out.html", 3),
+    "report --adaptive": ("report GYRO --column gx,gy,gz --adaptive -o out.html", "out.html", 3),
+    "kalibr": ("kalibr IMU --gyro gx,gy,gz --accel ax,ay,az --gyro-units deg/s --accel-units "
+               "m/s^2 --time-column time --pinned bound -o imu.yaml", "imu.yaml", 6),
+    "batch (2 files, gz)": ("batch GYRO GYRO2 --column gz --out out", "out", 2),
+    "batch --adaptive (2 files, gz)": ("batch GYRO GYRO2 --column gz --adaptive --out out",
+                                       "out", 2),
+    "simulate": ("simulate -o sim.csv --n N --rate 200 --arw 0.005 --bias-instability 0.002 "
+                 "--rrw 1e-4 --bandwidth 50 --lsb 1e-4", "sim.csv", 1),
+    "demo": ("demo --out out", "out", 0),
+}  # fmt: skip
+
+
 def commands(paths: dict[str, Path], n: int) -> dict[str, tuple[list[str], str, int]]:
     """Label -> (arguments, output name, analysed float64 values)."""
-    gyro, imu = str(paths["gyro"]), str(paths["imu"])
-    return {
-        "avar": (["avar", gyro, *GYRO, *UNITS, "--out", "out"], "out", 3 * n),
-        "davar --window 60s": (["davar", gyro, *GYRO, *UNITS, "--window", "60s", "--out", "out"],
-                               "out", 3 * n),  # fmt: skip
-        "adaptive": (["adaptive", gyro, *GYRO, *UNITS, "--out", "out"], "out", 3 * n),
-        "compare (gz)": (["compare", gyro, "--column", "gz", *UNITS, "--out", "out"], "out", n),
-        "report": (["report", gyro, *GYRO, *UNITS, "-o", "out.html"], "out.html", 3 * n),
-        "report --window 60s --adaptive": (
-            ["report", gyro, *GYRO, *UNITS, "--window", "60s", "--adaptive", "-o", "out.html"],
-            "out.html", 3 * n,
-        ),  # fmt: skip
-        "kalibr": (["kalibr", imu, "--gyro", "gx,gy,gz", "--accel", "ax,ay,az", "--gyro-units",
-                    "deg/s", "--accel-units", "m/s^2", "--time-column", "time",
-                    "--pinned", "bound", "-o", "imu.yaml"], "imu.yaml", 6 * n),  # fmt: skip
-        "batch (2 files, gz)": (["batch", gyro, str(paths["gyro2"]), "--column", "gz", *UNITS,
-                                 "--out", "out"], "out", 2 * n),  # fmt: skip
-        "batch --adaptive (2 files, gz)": (
-            ["batch", gyro, str(paths["gyro2"]), "--column", "gz", *UNITS, "--adaptive",
-             "--out", "out"], "out", 2 * n,
-        ),  # fmt: skip
-        "simulate": (["simulate", "-o", "sim.csv", "--n", str(n), "--rate", "200", "--arw",
-                      "0.005", "--bias-instability", "0.002", "--rrw", "1e-4", "--bandwidth",
-                      "50", "--lsb", "1e-4"], "sim.csv", n),  # fmt: skip
-        "demo": (["demo", "--out", "out"], "out", 0),
-    }
+    values = {"GYRO": str(paths["gyro"]), "GYRO2": str(paths["gyro2"]),
+              "IMU": str(paths["imu"]), "N": str(n)}  # fmt: skip
+    out = {}
+    for label, (text, written, channels) in COMMANDS.items():
+        args = [values.get(word, word) for word in text.split()]
+        if args[0] not in ("simulate", "demo", "kalibr"):
+            args += UNITS
+        out[label] = (args, written, channels * n)
+    return out
 
 
 def measure(minutes: list[float], only: set[str] | None) -> list[dict]:
     """Every command at every record length, in fresh processes one at a time."""
     rows = []
+    bases: dict[str, float] = {}
     for m in minutes:
         with tempfile.TemporaryDirectory() as tmp:
             folder = Path(tmp)
-            n = int(round(m * 60 * RATE))
+            n = round(m * 60 * RATE)
             paths = make_records(folder, m)
             for label, (args, out, values) in commands(paths, n).items():
                 if only and label.split()[0] not in only:
@@ -148,10 +162,11 @@ def measure(minutes: list[float], only: set[str] | None) -> list[dict]:
                 mods = folder / "modules.txt"
                 peak, wall, code, err = _peak_mb([sys.executable, "-c", _DRIVER, str(mods),
                                                   *args], str(work))  # fmt: skip
-                base = np.nan
-                if mods.exists():
+                base = bases.get(label, np.nan)  # the same modules at every length
+                if np.isnan(base) and mods.exists():
                     base, _, _, _ = _peak_mb([sys.executable, "-c", _IMPORTER, str(mods)],
                                              str(work))  # fmt: skip
+                    bases[label] = base
                 written = _size(work / out) if (work / out).exists() else 0
                 rows.append(dict(command=label, minutes=m, input=values * 8.0, output=written,
                                  peak=peak, base=base, wall=wall, code=code, err=err))  # fmt: skip
@@ -167,15 +182,16 @@ def _line(r: dict, slope: float | None) -> str:
     per_in = f"{data / r['input']:.1f}" if r["input"] else "-"
     per_out = f"{data / r['output']:.1f}" if r["output"] else "-"
     note = "" if r["code"] == 0 else f" (exit {r['code']}: {r['err'][:80]})"
+    grows = "-" if slope is None else f"{slope:.1f}"
     return (f"| {r['command']} | {r['minutes']:g} min | {r['input'] / mb:.1f} MB | "
             f"{r['output'] / mb:.1f} MB | {r['peak']:.0f} MB | {r['base']:.0f} MB | {per_in} | "
-            f"{per_out} | {'-' if slope is None else f'{slope:.1f}'} | {r['wall']:.1f} s{note} |")  # fmt: skip
+            f"{per_out} | {grows} | {r['wall']:.1f} s{note} |")  # fmt: skip
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--minutes", default="5,20",
-                        help="record lengths in minutes, comma-separated (default: 5,20)")  # fmt: skip
+    parser.add_argument("--minutes", default=DEFAULT_MINUTES,
+                        help=f"record lengths, comma-separated ({DEFAULT_MINUTES})")  # fmt: skip
     parser.add_argument("--only", help="commands to run, comma-separated (e.g. davar,report)")
     args = parser.parse_args()
     minutes = [float(v) for v in args.minutes.split(",")]

@@ -56,6 +56,10 @@ NOT_FLAGS = {
     "reference",
     # davar(shift=): per-centre window offsets, which adaptive --method ici computes itself
     "shift",
+    # fit_noise(cells=), compare(keep=): how much of what it computes a result holds; the
+    # commands keep only what they write (issue 15: memory)
+    "cells",
+    "keep",
 }
 
 #: (function, commands that call it with the user's settings)

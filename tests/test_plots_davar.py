@@ -13,12 +13,14 @@ from matplotlib.figure import Figure
 import adavar
 from adavar import simulate
 from adavar.plots import (
-    _spread,
     _spread_log,
     coefficient_figure,
     davar_heatmap_figure,
     davar_surface_figure,
     save_figure,
+)
+from adavar.plots import (
+    spread_indices as _spread,
 )
 from adavar.results import DavarResult
 

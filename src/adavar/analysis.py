@@ -266,7 +266,8 @@ def analyse_channel(
     if surface is not None:
         status(f"{tag}noise coefficients of every window")
         try:
-            coefficients = fit_noise(surface, **window_fit_keywords(args, fit))
+            # the windows' coefficients only: no per-cell residuals (a surface's size)
+            coefficients = fit_noise(surface, **window_fit_keywords(args, fit), cells=False)
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
     return {
@@ -406,7 +407,8 @@ class ReportAnalysis:
     surface, adaptive : DavarResult, AdaptiveResult or None
         The DAVAR surface (``window``) or the adaptive one (``adaptive``; then both are it).
     coefficients : NoiseFit or None
-        The fit of every window of the surface.
+        The fit of every window of the surface (without the per-cell ``used`` and
+        ``residuals``: ``fit_noise(..., cells=False)``).
     parameters : dict
         The parameter table of the report.
     preprocessing : list of str

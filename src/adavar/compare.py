@@ -54,6 +54,7 @@ by 0.2 % in the median, 1 % at the 95th percentile, between the two tau sets).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import itertools
 import math
 from collections.abc import Iterable, Iterator, Mapping, Sequence
@@ -93,6 +94,7 @@ if TYPE_CHECKING:  # defined in adavar.paper.studies, re-exported by __getattr__
     )
 
 __all__ = [
+    "FIGURE_WINDOWS",
     "NODE_NAMES",
     "PAPER_FIG8_CROSSINGS",
     "PAPER_LABELS",
@@ -382,9 +384,11 @@ class MethodRun:
     schedule : Schedule or None
         The controller's record (kurtosis, S, f1, f2, f); None for a fixed window.
     result : DavarResult
-        The DAVAR surface on ``window``.
+        The DAVAR surface on ``window`` (with ``keep="figures"`` only the windows the
+        surface figure draws, see :func:`compare`).
     fit : NoiseFit
-        The noise model fitted to every window.
+        The noise model fitted to every window (with ``keep="figures"`` without the
+        per-cell ``used`` and ``residuals``).
     arw : ndarray, shape (T,)
         ``N(t)``, the angle random walk of every window (``fit.angle_random_walk.value``).
     nodes : tuple of Nodes
@@ -676,6 +680,7 @@ def compare(
     points_per_decade: int = 10,
     units: str | None = None,
     description: str | None = None,
+    keep: str = "all",
 ) -> Comparison:
     """Run DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR (or other methods) on one record.
 
@@ -718,6 +723,14 @@ def compare(
         Declared unit of the rate samples.
     description : str, optional
         What the record is (for reports).
+    keep : {"all", "figures"}
+        ``"all"`` (default): every method's whole surface (``MethodRun.result``) and the
+        per-cell residuals of its fit, held together. ``"figures"``: what the tables and
+        :func:`adavar.plots.comparison_figures` read: each surface is freed once fitted,
+        keeping only the :data:`FIGURE_WINDOWS` windows (evenly spread over the record)
+        that :func:`adavar.plots.davar_surface_figure` draws, and the fits have no per-cell
+        ``used`` and ``residuals``; every other value is the same, and the memory is that
+        of one surface instead of one per method (``adavar compare`` uses it).
 
     Returns
     -------
@@ -736,31 +749,48 @@ def compare(
             s_test=s_test, combine=combine, thresholds=thresholds, false_alarm=false_alarm,
         ), taus=taus, terms=terms, confidence=confidence, noise_type=noise_type,
         points_per_decade=points_per_decade, units=units, description=description,
-        edf_cache=None,
+        edf_cache=None, keep=keep,
     )  # fmt: skip
 
 
 #: Bytes a method's run holds per surface cell: the variance and the per-window fit.
 _RUN_CELL_BYTES = 8 * 2
+#: Windows of a surface kept with ``keep="figures"``: those
+#: :func:`adavar.plots.davar_surface_figure` draws (its ``max_times``).
+FIGURE_WINDOWS = 400
 
 
 def _check_memory(
-    n_methods: int, n: int, taus: Any, longest: int, tau0: float, points_per_decade: int
-) -> None:
+    n_methods: int, n: int, taus: Any, longest: int, tau0: float, points_per_decade: int,
+    keep: str = "all",
+) -> None:  # fmt: skip
     """A one-line error, before any work, when the runs would not fit in free memory."""
     from adavar.sources import available_memory
     from adavar.taus import averaging_factors
 
     ms, _ = averaging_factors(taus, max(1, longest // 3), tau0,
                               points_per_decade=points_per_decade)  # fmt: skip
-    need = n_methods * n * ms.size * _RUN_CELL_BYTES
+    held = n_methods * _RUN_CELL_BYTES if keep == "all" else 8  # "figures": one surface
+    need = n * ms.size * held
     free = available_memory()
     if free is not None and need > 0.8 * free:
+        one = "" if keep == "all" else " (one at a time)"
         raise AdavarInputError(
             f"comparing {n_methods} methods on {n} samples at {ms.size} taus keeps "
-            f"{need / 2**30:.1f} GiB of surfaces but {free / 2**30:.1f} GiB is free: use "
+            f"{need / 2**30:.1f} GiB of surfaces{one} but {free / 2**30:.1f} GiB is free: use "
             "taus='octave' (--taus octave), fewer methods, or a shorter record"
         )
+
+
+def _drawn_windows(result: DavarResult) -> DavarResult:
+    """``result`` with only the :data:`FIGURE_WINDOWS` windows its surface figure draws."""
+    from adavar.plots import spread_indices
+
+    rows = spread_indices(int(np.size(result.time)), FIGURE_WINDOWS)
+    names = ("time", "avar", "window", "centre", "window_class", "terms", "shift")
+    return dataclasses.replace(result, **{name: None if getattr(result, name) is None
+                                          else np.asarray(getattr(result, name))[rows]
+                                          for name in names})  # fmt: skip
 
 
 def run_comparison(
@@ -780,6 +810,7 @@ def run_comparison(
     units: str | None,
     description: str | None,
     edf_cache: EdfCache | None,
+    keep: str = "all",
 ) -> Comparison:
     """:func:`compare` with the controller settings as one dict, and an optional fast path.
 
@@ -795,11 +826,15 @@ def run_comparison(
         None: every surface with its confidence bounds and a fit weighted by their EDF (what
         :func:`compare` does). An :class:`EdfCache`: surfaces without bounds, the fit
         weighted by the cached EDF of noise exponent ``noise_type`` (the many-seed study).
+    keep : {"all", "figures"}
+        As in :func:`compare`.
 
     Returns
     -------
     Comparison
     """
+    if keep not in ("all", "figures"):
+        raise AdavarInputError(f"unknown keep {keep!r}: use 'all' or 'figures'")
     x, known = as_record(data)
     n = x.size
     fs = check_rate(rate if rate is not None else known.get("rate", 1.0))
@@ -851,8 +886,9 @@ def run_comparison(
             )
 
     _check_memory(len(specs), n, taus, max(lmax, *(s.window or 0 for s in specs)), tau0,
-                  points_per_decade)  # fmt: skip
+                  points_per_decade, keep)  # fmt: skip
     runs: dict[str, MethodRun] = {}
+    centres: tuple[np.ndarray, np.ndarray] | None = None  # the first run's times, centres
     with threads_for(n):
         for spec in specs:
             sched = None
@@ -873,7 +909,7 @@ def run_comparison(
                     shift=shift,
                 )  # fmt: skip
                 try:
-                    fit = fit_noise(result, terms=terms)
+                    fit = fit_noise(result, terms=terms, cells=keep == "all")
                 except ValueError as exc:
                     raise AdavarInputError(str(exc)) from None
             else:
@@ -883,9 +919,13 @@ def run_comparison(
                 alpha = np.broadcast_to(np.asarray(noise_type, dtype=np.int64), result.m.shape)
                 fit = fit_avar(result.tau, result.avar, edf_cache.cells(result, alpha),
                                terms=terms)  # fmt: skip
+                if keep != "all":
+                    fit = dataclasses.replace(fit, used=None, residuals=None)
             arw = np.asarray(fit.angle_random_walk.value, dtype=float)
             t = np.asarray(result.time, dtype=float)
             w = np.asarray(result.window, dtype=np.int64)
+            if centres is None:
+                centres = t, np.asarray(result.centre)
             if spec.kind == "fixed":
                 nodes = fixed_nodes(changes, spec.window, rate=fs)
             else:
@@ -896,24 +936,26 @@ def run_comparison(
                     t, arw, true[result.centre], changes, margin=0.5 * lmax * tau0,
                     span=lmax * tau0,
                 )  # fmt: skip
+            if keep != "all":
+                result = _drawn_windows(result)  # the whole surface is freed here
             runs[spec.name] = MethodRun(
                 name=spec.name, label=spec.label, window=w, schedule=sched, result=result,
                 fit=fit, arw=arw, nodes=nodes, intervals=interval_means(t, arw, ivals),
                 metrics=metrics,
             )  # fmt: skip
-    first = next(iter(runs.values()))
+    assert centres is not None  # at least one method ran
     parameters = dict(
         methods=names, rate=fs, taus=taus if isinstance(taus, str) else list(map(float, taus)),
         terms=list(terms), confidence=confidence, noise_type=noise_type,
         **{k: v for k, v in controller.items()},
     )  # fmt: skip
     return Comparison(
-        time=np.asarray(first.result.time, dtype=float),
+        time=centres[0],
         data=x,
         rate=fs,
         methods=runs,
         change_times=changes,
-        truth=None if true is None else true[first.result.centre],
+        truth=None if true is None else true[centres[1]],
         intervals=ivals,
         parameters=parameters,
         description=description or known.get("description") or f"{n} samples at {fs:g} Hz",

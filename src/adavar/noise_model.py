@@ -96,7 +96,7 @@ from adavar import gls_fit
 from adavar._jit import SERIAL_WORK, get_num_threads, read_only
 from adavar._nnls import PARALLEL_MIN, nnls_parallel, nnls_serial, subsets
 from adavar.errors import AdavarInputError
-from adavar.results import ADEQUATE_P, NoiseFit, NoiseTerm
+from adavar.results import ADEQUATE_P, DavarResult, NoiseFit, NoiseTerm
 from adavar.slopes import SlopeReadoff, read_slopes
 from adavar.statistics import SAFE_EXPONENT, unscale
 from adavar.taus import tau_bounds
@@ -126,6 +126,14 @@ BANDWIDTH_FACTOR = 2.0
 #: uncertainty, the 4th by 0.05 (module notes); by 100 the fit has converged or is cycling,
 #: and each pass costs a whole fit (a stack of a million curves: seconds per pass).
 MAX_REWEIGHT = 100
+#: Values of a stack of curves handled at a time (whole curves; a multiple of 64 of them):
+#: the masks, model and residual temporaries stay at a few MB whatever the size of a DAVAR
+#: surface, instead of several copies of it.
+BLOCK_VALUES = 1 << 20
+#: Values of a stack given to the compiled fit at a time (its EDF and masked variances
+#: are formed for that many): each call of the parallel kernel costs a thread start-up
+#: (up to tens of ms on a busy machine), so fewer, larger blocks than :data:`BLOCK_VALUES`.
+KERNEL_VALUES = 1 << 23
 
 
 # --------------------------------------------------------------------------------------
@@ -274,10 +282,9 @@ def fit_avar(
     if method == "slopes":
         dev = np.sqrt(avar)
         return _unscale_fit(_slopes_fit(tau_a, dev, None, None, terms, units), k)
-    avar = np.where(keep, avar, np.nan)
-    avar = _apply_reference(tau_a, avar, reference, reasons, k)
+    drop, offset = _reference_columns(tau_a, keep, reference, reasons, k)
     return _unscale_fit(_fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
-                             reasons=reasons), k)  # fmt: skip
+                             reasons=reasons, drop=drop, offset=offset), k)  # fmt: skip
 
 
 def _as_floats(values: Any, name: str) -> np.ndarray:
@@ -289,11 +296,26 @@ def _as_floats(values: Any, name: str) -> np.ndarray:
 
 def _deviation_exponent(values: np.ndarray) -> int:
     """Binary exponent of the largest finite positive value, 0 within ``2**±SAFE_EXPONENT``."""
-    good = values[np.isfinite(values) & (values > 0)]
-    if good.size == 0:
+    largest = -math.inf
+    for block in _row_blocks(values):  # no mask nor copy of a whole surface
+        ok = np.isfinite(block) & (block > 0)
+        largest = max(largest, float(np.max(block, where=ok, initial=-math.inf)))
+    if largest == -math.inf:
         return 0
-    exponent = math.frexp(float(good.max()))[1]
+    exponent = math.frexp(largest)[1]
     return exponent if abs(exponent) > SAFE_EXPONENT else 0
+
+
+def _row_blocks(values: np.ndarray) -> list[np.ndarray]:
+    """``values`` as blocks of whole rows (last axis) of about :data:`BLOCK_VALUES` values."""
+    rows = values.reshape(-1, values.shape[-1]) if values.ndim > 1 else values.reshape(1, -1)
+    step = _block_rows(rows.shape[1], BLOCK_VALUES)
+    return [rows[a : a + step] for a in range(0, rows.shape[0], step)]
+
+
+def _block_rows(n_tau: int, values: int) -> int:
+    """Curves of ``n_tau`` taus per block of about ``values`` values (a multiple of 64)."""
+    return max(64, values // max(1, n_tau) // 64 * 64)
 
 
 def _scaled_avar(avar: np.ndarray) -> tuple[np.ndarray, int]:
@@ -340,25 +362,31 @@ def _unscale_fit(fit: NoiseFit, k: int) -> NoiseFit:
     )
 
 
-def _apply_reference(
-    tau: np.ndarray, avar: np.ndarray, reference: NoiseFit | None, reasons: list[str], k: int = 0
-) -> np.ndarray:
-    """Leave out the taus below ``reference``'s shortest fitted one, take out its roll-off.
+def _reference_columns(
+    tau: np.ndarray, keep: np.ndarray, reference: NoiseFit | None, reasons: list[str], k: int = 0
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The taus left out (``~keep``, and those below ``reference``'s shortest fitted one)
+    and the variance taken out of every curve (``reference``'s roll-off), for :func:`_fit`.
 
-    ``avar`` is scaled by ``4**-k`` (:func:`_scaled_avar`), and so is the roll-off.
+    Returns ``(drop, offset)``: a boolean mask over ``tau`` (None: nothing left out) and
+    ``rolloff / tau**2`` scaled by ``4**-k`` (:func:`_scaled_avar`; None without a negative
+    roll-off). The fit reads ``where(drop, nan, avar) - offset``, block by block.
     """
-    if reference is None:
-        return avar
-    if not isinstance(reference, NoiseFit) or np.ndim(reference.coefficients) != 1:
-        raise AdavarInputError("reference must be the NoiseFit of one whole-record curve")
-    used = reference.used
-    shortest = float(np.min(reference.tau[np.asarray(used)])) if used is not None else 0.0
-    low = tau < shortest * (1.0 - 1e-9)
-    for j in np.flatnonzero(low):
-        reasons[j] = reasons[j] or f"below the whole-record fit's shortest tau {shortest:.3g} s"
-    out = np.where(low, np.nan, avar)
-    roll = math.ldexp(float(reference.rolloff), -2 * k)
-    return out - roll / tau**2 if roll < 0 else out
+    drop = ~np.asarray(keep, dtype=bool)
+    offset = None
+    if reference is not None:
+        if not isinstance(reference, NoiseFit) or np.ndim(reference.coefficients) != 1:
+            raise AdavarInputError("reference must be the NoiseFit of one whole-record curve")
+        used = reference.used
+        shortest = float(np.min(reference.tau[np.asarray(used)])) if used is not None else 0.0
+        low = tau < shortest * (1.0 - 1e-9)
+        for j in np.flatnonzero(low):
+            reasons[j] = reasons[j] or f"below the whole-record fit's shortest tau {shortest:.3g} s"
+        drop = drop | low
+        roll = math.ldexp(float(reference.rolloff), -2 * k)
+        if roll < 0:
+            offset = roll / tau**2
+    return (drop if drop.any() else None), offset
 
 
 def _check_options(
@@ -438,6 +466,68 @@ def _slopes_fit(tau, dev, dev_low, dev_high, terms, units, tau_max=None) -> Nois
     )  # fmt: skip
 
 
+def _cell_outputs(
+    start: int, a2: np.ndarray, e2: np.ndarray, coefficients: np.ndarray, basis: np.ndarray,
+    share: np.ndarray, n_sel: int, dof: np.ndarray | None, used: np.ndarray | None,
+    resid: np.ndarray | None,
+) -> None:  # fmt: skip
+    """The effective dof, ``used`` and ``residuals`` of curves ``start ..`` (the fitted
+    ``a2`` and ``e2``; ``e2`` may be one row for all), in blocks of :data:`BLOCK_VALUES`."""
+    step = _block_rows(a2.shape[1], BLOCK_VALUES)
+    for a in range(0, a2.shape[0], step):
+        ab, eb = a2[a : a + step], (e2 if e2.shape[0] == 1 else e2[a : a + step])
+        rows = slice(start + a, start + a + ab.shape[0])
+        good = np.isfinite(ab) & (ab > 0) & np.isfinite(eb) & (eb > 0)
+        if dof is not None:  # effective points: each tau counts by its octave share
+            dof[rows] = np.maximum(good @ share - n_sel, 0.0)
+        if used is None or resid is None:
+            continue
+        used[rows] = good
+        model = coefficients[rows] @ basis
+        with np.errstate(invalid="ignore", divide="ignore"):
+            resid[rows] = np.where(good, (ab - model) / (model * np.sqrt(2.0 / (eb / share))),
+                                   np.nan)  # fmt: skip
+
+
+@dataclasses.dataclass(frozen=True)
+class _EdfRows:
+    """The EDF of a stack of curves as a per-class table: curve ``i`` has
+    ``table[classes[i]]`` (a DAVAR surface's ``edf_table`` and ``window_class``), read
+    block by block instead of as one (curves, taus) array."""
+
+    table: np.ndarray
+    classes: np.ndarray
+
+    def any_finite(self) -> bool:
+        """Whether any curve has a finite EDF."""
+        if self.table.shape[0] == 1:
+            return bool(np.isfinite(self.table).any())
+        present = np.bincount(self.classes, minlength=self.table.shape[0]) > 0
+        return bool(np.isfinite(self.table[present]).any())
+
+
+def _stack_edf(result: Any, avar: np.ndarray) -> Any:
+    """``result.edf``; for a DAVAR surface its per-class table (:class:`_EdfRows`)."""
+    table = getattr(result, "edf_table", None)
+    classes = getattr(result, "window_class", None)
+    if (
+        getattr(type(result), "edf", None) is DavarResult.edf
+        and table is not None
+        and classes is not None
+        and avar.ndim == 2
+    ):
+        table = np.asarray(table, dtype=float)
+        classes = np.asarray(classes)
+        if (
+            table.ndim == 2
+            and table.shape[1] == avar.shape[1]
+            and classes.shape == avar.shape[:1]
+            and classes.dtype.kind in "iu"
+        ):
+            return _EdfRows(table, classes)
+    return getattr(result, "edf", None)
+
+
 def _fit(
     tau: Any,
     avar: Any,
@@ -450,8 +540,18 @@ def _fit(
     time: np.ndarray | None = None,
     reasons: list[str] | None = None,
     slopes: SlopeReadoff | None = None,
+    drop: np.ndarray | None = None,
+    offset: np.ndarray | None = None,
+    cells: bool = True,
 ) -> NoiseFit:
-    """The diagonally weighted fit behind :func:`fit_avar` and :func:`fit_noise`."""
+    """The diagonally weighted fit behind :func:`fit_avar` and :func:`fit_noise`.
+
+    ``edf`` is an array broadcastable to ``avar``, an :class:`_EdfRows` or None. Each
+    curve is fitted to ``where(drop, nan, avar) - offset`` (``drop``: taus left out,
+    ``offset``: a variance per tau taken out). A stack is fitted in blocks of curves
+    (:data:`BLOCK_VALUES`), the same numbers as at once; ``cells=False`` leaves a stack's
+    per-cell ``used`` and ``residuals`` out (None).
+    """
     if spacing not in ("octave", "independent"):
         raise AdavarInputError(f"unknown spacing {spacing!r}: use 'octave' or 'independent'")
     terms = _check_terms(terms)
@@ -468,11 +568,16 @@ def _fit(
             f"avar must have shape (..., {tau.size}) to match tau, got {avar.shape}"
         )
     weighted = edf is not None
-    edf = np.ones(tau.size) if edf is None else np.asarray(edf, dtype=float)
-    try:
-        fits = np.broadcast_shapes(edf.shape, avar.shape) == avar.shape
-    except ValueError:
-        fits = False
+    classes = None  # the EDF of curve i is row classes[i] of edf (a DAVAR surface's table)
+    if isinstance(edf, _EdfRows):
+        edf, classes = np.asarray(edf.table, dtype=float), edf.classes
+        fits = edf.ndim == 2 and edf.shape[1] == tau.size and classes.shape == avar.shape[:1]
+    else:
+        edf = np.ones(tau.size) if edf is None else np.asarray(edf, dtype=float)
+        try:
+            fits = np.broadcast_shapes(edf.shape, avar.shape) == avar.shape
+        except ValueError:
+            fits = False
     if not fits:
         raise AdavarInputError(
             f"edf of shape {edf.shape} does not broadcast to avar's {avar.shape}"
@@ -487,14 +592,19 @@ def _fit(
 
     lead = avar.shape[:-1]
     n_tau = tau.size
-    a2 = np.ascontiguousarray(avar.reshape(-1, n_tau))
-    if edf.ndim == 2 and edf.shape[0] > 1 and edf.strides[0] == 0:
-        edf = edf[0]  # one row broadcast over the stack (a fixed-window DAVAR)
-    if edf.ndim <= 1 or math.prod(edf.shape[:-1]) == 1:
-        # one edf row shared by every curve (the kernel then reads row 0): no per-curve copy
-        e2 = np.ascontiguousarray(np.broadcast_to(edf.reshape(-1), (n_tau,)))[None, :]
+    a2 = avar.reshape(-1, n_tau)
+    if classes is not None and edf.shape[0] == 1:
+        edf, classes = edf[0], None  # one length: one row for every curve
+    if classes is None:
+        if edf.ndim == 2 and edf.shape[0] > 1 and edf.strides[0] == 0:
+            edf = edf[0]  # one row broadcast over the stack (a fixed-window DAVAR)
+        if edf.ndim <= 1 or math.prod(edf.shape[:-1]) == 1:
+            # one edf row shared by every curve (the kernel then reads row 0): no per-curve copy
+            e2 = np.ascontiguousarray(np.broadcast_to(edf.reshape(-1), (n_tau,)))[None, :]
+        else:
+            e2 = np.broadcast_to(edf, avar.shape).reshape(-1, n_tau)
     else:
-        e2 = np.ascontiguousarray(np.broadcast_to(edf, avar.shape).reshape(-1, n_tau))
+        e2 = edf
     n_curves = a2.shape[0]
 
     sel = np.array([_term_index(t) for t in terms], dtype=np.int64)
@@ -514,20 +624,35 @@ def _fit(
         n_curves >= PARALLEL_MIN and n_curves * n_tau >= SERIAL_WORK and get_num_threads() > 1
     )
     kernel = nnls_parallel if parallel else nnls_serial
-    # inputs as read-only views: one compiled version whether a caller's array is writable
-    # or not (a broadcast EDF row is read-only, a stacked one is not)
-    kernel(
-        read_only(phi, np.float64), read_only(a2, np.float64), read_only(e2, np.float64),
-        n_reweight, read_only(sub_idx), read_only(sub_size), read_only(order), read_only(sel),
-        read_only(tau_ref ** (-powers.astype(float)), np.float64), weighted,
-        read_only(share, np.float64), coefficients, coef_sig, chi2, npts,
-    )  # fmt: skip
-
-    if np.all(share == 1.0):
-        dof = np.maximum(npts - len(sel), 0)
-    else:  # effective points: each tau counts by its octave share (as in the kernel)
-        good = np.isfinite(a2) & (a2 > 0) & np.isfinite(e2) & (e2 > 0)
-        dof = np.maximum(good @ share - len(sel), 0.0)
+    octaves = not np.all(share == 1.0)
+    dof_eff = np.empty(n_curves) if octaves else None
+    cells = cells or not lead
+    used = np.empty((n_curves, n_tau), dtype=bool) if cells else None
+    resid = np.empty((n_curves, n_tau)) if cells else None
+    basis = (tau[:, None] ** _POWERS[None, :]).T
+    step = _block_rows(n_tau, KERNEL_VALUES)
+    for a in range(0, n_curves, step):
+        b = min(a + step, n_curves)
+        a2b = a2[a:b]
+        if drop is not None:
+            a2b = np.where(drop, np.nan, a2b)
+        if offset is not None:
+            a2b = a2b - offset
+        a2b = np.ascontiguousarray(a2b)
+        e2b = e2[classes[a:b]] if classes is not None else e2 if e2.shape[0] == 1 else e2[a:b]
+        e2b = np.ascontiguousarray(e2b)
+        # inputs as read-only views: one compiled version whether a caller's array is
+        # writable or not (a broadcast EDF row is read-only, a stacked one is not); each
+        # curve is fitted on its own, so blocks give the numbers of one call
+        kernel(
+            read_only(phi, np.float64), read_only(a2b, np.float64), read_only(e2b, np.float64),
+            n_reweight, read_only(sub_idx), read_only(sub_size), read_only(order),
+            read_only(sel), read_only(tau_ref ** (-powers.astype(float)), np.float64),
+            weighted, read_only(share, np.float64), coefficients[a:b], coef_sig[a:b],
+            chi2[a:b], npts[a:b],
+        )  # fmt: skip
+        _cell_outputs(a, a2b, e2b, coefficients, basis, share, len(sel), dof_eff, used, resid)
+    dof = np.maximum(npts - len(sel), 0) if dof_eff is None else dof_eff
     with np.errstate(invalid="ignore", divide="ignore"):
         red = np.where(dof > 0, chi2 / dof, np.nan)
 
@@ -535,15 +660,11 @@ def _fit(
         x = x.reshape(lead + x.shape[1:])
         return x[()] if x.ndim == 0 else x
 
-    good = np.isfinite(a2) & (a2 > 0) & np.isfinite(e2) & (e2 > 0)
-    model = coefficients @ (tau[:, None] ** _POWERS[None, :]).T
-    with np.errstate(invalid="ignore", divide="ignore"):
-        resid = np.where(good, (a2 - model) / (model * np.sqrt(2.0 / (e2 / share))), np.nan)
     exclusions: tuple[str, ...] = ()
-    if not lead:
+    if not lead and used is not None:
         base = reasons or [""] * n_tau
         exclusions = tuple(
-            r or ("" if good[0, j] else "undefined (NaN or not positive)")
+            r or ("" if used[0, j] else "undefined (NaN or not positive)")
             for j, r in enumerate(base)
         )
     return NoiseFit(
@@ -561,9 +682,9 @@ def _fit(
         time=time,
         spacing=spacing,
         method="wls",
-        used=good.reshape((*lead, n_tau)),
+        used=None if used is None else used.reshape((*lead, n_tau)),
         exclusions=exclusions,
-        residuals=resid.reshape((*lead, n_tau)),
+        residuals=None if resid is None else resid.reshape((*lead, n_tau)),
         slopes=slopes,
     )
 
@@ -583,6 +704,7 @@ def fit_noise(
     bandwidth: float | None = None,
     rolloff: str = "model",
     reference: NoiseFit | None = None,
+    cells: bool = True,
 ) -> NoiseFit:
     """Fit the IEEE noise model (docs/method.md section 4) to an Allan-deviation result.
 
@@ -649,6 +771,11 @@ def fit_noise(
         term (``reference.rolloff / tau^2``) taken out of its variance first. On the
         bandwidth-limited simulator (200 Hz, 40 Hz filter) the median N(t) of 12-minute
         windows is 0.995 of the truth with it, 0.48 without (B 0.99 and 13x).
+    cells : bool
+        A stack of curves (a DAVAR surface): also the per-cell ``used`` mask and
+        ``residuals`` of the fit (default). False leaves them None, which spares two arrays
+        the size of the surface when only the coefficients are read. One curve has them
+        always.
 
     Returns
     -------
@@ -695,8 +822,11 @@ def fit_noise(
         if avar is None:
             raise AdavarInputError("result has neither 'avar' nor 'dev'")
         avar, k = _scaled_avar(np.asarray(avar, dtype=float))
-    edf = getattr(result, "edf", None)
-    if edf is None or not np.isfinite(np.asarray(edf, dtype=float)).any():
+    edf = _stack_edf(result, avar)
+    finite = edf.any_finite() if isinstance(edf, _EdfRows) else (
+        edf is not None and np.isfinite(np.asarray(edf, dtype=float)).any()
+    )  # fmt: skip
+    if not finite:
         raise AdavarInputError(
             "result has no 'edf' (a deviation computed with confidence=None?); compute it "
             "with a confidence level, or use fit_avar(tau, avar, edf=None) for relative weights"
@@ -736,9 +866,10 @@ def fit_noise(
             "data_type): a DeviationResult; use method='wls' for stacks or raw arrays"
         )
     if method == "wls" or record is None:
-        masked = _apply_reference(tau, np.where(keep, avar, np.nan), reference, reasons, k)
-        return _unscale_fit(_fit(tau, masked, edf, terms, units, n_reweight, spacing=spacing,
-                                 time=time, reasons=reasons, slopes=slopes), k)  # fmt: skip
+        drop, offset = _reference_columns(tau, keep, reference, reasons, k)
+        return _unscale_fit(_fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
+                                 time=time, reasons=reasons, slopes=slopes, drop=drop,
+                                 offset=offset, cells=cells), k)  # fmt: skip
     if reference is not None:
         raise AdavarInputError(
             "reference is for the fit of DAVAR windows (method='wls'); a whole-record curve "

@@ -64,6 +64,7 @@ __all__ = [
     "kurtosis_windows_figure",
     "rate_unit",
     "save_figure",
+    "spread_indices",
     "study_figures",
     "term_label",
     "term_unit",
@@ -247,7 +248,7 @@ def deviation_figure(
 # --------------------------------------------------------------------------------------
 
 
-def _spread(n: int, most: int) -> np.ndarray:
+def spread_indices(n: int, most: int) -> np.ndarray:
     """Indices of at most ``most`` of ``n`` rows, evenly spread, first and last included."""
     if most < 2:
         raise ValueError(f"need room for at least 2 rows, got {most}")
@@ -354,7 +355,7 @@ def davar_surface_figure(
     unit = units if units is not None else result.units
     tau = np.asarray(result.tau, dtype=float)
     time_ = np.asarray(result.time, dtype=float)
-    rows = _spread(time_.size, max_times)
+    rows = spread_indices(time_.size, max_times)
     cols = _spread_log(tau, max_taus)
     z = _log_dev(result, rows, cols)
     x, y = np.meshgrid(np.log10(tau[cols]), time_[rows])
@@ -445,7 +446,7 @@ def davar_heatmap_figure(
     unit = units if units is not None else result.units
     tau = np.asarray(result.tau, dtype=float)
     time_ = np.asarray(result.time, dtype=float)
-    rows = _spread(time_.size, max_times)
+    rows = spread_indices(time_.size, max_times)
     cols = _spread_log(tau, max_taus)
     z = _log_dev(result, rows, cols)
     vmin, vmax = _colour_limits(z)
@@ -542,7 +543,7 @@ def coefficient_figure(
             scale = float(convert_coefficient(1.0, term, unit, target))
             shown_unit = target
 
-    rows = _spread(value.size, max_points)
+    rows = spread_indices(value.size, max_points)
     t = np.asarray(fit.time, dtype=float)[rows]
     v = value[rows] * scale
     s = sigma[rows] * scale

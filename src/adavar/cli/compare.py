@@ -504,7 +504,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         data, methods=args.methods, rate=rate, change_times=changes, taus=args.taus or "all",
         terms=terms, units=units, description=description, truth=truth,
         intervals=args.intervals, confidence=args.confidence, noise_type=args.noise_type,
-        points_per_decade=args.points_per_decade, **controller,
+        points_per_decade=args.points_per_decade, keep="figures", **controller,
     )  # fmt: skip
     thr = None
     if comp.change_times:

@@ -460,7 +460,7 @@ def _davar_channel(
         status(f"{tag}fitting the noise terms of every window")
         try:
             fit = fit_noise(result, **window_fit_keywords(args, _whole_record_fit(
-                samples, args, rate_u, common)))  # fmt: skip
+                samples, args, rate_u, common)), cells=False)  # fmt: skip
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
 

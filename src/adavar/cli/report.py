@@ -42,10 +42,17 @@ def _cmd_report(args: argparse.Namespace) -> int:
     several = len(names) > 1
     runs = []
     segment_given = args.segment is not None  # before the windows follow the record
+    sections: list[str] = []  # several channels: each one's section, built as it is done
+    figures: dict[str, dict[str, Any]] = {}
     for k, name in enumerate(names):
         tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
         run = analyse_channel(args, loaded[name], units_of[name], tau0, status, tag)
         run["events"] = _events(args, loaded[name], run, tau0, segment_given)
+        run["shape"] = _surface_shape(run["surface"])
+        run["controller"] = None if run["adaptive"] is None else run["adaptive"].parameters
+        if several:  # its plots now, and its surface freed before the next one is computed
+            sections.append(_channel_section(k + 1, name, run, figures))
+            run.update(result=None, surface=None, adaptive=None, coefficients=None)
         runs.append(run)
     first = runs[0]
     units = first["units"] if not several else "; ".join(
@@ -58,11 +65,10 @@ def _cmd_report(args: argparse.Namespace) -> int:
     if args.n_reweight != 3 or args.spacing != "octave":
         parameters.update({"fit reweighting passes": args.n_reweight,
                            "fit tau spacing": args.spacing})  # fmt: skip
-    if first["surface"] is not None:
+    if first["shape"] is not None:
         parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
-        if first["adaptive"] is not None:
-            parameters.update({f"controller {k}": v
-                               for k, v in first["adaptive"].parameters.items()
+        if first["controller"] is not None:
+            parameters.update({f"controller {k}": v for k, v in first["controller"].items()
                                if v is not None})  # fmt: skip
         else:
             parameters["DAVAR window [samples]"] = args.window
@@ -70,12 +76,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
     status("building the figures and the HTML")
     if several:
         title = args.title or f"{Path(meta['path']).name}, columns {', '.join(names)}"
-        html = _channels_report(
+        html = _channels_page(
             title=title,
             source={"file": meta["path"], "columns": ", ".join(names), "format": meta["kind"],
                     "samples": int(first["samples"])},
-            runs=dict(zip(names, runs, strict=True)), parameters=parameters,
-            preprocessing=steps,
+            sections=sections, figures=figures, parameters=parameters, preprocessing=steps,
         )  # fmt: skip
     else:
         title = args.title or f"{Path(meta['path']).name}, column {meta['column']}"
@@ -96,17 +101,12 @@ def _cmd_report(args: argparse.Namespace) -> int:
     status.close()
 
     def channel_json(name: str, run: dict[str, Any]) -> dict[str, Any]:
-        surface = run["surface"]
         return {
             "input": {"file": meta["path"], "column": name, "rate": 1.0 / tau0,
                       "units": run["units"], "n_samples": int(run["samples"]),
                       "preprocessing": steps},
             "fit": fit_json(run["fit"]),
-            "surface": None if surface is None else {
-                "windows": int(np.shape(surface.avar)[0]),
-                "taus": int(np.shape(surface.avar)[1]),
-                "method": getattr(surface, "method", "fixed"),
-            },
+            "surface": run["shape"],
             "events": None if run["events"] is None else run["events"]["items"],
         }  # fmt: skip
 
@@ -154,73 +154,85 @@ def _events(
     return analysis.events()
 
 
-def _channels_report(
-    *, title: str, source: dict[str, Any], runs: dict[str, dict[str, Any]],
-    parameters: dict[str, Any], preprocessing: list[str],
-) -> str:  # fmt: skip
-    """One HTML report with a section per channel (plots and coefficient table of each).
+def _surface_shape(surface: Any) -> dict[str, Any] | None:
+    """What the JSON says of a channel's surface (None without one)."""
+    if surface is None:
+        return None
+    windows, taus = np.shape(surface.avar)
+    return {"windows": int(windows), "taus": int(taus),
+            "method": getattr(surface, "method", "fixed")}  # fmt: skip
 
-    The page (head, data, parameters, preprocessing, footer) is :func:`build_report`'s;
-    the channel sections are made of its figure and table builders, with plot ids
+
+def _channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, Any]) -> str:
+    """The HTML section of channel number ``k`` (its plots go into ``figures``).
+
+    Made of :func:`adavar.report.build_report`'s figure and table builders, with plot ids
     prefixed by the channel's number so that they stay unique.
     """
     from adavar import report as rp
-
-    figures: dict[str, dict[str, Any]] = {}
 
     def plot(key: str, figure: dict[str, Any]) -> str:
         figures[key] = figure
         return f'<div class="plot" id="{key}"></div>'
 
-    sections = []
-    for k, (name, run) in enumerate(runs.items(), start=1):
-        units, dev, fit = run["rate_units"], run["result"], run["fit"]
-        stat = rp.STAT_NAMES.get(dev.stat, dev.stat)
-        cap = (
-            f"{stat} of {dev.n_samples} samples at {dev.rate:.6g} Hz ({dev.data_type} data), "
-            f"{dev.tau.size} taus; bars: {100 * dev.confidence:.1f} % confidence interval. "
-            "Hover for values."
-        )
-        parts = [
-            f'<section id="channel-{k}" class="channel"><h2>Channel {rp._esc(name)} '
-            f"({rp._esc(run['units'])})</h2>",
-            "<h3>Deviation and noise fit</h3>",
-            plot(f"plot-{k}-deviation", rp._deviation_figure(dev, fit, units)),
-            f'<p class="caption">{rp._esc(cap)}</p>{rp._notes(dev.notes)}',
-            f"<h3>Noise coefficients</h3>{rp._coefficient_table(fit, units)}",
+    units, dev, fit = run["rate_units"], run["result"], run["fit"]
+    stat = rp.STAT_NAMES.get(dev.stat, dev.stat)
+    cap = (
+        f"{stat} of {dev.n_samples} samples at {dev.rate:.6g} Hz ({dev.data_type} data), "
+        f"{dev.tau.size} taus; bars: {100 * dev.confidence:.1f} % confidence interval. "
+        "Hover for values."
+    )
+    parts = [
+        f'<section id="channel-{k}" class="channel"><h2>Channel {rp._esc(name)} '
+        f"({rp._esc(run['units'])})</h2>",
+        "<h3>Deviation and noise fit</h3>",
+        plot(f"plot-{k}-deviation", rp._deviation_figure(dev, fit, units)),
+        f'<p class="caption">{rp._esc(cap)}</p>{rp._notes(dev.notes)}',
+        f"<h3>Noise coefficients</h3>{rp._coefficient_table(fit, units)}",
+    ]
+    surface = run["surface"]
+    if surface is not None:
+        figure, caption = rp._surface_figure(surface, units)
+        parts += [
+            "<h3>Dynamic Allan deviation surface</h3>",
+            plot(f"plot-{k}-surface", figure),
+            f'<p class="caption">{rp._esc(caption)}</p>{rp._notes(surface.notes)}',
         ]
-        surface = run["surface"]
-        if surface is not None:
-            figure, caption = rp._surface_figure(surface, units)
-            parts += [
-                "<h3>Dynamic Allan deviation surface</h3>",
-                plot(f"plot-{k}-surface", figure),
-                f'<p class="caption">{rp._esc(caption)}</p>{rp._notes(surface.notes)}',
-            ]
-            figure, terms = rp._coefficient_figure(run["coefficients"], units)
-            events = (run.get("events") or {}).get("items")
-            if figure and events:
-                figure["layout"]["shapes"] = rp.event_shapes(events)
-            parts.append("<h3>Noise coefficients over time</h3>")
-            if figure:
-                parts.append(plot(f"plot-{k}-coefficients", figure))
-                cap = (
-                    f"{', '.join(terms)} of every window over time; band: ±1σ (clipped at "
-                    "0; from 0 to the 1-sigma upper bound where a term is pinned at 0)."
-                )
-            else:
-                cap = "No term is non-zero in any window."
-            parts.append(f'<p class="caption">{rp._esc(cap)}</p>')
-            if events is not None:
-                parts.append("<h3>Events</h3>"
-                             + rp.events_table(events, run["coefficients"], units))  # fmt: skip
-        if run["adaptive"] is not None:
-            parts += [
-                "<h3>Adaptive window controller</h3>",
-                plot(f"plot-{k}-adaptive", rp._adaptive_figure(run["adaptive"])),
-            ]
-        parts.append("</section>")
-        sections.append("".join(parts))  # fmt: skip
+        figure, terms = rp._coefficient_figure(run["coefficients"], units)
+        events = (run.get("events") or {}).get("items")
+        if figure and events:
+            figure["layout"]["shapes"] = rp.event_shapes(events)
+        parts.append("<h3>Noise coefficients over time</h3>")
+        if figure:
+            parts.append(plot(f"plot-{k}-coefficients", figure))
+            cap = (
+                f"{', '.join(terms)} of every window over time; band: ±1σ (clipped at "
+                "0; from 0 to the 1-sigma upper bound where a term is pinned at 0)."
+            )
+        else:
+            cap = "No term is non-zero in any window."
+        parts.append(f'<p class="caption">{rp._esc(cap)}</p>')
+        if events is not None:
+            parts.append("<h3>Events</h3>"
+                         + rp.events_table(events, run["coefficients"], units))  # fmt: skip
+    if run["adaptive"] is not None:
+        parts += [
+            "<h3>Adaptive window controller</h3>",
+            plot(f"plot-{k}-adaptive", rp._adaptive_figure(run["adaptive"])),
+        ]
+    parts.append("</section>")
+    return "".join(parts)
+
+
+def _channels_page(
+    *, title: str, source: dict[str, Any], sections: list[str], figures: dict[str, Any],
+    parameters: dict[str, Any], preprocessing: list[str],
+) -> str:  # fmt: skip
+    """One HTML report with a section per channel (:func:`_channel_section`).
+
+    The page (head, data, parameters, preprocessing, footer) is :func:`build_report`'s.
+    """
+    from adavar import report as rp
 
     page = rp.build_report(title=title, source=source, parameters=parameters,
                            preprocessing=preprocessing)  # fmt: skip

@@ -20,11 +20,13 @@ from adavar.cli.options import (
 from adavar.cli.output import Status, check_output_file, output_error
 from adavar.errors import AdavarInputError
 from adavar.settings import MAX_SAMPLES
-from adavar.writers import dumps
+from adavar.writers import atomic_file, dumps
 
-#: Bytes of memory per sample of ``adavar simulate`` (the generators' arrays and the CSV
-#: text built in memory; about 210 measured with five terms), for the check of --n.
+#: Bytes of memory per sample of ``adavar simulate`` (the generators' arrays; the CSV text
+#: is written :data:`CSV_ROWS` rows at a time), for the check of --n.
 BYTES_PER_SAMPLE = 256
+#: Rows of the CSV formatted at a time.
+CSV_ROWS = 1 << 16
 
 
 def _check_memory(n: int) -> None:
@@ -45,7 +47,6 @@ def _check_memory(n: int) -> None:
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from adavar import simulate
-    from adavar.export import write_text
 
     output = check_output_file(args.output, args.force, (".csv",))
     status = Status()
@@ -91,12 +92,16 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             if one is not None:
                 what += f", {name}={one:g}"
     status(f"writing {output}")
-    t = np.arange(x.size) / rate
-    body = "\n".join(f"{ti!r},{xi!r}" for ti, xi in zip(t.tolist(), x.tolist(), strict=True))
     header = (f"# adavar {__version__} simulate, seed {args.seed}: {what}; "
               f"rate {rate:g} Hz, samples in {args.units}\ntime,x\n")  # fmt: skip
     try:
-        write_text(output, header + body + "\n")
+        with atomic_file(output) as handle:
+            handle.write(header.encode("utf-8"))
+            for start in range(0, x.size, CSV_ROWS):  # the text a block of rows at a time
+                part = x[start : start + CSV_ROWS]
+                t = np.arange(start, start + part.size) / rate
+                rows = zip(t.tolist(), part.tolist(), strict=True)
+                handle.write("".join(f"{ti!r},{xi!r}\n" for ti, xi in rows).encode("utf-8"))
     except OSError as exc:
         raise output_error(args.output, exc) from None
     status.close()

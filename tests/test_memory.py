@@ -1,0 +1,82 @@
+"""Peak memory (issue 15): the fits of a surface and ``compare`` hold what they return.
+
+tracemalloc sees NumPy's allocations. The fits run in blocks of curves
+(``noise_model.BLOCK_VALUES``, ``KERNEL_VALUES``); they are made small here so that the
+bounds below, in surfaces (8 bytes a cell), hold on a record that takes a second.
+"""
+
+from __future__ import annotations
+
+import tracemalloc
+
+import numpy as np
+import pytest
+
+import adavar
+import adavar.noise_model as noise_model
+from adavar import simulate
+from adavar.compare import FIGURE_WINDOWS, compare
+
+
+@pytest.fixture
+def small_blocks(monkeypatch):
+    monkeypatch.setattr(noise_model, "BLOCK_VALUES", 1 << 14)
+    monkeypatch.setattr(noise_model, "KERNEL_VALUES", 1 << 16)
+
+
+def _peak(fn):
+    """``fn()`` and its peak of traced memory above the start, bytes."""
+    tracemalloc.start()
+    try:
+        out = fn()
+        return out, tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def test_compare_holds_one_surface_at_a_time(small_blocks):
+    """Before: every method's surface and its per-cell residuals, 11 surfaces at the peak
+    for two methods (8.1 GB for four on a 30-minute 200 Hz record); now one at a time,
+    and the same numbers."""
+    x = simulate.white(4000, seed=3)
+    kw = dict(methods=["davar-150", "a-davar"], lmax=150, lmin=100, l=25, taus="all")
+    compare(x[:1000], **kw)  # compiled outside the measurement
+    lean, peak = _peak(lambda: compare(x, keep="figures", **kw))
+    surface = 8 * x.size * 50  # taus m = 1 .. 150 // 3
+    assert peak < 4.0 * surface, peak / surface
+    whole = compare(x, **kw)
+    for name, run in whole.methods.items():
+        got = lean.methods[name]
+        np.testing.assert_array_equal(got.arw, run.arw)
+        np.testing.assert_array_equal(got.window, run.window)
+        np.testing.assert_array_equal(got.fit.coefficients, run.fit.coefficients)
+        assert got.fit.residuals is None and run.fit.residuals is not None
+        # the windows the surface figure draws, and only those
+        assert got.result.avar.shape == (FIGURE_WINDOWS, 50)
+        rows = np.searchsorted(run.result.time, got.result.time)
+        np.testing.assert_array_equal(got.result.avar, run.result.avar[rows])
+    np.testing.assert_array_equal(lean.time, whole.time)
+
+
+def test_surface_fit_in_blocks_is_the_fit_at_once(small_blocks, monkeypatch):
+    """The per-cell temporaries (EDF, masks, model, residuals) are a block's, not the
+    surface's (7.2 surfaces at the peak before); the same numbers whatever the blocks."""
+    x = simulate.sensor(8000, rate=100.0, angle_random_walk=0.01, rate_random_walk=1e-3,
+                        bandwidth=20.0, seed=2)  # fmt: skip
+    surface = adavar.davar(x, window=600, rate=100.0, taus="all")
+    whole = adavar.fit_noise(adavar.deviation(x, rate=100.0))
+    adavar.fit_noise(surface)  # compiled
+    lean, peak = _peak(lambda: adavar.fit_noise(surface, cells=False, reference=whole))
+    assert peak < 0.6 * surface.avar.nbytes, peak / surface.avar.nbytes
+    assert lean.residuals is None and lean.used is None
+    full, peak = _peak(lambda: adavar.fit_noise(surface, reference=whole))
+    assert peak < 1.8 * surface.avar.nbytes, peak / surface.avar.nbytes  # with residuals
+    monkeypatch.setattr(noise_model, "BLOCK_VALUES", 1 << 30)
+    monkeypatch.setattr(noise_model, "KERNEL_VALUES", 1 << 30)
+    once = adavar.fit_noise(surface, reference=whole)
+    for field in ("coefficients", "coefficient_uncertainty", "chi2", "dof", "n_points"):
+        np.testing.assert_array_equal(getattr(lean, field), getattr(once, field))
+        np.testing.assert_array_equal(getattr(full, field), getattr(once, field))
+    np.testing.assert_array_equal(full.used, once.used)
+    # the model's matrix product may round differently on a block than on the whole
+    np.testing.assert_allclose(full.residuals, once.residuals, rtol=1e-13, equal_nan=True)
