@@ -118,3 +118,17 @@ def test_demo_workers_must_be_positive(capsys, tmp_path):
     code, out, err = run(capsys, ["demo", "--out", str(tmp_path / "d"), "--workers", "0"])
     assert_one_line_error(code, out, err, "--workers")
     assert not (tmp_path / "d").exists()
+
+
+def test_compilations_records_compiles_not_cache_loads():
+    import numba
+
+    from adavar._jit import compilations
+
+    fresh = numba.njit(lambda v: v + 1)  # never cached: compiles on its first call
+    with compilations() as compiled:
+        fresh(1)
+    assert compiled  # the demo waits for the worker's first realisation then
+    with compilations() as compiled:
+        fresh(2)  # already compiled in this process
+    assert not compiled  # warm: the demo goes straight to the comparison

@@ -25,19 +25,13 @@ from scipy.interpolate import PchipInterpolator
 from adavar import edf as edf_mod
 from adavar.edf import EDF_FLOOR, STAT_ALPHA_RANGE, TOTDEV_EDF_METHODS, edf, edf_lengths
 
+from .test_edf import STATS
+
 davar_mod = importlib.import_module("adavar.davar")  # the module, not adavar.davar()
 
-# (d, overlapping, modified) of the Greenhall estimator behind each statistic; totdev's
-# Greenhall cases (PM noise, m = 1) are those of oadev
-GREENHALL = {
-    "adev": (2, False, False),
-    "oadev": (2, True, False),
-    "mdev": (2, True, True),
-    "tdev": (2, True, True),
-    "hdev": (3, False, False),
-    "ohdev": (3, True, False),
-    "totdev": (2, True, False),
-}
+# (d, overlapping, modified) of the Greenhall estimator behind each statistic (test_edf's
+# table); totdev's Greenhall cases (PM noise, m = 1) are those of oadev
+GREENHALL = {**STATS, "totdev": STATS["oadev"]}
 J_MAX = 100  # Greenhall's Jmax, the default of greenhall_edf
 
 
