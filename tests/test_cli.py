@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import json
 import math
 import os
@@ -363,6 +364,7 @@ def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path, monkeypatch
     monkeypatch.setattr("adavar.demo.PAPER_SEEDS", 6)  # fewer realisations than the demo's
     code, out, err = run(capsys, ["demo", "--out", str(out_dir)])
     assert code == 0, err
+    assert gc.isenabled()  # the demo turns the collector off while it runs, not after
     assert "NIST SP 1065" in out and "TOTDEV" in out and "angle random walk" in out
     assert str(out_dir / "gyro_oadev.png") in out
     assert (out_dir / "gyro_oadev.png").is_file() and (out_dir / "gyro_oadev.svg").is_file()

@@ -9,6 +9,7 @@ from matplotlib.figure import Figure
 
 import adavar
 from adavar import simulate
+from adavar._figures import power_label
 from adavar.plots import (
     deviation_figure,
     deviation_unit,
@@ -167,3 +168,30 @@ def test_rate_and_deviation_units():
 )
 def test_format_pm(value, unc, unit, expected):
     assert format_pm(value, unc, unit) == expected
+
+
+@pytest.mark.parametrize(
+    ("mathtext", "plain"),
+    [
+        (r"$\mathdefault{10^{-3}}$", "10⁻³"),
+        (r"$\mathdefault{10^{0}}$", "10⁰"),
+        (r"$\mathdefault{10^{12}}$", "10¹²"),
+        (r"$\mathdefault{2\times10^{-1}}$", "2×10⁻¹"),
+        (r"$\mathdefault{10^{-3}}$ ", r"$\mathdefault{10^{-3}}$ "),  # not the whole label
+        ("", ""),
+        ("0.5", "0.5"),
+    ],
+)
+def test_power_labels_are_plain_text(mathtext, plain):
+    assert power_label(mathtext) == plain
+
+
+def test_log_axes_draw_no_mathtext(gyro, tmp_path):
+    # the tick labels of a deviation figure are plain text, the same numbers as matplotlib's
+    result, fit = gyro
+    fig = deviation_figure(result, fit)
+    save_figure(fig, tmp_path / "dev", formats=("png",))
+    ax = fig.axes[0]
+    labels = [t.get_text() for t in ax.get_xticklabels() + ax.get_yticklabels() if t.get_text()]
+    assert labels and not any("$" in label for label in labels)
+    assert "10⁻¹" in labels and "10⁰" in labels

@@ -170,7 +170,7 @@ def _lawson_hanson(G, h, n_terms, sub_idx, sub_size, L, dsc, x, xcur):  # pragma
 @jit(error_model="numpy")
 def _fit_curve(
     i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x, best_x, xcur, dg,
+    coef, coef_sig, chi2, npts, neff, w, ref, ok, G, h, L, dsc, x, best_x, xcur, dg, hint,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Iteratively reweighted exact NNLS of row ``i`` of ``avar`` (see the module docs).
 
@@ -178,14 +178,18 @@ def _fit_curve(
     the solution ``d_a`` gives ``C = d_a * unscale[a]``. Writes, per curve, the five
     ``C_n`` into ``coef`` (0 for unselected or pinned terms; NaN if not fitted), their
     scaled 1-sigma into ``coef_sig`` (unconstrained covariance for pinned terms, NaN for
-    unselected ones), the weighted residual sum of squares ``chi2`` and the number of valid
-    points ``npts``.
+    unselected ones), the weighted residual sum of squares ``chi2``, the number of valid
+    points ``npts`` and their sum of ``share`` ``neff`` (the effective number of points).
 
-    The active sets are tried in a per-curve order (the previous pass's optimum, the
-    Lawson-Hanson active set, then all sets from the largest down); the first one that is
-    feasible and satisfies the KKT conditions is the unique NNLS optimum. If rounding lets
-    no set pass the KKT test (a degenerate optimum), the feasible set with the smallest
-    weighted residual is taken instead, which is the same optimum by exhaustion.
+    The active sets are tried in a per-curve order (the previous pass's optimum, or on
+    the first pass ``hint``, the optimum of the previous curve, then the Lawson-Hanson
+    active set, then all sets from the largest down); the first one that is feasible and
+    satisfies the KKT conditions is the unique NNLS optimum, whichever set was tried
+    first. (Neighbouring windows of a surface nearly always share their active set, so
+    the hint spares most curves the Lawson-Hanson iteration.) If rounding lets no set
+    pass the KKT test (a degenerate optimum), the feasible set with the smallest weighted
+    residual is taken instead, which is the same optimum by exhaustion. Returns the
+    optimum's active set (the next curve's hint; 0 when the curve is not fitted).
     """
     n_tau = avar.shape[1]
     n_terms = phi.shape[1]
@@ -205,12 +209,13 @@ def _fit_curve(
             n += 1
             n_eff += share[j]
     npts[i] = n
+    neff[i] = n_eff
     for k in range(5):
         coef[i, k] = np.nan
         coef_sig[i, k] = np.nan
     chi2[i] = np.nan
     if n < n_terms:
-        return
+        return 0
     best_mask = 0
     best_obj = 0.0
     for _pass in range(n_reweight + 1):
@@ -236,8 +241,9 @@ def _fit_curve(
                 G[b, a] = G[a, b]
         # candidates: the previous pass's optimum, then the Lawson-Hanson active
         # set, then every set from the largest down (exhaustive fallback)
-        prev = best_mask if _pass > 0 else 0
+        prev = best_mask if _pass > 0 else hint
         lh = -1
+        held = -1  # the active set whose factor of this pass's G is in L, dsc
         # the empty set (all zero) is always feasible: the fallback's start
         best_mask = 0
         best_obj = yy
@@ -270,6 +276,7 @@ def _fit_curve(
                 for a in range(sub_size[mask]):
                     best_x[sub_idx[mask, a]] = x[a]
             if status == 2:
+                held = mask
                 break
         # next pass weights: the model avar (the measured one where the model is 0)
         for j in range(n_tau):
@@ -293,7 +300,7 @@ def _fit_curve(
     # 1-sigma of the active coefficients from the active set's covariance...
     if best_mask > 0:
         s = sub_size[best_mask]
-        if _solve_subset(G, h, sub_idx, best_mask, s, L, dsc, x):
+        if held == best_mask or _solve_subset(G, h, sub_idx, best_mask, s, L, dsc, x):
             _inv_diag(s, L, dsc, dg, x)
             for a in range(s):
                 b = sub_idx[best_mask, a]
@@ -304,12 +311,13 @@ def _fit_curve(
         for a in range(n_terms):
             if not (best_mask >> a) & 1:
                 coef_sig[i, sel[a]] = math.sqrt(dg[a] * factor) * unscale[a]
+    return best_mask
 
 
 @jit(error_model="numpy")
 def nnls_serial(
     phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts,
+    coef, coef_sig, chi2, npts, neff,
 ):  # fmt: skip  # pragma: no cover - compiled
     """:func:`_fit_curve` over every row, on the calling thread (small stacks)."""
     n_curves, n_tau = avar.shape
@@ -325,17 +333,19 @@ def nnls_serial(
     best_x = np.empty(n_terms)
     xcur = np.empty(n_terms)
     dg = np.empty(n_terms)
+    hint = 0
     for i in range(n_curves):
-        _fit_curve(
+        hint = _fit_curve(
             i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted,
-            share, coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x, best_x, xcur, dg,
+            share, coef, coef_sig, chi2, npts, neff, w, ref, ok, G, h, L, dsc, x, best_x, xcur,
+            dg, hint,
         )  # fmt: skip
 
 
 @parallel_jit(error_model="numpy")
 def nnls_parallel(
     phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts,
+    coef, coef_sig, chi2, npts, neff,
 ):  # fmt: skip  # pragma: no cover - compiled
     """:func:`_fit_curve` over every row, blocks of rows in parallel (large stacks)."""
     n_curves, n_tau = avar.shape
@@ -353,11 +363,12 @@ def nnls_parallel(
         best_x = np.empty(n_terms)
         xcur = np.empty(n_terms)
         dg = np.empty(n_terms)
+        hint = 0
         for i in range(blk * _BLOCK, min((blk + 1) * _BLOCK, n_curves)):
-            _fit_curve(
+            hint = _fit_curve(
                 i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale,
-                weighted, share, coef, coef_sig, chi2, npts, w, ref, ok, G, h, L, dsc, x,
-                best_x, xcur, dg,
+                weighted, share, coef, coef_sig, chi2, npts, neff, w, ref, ok, G, h, L, dsc,
+                x, best_x, xcur, dg, hint,
             )  # fmt: skip
 
 

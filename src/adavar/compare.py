@@ -563,7 +563,7 @@ class EdfCache:
     """EDF rows per (window length, taus, alpha), computed once (white-noise fast path)."""
 
     def __init__(self) -> None:
-        self._rows: dict[tuple[int, tuple[int, ...], tuple[int, ...]], np.ndarray] = {}
+        self._rows: dict[tuple[tuple[int, ...], tuple[int, ...]], dict[tuple[int, int], Any]] = {}
 
     def cells(self, result: DavarResult, alpha: np.ndarray) -> np.ndarray:
         """The EDF of every cell of ``result`` for the noise exponents ``alpha`` (per tau).
@@ -589,18 +589,29 @@ class EdfCache:
             if result.edges == "mirror"
             else np.zeros(np.size(result.window), dtype=np.int64)
         )
-        keys, inverse = np.unique(
-            np.stack([np.asarray(result.window), overhang], axis=1), axis=0, return_inverse=True
-        )
-        missing = [(int(L), int(h)) for L, h in keys if (int(L), int(h), ms, al) not in self._rows]
+        # one integer per (length, overhang) pair, in the pairs' order: a 1-D unique, about
+        # 10x faster than np.unique(axis=0) (both are at most n, so no overflow below 2**31)
+        base = n + 2
+        if base < 2**31:
+            codes, inverse = np.unique(
+                np.asarray(result.window, dtype=np.int64) * base + overhang, return_inverse=True
+            )
+            keys = np.stack([codes // base, codes % base], axis=1)
+        else:
+            keys, inverse = np.unique(
+                np.stack([np.asarray(result.window), overhang], axis=1), axis=0,
+                return_inverse=True,
+            )  # fmt: skip
+        held = self._rows.setdefault((ms, al), {})  # (L, h) -> EDF row, for these taus
+        pairs = list(zip(keys[:, 0].tolist(), keys[:, 1].tolist(), strict=True))
+        missing = [pair for pair in pairs if pair not in held]
         if missing:
             table = edf_table(
                 np.array([L for L, _ in missing]), np.asarray(ms), np.asarray(al),
                 overhang=np.array([h for _, h in missing]),
             )  # fmt: skip
-            for (L, h), row in zip(missing, table, strict=True):
-                self._rows[(L, h, ms, al)] = row
-        rows = np.stack([self._rows[(int(L), int(h), ms, al)] for L, h in keys])
+            held.update(zip(missing, table, strict=True))
+        rows = np.stack([held[pair] for pair in pairs])
         return rows[inverse.ravel()]
 
 
@@ -918,9 +929,7 @@ def run_comparison(
                                shift=shift)  # fmt: skip
                 alpha = np.broadcast_to(np.asarray(noise_type, dtype=np.int64), result.m.shape)
                 fit = fit_avar(result.tau, result.avar, edf_cache.cells(result, alpha),
-                               terms=terms)  # fmt: skip
-                if keep != "all":
-                    fit = dataclasses.replace(fit, used=None, residuals=None)
+                               terms=terms, cells=keep == "all")  # fmt: skip
             arw = np.asarray(fit.angle_random_walk.value, dtype=float)
             t = np.asarray(result.time, dtype=float)
             w = np.asarray(result.window, dtype=np.int64)

@@ -23,11 +23,7 @@ figures.
 
 from __future__ import annotations
 
-import atexit
 import contextlib
-import gc
-import multiprocessing as mp
-import os
 import time
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -35,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adavar import simulate
+from adavar import _workers, simulate
 from adavar._jit import compilations
 from adavar.compare import Comparison, compare
 from adavar.datasets import nist_1000
@@ -337,7 +333,7 @@ class _SharedStudy:
         return concatenate_seed_studies([p for p in parts if p is not None])
 
 
-def _paper(seed: int, shared: _SharedStudy | None, warm: bool) -> PaperDemo:
+def _paper(seed: int, shared: _SharedStudy | None, warm: bool, keep: str) -> PaperDemo:
     scenario = paper_scenario(1, seed=seed)
     # first what the worker does not compile, then the comparison once it has compiled
     # (on a first run) the kernels that the comparison shares with the seed study;
@@ -346,7 +342,7 @@ def _paper(seed: int, shared: _SharedStudy | None, warm: bool) -> PaperDemo:
     thresholds = threshold_study(scenario)
     if shared is not None and not warm:
         shared.wait_first()
-    comparison = compare(scenario)
+    comparison = compare(scenario, keep=keep)
     return PaperDemo(
         comparison=comparison,
         kurtosis=kurtosis,
@@ -355,42 +351,28 @@ def _paper(seed: int, shared: _SharedStudy | None, warm: bool) -> PaperDemo:
     )
 
 
-def _skip_final_collection() -> None:
-    """In the worker: exit without the interpreter's final garbage collection (0.5 s)."""
-    atexit.register(gc.freeze)
-
-
-def worker_pool(workers: int | None) -> ProcessPoolExecutor | None:
+def worker_pool(workers: int | None, *, start: bool = False) -> ProcessPoolExecutor | None:
     """One worker process for the seed study (and the caller's figures), or None.
 
     ``workers=None`` takes a second process when this one may use two cores or more.
     A pool that cannot start (no ``fork``/``spawn`` allowed, no semaphores) is no error:
-    the study then runs in this process.
+    the study then runs in this process. The worker imports this module as it starts;
+    ``start=True`` starts it now instead of on the first task.
 
     Parameters
     ----------
     workers : int or None
         1 for none, 2 (or more) for one, None for one where two cores are free to this
         process.
+    start : bool
+        Start the process now.
 
     Returns
     -------
     ProcessPoolExecutor or None
         A pool of one process started by ``spawn``; the caller shuts it down.
     """
-    if workers is None:
-        affinity = getattr(os, "sched_getaffinity", None)  # Linux; elsewhere every core
-        cores = len(affinity(0)) if affinity is not None else os.cpu_count() or 1
-        workers = 2 if cores >= 2 else 1
-    if workers < 2:
-        return None
-    try:
-        # spawn: a fresh interpreter, safe whatever threads (Numba's, OpenMP's) this one runs
-        return ProcessPoolExecutor(
-            max_workers=1, mp_context=mp.get_context("spawn"), initializer=_skip_final_collection
-        )
-    except (OSError, ImportError, NotImplementedError):
-        return None
+    return _workers.worker_pool(workers, (__name__,), start=start)
 
 
 def run_demo(
@@ -399,6 +381,7 @@ def run_demo(
     paper: bool = True,
     workers: int | None = 1,
     executor: ProcessPoolExecutor | None = None,
+    keep: str = "all",
 ) -> DemoResult:
     """Run the demonstration (a few seconds).
 
@@ -418,6 +401,10 @@ def run_demo(
     executor : ProcessPoolExecutor, optional
         A pool of one worker (:func:`worker_pool`) to use instead of ``workers``; left
         running, for the caller's further work (the command line draws figures in it).
+    keep : {"all", "figures"}
+        What the paper's comparison keeps (:func:`adavar.compare.compare`): every
+        method's whole surface (default), or the windows its figures draw and no per-cell
+        residuals (what the command line writes; faster, every other value the same).
 
     Returns
     -------
@@ -435,7 +422,7 @@ def run_demo(
         with compilations() as compiled:
             nist, nist_results, mean, std = _nist()
             gyro = _gyro(int(seed))
-        paper_part = _paper(int(seed), shared, warm=not compiled) if paper else None
+        paper_part = _paper(int(seed), shared, not compiled, keep) if paper else None
     finally:
         if own and pool is not None:
             pool.shutdown(wait=False, cancel_futures=True)

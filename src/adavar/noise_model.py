@@ -201,6 +201,7 @@ def fit_avar(
     bandwidth: float | None = None,
     rolloff: str = "model",
     reference: NoiseFit | None = None,
+    cells: bool = True,
 ) -> NoiseFit:
     """Fit the noise model to raw Allan-variance arrays.
 
@@ -250,6 +251,9 @@ def fit_avar(
     bandwidth : float, optional
         The sensor's bandwidth in Hz: taus below ``BANDWIDTH_FACTOR / bandwidth`` are left
         out.
+    cells : bool
+        A stack of curves: also the per-cell ``used`` mask and ``residuals`` (default).
+        False leaves them None (see :func:`fit_noise`); one curve has them always.
 
     Returns
     -------
@@ -284,7 +288,8 @@ def fit_avar(
         return _unscale_fit(_slopes_fit(tau_a, dev, None, None, terms, units), k)
     drop, offset = _reference_columns(tau_a, keep, reference, reasons, k)
     return _unscale_fit(_fit(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
-                             reasons=reasons, drop=drop, offset=offset), k)  # fmt: skip
+                             reasons=reasons, drop=drop, offset=offset, cells=cells),
+                        k)  # fmt: skip
 
 
 def _as_floats(values: Any, name: str) -> np.ndarray:
@@ -468,20 +473,15 @@ def _slopes_fit(tau, dev, dev_low, dev_high, terms, units, tau_max=None) -> Nois
 
 def _cell_outputs(
     start: int, a2: np.ndarray, e2: np.ndarray, coefficients: np.ndarray, basis: np.ndarray,
-    share: np.ndarray, n_sel: int, dof: np.ndarray | None, used: np.ndarray | None,
-    resid: np.ndarray | None,
+    share: np.ndarray, used: np.ndarray, resid: np.ndarray,
 ) -> None:  # fmt: skip
-    """The effective dof, ``used`` and ``residuals`` of curves ``start ..`` (the fitted
-    ``a2`` and ``e2``; ``e2`` may be one row for all), in blocks of :data:`BLOCK_VALUES`."""
+    """``used`` and ``residuals`` of curves ``start ..`` (the fitted ``a2`` and ``e2``;
+    ``e2`` may be one row for all), in blocks of :data:`BLOCK_VALUES`."""
     step = _block_rows(a2.shape[1], BLOCK_VALUES)
     for a in range(0, a2.shape[0], step):
         ab, eb = a2[a : a + step], (e2 if e2.shape[0] == 1 else e2[a : a + step])
         rows = slice(start + a, start + a + ab.shape[0])
         good = np.isfinite(ab) & (ab > 0) & np.isfinite(eb) & (eb > 0)
-        if dof is not None:  # effective points: each tau counts by its octave share
-            dof[rows] = np.maximum(good @ share - n_sel, 0.0)
-        if used is None or resid is None:
-            continue
         used[rows] = good
         model = coefficients[rows] @ basis
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -617,6 +617,7 @@ def _fit(
     coef_sig = np.empty((n_curves, 5))
     chi2 = np.empty(n_curves)
     npts = np.empty(n_curves, dtype=np.int64)
+    neff = np.empty(n_curves)  # valid points, each counted by its octave share
     # one thread set (a short record's comparison, ADAVAR_THREADS=1) or a few ms of work
     # (about 25 ns per curve and tau): the serial kernel, so the parallel one (5 s to
     # compile on a first run) is compiled only for stacks that gain from it
@@ -625,7 +626,6 @@ def _fit(
     )
     kernel = nnls_parallel if parallel else nnls_serial
     octaves = not np.all(share == 1.0)
-    dof_eff = np.empty(n_curves) if octaves else None
     cells = cells or not lead
     used = np.empty((n_curves, n_tau), dtype=bool) if cells else None
     resid = np.empty((n_curves, n_tau)) if cells else None
@@ -649,10 +649,11 @@ def _fit(
             n_reweight, read_only(sub_idx), read_only(sub_size), read_only(order),
             read_only(sel), read_only(tau_ref ** (-powers.astype(float)), np.float64),
             weighted, read_only(share, np.float64), coefficients[a:b], coef_sig[a:b],
-            chi2[a:b], npts[a:b],
+            chi2[a:b], npts[a:b], neff[a:b],
         )  # fmt: skip
-        _cell_outputs(a, a2b, e2b, coefficients, basis, share, len(sel), dof_eff, used, resid)
-    dof = np.maximum(npts - len(sel), 0) if dof_eff is None else dof_eff
+        if used is not None and resid is not None:
+            _cell_outputs(a, a2b, e2b, coefficients, basis, share, used, resid)
+    dof = np.maximum(neff - len(sel), 0.0) if octaves else np.maximum(npts - len(sel), 0)
     with np.errstate(invalid="ignore", divide="ignore"):
         red = np.where(dof > 0, chi2 / dof, np.nan)
 

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from adavar._figures import PNG_COMPRESS_LEVEL, log_scale, new_figure
 from adavar.noise_model import TERM_NAMES
 from adavar.results import DavarResult, DeviationResult
 from adavar.terms import TERMS
@@ -116,17 +117,6 @@ def term_label(name: str, units: str | None) -> tuple[str, str]:
 # --------------------------------------------------------------------------------------
 
 
-def _new_figure(
-    figsize: tuple[float, float] = (7.5, 5.5), layout: str | None = "constrained"
-) -> Figure:
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize, layout=layout)
-    FigureCanvasAgg(fig)
-    return fig
-
-
 def _term_labels(fit: Any, units: str | None) -> dict[str, str]:
     """Legend text of every term: value ± uncertainty, in conventional units if possible."""
     converted = None
@@ -181,10 +171,9 @@ def deviation_figure(
     low = np.asarray(result.dev_low, dtype=float)
     high = np.asarray(result.dev_high, dtype=float)
 
-    fig = _new_figure()
+    fig = new_figure()
     ax = fig.add_subplot()
-    ax.set_xscale("log")
-    ax.set_yscale("log")
+    log_scale(ax, "xy")
 
     stat_name = STAT_NAMES.get(result.stat, result.stat)
     has_ci = bool(np.all(np.isfinite(low)) and np.all(np.isfinite(high)))
@@ -362,7 +351,7 @@ def davar_surface_figure(
     vmin, vmax = _colour_limits(z)
 
     # constrained layout does not see the 3-D axis labels: place the axes by hand
-    fig = _new_figure((8.0, 6.5), layout=None)
+    fig = new_figure((8.0, 6.5), layout=None)
     ax = fig.add_axes((0.02, 0.02, 0.8, 0.88), projection="3d")
     cax = fig.add_axes((0.86, 0.22, 0.025, 0.56))
     if min(z.shape) >= 2:
@@ -454,13 +443,13 @@ def davar_heatmap_figure(
     time_edges = _edges(time_[rows], False, half)
     tau_edges = _edges(tau[cols], True, 0.0)
 
-    fig = _new_figure((8.0, 5.0))
+    fig = new_figure((8.0, 5.0))
     ax = fig.add_subplot()
     mesh = ax.pcolormesh(
         time_edges, tau_edges, np.ma.masked_invalid(z.T), cmap=cmap, vmin=vmin, vmax=vmax,
         shading="flat", rasterized=True,
     )  # fmt: skip
-    ax.set_yscale("log")
+    log_scale(ax, "y")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("tau [s]")
     fig.colorbar(mesh, ax=ax, label=_log_label("Allan deviation", unit))
@@ -549,7 +538,7 @@ def coefficient_figure(
     s = sigma[rows] * scale
     letter, long_name = TERM_LABELS[term]
 
-    fig = _new_figure((8.0, 4.5))
+    fig = new_figure((8.0, 4.5))
     ax = fig.add_subplot()
     ax.fill_between(
         t, np.maximum(v - s, 0.0), v + s, color="C0", alpha=0.3, linewidth=0,
@@ -598,7 +587,8 @@ def save_figure(
     """Write a figure in one or more formats, each file atomically.
 
     Each file is written under a temporary name in the target folder and moved into place
-    with :func:`os.replace`, so a reader never sees a half-written file.
+    with :func:`os.replace`, so a reader never sees a half-written file. PNG files are
+    compressed at zlib level :data:`adavar._figures.PNG_COMPRESS_LEVEL` (fast).
 
     Parameters
     ----------
@@ -639,7 +629,8 @@ def _save_one(fig: Figure, base: Path, folder: Path, fmt: str, dpi: int) -> Path
     tmp_name = folder / f".{target.name}.{secrets.token_hex(6)}.tmp"
     try:
         with open(tmp_name, "xb") as handle:
-            fig.savefig(handle, format=fmt, dpi=dpi)
+            png = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}
+            fig.savefig(handle, format=fmt, dpi=dpi, **png)
         os.replace(tmp_name, target)
     except BaseException:
         with contextlib.suppress(OSError):
@@ -687,7 +678,7 @@ def kurtosis_windows_figure(
         value 3 dashed); change times dotted.
     """
     windows = sorted(study.kurtosis)
-    fig = _new_figure((8.0, 2.0 + 1.6 * len(windows)))
+    fig = new_figure((8.0, 2.0 + 1.6 * len(windows)))
     axes = fig.subplots(len(windows) + 1, 1, sharex=True)
     t = np.asarray(study.time, dtype=float)
     axes[0].plot(t, study.data, color="0.3", linewidth=0.5)
@@ -728,7 +719,7 @@ def contribution_figure(
     seg = study.segment
     has_k = seg in study.kurtosis
     n_panels = 3 if has_k else 2
-    fig = _new_figure((8.0, 2.0 + 1.7 * (n_panels - 1)))
+    fig = new_figure((8.0, 2.0 + 1.7 * (n_panels - 1)))
     axes = fig.subplots(n_panels, 1, sharex=True)
     t = np.asarray(study.time, dtype=float)
     axes[0].plot(t, study.data, color="0.3", linewidth=0.5)
@@ -766,7 +757,7 @@ def threshold_figure(study: ThresholdStudy, *, title: str | None = None) -> Figu
         levels if known (dashed), one horizontal line per threshold and markers at the
         crossings, labelled with their times.
     """
-    fig = _new_figure((8.5, 4.8))
+    fig = new_figure((8.5, 4.8))
     ax = fig.add_subplot()
     t = np.asarray(study.time, dtype=float)
     ax.plot(t, study.kurtosis, color="0.25", linewidth=0.8,
@@ -827,7 +818,7 @@ def controller_figure(
     t = np.asarray(time, dtype=float)
     w = np.asarray(schedule.window, dtype=np.int64)
     th = schedule.thresholds
-    fig = _new_figure((8.5, 9.0))
+    fig = new_figure((8.5, 9.0))
     axes = fig.subplots(6, 1, sharex=True, height_ratios=[2, 0.8, 2, 0.8, 0.8, 1.6])
     ax = axes[0]
     ax.plot(t, schedule.kurtosis, color="C0", linewidth=0.7)
@@ -877,7 +868,7 @@ def arw_comparison_figure(
     unit = units if units is not None else comparison.units
     n_unit = term_unit("angle_random_walk", unit)
     t = np.asarray(comparison.time, dtype=float)
-    fig = _new_figure((9.0, 6.5))
+    fig = new_figure((9.0, 6.5))
     ax, axw = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1.2])
     for k, run in enumerate(comparison.methods.values()):
         ax.plot(t, run.arw, color=f"C{k}", linewidth=0.9, label=run.label)

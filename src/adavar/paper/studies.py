@@ -617,6 +617,7 @@ def compare_seeds(
             sc, methods=methods, rate=None, change_times=None, truth=None, intervals=None,
             controller=controller, taus=taus, terms=terms, confidence=0.683, noise_type=0,
             points_per_decade=10, units=None, description=None, edf_cache=cache,
+            keep="figures",  # only nodes, interval means and metrics are read
         )  # fmt: skip
         changes, intervals = comp.change_times, comp.intervals
         for name, run in comp.methods.items():
