@@ -94,24 +94,52 @@ def test_concatenated_studies_refuse_other_settings():
     assert concatenate_seed_studies([a]).seeds == (2018,)
 
 
-def test_figures_are_drawn_here_when_the_worker_is_gone():
-    from adavar.cli import demo as cli_demo
+def test_shared_jobs_run_here_what_the_worker_cannot():
+    from adavar._workers import SharedJobs
 
     class DeadPool:
         def submit(self, *args):
             raise BrokenProcessPool("killed")
 
     calls = []
-    draw = lambda *args: calls.append(args) or ["fig"]  # noqa: E731
-    assert cli_demo._submit(DeadPool(), draw, 1, 2) == ["fig"]
-    died: Future = Future()
-    died.set_exception(BrokenProcessPool("killed during the drawing"))
-    assert cli_demo._result_or_here(died, draw, 3) == ["fig"]
-    assert calls == [(1, 2), (3,)]
-    other: Future = Future()
-    other.set_exception(OSError("disk full"))  # a real error is not hidden
+    job = lambda *args: calls.append(args) or sum(args)  # noqa: E731
+    # no worker at all, or one that cannot take work: every job here, results in order
+    assert SharedJobs(None, job, [(1, 2), (3,)]).results() == [3, 3]
+    assert SharedJobs(DeadPool(), job, [(1,), (2,)]).results() == [1, 2]
+
+    class Pool:  # the worker took the first job and died; the second one it never started
+        def submit(self, func, *args):
+            future: Future = Future()
+            if args == (10,):
+                future.set_running_or_notify_cancel()
+                future.set_exception(BrokenProcessPool("killed while drawing"))
+            return future
+
+    calls.clear()
+    assert SharedJobs(Pool(), job, [(10,), (20,)]).results() == [10, 20]
+    assert sorted(calls) == [(10,), (20,)]
+
+    class Failing(Pool):  # a real error in the worker is not hidden
+        def submit(self, func, *args):
+            future: Future = Future()
+            future.set_running_or_notify_cancel()
+            future.set_exception(OSError("disk full"))
+            return future
+
     with pytest.raises(OSError, match="disk full"):
-        cli_demo._result_or_here(other, draw, 4)
+        SharedJobs(Failing(), job, [(1,)]).results()
+
+
+def test_demo_figures_longest_first_and_drawn_either_side(tmp_path, monkeypatch):
+    from adavar.cli import demo as cli_demo
+
+    monkeypatch.setattr(demo, "PAPER_SEEDS", 1)
+    result = demo.run_demo(keep="figures")
+    recipes = cli_demo._figure_recipes(result)
+    assert list(recipes) == list(cli_demo.FIGURE_ORDER)
+    stem = "fig08_thresholds"
+    assert cli_demo._draw_figure(str(tmp_path), stem, *recipes[stem]) == stem
+    assert sorted(p.name for p in tmp_path.iterdir()) == [f"{stem}.png", f"{stem}.svg"]
 
 
 def test_demo_workers_must_be_positive(capsys, tmp_path):

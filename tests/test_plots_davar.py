@@ -12,8 +12,8 @@ from matplotlib.figure import Figure
 
 import adavar
 from adavar import simulate
+from adavar._figures import spread_log as _spread_log
 from adavar.plots import (
-    _spread_log,
     coefficient_figure,
     davar_heatmap_figure,
     davar_surface_figure,

@@ -1,13 +1,17 @@
-"""Matplotlib set-up shared by :mod:`adavar.plots`: figures, log axes, the PNG writer.
+"""Helpers of the figures (:mod:`adavar.plots`, :mod:`adavar.report`): matplotlib set-up
+(figures, log axes, the PNG writer) and the thinning of what is drawn.
 
 Matplotlib is imported inside the functions, on the first figure (fast CLI start-up).
 """
 
 from __future__ import annotations
 
+import math
 import re
 from functools import cache
 from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -69,3 +73,48 @@ def log_scale(ax: Any, which: str = "xy") -> None:
         # the formatters matplotlib's log scale sets, with the same options
         axis.set_major_formatter(formatter(10.0))
         axis.set_minor_formatter(formatter(10.0, labelOnlyBase=False))
+
+
+def spread_indices(n: int, most: int) -> np.ndarray:
+    """Indices of at most ``most`` of ``n`` rows, evenly spread, first and last included."""
+    if most < 2:
+        raise ValueError(f"need room for at least 2 rows, got {most}")
+    if n <= most:
+        return np.arange(n)
+    return np.unique(np.round(np.linspace(0.0, n - 1, most)).astype(np.int64))
+
+
+def spread_log(values: np.ndarray, most: int) -> np.ndarray:
+    """Indices of at most ``most`` of the sorted positive ``values``, evenly spread in log
+    (the nearest value to each of ``most`` log-spaced targets), first and last included."""
+    n = values.size
+    if most < 2:
+        raise ValueError(f"need room for at least 2 taus, got {most}")
+    if n <= most:
+        return np.arange(n)
+    logs = np.log(values)
+    targets = np.linspace(logs[0], logs[-1], most)
+    right = np.clip(np.searchsorted(logs, targets), 1, n - 1)
+    nearer_left = (targets - logs[right - 1]) < (logs[right] - targets)
+    return np.unique(np.where(nearer_left, right - 1, right))
+
+
+def colour_limits(z: np.ndarray) -> tuple[float, float] | tuple[None, None]:
+    """Colour-scale limits of the finite values of ``z`` (None, None if there is none)."""
+    finite = z[np.isfinite(z)]
+    if finite.size == 0:
+        return None, None
+    lo, hi = float(finite.min()), float(finite.max())
+    return (lo - 0.5, hi + 0.5) if lo == hi else (lo, hi)
+
+
+def cell_edges(centres: np.ndarray, log: bool, half_width: float) -> np.ndarray:
+    """Cell edges around sorted centres (midpoints; geometric midpoints when ``log``)."""
+    x = np.log(centres) if log else np.asarray(centres, dtype=float)
+    if x.size == 1:
+        h = math.log(2.0) / 2 if log else half_width
+        edges = np.array([x[0] - h, x[0] + h])
+    else:
+        mid = 0.5 * (x[1:] + x[:-1])
+        edges = np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
+    return np.exp(edges) if log else edges

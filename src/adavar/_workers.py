@@ -7,12 +7,15 @@ imports the modules the work needs, so both processes import at the same time.
 from __future__ import annotations
 
 import atexit
+import contextlib
 import gc
 import importlib
 import multiprocessing as mp
 import os
-from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from typing import Any
 
 
 def _prepare(modules: tuple[str, ...], collect: bool) -> None:
@@ -76,3 +79,59 @@ def worker_pool(
     except (OSError, ImportError, NotImplementedError, RuntimeError):
         return None
     return pool
+
+
+class SharedJobs:
+    """Jobs shared by a worker process and this one, results in the jobs' order.
+
+    Every job is submitted to ``pool`` in order (None: no worker, every job runs here).
+    :meth:`results` runs here, from the last, the jobs the worker has not started
+    (``Future.cancel`` succeeds only for those), waits for the others, and runs here any
+    job of a worker that died. Whichever process runs a job, its result is the same.
+
+    Parameters
+    ----------
+    pool : ProcessPoolExecutor or None
+        The worker.
+    func : callable
+        Module-level (the worker receives it by reference).
+    jobs : sequence of tuple
+        The arguments of each call.
+    """
+
+    def __init__(self, pool: Any, func: Callable[..., Any], jobs: Sequence[tuple[Any, ...]]):
+        self.func = func
+        self.jobs = [tuple(job) for job in jobs]
+        self.futures: list[Future[Any] | None] = []
+        for job in self.jobs:
+            future = None
+            if pool is not None:
+                with contextlib.suppress(BrokenProcessPool, RuntimeError):  # dead or shut
+                    future = pool.submit(func, *job)
+            self.futures.append(future)
+
+    def wait_first(self) -> None:
+        """Wait for the first job (a failure shows again in :meth:`results`)."""
+        if self.futures and self.futures[0] is not None:
+            with contextlib.suppress(Exception):
+                self.futures[0].result()
+
+    def results(self) -> list[Any]:
+        """Every job's result, in order."""
+        out: list[Any] = [None] * len(self.jobs)
+        here = [False] * len(self.jobs)
+        for k in range(len(self.jobs) - 1, -1, -1):
+            future = self.futures[k]
+            if future is not None and not future.cancel():  # started, or queued in the pipe
+                break
+            out[k], here[k] = self.func(*self.jobs[k]), True
+        for k, future in enumerate(self.futures):
+            if here[k]:
+                continue
+            try:
+                if future is None:  # could not be submitted
+                    raise BrokenProcessPool
+                out[k] = future.result()
+            except BrokenProcessPool:  # the worker died (killed, out of memory)
+                out[k] = self.func(*self.jobs[k])
+        return out

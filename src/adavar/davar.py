@@ -253,8 +253,12 @@ def _edf_grid(stat: str, alpha: int, m: int, k_lo: int, k_hi: int) -> tuple[Any,
     held = _EDF_GRIDS.get(key)
     if held is not None and held[0] <= k_lo and k_hi <= held[1]:
         return held[2], held[3], held[4]
+    # from the grid's start and an octave beyond what is asked: later calls (other
+    # windows, other methods on the same taus) then find it, instead of rebuilding it
+    # wider (values do not depend on the grid's extent, see above)
+    k_lo, k_hi = 0, k_hi + EDF_GRID_PER_OCTAVE
     if held is not None:
-        k_lo, k_hi = min(k_lo, held[0]), max(k_hi, held[1])
+        k_hi = max(k_hi, held[1])
     k = np.arange(k_lo, k_hi)
     nodes = np.unique(np.round(EDF_GRID_START * 2.0 ** (k / EDF_GRID_PER_OCTAVE)))
     nodes = nodes.astype(np.int64)

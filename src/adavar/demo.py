@@ -23,10 +23,8 @@ figures.
 
 from __future__ import annotations
 
-import contextlib
 import time
-from concurrent.futures import Future, ProcessPoolExecutor
-from concurrent.futures.process import BrokenProcessPool
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -299,7 +297,7 @@ def _seed_chunks(seed: int) -> list[tuple[int, int]]:
     return chunks
 
 
-class _SharedStudy:
+class _SharedStudy(_workers.SharedJobs):
     """The node table's realisations, in a worker process and, at the end, in this one.
 
     Every chunk is submitted to the worker in order; the first (one realisation) compiles,
@@ -309,28 +307,11 @@ class _SharedStudy:
 
     def __init__(self, pool: ProcessPoolExecutor, seed: int) -> None:
         self.chunks = _seed_chunks(seed)
-        self.futures: list[Future[SeedStudy]] = [
-            pool.submit(_seed_study, first, count) for first, count in self.chunks
-        ]
-
-    def wait_first(self) -> None:
-        """Wait for the first realisation (a failure shows again in :meth:`result`)."""
-        with contextlib.suppress(Exception):
-            self.futures[0].result()
+        super().__init__(pool, _seed_study, self.chunks)
 
     def result(self) -> SeedStudy:
-        parts: list[SeedStudy | None] = [None] * len(self.chunks)
-        for k in range(len(self.chunks) - 1, -1, -1):
-            if not self.futures[k].cancel():  # started (or queued in the pipe) in the worker
-                break
-            parts[k] = _seed_study(*self.chunks[k])
-        for k, future in enumerate(self.futures):
-            if parts[k] is None:
-                try:
-                    parts[k] = future.result()
-                except BrokenProcessPool:  # the worker died (killed, out of memory)
-                    parts[k] = _seed_study(*self.chunks[k])
-        return concatenate_seed_studies([p for p in parts if p is not None])
+        """The study of every realisation."""
+        return concatenate_seed_studies(self.results())
 
 
 def _paper(seed: int, shared: _SharedStudy | None, warm: bool, keep: str) -> PaperDemo:

@@ -23,13 +23,21 @@ import contextlib
 import math
 import os
 import secrets
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from adavar._figures import PNG_COMPRESS_LEVEL, log_scale, new_figure
+from adavar._figures import (
+    PNG_COMPRESS_LEVEL,
+    cell_edges,
+    colour_limits,
+    log_scale,
+    new_figure,
+    spread_indices,
+    spread_log,
+)
 from adavar.noise_model import TERM_NAMES
 from adavar.results import DavarResult, DeviationResult
 from adavar.terms import TERMS
@@ -52,6 +60,7 @@ if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI star
 __all__ = [
     "STAT_NAMES",
     "TERM_LABELS",
+    "FigureRecipe",
     "arw_comparison_figure",
     "coefficient_figure",
     "comparison_figures",
@@ -63,6 +72,7 @@ __all__ = [
     "deviation_unit",
     "format_pm",
     "kurtosis_windows_figure",
+    "paper_figure_recipes",
     "rate_unit",
     "save_figure",
     "spread_indices",
@@ -237,30 +247,6 @@ def deviation_figure(
 # --------------------------------------------------------------------------------------
 
 
-def spread_indices(n: int, most: int) -> np.ndarray:
-    """Indices of at most ``most`` of ``n`` rows, evenly spread, first and last included."""
-    if most < 2:
-        raise ValueError(f"need room for at least 2 rows, got {most}")
-    if n <= most:
-        return np.arange(n)
-    return np.unique(np.round(np.linspace(0.0, n - 1, most)).astype(np.int64))
-
-
-def _spread_log(values: np.ndarray, most: int) -> np.ndarray:
-    """Indices of at most ``most`` of the sorted positive ``values``, evenly spread in log
-    (the nearest value to each of ``most`` log-spaced targets), first and last included."""
-    n = values.size
-    if most < 2:
-        raise ValueError(f"need room for at least 2 taus, got {most}")
-    if n <= most:
-        return np.arange(n)
-    logs = np.log(values)
-    targets = np.linspace(logs[0], logs[-1], most)
-    right = np.clip(np.searchsorted(logs, targets), 1, n - 1)
-    nearer_left = (targets - logs[right - 1]) < (logs[right] - targets)
-    return np.unique(np.where(nearer_left, right - 1, right))
-
-
 def _log_dev(result: DavarResult, rows: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """log10 of the Allan deviation at the chosen cells; NaN where undefined."""
     avar = np.asarray(result.avar)[np.ix_(rows, cols)]
@@ -275,26 +261,6 @@ def _log_label(name: str, unit: str | None) -> str:
         return f"log10 {name}"
     shown = f"({unit})" if any(c in unit for c in "/*^ ") else unit
     return f"log10({name} / {shown})"
-
-
-def _colour_limits(z: np.ndarray) -> tuple[float, float] | tuple[None, None]:
-    finite = z[np.isfinite(z)]
-    if finite.size == 0:
-        return None, None
-    lo, hi = float(finite.min()), float(finite.max())
-    return (lo - 0.5, hi + 0.5) if lo == hi else (lo, hi)
-
-
-def _edges(centres: np.ndarray, log: bool, half_width: float) -> np.ndarray:
-    """Cell edges around sorted centres (midpoints; geometric midpoints when ``log``)."""
-    x = np.log(centres) if log else np.asarray(centres, dtype=float)
-    if x.size == 1:
-        h = math.log(2.0) / 2 if log else half_width
-        edges = np.array([x[0] - h, x[0] + h])
-    else:
-        mid = 0.5 * (x[1:] + x[:-1])
-        edges = np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
-    return np.exp(edges) if log else edges
 
 
 def davar_surface_figure(
@@ -345,10 +311,10 @@ def davar_surface_figure(
     tau = np.asarray(result.tau, dtype=float)
     time_ = np.asarray(result.time, dtype=float)
     rows = spread_indices(time_.size, max_times)
-    cols = _spread_log(tau, max_taus)
+    cols = spread_log(tau, max_taus)
     z = _log_dev(result, rows, cols)
     x, y = np.meshgrid(np.log10(tau[cols]), time_[rows])
-    vmin, vmax = _colour_limits(z)
+    vmin, vmax = colour_limits(z)
 
     # constrained layout does not see the 3-D axis labels: place the axes by hand
     fig = new_figure((8.0, 6.5), layout=None)
@@ -436,12 +402,12 @@ def davar_heatmap_figure(
     tau = np.asarray(result.tau, dtype=float)
     time_ = np.asarray(result.time, dtype=float)
     rows = spread_indices(time_.size, max_times)
-    cols = _spread_log(tau, max_taus)
+    cols = spread_log(tau, max_taus)
     z = _log_dev(result, rows, cols)
-    vmin, vmax = _colour_limits(z)
+    vmin, vmax = colour_limits(z)
     half = 0.5 * float(result.tau0) * max(int(result.step), 1)
-    time_edges = _edges(time_[rows], False, half)
-    tau_edges = _edges(tau[cols], True, 0.0)
+    time_edges = cell_edges(time_[rows], False, half)
+    tau_edges = cell_edges(tau[cols], True, 0.0)
 
     fig = new_figure((8.0, 5.0))
     ax = fig.add_subplot()
@@ -893,6 +859,52 @@ def arw_comparison_figure(
     return fig
 
 
+#: How to draw one figure later (or elsewhere): ``(function, args, keyword args)``
+FigureRecipe = tuple[Callable[..., "Figure"], tuple[Any, ...], dict[str, Any]]
+
+
+def paper_figure_recipes(
+    comparison: Comparison | None = None,
+    *,
+    kurtosis: KurtosisStudy | None = None,
+    thresholds: ThresholdStudy | None = None,
+    units: str | None = None,
+) -> dict[str, FigureRecipe]:
+    """The figures of :func:`comparison_figures` by file stem, not yet drawn.
+
+    ``function(*args, **kwargs)`` draws each; the figures can so be drawn one by one, or
+    in another process (``adavar demo`` shares them between two). Same parameters as
+    :func:`comparison_figures`; without ``comparison``, the study figures only.
+
+    Returns
+    -------
+    dict
+        File stem -> ``(function, args, keyword args)``.
+    """
+    unit = units if units is not None or comparison is None else comparison.units
+    recipes: dict[str, FigureRecipe] = {}
+    if kurtosis is not None:
+        recipes["fig06_kurtosis_windows"] = (kurtosis_windows_figure, (kurtosis,), {"units": unit})
+        recipes["fig07_contribution"] = (contribution_figure, (kurtosis,), {"units": unit})
+    if thresholds is not None:
+        recipes["fig08_thresholds"] = (threshold_figure, (thresholds,), {})
+    if comparison is None:
+        return recipes
+    runs = list(comparison.methods.values())
+    adaptive = comparison.methods.get("a-davar") or next(
+        (r for r in runs if r.schedule is not None), None
+    )
+    if adaptive is not None and adaptive.schedule is not None:
+        recipes["fig10_controller"] = (controller_figure, (adaptive.schedule, comparison.time), {
+            "change_times": comparison.change_times,
+            "title": f"{adaptive.label} controller (paper Fig. 10)"})  # fmt: skip
+        recipes["fig11_adavar_surface"] = (davar_surface_figure, (adaptive.result,), {
+            "units": unit,
+            "title": f"{adaptive.label}: dynamic Allan deviation (paper Fig. 11)"})  # fmt: skip
+    recipes["fig12_arw"] = (arw_comparison_figure, (comparison,), {"units": unit})
+    return recipes
+
+
 def study_figures(
     kurtosis: KurtosisStudy | None,
     thresholds: ThresholdStudy | None,
@@ -915,13 +927,8 @@ def study_figures(
     dict
         File stem -> Figure, for the studies given.
     """
-    figs: dict[str, Figure] = {}
-    if kurtosis is not None:
-        figs["fig06_kurtosis_windows"] = kurtosis_windows_figure(kurtosis, units=units)
-        figs["fig07_contribution"] = contribution_figure(kurtosis, units=units)
-    if thresholds is not None:
-        figs["fig08_thresholds"] = threshold_figure(thresholds)
-    return figs
+    recipes = paper_figure_recipes(kurtosis=kurtosis, thresholds=thresholds, units=units)
+    return {stem: draw(*args, **kwargs) for stem, (draw, args, kwargs) in recipes.items()}
 
 
 def comparison_figures(
@@ -952,20 +959,7 @@ def comparison_figures(
         when its input is (the controller and surface figures need the ``"a-davar"``
         method, or else the first adaptive one).
     """
-    unit = units if units is not None else comparison.units
-    figs = study_figures(kurtosis, thresholds, units=unit)
-    runs = list(comparison.methods.values())
-    adaptive = comparison.methods.get("a-davar") or next(
-        (r for r in runs if r.schedule is not None), None
+    recipes = paper_figure_recipes(
+        comparison, kurtosis=kurtosis, thresholds=thresholds, units=units
     )
-    if adaptive is not None and adaptive.schedule is not None:
-        figs["fig10_controller"] = controller_figure(
-            adaptive.schedule, comparison.time, change_times=comparison.change_times,
-            title=f"{adaptive.label} controller (paper Fig. 10)",
-        )  # fmt: skip
-        figs["fig11_adavar_surface"] = davar_surface_figure(
-            adaptive.result, units=unit,
-            title=f"{adaptive.label}: dynamic Allan deviation (paper Fig. 11)",
-        )  # fmt: skip
-    figs["fig12_arw"] = arw_comparison_figure(comparison, units=unit)
-    return figs
+    return {stem: draw(*args, **kwargs) for stem, (draw, args, kwargs) in recipes.items()}

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from adavar._figures import spread_indices, spread_log
 from adavar.noise_model import TERM_NAMES
 from adavar.plots import STAT_NAMES, TERM_LABELS, term_label
 from adavar.units import (
@@ -143,25 +144,6 @@ def _unit_label(name: str, unit: str | None) -> str:
 # --------------------------------------------------------------------------------------
 # Thinning
 # --------------------------------------------------------------------------------------
-
-
-def _spread(n: int, most: int) -> np.ndarray:
-    """At most ``most`` of ``n`` indices, evenly spread, first and last included."""
-    if n <= most:
-        return np.arange(n)
-    return np.unique(np.round(np.linspace(0.0, n - 1, most)).astype(np.int64))
-
-
-def _spread_log(values: np.ndarray, most: int) -> np.ndarray:
-    """At most ``most`` indices of sorted positive ``values``, evenly spread in log."""
-    n = values.size
-    if n <= most:
-        return np.arange(n)
-    logs = np.log(values)
-    targets = np.linspace(logs[0], logs[-1], most)
-    right = np.clip(np.searchsorted(logs, targets), 1, n - 1)
-    nearer_left = (targets - logs[right - 1]) < (logs[right] - targets)
-    return np.unique(np.where(nearer_left, right - 1, right))
 
 
 def _bins(n: int, most: int) -> np.ndarray | None:
@@ -365,8 +347,8 @@ def _term_texts(fit: Any, unit: str | None) -> dict[str, tuple[str, str]]:
 def _surface_figure(surface: Any, units: str | None) -> tuple[dict[str, Any], str]:
     tau = np.asarray(surface.tau, dtype=float)
     time = np.asarray(surface.time, dtype=float)
-    rows = _spread(time.size, MAX_SURFACE_TIMES)
-    cols = _spread_log(tau, MAX_SURFACE_TAUS)
+    rows = spread_indices(time.size, MAX_SURFACE_TIMES)
+    cols = spread_log(tau, MAX_SURFACE_TAUS)
     avar = np.asarray(surface.avar, dtype=float)[np.ix_(rows, cols)]
     good = np.isfinite(avar) & (avar > 0)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -52,21 +52,37 @@ class _Package(types.ModuleType):
 sys.modules[__name__].__class__ = _Package
 
 
+def _load() -> Any:
+    """Import ``adavar.cli.main`` and bind :func:`build_parser` and :func:`main` here."""
+    import gc
+    import importlib
+
+    # imports make no cyclic garbage: the collector's passes over the new modules'
+    # objects are wasted time (a tenth of a second on the console script's start)
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        module = importlib.import_module("adavar.cli.main")
+    finally:
+        if collecting:
+            gc.enable()
+    # the function, not the module of the same name (the import bound that)
+    globals().update(build_parser=module.build_parser, main=module.main)
+    return module
+
+
+def run() -> None:
+    """The console script ``adavar``: :func:`main`, then exit with its code.
+
+    Defined here rather than imported from ``adavar.cli.main``: a ``spawn`` worker
+    process imports the parent's main module, the script, and with it this name, which
+    then costs no import of the command line. See ``adavar.cli.main.run``.
+    """
+    _load().run()
+
+
 def __getattr__(name: str) -> Any:  # PEP 562: ``adavar.cli.options`` alone stays light
     if name in __all__:
-        import gc
-        import importlib
-
-        # imports make no cyclic garbage: the collector's passes over the new modules'
-        # objects are wasted time (a tenth of a second on the console script's start)
-        collecting = gc.isenabled()
-        gc.disable()
-        try:
-            module = importlib.import_module("adavar.cli.main")
-        finally:
-            if collecting:
-                gc.enable()
-        # the function, not the module of the same name (the import bound that)
-        globals().update(build_parser=module.build_parser, main=module.main, run=module.run)
+        _load()
         return globals()[name]
     raise AttributeError(f"module 'adavar.cli' has no attribute {name!r}")

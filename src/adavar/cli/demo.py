@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 import gc
 import sys
 import time
-from concurrent.futures import Future
-from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Any
 
@@ -126,57 +123,49 @@ def _demo_report(demo: Any) -> str:
     )  # fmt: skip
 
 
-def _save_worker_figures(
-    gyro: Any, kurtosis: Any, thresholds: Any, units: str | None, folder: str
-) -> list[str]:
-    """Draw and write the gyro's figure and the paper's Figs. 6-8 into ``folder``.
+#: The demo's figures, the longest to draw first: the worker takes them from the start,
+#: this process (once its tables and report are written) from the end
+FIGURE_ORDER = ("fig10_controller", "fig11_adavar_surface", "gyro_oadev",
+                "fig06_kurtosis_windows", "fig07_contribution", "fig12_arw",
+                "fig08_thresholds")  # fmt: skip
 
-    The demo's worker runs it while this process draws the comparison's figures (which
-    would be slow to send: the comparison holds four surfaces). Returns the stems.
-    """
-    from adavar.plots import deviation_figure, save_figure, study_figures
 
+def _figure_recipes(demo: Any) -> dict[str, Any]:
+    """File stem -> how to draw it (:data:`adavar.plots.FigureRecipe`), in drawing order."""
+    from adavar.plots import deviation_figure, paper_figure_recipes
+
+    gyro, paper = demo.gyro, demo.paper
     title = (
         f"Simulated MEMS gyro ({gyro.n_samples:,} samples at {gyro.rate:g} Hz, seed {gyro.seed})"
     )
-    figures = {"gyro_oadev": deviation_figure(gyro.result, gyro.fit, title=title)}
-    if kurtosis is not None:
-        figures.update(study_figures(kurtosis, thresholds, units=units))
-    for stem, fig in figures.items():
-        save_figure(fig, Path(folder) / stem)
-    return list(figures)
+    recipes = {"gyro_oadev": (deviation_figure, (gyro.result, gyro.fit), {"title": title})}
+    if paper is not None:
+        recipes.update(paper_figure_recipes(
+            paper.comparison, kurtosis=paper.kurtosis, thresholds=paper.thresholds
+        ))  # fmt: skip
+    order = {stem: k for k, stem in enumerate(FIGURE_ORDER)}
+    return dict(sorted(recipes.items(), key=lambda item: order.get(item[0], len(order))))
 
 
-def _submit(pool: Any, func: Any, *args: Any) -> Any:
-    """``func(*args)`` in the worker (a future), or here (its result) without a live one."""
-    if pool is not None:
-        with contextlib.suppress(BrokenProcessPool, RuntimeError):  # dead, or shut down
-            return pool.submit(func, *args)
-    return func(*args)
+def _draw_figure(folder: str, stem: str, draw: Any, args: tuple, kwargs: dict) -> str:
+    """Draw one figure and write it into ``folder`` (in either process); returns the stem."""
+    from adavar.plots import save_figure
 
-
-def _result_or_here(done: Any, func: Any, *args: Any) -> Any:
-    """The result of :func:`_submit`; ``func(*args)`` here if the worker died meanwhile."""
-    if not isinstance(done, Future):
-        return done
-    try:
-        return done.result()
-    except BrokenProcessPool:
-        return func(*args)
+    save_figure(draw(*args, **kwargs), Path(folder) / stem)
+    return stem
 
 
 def _demo_outputs(
     args: argparse.Namespace, status: Status, demo: Any, pool: Any
 ) -> tuple[list[str], str]:
-    """Draw, tabulate and write the demo's folder; the worker draws the gyro and Figs. 6-8.
+    """Draw, tabulate and write the demo's folder; the worker shares the figures.
 
     Returns the files written and the JSON text.
     """
-    from adavar.plots import comparison_figures, save_figure
+    from adavar._workers import SharedJobs
 
     status("drawing the figures")
     tables: dict[str, str] = {}
-    figures: dict[str, Any] = {}
     paper = demo.paper
     descriptions: dict[str, str] = {}
     if paper is not None:
@@ -189,26 +178,18 @@ def _demo_outputs(
         descriptions = {f"paper_{name}": text for name, text in descriptions.items()}
     try:
         with atomic_directory(args.out, replace=True) as tmp:
-            worker_args: tuple[Any, ...] = (
-                demo.gyro,
-                None if paper is None else paper.kurtosis,
-                None if paper is None else paper.thresholds,
-                None if paper is None else paper.comparison.units,
-                str(tmp),
-            )
-            drawn = _submit(pool, _save_worker_figures, *worker_args)
-            if paper is not None:
-                figures = comparison_figures(paper.comparison)
+            recipes = _figure_recipes(demo)
+            figures = SharedJobs(pool, _draw_figure, [
+                (str(tmp), stem, *recipe) for stem, recipe in recipes.items()
+            ])  # fmt: skip
             for name, body in tables.items():
                 (tmp / name).write_text(body, encoding="utf-8")
-            for stem, paper_fig in figures.items():
-                save_figure(paper_fig, tmp / stem)
             status("building the HTML report")
             html = _demo_report(demo)
-            stems = _result_or_here(drawn, _save_worker_figures, *worker_args)
+            figures.results()
+            stems = ["gyro_oadev", *(stem for stem in recipes if stem != "gyro_oadev")]
             files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json", *tables,
-                     *(f"{stem}.{ext}" for stem in [*stems[1:], *figures]
-                       for ext in ("png", "svg")),
+                     *(f"{stem}.{ext}" for stem in sorted(stems[1:]) for ext in ("png", "svg")),
                      "report.html"]  # fmt: skip
             text = dumps(_demo_json(demo, str(args.out), files, descriptions))
             status(f"writing {args.out}")
