@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any
 
 import numba
@@ -202,6 +203,33 @@ def edf_table(
         curve = PchipInterpolator(np.log(nodes), np.log(values))
         table[valid[:, t], t] = np.exp(curve(np.log(x)))
     return table
+
+
+#: the largest interior EDF table :func:`_interior_edf_table` keeps (cells)
+EDF_CACHED_CELLS = 100_000
+
+
+def _interior_edf_table(
+    lengths: np.ndarray, ms: np.ndarray, alpha: np.ndarray, stat: str
+) -> np.ndarray:
+    """:func:`edf_table` of a surface's window lengths (a copy of a cached table).
+
+    Surfaces of one record on the same taus with the same lengths (a comparison's two
+    adaptive methods, a report's channels) share one table; tables of up to
+    :data:`EDF_CACHED_CELLS` cells are kept (16 of them, 13 MB at most).
+    """
+    if np.size(lengths) * np.size(ms) > EDF_CACHED_CELLS:
+        return edf_table(lengths, ms, alpha, stat=stat)
+    key = tuple(np.ascontiguousarray(v, dtype=np.int64).tobytes() for v in (lengths, ms, alpha))
+    return _cached_edf_table(*key, stat).copy()
+
+
+@lru_cache(maxsize=16)
+def _cached_edf_table(lengths: bytes, ms: bytes, alpha: bytes, stat: str) -> np.ndarray:
+    return edf_table(
+        np.frombuffer(lengths, dtype=np.int64), np.frombuffer(ms, dtype=np.int64),
+        np.frombuffer(alpha, dtype=np.int64), stat=stat,
+    )  # fmt: skip
 
 
 #: Term counts up to this get exact EDFs in :func:`_edf_of_counts`; beyond, a fixed
@@ -774,7 +802,7 @@ def davar(
         present = np.bincount(sched.length) > 0
         distinct = np.flatnonzero(present)
         window_class = (np.cumsum(present) - 1)[sched.length]
-        table = edf_table(distinct, ms, alpha, stat=name)
+        table = _interior_edf_table(distinct, ms, alpha, name)
         if edge_edf == "distinct":
             table, window_class = _edge_classes(sched, n, ms, alpha, table, window_class, name)
         bounds = np.stack(_bound_factors(table, float(confidence)))

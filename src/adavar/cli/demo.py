@@ -160,41 +160,42 @@ def _demo_outputs(
 ) -> tuple[list[str], str]:
     """Draw, tabulate and write the demo's folder; the worker shares the figures.
 
+    The figures are submitted first, so that the worker draws while this process writes
+    the tables, the report and the JSON, and then takes the figures not yet started.
     Returns the files written and the JSON text.
     """
     from adavar._workers import SharedJobs
 
-    status("drawing the figures")
-    tables: dict[str, str] = {}
     paper = demo.paper
-    descriptions: dict[str, str] = {}
-    if paper is not None:
-        tables = {
-            f"paper_{name}": body
-            for name, body in compare_tables(
-                paper.comparison, paper.study, paper.thresholds, descriptions
-            ).items()
-        }
-        descriptions = {f"paper_{name}": text for name, text in descriptions.items()}
     try:
         with atomic_directory(args.out, replace=True) as tmp:
             recipes = _figure_recipes(demo)
             figures = SharedJobs(pool, _draw_figure, [
                 (str(tmp), stem, *recipe) for stem, recipe in recipes.items()
             ])  # fmt: skip
+            status("building the HTML report")
+            tables: dict[str, str] = {}
+            descriptions: dict[str, str] = {}
+            if paper is not None:
+                tables = {
+                    f"paper_{name}": body
+                    for name, body in compare_tables(
+                        paper.comparison, paper.study, paper.thresholds, descriptions
+                    ).items()
+                }
+                descriptions = {f"paper_{name}": text for name, text in descriptions.items()}
             for name, body in tables.items():
                 (tmp / name).write_text(body, encoding="utf-8")
-            status("building the HTML report")
-            html = _demo_report(demo)
-            figures.results()
-            stems = ["gyro_oadev", *(stem for stem in recipes if stem != "gyro_oadev")]
+            (tmp / "report.html").write_text(_demo_report(demo), encoding="utf-8")
+            drawn = sorted(stem for stem in recipes if stem != "gyro_oadev")
             files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json", *tables,
-                     *(f"{stem}.{ext}" for stem in sorted(stems[1:]) for ext in ("png", "svg")),
+                     *(f"{stem}.{ext}" for stem in drawn for ext in ("png", "svg")),
                      "report.html"]  # fmt: skip
             text = dumps(_demo_json(demo, str(args.out), files, descriptions))
-            status(f"writing {args.out}")
             (tmp / "demo.json").write_text(text + "\n", encoding="utf-8")
-            (tmp / "report.html").write_text(html, encoding="utf-8")
+            status("drawing the figures")
+            figures.results()
+            status(f"writing {args.out}")
             (tmp / DEMO_MARKER).write_text(
                 "written by adavar demo; the next run replaces this folder\n", encoding="utf-8"
             )
