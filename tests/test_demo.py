@@ -37,19 +37,24 @@ def test_one_worker_runs_in_process():
 
 
 class _FakePool:
-    """Futures never started (so cancellable), or done with ``outcome(first, count)``."""
+    """A worker that runs each job at once (a done future), or whose ``outcome(*args)``
+    is an exception: raised by ``submit`` if ``at_submit``, else set on the future."""
 
-    def __init__(self, outcome=None):
-        self.outcome = outcome
+    def __init__(self, outcome=None, at_submit=False):
+        self.outcome, self.at_submit = outcome, at_submit
+        self.calls = []
 
-    def submit(self, func, first, count):
+    def submit(self, func, *args):
+        self.calls.append(args)
+        result = func(*args) if self.outcome is None else self.outcome(*args)
+        if isinstance(result, BaseException) and self.at_submit:
+            raise result
         future: Future = Future()
-        if self.outcome is not None:
-            result = self.outcome(first, count)
-            if isinstance(result, BaseException):
-                future.set_exception(result)
-            else:
-                future.set_result(result)
+        future.set_running_or_notify_cancel()
+        if isinstance(result, BaseException):
+            future.set_exception(result)
+        else:
+            future.set_result(result)
         return future
 
 
@@ -58,19 +63,16 @@ def test_shared_study_is_the_study_of_every_seed(monkeypatch):
     monkeypatch.setattr(demo, "SEED_CHUNK", 2)
     assert demo._seed_chunks(2018) == [(2018, 1), (2019, 2), (2021, 2), (2023, 1)]
     whole = demo._seed_study(2018, 6)
-    # the worker did the first two items; the others were never started: done here
+    # the worker does the first items and then cannot take more: the rest is done here
     done_two = lambda first, count: (  # noqa: E731
-        demo._seed_study(first, count) if first < 2021 else None
+        demo._seed_study(first, count) if first < 2021 else BrokenProcessPool("gone")
     )
-
-    class HalfPool(_FakePool):
-        def submit(self, func, first, count):
-            return _FakePool(done_two if first < 2021 else None).submit(func, first, count)
-
-    shared = demo._SharedStudy(HalfPool(), 2018)
-    _same_study(shared.result(), whole)
-    # nothing started: everything here
+    half = _FakePool(done_two, at_submit=True)
+    _same_study(demo._SharedStudy(half, 2018).result(), whole)
+    assert (2018, 1) in half.calls
+    # a worker that does everything it reaches, and none at all
     _same_study(demo._SharedStudy(_FakePool(), 2018).result(), whole)
+    _same_study(demo._SharedStudy(None, 2018).result(), whole)
 
 
 def test_a_dead_worker_falls_back_to_this_process(monkeypatch):
@@ -97,37 +99,27 @@ def test_concatenated_studies_refuse_other_settings():
 def test_shared_jobs_run_here_what_the_worker_cannot():
     from adavar._workers import SharedJobs
 
-    class DeadPool:
-        def submit(self, *args):
-            raise BrokenProcessPool("killed")
-
     calls = []
     job = lambda *args: calls.append(args) or sum(args)  # noqa: E731
     # no worker at all, or one that cannot take work: every job here, results in order
     assert SharedJobs(None, job, [(1, 2), (3,)]).results() == [3, 3]
-    assert SharedJobs(DeadPool(), job, [(1,), (2,)]).results() == [1, 2]
-
-    class Pool:  # the worker took the first job and died; the second one it never started
-        def submit(self, func, *args):
-            future: Future = Future()
-            if args == (10,):
-                future.set_running_or_notify_cancel()
-                future.set_exception(BrokenProcessPool("killed while drawing"))
-            return future
-
+    dead = _FakePool(lambda *args: BrokenProcessPool("killed"), at_submit=True)
+    assert SharedJobs(dead, job, [(1,), (2,)]).results() == [1, 2]
+    # the worker died during a job: that job and the rest are done here
     calls.clear()
-    assert SharedJobs(Pool(), job, [(10,), (20,)]).results() == [10, 20]
-    assert sorted(calls) == [(10,), (20,)]
-
-    class Failing(Pool):  # a real error in the worker is not hidden
-        def submit(self, func, *args):
-            future: Future = Future()
-            future.set_running_or_notify_cancel()
-            future.set_exception(OSError("disk full"))
-            return future
-
+    died = _FakePool(lambda *args: BrokenProcessPool("killed while drawing"))
+    assert SharedJobs(died, job, [(10,), (20,), (30,)]).results() == [10, 20, 30]
+    assert sorted(calls) == [(10,), (20,), (30,)]
+    # a worker that does every job it reaches; each job is run once, by one of the two
+    calls.clear()
+    pool = _FakePool()
+    jobs = [(k,) for k in range(40)]
+    assert SharedJobs(pool, job, jobs).results() == list(range(40))
+    assert sorted(calls) == jobs  # each job once, by one process or the other
+    # a real error in the worker is not hidden
+    failing = _FakePool(lambda *args: OSError("disk full"))
     with pytest.raises(OSError, match="disk full"):
-        SharedJobs(Failing(), job, [(1,)]).results()
+        SharedJobs(failing, job, [(1,), (2,)]).results()
 
 
 def test_demo_figures_longest_first_and_drawn_either_side(tmp_path, monkeypatch):

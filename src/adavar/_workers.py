@@ -7,11 +7,11 @@ imports the modules the work needs, so both processes import at the same time.
 from __future__ import annotations
 
 import atexit
-import contextlib
 import gc
 import importlib
 import multiprocessing as mp
 import os
+import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -84,10 +84,13 @@ def worker_pool(
 class SharedJobs:
     """Jobs shared by a worker process and this one, results in the jobs' order.
 
-    Every job is submitted to ``pool`` in order (None: no worker, every job runs here).
-    :meth:`results` runs here, from the last, the jobs the worker has not started
-    (``Future.cancel`` succeeds only for those), waits for the others, and runs here any
-    job of a worker that died. Whichever process runs a job, its result is the same.
+    The worker takes the jobs from the first on, one at a time (a feeder thread here
+    submits the next when the previous is done, so none waits in the pool's queue);
+    :meth:`results` runs here the jobs from the last on, until the two meet, then waits
+    for the worker's last one. Neither process idles while a job is left (but for the
+    last job of the worker), and a worker that dies leaves its job and those it did not
+    reach to this process. Without a pool (None) every job runs here. Whichever process
+    runs a job, its result is the same.
 
     Parameters
     ----------
@@ -102,36 +105,64 @@ class SharedJobs:
     def __init__(self, pool: Any, func: Callable[..., Any], jobs: Sequence[tuple[Any, ...]]):
         self.func = func
         self.jobs = [tuple(job) for job in jobs]
-        self.futures: list[Future[Any] | None] = []
-        for job in self.jobs:
-            future = None
-            if pool is not None:
-                with contextlib.suppress(BrokenProcessPool, RuntimeError):  # dead or shut
-                    future = pool.submit(func, *job)
-            self.futures.append(future)
+        self._out: list[Any] = [None] * len(self.jobs)
+        self._lost: list[int] = []  # jobs the worker took but could not finish
+        self._error: BaseException | None = None
+        self._lock = threading.Lock()
+        self._front, self._back = 0, len(self.jobs)
+        self._first = threading.Event()
+        self._feeder: threading.Thread | None = None
+        if pool is None or not self.jobs:
+            self._first.set()
+            return
+        self._feeder = threading.Thread(
+            target=self._feed, args=(pool,), name="adavar-worker-feeder", daemon=True
+        )
+        self._feeder.start()
+
+    def _take(self, front: bool) -> int | None:
+        with self._lock:
+            if self._front >= self._back:
+                return None
+            if front:
+                self._front += 1
+                return self._front - 1
+            self._back -= 1
+            return self._back
+
+    def _feed(self, pool: Any) -> None:
+        try:
+            while (k := self._take(front=True)) is not None:
+                try:
+                    future: Future[Any] = pool.submit(self.func, *self.jobs[k])
+                except (BrokenProcessPool, RuntimeError):  # dead, or shut down
+                    self._lost.append(k)
+                    return
+                try:
+                    self._out[k] = future.result()
+                except BrokenProcessPool:  # the worker died (killed, out of memory)
+                    self._lost.append(k)
+                    return
+                except BaseException as exc:  # a real error: results() raises it
+                    self._error = exc
+                    return
+                finally:
+                    self._first.set()
+        finally:
+            self._first.set()
 
     def wait_first(self) -> None:
-        """Wait for the first job (a failure shows again in :meth:`results`)."""
-        if self.futures and self.futures[0] is not None:
-            with contextlib.suppress(Exception):
-                self.futures[0].result()
+        """Wait until the worker has finished (or failed) its first job."""
+        self._first.wait()
 
     def results(self) -> list[Any]:
         """Every job's result, in order."""
-        out: list[Any] = [None] * len(self.jobs)
-        here = [False] * len(self.jobs)
-        for k in range(len(self.jobs) - 1, -1, -1):
-            future = self.futures[k]
-            if future is not None and not future.cancel():  # started, or queued in the pipe
-                break
-            out[k], here[k] = self.func(*self.jobs[k]), True
-        for k, future in enumerate(self.futures):
-            if here[k]:
-                continue
-            try:
-                if future is None:  # could not be submitted
-                    raise BrokenProcessPool
-                out[k] = future.result()
-            except BrokenProcessPool:  # the worker died (killed, out of memory)
-                out[k] = self.func(*self.jobs[k])
-        return out
+        while (k := self._take(front=False)) is not None:
+            self._out[k] = self.func(*self.jobs[k])
+        if self._feeder is not None:
+            self._feeder.join()
+        if self._error is not None:
+            raise self._error
+        for k in self._lost:
+            self._out[k] = self.func(*self.jobs[k])
+        return self._out
