@@ -166,3 +166,13 @@ def test_worker_pool_starts_now_and_can_leave_the_collector_off():
         assert len(pool._processes) == 1  # started before any work was submitted
         assert pool.submit(gc.isenabled).result(timeout=120) is False
     assert _workers.worker_pool(1) is None
+
+
+def test_partial_files_of_a_killed_writer_are_removed(tmp_path):
+    from adavar.cli import demo as cli_demo
+
+    (tmp_path / ".fig10_controller.png.0123abcd.tmp").write_bytes(b"\x89PNG half")
+    (tmp_path / "fig10_controller.png").write_bytes(b"\x89PNG whole")
+    (tmp_path / ".adavar-demo").write_text("marker")
+    cli_demo._remove_partial_files(tmp_path)
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".adavar-demo", "fig10_controller.png"]
