@@ -314,3 +314,17 @@ def test_edf_of_counts_as_before():
             want = _old_edf_of_counts(counts, alpha, m, stat)
             np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
             assert math.isfinite(got.sum())
+
+
+def test_edf_of_counts_do_not_depend_on_the_grid_a_call_finds():
+    # a grid kept from an earlier call (built for other counts, then extended) gives each
+    # count the same bits as a grid built for that count alone
+    small = np.array([70, 90, 130])
+    large = np.array([100, 5_000, 300_000])
+    for stat, alpha, m in (("oadev", 0, 3), ("mdev", 1, 17), ("ohdev", -2, 5)):
+        davar_mod._EDF_GRIDS.clear()
+        alone = davar_mod._edf_of_counts(large, alpha, m, stat)
+        davar_mod._EDF_GRIDS.clear()
+        davar_mod._edf_of_counts(small, alpha, m, stat)  # a small grid first
+        after = davar_mod._edf_of_counts(large, alpha, m, stat)  # then extended
+        np.testing.assert_array_equal(after, alone)

@@ -363,6 +363,25 @@ def test_nan_points_are_ignored_and_short_curves_are_nan():
     assert fit.n_points[i] == ok.sum() and fit.dof[i] == ok.sum() - 5
 
 
+@pytest.mark.parametrize("cells", [True, False])
+def test_dense_taus_count_each_point_by_its_octave_share(cells):
+    # taus="all"-like spacing: each valid point counts min(1, d log2 tau) toward the dof,
+    # whatever the curve's holes, with or without the per-cell outputs
+    tau = np.geomspace(1.0, 2.0**10, 41)  # a quarter octave apart
+    edf = np.geomspace(3e3, 3.0, tau.size)
+    c = coefficients_from_values(q=5e-3, n=1e-2, b=3e-4, k=1e-4)
+    curves = noisy_curves(30, c, tau, edf, seed=21)
+    rng = np.random.default_rng(2)
+    for i in range(30):
+        curves[i, rng.integers(20, 42) :] = np.nan
+    fit = fit_avar(tau, curves, edf, cells=cells)
+    share = np.minimum(1.0, np.gradient(np.log2(tau)))
+    assert (share < 1).all()
+    want = np.maximum(np.isfinite(curves) @ share - 5, 0.0)
+    np.testing.assert_allclose(fit.dof, want, rtol=1e-13, atol=1e-13)
+    assert (fit.used is None) != cells
+
+
 def test_duck_typed_davar_result_with_dev_or_avar():
     tau, curves, edf = _stack_with_holes()
     fit = fit_avar(tau, curves, edf)

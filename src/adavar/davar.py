@@ -253,11 +253,10 @@ def _edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str = "oadev") 
     out[exact] = edf_mod.edf_lengths(stat, alpha, m, counts[exact] + width)
     big = counts[~exact]
     if big.size:
-        # grid index k: node round(START * 2**(k / PER_OCTAVE)); two nodes beyond each end
-        pos = np.log2(big / EDF_GRID_START) * EDF_GRID_PER_OCTAVE
-        k_lo = max(0, int(np.floor(pos.min())) - 2)
-        k_hi = int(np.ceil(pos.max())) + 3
-        nodes, values, curve = _edf_grid(stat, alpha, m, k_lo, k_hi)
+        # grid index k: node round(START * 2**(k / PER_OCTAVE)); two nodes beyond the
+        # largest count (the grid starts at START, below every count here)
+        pos = np.log2(big.max() / EDF_GRID_START) * EDF_GRID_PER_OCTAVE
+        nodes, values, curve = _edf_grid(stat, alpha, m, int(np.ceil(pos)) + 3)
         on_node = np.isin(big, nodes)
         vals = np.exp(curve(np.log(big)))
         vals[on_node] = values[np.searchsorted(nodes, big[on_node])]
@@ -265,29 +264,26 @@ def _edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str = "oadev") 
     return out
 
 
-#: (stat, alpha, m) -> (k_lo, k_hi, nodes, values, curve) of :func:`_edf_grid`
-_EDF_GRIDS: dict[tuple[str, int, int], tuple[int, int, Any, Any, Any]] = {}
+#: (stat, alpha, m) -> (k_hi, nodes, values, curve) of :func:`_edf_grid`
+_EDF_GRIDS: dict[tuple[str, int, int], tuple[int, Any, Any, Any]] = {}
 
 
-def _edf_grid(stat: str, alpha: int, m: int, k_lo: int, k_hi: int) -> tuple[Any, Any, Any]:
-    """Nodes, exact EDFs and log-log PCHIP of the grid indices ``k_lo .. k_hi - 1`` (or more).
+def _edf_grid(stat: str, alpha: int, m: int, k_hi: int) -> tuple[Any, Any, Any]:
+    """Nodes, exact EDFs and log-log PCHIP of the grid indices ``0 .. k_hi - 1`` (or more).
 
     A PCHIP's piece between two nodes depends only on those nodes and one neighbour each
     side, and every count asked for has two grid nodes beyond it: a grid kept from an
     earlier call that spans the asked range gives the same values, so one curve per
     (stat, alpha, m) serves every call (a DAVAR asks for the same m thousands of times).
+    A grid is built an octave beyond what is asked, so that later calls (other windows,
+    other methods on the same taus) find it instead of rebuilding it wider.
     """
     key = (stat, alpha, m)
     held = _EDF_GRIDS.get(key)
-    if held is not None and held[0] <= k_lo and k_hi <= held[1]:
-        return held[2], held[3], held[4]
-    # from the grid's start and an octave beyond what is asked: later calls (other
-    # windows, other methods on the same taus) then find it, instead of rebuilding it
-    # wider (values do not depend on the grid's extent, see above)
-    k_lo, k_hi = 0, k_hi + EDF_GRID_PER_OCTAVE
-    if held is not None:
-        k_hi = max(k_hi, held[1])
-    k = np.arange(k_lo, k_hi)
+    if held is not None and k_hi <= held[0]:
+        return held[1], held[2], held[3]
+    k_hi = max(k_hi + EDF_GRID_PER_OCTAVE, 0 if held is None else held[0])
+    k = np.arange(k_hi)
     nodes = np.unique(np.round(EDF_GRID_START * 2.0 ** (k / EDF_GRID_PER_OCTAVE)))
     nodes = nodes.astype(np.int64)
     width = _term_width(stat, m)
@@ -297,7 +293,7 @@ def _edf_grid(stat: str, alpha: int, m: int, k_lo: int, k_hi: int) -> tuple[Any,
     curve = PchipInterpolator(np.log(nodes), np.log(values))
     if len(_EDF_GRIDS) > 4096:  # bounded: a long batch of unusual taus cannot grow it
         _EDF_GRIDS.clear()
-    _EDF_GRIDS[key] = (k_lo, k_hi, nodes, values, curve)
+    _EDF_GRIDS[key] = (k_hi, nodes, values, curve)
     return nodes, values, curve
 
 

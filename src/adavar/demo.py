@@ -300,9 +300,9 @@ def _seed_chunks(seed: int) -> list[tuple[int, int]]:
 class _SharedStudy(_workers.SharedJobs):
     """The node table's realisations, in a worker process and, at the end, in this one.
 
-    Every chunk is submitted to the worker in order; the first (one realisation) compiles,
-    on a first run, the kernels that the comparison needs. :meth:`result` runs here the
-    chunks the worker has not started, from the last, and waits for the others.
+    The worker takes the chunks from the first (one realisation, which compiles on a
+    first run the kernels that the comparison needs); :meth:`result` runs here the chunks
+    it has not reached, from the last (:class:`adavar._workers.SharedJobs`).
     """
 
     def __init__(self, pool: ProcessPoolExecutor, seed: int) -> None:

@@ -22,7 +22,6 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import secrets
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -49,6 +48,7 @@ from adavar.units import (
     rate_unit,
     term_unit,
 )
+from adavar.writers import partial_name
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI start-up)
     from matplotlib.figure import Figure
@@ -592,7 +592,7 @@ def _save_one(fig: Figure, base: Path, folder: Path, fmt: str, dpi: int) -> Path
     """One format of :func:`save_figure`, written atomically."""
     target = Path(f"{base}.{fmt}")
     # not mkstemp: its 0600 mode would stick to the final file; "x" honours the umask
-    tmp_name = folder / f".{target.name}.{secrets.token_hex(6)}.tmp"
+    tmp_name = partial_name(target)
     try:
         with open(tmp_name, "xb") as handle:
             png = {"pil_kwargs": {"compress_level": PNG_COMPRESS_LEVEL}} if fmt == "png" else {}

@@ -62,6 +62,8 @@ __all__ = [
     "fit_json",
     "is_adavar_folder",
     "jsonable",
+    "partial_name",
+    "remove_partial_files",
     "spreadsheet_safe",
     "sweep_stale_temporaries",
     "write_deviation_csv",
@@ -375,6 +377,7 @@ def atomic_directory(
     try:
         with guard:
             yield tmp
+            remove_partial_files(tmp)  # of a worker process killed while it wrote
             write_marker(tmp)  # the final folder's marker: an output, no longer a temporary
             pause = os.environ.get(PAUSE_BEFORE_RENAME_ENV)
             if pause:
@@ -616,6 +619,26 @@ def _write_parquet(handle: Any, result: DavarResult) -> None:
     pq.write_table(table, handle)
 
 
+def partial_name(target: Path) -> Path:
+    """The temporary name a file is written under before it is renamed to ``target``:
+    ``.NAME.HEX.tmp`` beside it (hidden, unique, in the same folder so the rename is atomic)."""
+    return target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
+
+
+def remove_partial_files(folder: Path) -> None:
+    """Delete the :func:`partial_name` files that a killed writer left in ``folder``.
+
+    A writer removes its temporary when it fails; one killed in between (a worker
+    process of the demo or of a batch) cannot, and its file is redone by another.
+    """
+    for stray in folder.glob(".*.tmp"):
+        if _PARTIAL.fullmatch(stray.name):
+            stray.unlink(missing_ok=True)
+
+
+_PARTIAL = re.compile(r"\..+\.[0-9a-f]{12}\.tmp")
+
+
 @contextlib.contextmanager
 def atomic_file(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
     """Write ``path`` all or nothing: a binary handle on a temporary sibling, renamed at the end.
@@ -637,7 +660,7 @@ def atomic_file(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
         )
     if target.is_dir():
         raise _fail(f"{target} is a folder: give the path of the file to write")
-    tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
+    tmp = partial_name(target)
     try:
         with open(tmp, "xb") as handle:
             yield handle

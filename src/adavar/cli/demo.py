@@ -155,16 +155,6 @@ def _draw_figure(folder: str, stem: str, draw: Any, args: tuple, kwargs: dict) -
     return stem
 
 
-def _remove_partial_files(folder: Path) -> None:
-    """Delete the temporary files (``.NAME.HEX.tmp``) that a killed writer left in ``folder``.
-
-    :func:`adavar.plots.save_figure` writes each file under such a name and renames it;
-    a worker process killed in between leaves it behind (its job is then redone here).
-    """
-    for stray in folder.glob(".*.tmp"):
-        stray.unlink(missing_ok=True)
-
-
 def _demo_outputs(
     args: argparse.Namespace, status: Status, demo: Any, pool: Any
 ) -> tuple[list[str], str]:
@@ -205,7 +195,6 @@ def _demo_outputs(
             (tmp / "demo.json").write_text(text + "\n", encoding="utf-8")
             status("drawing the figures")
             figures.results()
-            _remove_partial_files(tmp)  # of a worker killed while it wrote (redone here)
             status(f"writing {args.out}")
             (tmp / DEMO_MARKER).write_text(
                 "written by adavar demo; the next run replaces this folder\n", encoding="utf-8"
