@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from adavar import differences as diff
-from adavar import edf
+from adavar import edf, simulate
 from adavar import noise_id as nid
 from adavar import statistics as stats
 from adavar.taus import averaging_factors
@@ -40,12 +40,22 @@ def _series(kind: str, n: int, seed: int) -> np.ndarray:
         "tiny": 1e-300 * w,
         "huge": 1e300 * w,
         "constant": np.full(n, 3.0),
+        # a MEMS gyro at 200 Hz: 40 Hz bandwidth, quantised to 1/131 deg/s
+        "gyro": simulate.sensor(
+            n,
+            rate=200.0,
+            angle_random_walk=0.01,
+            bias_instability=0.003,
+            bandwidth=40.0,
+            lsb=1 / 131,
+            seed=seed,
+        ),
     }[kind]
 
 
 KINDS = [
     "white", "random_walk", "random_run", "flicker", "white_pm", "offset", "drift", "steep",
-    "tiny", "huge", "constant",
+    "tiny", "huge", "constant", "gyro",
 ]  # fmt: skip
 
 
@@ -272,3 +282,61 @@ def test_b1_alpha_is_the_numpy_ratio(n, seed, scale, offset, walk):
             break
         want = a_hi
     assert nid._b1_alpha(y) == want
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    values=st.one_of(
+        st.lists(st.floats(-1e300, 1e300), max_size=400),
+        st.integers(0, 20_000).flatmap(
+            lambda n: st.tuples(st.just(n), st.integers(0, 10**6), st.floats(-30, 30))
+        ),
+    )
+)
+def test_numpy_sum_is_numpy_add_reduce(values):
+    """The compiled B1 sums are NumPy's pairwise sums, bit for bit, at every length."""
+    if isinstance(values, tuple):  # long arrays, mixed magnitudes
+        n, seed, spread = values
+        rng = np.random.default_rng(seed)
+        a = rng.standard_normal(n) * 10.0 ** rng.uniform(-abs(spread), abs(spread), n)
+    else:
+        a = np.array(values, dtype=np.float64)
+    with np.errstate(over="ignore", invalid="ignore"):
+        want = np.add.reduce(a)
+    got = nid._numpy_sum(a, a.size)
+    assert got == want or (math.isnan(got) and math.isnan(want))
+
+
+def test_compiled_rules_are_the_python_rules():
+    """The Numba twins (same source) give the Python functions' numbers exactly."""
+    for n in [*range(2, 300), 1000, 4097, 10**6]:
+        for mu in (-2, -1, 0, 1):
+            assert nid._b1_theory_compiled(n, mu) == nid._b1_theory(n, mu)
+    for m in [*range(1, 500), 4096, 10**7]:
+        assert nid._rn_theory_pm_compiled(m) == nid.rn_theory_pm(m)
+    rng = np.random.default_rng(5)
+    for _ in range(2000):
+        dmax = int(rng.integers(0, 4))
+        r1 = rng.uniform(-1.2, 1.0, dmax + 1)
+        r1[rng.random(dmax + 1) < 0.1] = -1.0
+        den = rng.uniform(0.0, 2.0, dmax + 1) * 10.0 ** rng.integers(-40, 3)
+        sizes = rng.integers(1, 100, dmax + 1)
+        scale = float(10.0 ** rng.integers(-30, 5))
+        offset, dmin = int(rng.choice([0, 2])), int(rng.integers(0, dmax + 1))
+        want = nid.lag1_decision(r1, den, sizes, scale, offset, dmin, dmax)
+        got = nid._lag1_decision_compiled(r1, den, sizes, scale, offset, dmin, dmax)
+        assert got[:2] == want[:2]
+        assert got[2] == want[2] or (math.isnan(got[2]) and math.isnan(want[2]))
+    for alpha in (-4, -3, -2, -1, 0, 1, 2, 3, 6):
+        for dmax in (2, 3):
+            assert nid._clamp_alpha_compiled(alpha, dmax) == nid.clamp_alpha(alpha, dmax)
+        for m in (1, 3, 4, 16, 256, 10**5):
+            white, flicker = nid.rn_theory_pm(m)
+            for strict in (False, True):
+                assert nid._rn_wanted_compiled(alpha, m, strict) == nid.rn_wanted(alpha, m, strict)
+                for ratio in np.geomspace(1e-6, 2.0, 60):
+                    args = (alpha, float(ratio), m, white, flicker, strict)
+                    assert nid._rn_decision_compiled(*args) == nid.rn_decision(*args)
+    for avar, mvar in [(1.0, 0.5), (0.0, 1.0), (-1.0, 1.0), (1.0, math.inf), (1.0, math.nan)]:
+        got, want = nid._rn_value_compiled(avar, mvar), nid.rn_value(avar, mvar)
+        assert got == want or (math.isnan(got) and math.isnan(want))

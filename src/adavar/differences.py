@@ -450,7 +450,7 @@ _MOD_CHUNK = 1 << 14
 
 
 @jit
-def _modified_sums(r, hh, hl, ms, counts):  # pragma: no cover - compiled
+def modified_sums_kernel(r, hh, hl, ms, counts):  # pragma: no cover - compiled
     """``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2`` for ``j = 0..count-1``: the MVAR numerator.
 
     The inner sum slides along ``j`` with a compensated running total, fed by chunks of
@@ -512,7 +512,7 @@ def cluster_differences(r, hh, hl, m, count):  # pragma: no cover - compiled
 
 
 @jit
-def _cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compiled
+def cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compiled
     """Lag-1 autocorrelations of the linearly detrended cluster sums, differenced 0..dmax times.
 
     Streams the cluster sums twice (line fit, then all difference orders at once) in
@@ -697,7 +697,7 @@ def modified_sums(phase: AnchoredPhase, ms: np.ndarray) -> tuple[np.ndarray, np.
     counts = (phase.n_points + 1) - 3 * ms
     if ms.size and counts.min() < 1:
         raise ValueError("internal: empty difference sum")
-    return _modified_sums(phase.r, phase.hh, phase.hl, ms, counts), counts
+    return modified_sums_kernel(phase.r, phase.hh, phase.hl, ms, counts), counts
 
 
 def cluster_lag1(phase: AnchoredPhase, m: int, dmax: int):
@@ -710,7 +710,7 @@ def cluster_lag1(phase: AnchoredPhase, m: int, dmax: int):
     count = (phase.n_points - 1) // m
     if count < 8 or not 0 <= dmax <= 3:
         raise ValueError("internal: lag-1 statistics need >= 8 clusters and dmax <= 3")
-    r1, den, zmax = _cluster_lag1_sums(phase.r, phase.hh, phase.hl, int(m), count, int(dmax))
+    r1, den, zmax = cluster_lag1_sums(phase.r, phase.hh, phase.hl, int(m), count, int(dmax))
     return r1, den, np.maximum(count - np.arange(dmax + 1), 0), zmax
 
 

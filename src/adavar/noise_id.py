@@ -21,14 +21,20 @@ Every returned alpha is clamped to the statistic's range (:func:`clamp_alpha`).
 
 from __future__ import annotations
 
-import itertools
 import math
-from functools import lru_cache
 from typing import Final
 
 import numpy as np
 
 from adavar._jit import jit
+from adavar.differences import (
+    SECOND,
+    AnchoredPhase,
+    cluster_differences,
+    cluster_lag1_sums,
+    modified_sums_kernel,
+    overlapping_sums_kernel,
+)
 
 __all__ = [
     "MIN_POINTS_B1",
@@ -45,9 +51,14 @@ __all__ = [
     "identify_noise",
     "identify_noise_b1",
     "identify_noise_lag1",
+    "lag1_decision",
     "pm_with_rn",
+    "rate_noise_types",
+    "rn_decision",
     "rn_ratio",
     "rn_theory_pm",
+    "rn_value",
+    "rn_wanted",
 ]
 
 #: Default minimum series length for the lag-1 ACF method (Riley & Greenhall 2004: "about 30").
@@ -219,17 +230,37 @@ def alpha_from_lag1(
     """
     kind = _data_type(data_type)
     offset = 2 if kind == "phase" else 0  # alpha = beta + 2 for phase data
+    status, alpha_int, alpha = lag1_decision(r1, den, sizes, scale, offset, int(dmin), int(dmax))
+    if status == _NO_NOISE:
+        raise NoiseIdError("no noise left after removing the trend: cannot identify it")
+    if status == _ALTERNATING:
+        raise NoiseIdError("lag-1 autocorrelation is -1: series is not power-law noise")
+    return alpha_int, alpha
+
+
+#: :func:`lag1_decision`'s status codes besides 0 (decided)
+_NO_NOISE: Final = 1
+_ALTERNATING: Final = 2
+
+
+def lag1_decision(r1, den, sizes, scale, offset, dmin, dmax):
+    """Riley & Greenhall's rule on indexable inputs: ``(status, alpha_int, alpha)``.
+
+    The one implementation of :func:`alpha_from_lag1` (which raises where ``status`` is
+    not 0: 1, no noise left after the trend; 2, ``r1 = -1``), written so that Numba
+    compiles it too (:func:`_lag1_decision_compiled`, for :func:`rate_noise_types`).
+    """
     floor = (_RESIDUAL_FLOOR * scale) ** 2
-    for d in range(int(dmax) + 1):
+    for d in range(dmax + 1):
         if not den[d] > floor * sizes[d]:
-            raise NoiseIdError("no noise left after removing the trend: cannot identify it")
+            return _NO_NOISE, 0, math.nan
         if not r1[d] > -1.0:  # perfectly alternating series: delta = -inf
-            raise NoiseIdError("lag-1 autocorrelation is -1: series is not power-law noise")
+            return _ALTERNATING, 0, math.nan
         delta = r1[d] / (1.0 + r1[d])
         if d >= dmin and (delta < 0.25 or d >= dmax):
             alpha = -2.0 * (delta + d) + offset
             alpha_int = offset - 2 * d - round(2.0 * delta)  # round() as np.rint: half to even
-            return alpha_int, float(alpha)
+            return 0, alpha_int, float(alpha)
     raise AssertionError("unreachable: d reaches dmax")  # pragma: no cover
 
 
@@ -274,7 +305,8 @@ def _b1_theory(n: int, mu: float) -> float:
     """
     if mu == 0:
         return n * math.log(n) / (2.0 * (n - 1) * math.log(2.0))
-    return n * (1.0 - n**mu) / (2.0 * (n - 1) * (1.0 - 2.0**mu))
+    # float powers: C's pow() in Python and in Numba alike (n**mu of two ints is the same)
+    return n * (1.0 - float(n) ** float(mu)) / (2.0 * (n - 1) * (1.0 - 2.0 ** float(mu)))
 
 
 def rn_theory_pm(m: int) -> tuple[float, float]:
@@ -285,34 +317,134 @@ def rn_theory_pm(m: int) -> tuple[float, float]:
     return white, mvar / avar
 
 
-#: (alpha, mu) of the B1 test from white-most to red-most; B1(N, mu) increases with mu
-_B1_CANDIDATES: Final = ((1, -2), (0, -1), (-1, 0), (-2, 1))
+#: the B1 test's candidates from white-most to red-most, alpha and mu; B1(N, mu) increases
+#: with mu
+_B1_ALPHAS: Final = (1, 0, -1, -2)
+_B1_MUS: Final = (-2, -1, 0, 1)
+
+#: what the B1 kernels return for a constant series (no noise to identify)
+_CONSTANT_SERIES: Final = 99
+
+#: Numba twins of the rules above (the same source compiled), for the compiled drivers
+_b1_theory_compiled = jit(_b1_theory)
+_rn_theory_pm_compiled = jit(rn_theory_pm)
 
 
-@lru_cache(maxsize=1024)
-def _b1_boundaries(n: int) -> tuple[float, ...]:
-    """Geometric means of adjacent candidates' B1(n, mu): the boundaries between the types."""
-    return tuple(
-        math.sqrt(_b1_theory(n, mu_lo) * _b1_theory(n, mu_hi))
-        for (_, mu_lo), (_, mu_hi) in itertools.pairwise(_B1_CANDIDATES)
-    )
+@jit
+def _numpy_sum(a, n):  # pragma: no cover - compiled
+    """``np.add.reduce(a[:n])`` of a contiguous float64 array, bit for bit: NumPy's pairwise sum.
+
+    Blocks of at most 128 values are summed in 8 interleaved partial sums (fewer than 8
+    values: in order); longer ranges split in two halves (the first a multiple of 8), here
+    walked with an explicit stack because a recursive kernel cannot be cached.
+    """
+    lo_stack = np.empty(64, np.int64)
+    n_stack = np.empty(64, np.int64)
+    left = np.empty(64)  # the finished left half's sum, while its right half runs
+    state = np.zeros(64, np.int64)  # 0: left half pending, 1: right half pending
+    top = 0
+    lo_stack[0] = 0
+    n_stack[0] = n
+    while True:
+        lo = lo_stack[top]
+        size = n_stack[top]
+        if size > 128:  # split: go down into the left half
+            half = size // 2
+            half -= half % 8
+            state[top] = 0
+            top += 1
+            lo_stack[top] = lo
+            n_stack[top] = half
+            continue
+        if size < 8:
+            value = 0.0
+            for i in range(lo, lo + size):
+                value += a[i]
+        else:
+            r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+            r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+            i = 8
+            while i < size - size % 8:
+                r0 += a[lo + i]
+                r1 += a[lo + i + 1]
+                r2 += a[lo + i + 2]
+                r3 += a[lo + i + 3]
+                r4 += a[lo + i + 4]
+                r5 += a[lo + i + 5]
+                r6 += a[lo + i + 6]
+                r7 += a[lo + i + 7]
+                i += 8
+            value = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+            while i < size:
+                value += a[lo + i]
+                i += 1
+        # hand the value up: a left half starts its sibling, a right half completes its parent
+        while top > 0:
+            top -= 1
+            if state[top] == 0:
+                left[top] = value
+                state[top] = 1
+                half = n_stack[top] // 2
+                half -= half % 8
+                top += 1
+                lo_stack[top] = lo_stack[top - 1] + half
+                n_stack[top] = n_stack[top - 1] - half
+                break
+            value = left[top] + value
+        else:
+            return 0.0 + value
+
+
+@jit
+def _b1_kernel(y, dmax):  # pragma: no cover - compiled
+    """B1 alpha of a finite rate series before R(n), or ``_CONSTANT_SERIES``.
+
+    The alpha in {1 (PM), 0, -1, -2} whose B1(N, mu) is nearest (geometrically) to the
+    data's. With ``dmax >= 3`` a random-walk FM or redder answer is tested again on the
+    differenced rate, whose alpha is 2 higher (see :func:`identify_noise_b1`). The sums
+    are NumPy's (``np.var(y, ddof=1)`` and ``np.mean(np.diff(y) ** 2)`` bit for bit).
+    Loops, not array expressions: those compile NumPy's broadcasting checks and their
+    messages (over a second on a cold cache).
+    """
+    alpha = _CONSTANT_SERIES
+    work = np.empty(y.size)
+    values = np.empty(y.size)
+    for first in range(2):  # the series, then (dmax >= 3) its differences
+        n = y.size - first
+        for i in range(n):
+            values[i] = y[i + 1] - y[i] if first else y[i]
+        for i in range(n - 1):
+            step = values[i + 1] - values[i]
+            work[i] = step * step
+        avar = 0.5 * (_numpy_sum(work, n - 1) / (n - 1))
+        if not avar > 0.0:
+            return _CONSTANT_SERIES
+        mean = _numpy_sum(values, n) / n
+        for i in range(n):
+            centred = values[i] - mean
+            work[i] = centred * centred
+        ratio = (_numpy_sum(work, n) / (n - 1)) / avar
+        found = _B1_ALPHAS[0]
+        for k in range(len(_B1_ALPHAS) - 1):
+            # the boundary between adjacent types: the geometric mean of their B1(n, mu)
+            lo = _b1_theory_compiled(n, _B1_MUS[k])
+            hi = _b1_theory_compiled(n, _B1_MUS[k + 1])
+            if ratio <= math.sqrt(lo * hi):
+                break
+            found = _B1_ALPHAS[k + 1]
+        if first:  # differencing raised alpha by 2: RWFM -> 0, FWFM -> -1, RRFM -> -2
+            return min(-2, found - 2)
+        alpha = found
+        if not (alpha == -2 and dmax >= 3):
+            break
+    return alpha
 
 
 def _b1_alpha(y: np.ndarray) -> int:
     """alpha in {1 (PM), 0, -1, -2} whose B1(N, mu) is nearest (geometrically) to the data's."""
-    n = y.size
-    total = np.add.reduce  # what ndarray.sum, np.mean and np.var sum with
-    step = y[1:] - y[:-1]
-    avar = 0.5 * float(total(step * step) / step.size)  # np.mean(np.diff(y) ** 2), bit for bit
-    if not avar > 0.0:
+    alpha = _b1_kernel(np.array(y, dtype=np.float64), 0)
+    if alpha == _CONSTANT_SERIES:
         raise NoiseIdError("the series is constant: no noise to identify")
-    centred = y - total(y) / n
-    ratio = float(total(centred * centred) / (n - 1)) / avar  # np.var(y, ddof=1), ditto
-    alpha = _B1_CANDIDATES[0][0]
-    for boundary, (a_hi, _) in zip(_b1_boundaries(n), _B1_CANDIDATES[1:], strict=True):
-        if ratio <= boundary:
-            break
-        alpha = a_hi
     return alpha
 
 
@@ -385,7 +517,8 @@ def identify_noise_b1(
     if alpha == 1 and rn_ratio is not None:
         if m is None:
             raise ValueError("rn_ratio needs the averaging factor m")
-        alpha = _b1_pm_by_rn(rn_ratio, int(m))
+        white, flicker = rn_theory_pm(int(m))
+        alpha = rn_decision(1, rn_ratio, int(m), white, flicker, True)
     return alpha
 
 
@@ -394,22 +527,38 @@ def _b1_rate_alpha(y: np.ndarray, dmax: int, min_points: int = MIN_POINTS_B1) ->
     n = y.size
     if n < max(int(min_points), 4):  # >= 3 values left after the dmax=3 difference
         raise NoiseIdError(f"B1 noise identification needs >= {min_points} rate values, got {n}")
-    alpha = _b1_alpha(y)
-    if alpha == -2 and dmax >= 3:
-        # differencing raises alpha by 2: RWFM -> 0, FWFM -> -1, RRFM -> -2
-        alpha = min(-2, _b1_alpha(np.diff(y)) - 2)
+    alpha = _b1_kernel(np.array(y, dtype=np.float64), int(dmax))
+    if alpha == _CONSTANT_SERIES:
+        raise NoiseIdError("the series is constant: no noise to identify")
     return alpha
 
 
-def _b1_pm_by_rn(rn_ratio: float, m: int) -> int:
-    """alpha of a B1 "PM" (1) as R(n) decides it: white PM 2, flicker PM 1 or white FM 0."""
-    if m >= 4:  # below that, MVAR ~ AVAR for any noise and R(n) carries no information
-        white, flicker = rn_theory_pm(m)
-        if flicker > white and rn_ratio < math.sqrt(white * flicker):
+def rn_wanted(alpha: int, m: int, strict: bool) -> bool:
+    """Whether R(n) is consulted after B1 said ``alpha`` (see :func:`rn_decision`)."""
+    return alpha == 1 or (alpha == 0 and m >= 4 and not strict)
+
+
+def rn_decision(alpha: int, ratio: float, m: int, white: float, flicker: float, strict: bool):
+    """B1's ``alpha`` as R(n) = ``ratio`` decides it (SP 1065 5.5.5, :func:`b1_with_rn`).
+
+    ``white`` and ``flicker`` are :func:`rn_theory_pm` of ``m``. A B1 "PM" (1) becomes white
+    PM (2), stays flicker PM or becomes white FM (0); unless ``strict``, a B1 white FM (0)
+    whose R(n) lies among the PM values becomes white or flicker PM. Below ``m = 4`` MVAR
+    is about AVAR for any noise and R(n) carries no information.
+    """
+    if alpha == 1:
+        if m >= 4:
+            if flicker > white and ratio < math.sqrt(white * flicker):
+                return 2
+            if flicker < RN_WHITE_FM and ratio > math.sqrt(flicker * RN_WHITE_FM):
+                return 0
+        return 1
+    if alpha == 0 and m >= 4 and not strict:
+        if ratio < math.sqrt(white * flicker):
             return 2
-        if flicker < RN_WHITE_FM and rn_ratio > math.sqrt(flicker * RN_WHITE_FM):
-            return 0
-    return 1
+        if ratio < math.sqrt(flicker * RN_WHITE_FM):
+            return 1
+    return alpha
 
 
 def identify_noise(
@@ -614,9 +763,15 @@ def alpha_from_phase_lag1(
 NOISE_ID_RULES = ("sp1065", "stable32")
 
 
+def rn_value(avar: float, mvar: float) -> float:
+    """R(n) = MVAR / AVAR, or NaN where it is undefined."""
+    return mvar / avar if avar > 0 and math.isfinite(mvar) else math.nan
+
+
 def rn_ratio(avar: float, mvar: float) -> float | None:
     """R(n) = MVAR / AVAR, or None where it is undefined."""
-    return mvar / avar if avar > 0 and math.isfinite(mvar) else None
+    ratio = rn_value(avar, mvar)
+    return None if math.isnan(ratio) else ratio
 
 
 def pm_with_rn(alpha: int, m: int, rn) -> int:
@@ -645,16 +800,116 @@ def b1_with_rn(z: np.ndarray, m: int, dmax: int, rn, *, strict: bool = False) ->
     ``strict`` keeps to SP 1065 (and Stable32's tables): R(n) only where B1 says PM.
     """
     alpha = _b1_rate_alpha(_as_series(z), dmax)  # identify_noise_b1(z, data_type="rate")
-    if alpha == 1:
-        ratio = rn()
-        if ratio is not None:  # identify_noise_b1(..., rn_ratio=ratio, m=m), without B1 again
-            alpha = _b1_pm_by_rn(ratio, int(m))
-    elif alpha == 0 and m >= 4 and not strict:
+    if rn_wanted(alpha, m, strict):
         ratio = rn()
         if ratio is not None:
             white, flicker = rn_theory_pm(m)
-            if ratio < math.sqrt(white * flicker):
-                alpha = 2
-            elif ratio < math.sqrt(flicker * RN_WHITE_FM):
-                alpha = 1
+            alpha = rn_decision(alpha, ratio, int(m), white, flicker, strict)
     return clamp_alpha(alpha, dmax)
+
+
+# ---------------------------------------------------------------------------------------------
+# The whole rule for rate data in memory, compiled (one call per record)
+# ---------------------------------------------------------------------------------------------
+
+_lag1_decision_compiled = jit(lag1_decision)
+_clamp_alpha_compiled = jit(clamp_alpha)
+_rn_value_compiled = jit(rn_value)
+_rn_wanted_compiled = jit(rn_wanted)
+_rn_decision_compiled = jit(rn_decision)
+
+
+@jit
+def _rate_noise_kernel(r, hh, hl, shift, fused, ms, dmax, avar, strict):  # pragma: no cover
+    """Alpha per ``m`` of rate data (NaN: not identified); see :func:`rate_noise_types`."""
+    n_points = r.size
+    n_increments = n_points - 1
+    out = np.empty(ms.size)
+    r1 = np.empty(dmax + 1)
+    den = np.empty(dmax + 1)
+    sizes = np.empty(dmax + 1, np.int64)
+    one_m = np.empty(1, np.int64)
+    one_count = np.empty(1, np.int64)
+    zero = np.zeros(1, np.int64)
+    for t in range(ms.size):
+        m = ms[t]
+        count = n_increments // m
+        out[t] = math.nan
+        if count >= MIN_POINTS_LAG1:
+            # order 0 first (most taus stop there: delta < 0.25), from the moments gathered
+            # while integrating where m is a usable fused level, else one pass over the data
+            level = 0
+            while (1 << level) < m:
+                level += 1
+            if (1 << level) == m and level < fused.shape[0] and fused[level, 3] > 0:
+                r1[0], den[0], scale = fused[level, 0], fused[level, 1], fused[level, 2]
+            else:
+                r1_0, den_0, scale = cluster_lag1_sums(r, hh, hl, m, count, 0)
+                r1[0], den[0] = r1_0[0], den_0[0]
+            orders = 0
+            if not (r1[0] == -1.0 or r1[0] / (1.0 + r1[0]) < 0.25):  # r1 = -1 stops too
+                r1_all, den_all, scale = cluster_lag1_sums(r, hh, hl, m, count, dmax)
+                for d in range(dmax + 1):
+                    r1[d], den[d] = r1_all[d], den_all[d]
+                orders = dmax
+            for d in range(orders + 1):
+                sizes[d] = max(count - d, 0)
+            status, alpha, _ = _lag1_decision_compiled(r1, den, sizes, scale, 0, 0, orders)
+            if status == 0:
+                out[t] = _clamp_alpha_compiled(alpha, dmax)
+        elif count >= MIN_POINTS_B1:
+            z = cluster_differences(r, hh, hl, m, count)
+            for q in range(count):
+                z[q] = (z[q] + shift * m) / m  # the cluster means
+            alpha = _b1_kernel(z, dmax)
+            if alpha == _CONSTANT_SERIES:
+                continue
+            if _rn_wanted_compiled(alpha, m, strict):
+                if avar.size:
+                    var = avar[t]
+                else:
+                    one_m[0] = m
+                    one_count[0] = n_points - 2 * m
+                    sums = overlapping_sums_kernel(r, hh, hl, one_m, zero, one_count, SECOND)
+                    var = sums[0] / (2.0 * m * m * (n_points - 2 * m))
+                one_m[0] = m
+                one_count[0] = n_points + 1 - 3 * m
+                mod = modified_sums_kernel(r, hh, hl, one_m, one_count)[0]
+                square = float(m * m)  # m**4 rounded once, as the exact integer's would be
+                ratio = _rn_value_compiled(var, mod / (2.0 * (square * square) * one_count[0]))
+                if not math.isnan(ratio):
+                    white, flicker = _rn_theory_pm_compiled(m)
+                    alpha = _rn_decision_compiled(alpha, ratio, m, white, flicker, strict)
+            out[t] = _clamp_alpha_compiled(alpha, dmax)
+    return out
+
+
+def rate_noise_types(
+    phase: AnchoredPhase,
+    ms: np.ndarray,
+    dmax: int,
+    *,
+    avar: np.ndarray | None = None,
+    strict: bool = False,
+) -> list[float]:
+    """Alpha per averaging factor of rate data in memory, NaN where none is identified.
+
+    The rule of :func:`identify_noise` on the m-cluster means of the record integrated in
+    ``phase`` (:func:`adavar.differences.anchored_phase`), every tau in one compiled call:
+    with at least :data:`MIN_POINTS_LAG1` clusters the lag-1 rule on the linearly
+    detrended cluster sums (:func:`lag1_decision`; order 0 from the moments gathered while
+    integrating where ``m`` is a fused level, other orders only when order 0 does not
+    decide), with at least :data:`MIN_POINTS_B1` the B1 ratio with R(n) as
+    :func:`b1_with_rn` consults it (``strict``: only where B1 says PM). ``avar``, if given,
+    is the overlapping Allan variance at every ``m`` (R(n) then reuses it). Each alpha is
+    clamped to the statistic's range; NaN are left for :func:`fill_unidentified`.
+    """
+    fused = phase.fused if phase.fused is not None else np.empty((0, 4))
+    known = np.empty(0) if avar is None else np.ascontiguousarray(avar, dtype=np.float64)
+    if known.size not in (0, len(ms)):
+        raise ValueError("internal: avar must give one value per averaging factor")
+    out = _rate_noise_kernel(
+        phase.r, phase.hh, phase.hl, float(phase.shift), fused,
+        np.ascontiguousarray(ms, dtype=np.int64), int(dmax), known, bool(strict),
+    )  # fmt: skip
+    return out.tolist()

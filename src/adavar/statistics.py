@@ -21,7 +21,7 @@ from adavar import extended_statistics as ext
 from adavar import stream
 from adavar import stream_statistics as sstat
 from adavar.errors import AdavarInputError
-from adavar.noise_id import NOISE_ID_RULES, b1_with_rn, pm_with_rn, rn_ratio
+from adavar.noise_id import NOISE_ID_RULES, b1_with_rn, pm_with_rn, rate_noise_types, rn_ratio
 from adavar.results import DeviationResult
 from adavar.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, STATISTICS
 from adavar.taus import averaging_factors
@@ -371,55 +371,6 @@ class _RnTable:
         return self.ratios[m]
 
 
-def _rate_noise_type(
-    phase: diff.AnchoredPhase, m: int, dmax: int, fused: dict[int, tuple]
-) -> float:
-    """Lag-1 alpha of rate data at one tau of >= MIN_POINTS_LAG1 clusters (NaN: none).
-
-    Riley & Greenhall's rule (:func:`adavar.noise_id.alpha_from_lag1`) on the linearly
-    detrended m-cluster sums. Most taus stop at ``d = 0`` (``delta < 0.25``), so that order
-    comes first: for a short ``m`` from ``fused`` (:func:`_fused_order0`: the moments
-    gathered while integrating), else from one streaming pass; the other taus take a pass
-    for every order up to ``dmax``.
-    """
-    stats = fused.get(m) or _lag1_lists(diff.cluster_lag1(phase, m, 0))
-    r1 = stats[0][0]
-    if not (r1 == -1.0 or r1 / (1.0 + r1) < 0.25):  # delta = -inf at r1 = -1 stops too
-        stats = _lag1_lists(diff.cluster_lag1(phase, m, dmax))
-    try:
-        alpha = edf_mod.alpha_from_lag1(*stats, data_type="rate", dmax=len(stats[0]) - 1)[0]
-    except edf_mod.NoiseIdError:
-        return math.nan
-    return edf_mod.clamp_alpha(alpha, dmax)
-
-
-def _fused_order0(phase: diff.AnchoredPhase) -> dict[int, tuple]:
-    """Order-0 lag-1 statistics of the fused levels by ``m``, as :func:`_lag1_lists` gives.
-
-    Only the usable levels (:func:`adavar.differences.fused_lag1_levels`); empty without the
-    fused moments.
-    """
-    levels = diff.fused_lag1_levels(phase)
-    if levels is None:
-        return {}
-    r1, den, counts, zmax, usable = (values.tolist() for values in levels)
-    return {
-        1 << level: ([r1[level]], [den[level]], [counts[level]], zmax[level])
-        for level in range(len(usable))
-        if usable[level]
-    }
-
-
-def _lag1_lists(stats: tuple) -> tuple:
-    """``(r1, den, sizes, scale)`` of :func:`adavar.differences.cluster_lag1` as Python numbers.
-
-    The same IEEE arithmetic in :func:`adavar.noise_id.alpha_from_lag1`, without NumPy
-    scalars' per-operation overhead.
-    """
-    r1, den, sizes, scale = stats
-    return r1.tolist(), den.tolist(), sizes.tolist(), float(scale)
-
-
 def record_noise_types(
     phase: diff.AnchoredPhase,
     ms: np.ndarray,
@@ -435,12 +386,17 @@ def record_noise_types(
     record per tau). Phase data (with ``noise_id="sp1065"``) start on the decimated phase
     (:mod:`adavar.noise_id`) and a "white PM" there is checked by R(n);
     ``noise_id="stable32"`` identifies phase data on the m-averaged rate as before
-    (clamped) and uses R(n) only where B1 says PM. Short series go to the B1 ratio.
+    (clamped) and uses R(n) only where B1 says PM. Short series go to the B1 ratio. Rate
+    data (and ``"stable32"``) take every tau in one compiled call
+    (:func:`adavar.noise_id.rate_noise_types`); phase data one tau at a time here.
     ``avar``, if given, is the overlapping Allan variance of ``phase`` at every ``m`` (the
     OADEV being computed): R(n) then takes it instead of recomputing it.
     """
     strict = noise_id == "stable32"
-    on_phase = data_type == "phase" and not strict
+    if data_type != "phase" or strict:  # the m-averaged rate: one compiled call
+        return edf_mod.fill_unidentified(
+            rate_noise_types(phase, ms, dmax, avar=avar, strict=strict)
+        )
     ms = np.asarray(ms, dtype=np.int64).tolist()
     n_increments = phase.n_points - 1
     lag1, b1 = edf_mod.MIN_POINTS_LAG1, edf_mod.MIN_POINTS_B1
@@ -450,16 +406,12 @@ def record_noise_types(
     if avar is not None and short:
         known = dict(zip(ms, avar.tolist(), strict=True))
     rn = _RnTable(phase, short, known)
-    fused = {} if on_phase else _fused_order0(phase)
     alpha = []
     for m in ms:
         count = n_increments // m
         try:
             if count >= lag1:
-                if on_phase:
-                    alpha.append(_phase_noise_type(phase, m, count, dmax, rn))
-                else:
-                    alpha.append(_rate_noise_type(phase, m, dmax, fused))
+                alpha.append(_phase_noise_type(phase, m, count, dmax, rn))
             elif count >= b1:
                 z = diff.cluster_sums(phase, m) / m
                 alpha.append(b1_with_rn(z, m, dmax, lambda m=m: rn(m), strict=strict))

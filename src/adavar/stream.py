@@ -131,7 +131,7 @@ def _line_moments(zs, nz, k0, count, mom, head, tail):  # pragma: no cover - com
 @jit
 def _lag_moments(zs, nz, k0, a, b, count, q, acc):  # pragma: no cover - compiled
     """Second pass: per difference order 0..3 of the detrended series, sum x, sum x^2 and
-    sum x_{k-1} x_k, carrying the last values ``q`` (the sums of ``_cluster_lag1_sums``)."""
+    sum x_{k-1} x_k, carrying the last values ``q`` (the sums of ``cluster_lag1_sums``)."""
     kc = 0.5 * (count - 1)
     q0, q1, q2, q3 = q[0], q[1], q[2], q[3]
     a0 = a1 = a2 = a3 = 0.0

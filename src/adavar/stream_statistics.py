@@ -488,7 +488,7 @@ def _accumulate(d, n, s, c):  # pragma: no cover - compiled
 
 @jit
 def _slide(enter, leave, n, s, c, acc):  # pragma: no cover - compiled
-    """The sliding step of :func:`adavar.differences._modified_sums`, for ``n`` starts."""
+    """The sliding step of :func:`adavar.differences.modified_sums_kernel`, for ``n`` starts."""
     for q in range(n):
         s, e = two_sum(s, enter[q])
         c += e

@@ -193,7 +193,7 @@ def kept_modified_sums(r, hh, hl, ms, counts, cnt, ws):  # pragma: no cover - co
     """MVAR numerators ``sum_j keep_j (sum_{i=j}^{j+m-1} d_m[i])^2``, ``j < counts[t]``.
 
     The m-sum slides along ``j`` with a compensated running total over every ``j`` (kept or
-    not: the filled values are finite), as in :func:`adavar.differences._modified_sums`;
+    not: the filled values are finite), as in :func:`adavar.differences.modified_sums_kernel`;
     only the kept ones (``cnt[j + ws[t]] == cnt[j]``) are summed.
     """
     nt = ms.size
