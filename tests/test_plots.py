@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import matplotlib
 import numpy as np
 import pytest
@@ -113,6 +115,31 @@ def test_save_figure_both_formats_atomically(gyro, tmp_path):
     assert (tmp_path / "dev.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert "<svg" in (tmp_path / "dev.svg").read_text()[:2000]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["dev.png", "dev.svg"]
+
+
+def _svg_geometry(path) -> str:
+    """An SVG without what changes from one save to the next (date, generated ids)."""
+    text = path.read_text()
+    text = re.sub(r"<dc:date>.*?</dc:date>", "", text)
+    return re.sub(r'(clip-path|id)="[^"]*"|url\(#[^)]*\)|xlink:href="#[^"]*"', "", text)
+
+
+@pytest.mark.parametrize("autolayout", [False, True])
+def test_save_figure_lays_out_once(gyro, tmp_path, autolayout):
+    """The second format takes the first one's layout (no second layout pass, whatever
+    the rc settings): the SVG of savefig after the PNG with the layout frozen by a
+    placeholder engine; the figure keeps its layout engine."""
+    result, fit = gyro
+    fig = deviation_figure(result, fit)
+    engine = fig.get_layout_engine()
+    with matplotlib.rc_context({"figure.autolayout": autolayout}):
+        save_figure(fig, tmp_path / "both")
+    assert fig.get_layout_engine() is engine
+    plain = deviation_figure(result, fit)
+    plain.savefig(tmp_path / "plain.png", dpi=150)
+    plain.set_layout_engine("none")
+    plain.savefig(tmp_path / "plain.svg", dpi=150)
+    assert _svg_geometry(tmp_path / "both.svg") == _svg_geometry(tmp_path / "plain.svg")
 
 
 def test_save_figure_failure_leaves_no_temporary(tmp_path):

@@ -579,13 +579,23 @@ def save_figure(
     try:
         for k, fmt in enumerate(formats):
             if k == 1 and engine is not None:
-                # the layout is in inches, the same for every format: solve it once
-                fig.set_layout_engine("none")
+                # the layout is in inches, the same for every format: solve it once. None,
+                # not "none" (a placeholder engine): savefig then skips the draw it makes
+                # to run the layout, a third of the second format's cost (the rc settings
+                # would otherwise choose an engine for None)
+                import matplotlib
+
+                with matplotlib.rc_context(_NO_AUTO_LAYOUT):
+                    fig.set_layout_engine(None)
             written.append(_save_one(fig, base, folder, fmt, dpi))
     finally:
         if engine is not None:
             fig.set_layout_engine(engine)
     return written
+
+
+#: rc settings under which ``Figure.set_layout_engine(None)`` removes the engine
+_NO_AUTO_LAYOUT = {"figure.autolayout": False, "figure.constrained_layout.use": False}
 
 
 def _save_one(fig: Figure, base: Path, folder: Path, fmt: str, dpi: int) -> Path:
