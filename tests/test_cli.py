@@ -15,6 +15,7 @@ import pytest
 
 import adavar
 from adavar import simulate
+from adavar.cli import main
 from adavar.io import read_text
 from adavar.writers import OUTPUT_MARKER
 
@@ -377,7 +378,12 @@ def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path, monkeypatch
     monkeypatch.setattr("adavar.demo.PAPER_SEEDS", 2)
     # one process (the worker's path is the first run's, and tests/test_demo.py's)
     argv = ["demo", "--out", str(out_dir), "--json", "--seed", "5", "--workers", "1"]
-    code, out, err = run(capsys, argv)
+    try:  # as the console script runs it: the process ends next, the collector stays off
+        code = main(argv, process_exits=True)
+        assert not gc.isenabled()
+    finally:
+        gc.enable()
+    out, err = capsys.readouterr()
     assert code == 0, err
     payload = json.loads(out)
     rows = payload["nist"]["rows"]

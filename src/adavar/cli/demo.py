@@ -225,7 +225,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     finally:
         if pool is not None:
             pool.shutdown(wait=False, cancel_futures=True)
-        if collecting:
+        if collecting and not getattr(args, "process_exits", False):
             gc.enable()
     status.close()
     elapsed = time.perf_counter() - start
