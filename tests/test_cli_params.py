@@ -60,6 +60,9 @@ NOT_FLAGS = {
     # commands keep only what they write (issue 15: memory)
     "cells",
     "keep",
+    # davar(bounds=False): a surface without its bound table, for compare(keep="figures");
+    # the davar command writes the bounds
+    "bounds",
 }
 
 #: (function, commands that call it with the user's settings)

@@ -725,3 +725,25 @@ def test_edge_windows_count_distinct_samples():
     np.testing.assert_array_equal(res.edf[::-1][:51], res.edf[:51])  # both ends alike
     with pytest.raises(AdavarInputError, match="edge_edf"):
         davar(x, window=101, edge_edf="nearest")
+
+
+@pytest.mark.parametrize("gaps", [False, True])
+def test_without_bounds_the_rest_is_the_same(gaps):
+    """bounds=False: no bound table nor bounds; avar, alpha and the EDF table unchanged."""
+    x = adavar.simulate.sensor(
+        6000, rate=200.0, angle_random_walk=0.01, bias_instability=0.003, bandwidth=40.0,
+        lsb=1 / 131, seed=4,
+    )  # fmt: skip
+    kw = {}
+    if gaps:
+        x[1000:1040] = np.nan
+        kw["gaps"] = "omit"
+    full = davar(x, window=np.r_[np.full(3000, 400), np.full(3000, 900)], rate=200.0, **kw)
+    lean = davar(x, window=np.r_[np.full(3000, 400), np.full(3000, 900)], rate=200.0,
+                 bounds=False, **kw)  # fmt: skip
+    assert full.avar_low is not None and full.bound_table is not None
+    assert lean.avar_low is None and lean.avar_high is None and lean.bound_table is None
+    np.testing.assert_array_equal(lean.avar, full.avar)
+    np.testing.assert_array_equal(lean.alpha, full.alpha)
+    np.testing.assert_array_equal(lean.edf_table, full.edf_table)
+    np.testing.assert_array_equal(lean.window_class, full.window_class)

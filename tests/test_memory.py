@@ -55,6 +55,10 @@ def test_compare_holds_one_surface_at_a_time(small_blocks):
         assert got.result.avar.shape == (FIGURE_WINDOWS, 50)
         rows = np.searchsorted(run.result.time, got.result.time)
         np.testing.assert_array_equal(got.result.avar, run.result.avar[rows])
+        # no bounds that nothing reads; the EDF the fit weighted by is the same
+        assert got.result.avar_low is None and got.result.bound_table is None
+        assert run.result.avar_low is not None
+        np.testing.assert_array_equal(got.result.edf_table, run.result.edf_table)
     np.testing.assert_array_equal(lean.time, whole.time)
 
 

@@ -739,9 +739,11 @@ def compare(
         per-cell residuals of its fit, held together. ``"figures"``: what the tables and
         :func:`adavar.plots.comparison_figures` read: each surface is freed once fitted,
         keeping only the :data:`FIGURE_WINDOWS` windows (evenly spread over the record)
-        that :func:`adavar.plots.davar_surface_figure` draws, and the fits have no per-cell
-        ``used`` and ``residuals``; every other value is the same, and the memory is that
-        of one surface instead of one per method (``adavar compare`` uses it).
+        that :func:`adavar.plots.davar_surface_figure` draws, the fits have no per-cell
+        ``used`` and ``residuals`` and the surfaces no confidence bounds (``avar_low``,
+        ``avar_high`` and ``bound_table`` None; ``davar(..., bounds=False)``); every other
+        value is the same, and the memory is that of one surface instead of one per method
+        (``adavar compare`` uses it).
 
     Returns
     -------
@@ -917,7 +919,7 @@ def run_comparison(
                 result = davar(
                     x, window=window, rate=fs, taus=taus, confidence=confidence,
                     noise_type=noise_type, points_per_decade=points_per_decade, units=units,
-                    shift=shift,
+                    shift=shift, bounds=keep == "all",
                 )  # fmt: skip
                 try:
                     fit = fit_noise(result, terms=terms, cells=keep == "all")

@@ -27,6 +27,7 @@ windows, edges, EDFs (of the statistic) and out-of-core paths.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -553,6 +554,7 @@ def davar(
     edge_edf: str = "distinct",
     gaps: str = "error",
     shift: Sequence[int] | np.ndarray | None = None,
+    bounds: bool = True,
 ) -> DavarResult:
     """Dynamic Allan variance: the overlapping Allan (or Hadamard, modified) variance of a
     sliding window.
@@ -681,6 +683,13 @@ def davar(
         nothing until the result is computed. ``lazy=False`` computes a dask input now
         (out of core, as above).
 
+    bounds : bool
+        Make the per-length bound factors (``bound_table``; default). False leaves
+        ``bound_table``, ``avar_low`` and ``avar_high`` None while the noise types and the
+        EDF table are made as usual (a noise fit weights by them): for surfaces whose
+        bounds nothing reads (``compare(..., keep="figures")``), without the chi-square
+        quantile of every distinct EDF.
+
     Returns
     -------
     DavarResult
@@ -733,12 +742,13 @@ def davar(
                 "samples: fill the gaps first, or use centred windows"
             )
         if found is not None:
-            return gap_davar(
+            result = gap_davar(
                 found[0], found[1], notes=found[2], window=window, stat=name, rate=rate,
                 tau0=tau0, dt=dt, data_type=dtype, taus=taus, edges=edges, step=step,
                 confidence=confidence, t0=t0, points_per_decade=points_per_decade,
                 noise_type=noise_type, units=units, edge_edf=edge_edf,
             )  # fmt: skip
+            return result if bounds else dataclasses.replace(result, bound_table=None)
     refuse_masked(data)
     # computed at scale 1 (exact: powers of two), the variances scaled back by 2**exponent
     dt_mantissa, dt_exponent = math.frexp(dt)
@@ -788,7 +798,7 @@ def davar(
             diff.anchored_phase(u, cluster_stats=True), ms, dmax, data_type=dtype
         )
 
-    bounds = table = window_class = None
+    bound_table = table = window_class = None
     if confidence is None:
         alpha = np.full(ms.size, -1, dtype=np.int64)
     else:
@@ -801,7 +811,8 @@ def davar(
         table = _interior_edf_table(distinct, ms, alpha, name)
         if edge_edf == "distinct":
             table, window_class = _edge_classes(sched, n, ms, alpha, table, window_class, name)
-        bounds = np.stack(_bound_factors(table, float(confidence)))
+        if bounds:
+            bound_table = np.stack(_bound_factors(table, float(confidence)))
 
     if lazy:
         avar = _lazy_avar(data, dtype, sched, ms, scale, chunk, exponent, name)
@@ -842,7 +853,7 @@ def davar(
         notes=notes,
         edf_table=table,
         window_class=window_class,
-        bound_table=bounds,
+        bound_table=bound_table,
         shift=sched.shift,
     )
     if name == "oadev":

@@ -127,9 +127,9 @@ class DavarResult:
         (a tau beyond a third of that window).
     avar_low, avar_high : ndarray, shape (T, M), or None
         Chi-square confidence bounds at ``confidence`` (None when computed with
-        ``confidence=None``). Computed on first access from ``avar`` and the per-length
-        factors in ``bound_table`` (then kept), so a surface whose bounds are never read
-        costs no memory for them.
+        ``confidence=None`` or ``bounds=False``). Computed on first access from ``avar``
+        and the per-length factors in ``bound_table`` (then kept), so a surface whose
+        bounds are never read costs no memory for them.
     window : ndarray of int64, shape (T,)
         Window length (samples) at each centre.
     centre : ndarray of int64, shape (T,)
