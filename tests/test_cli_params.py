@@ -63,6 +63,9 @@ NOT_FLAGS = {
     # davar(bounds=False): a surface without its bound table, for compare(keep="figures");
     # the davar command writes the bounds
     "bounds",
+    # davar(rows=): a block of a surface, for code that works through a long record's
+    # surface piece by piece (adavar.surface_fit); the command writes the whole surface
+    "rows",
 }
 
 #: (function, commands that call it with the user's settings)

@@ -54,7 +54,6 @@ by 0.2 % in the median, 1 % at the 95th percentile, between the two tau sets).
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import itertools
 import math
 from collections.abc import Iterable, Iterator, Mapping, Sequence
@@ -80,6 +79,7 @@ from adavar.paper.reference import (
 from adavar.results import DavarResult
 from adavar.settings import CONTROLLER
 from adavar.statistics import as_samples
+from adavar.surface_fit import drawn_rows, fit_davar_in_blocks
 from adavar.windows import window_overhang
 from adavar.writers import jsonable
 
@@ -795,17 +795,6 @@ def _check_memory(
         )
 
 
-def _drawn_windows(result: DavarResult) -> DavarResult:
-    """``result`` with only the :data:`FIGURE_WINDOWS` windows its surface figure draws."""
-    from adavar.plots import spread_indices
-
-    rows = spread_indices(int(np.size(result.time)), FIGURE_WINDOWS)
-    names = ("time", "avar", "window", "centre", "window_class", "terms", "shift")
-    return dataclasses.replace(result, **{name: None if getattr(result, name) is None
-                                          else np.asarray(getattr(result, name))[rows]
-                                          for name in names})  # fmt: skip
-
-
 def run_comparison(
     data: Any,
     *,
@@ -915,17 +904,23 @@ def run_comparison(
                 )  # fmt: skip
                 window = sched.window
             shift = None if sched is None else sched.shift  # ICI's one-sided windows
-            if edf_cache is None:
-                result = davar(
-                    x, window=window, rate=fs, taus=taus, confidence=confidence,
-                    noise_type=noise_type, points_per_decade=points_per_decade, units=units,
-                    shift=shift, bounds=keep == "all",
-                )  # fmt: skip
-                try:
-                    fit = fit_noise(result, terms=terms, cells=keep == "all")
-                except ValueError as exc:
-                    raise AdavarInputError(str(exc)) from None
-            else:
+            surface = dict(window=window, rate=fs, taus=taus, confidence=confidence,
+                           noise_type=noise_type, points_per_decade=points_per_decade,
+                           units=units, shift=shift)  # fmt: skip
+            blocks = None
+            try:
+                if edf_cache is None and keep == "all":
+                    result = davar(x, **surface)
+                    fit = fit_noise(result, terms=terms, cells=True)
+                elif edf_cache is None:  # the surface a block of windows at a time
+                    blocks = fit_davar_in_blocks(
+                        x, fit_options=dict(terms=terms, cells=False), drawn=FIGURE_WINDOWS,
+                        bounds=False, **surface,
+                    )  # fmt: skip
+                    result, fit = blocks.drawn, blocks.fit
+            except ValueError as exc:
+                raise AdavarInputError(str(exc)) from None
+            if edf_cache is not None:
                 result = davar(x, window=window, rate=fs, taus=taus, confidence=None,
                                points_per_decade=points_per_decade, units=units,
                                shift=shift)  # fmt: skip
@@ -933,10 +928,11 @@ def run_comparison(
                 fit = fit_avar(result.tau, result.avar, edf_cache.cells(result, alpha),
                                terms=terms, cells=keep == "all")  # fmt: skip
             arw = np.asarray(fit.angle_random_walk.value, dtype=float)
-            t = np.asarray(result.time, dtype=float)
-            w = np.asarray(result.window, dtype=np.int64)
+            rows = result if blocks is None else blocks  # every window's time, length, centre
+            t = np.asarray(rows.time, dtype=float)
+            w = np.asarray(rows.window, dtype=np.int64)
             if centres is None:
-                centres = t, np.asarray(result.centre)
+                centres = t, np.asarray(rows.centre)
             if spec.kind == "fixed":
                 nodes = fixed_nodes(changes, spec.window, rate=fs)
             else:
@@ -944,11 +940,11 @@ def run_comparison(
             metrics = None
             if true is not None:
                 metrics = tracking_metrics(
-                    t, arw, true[result.centre], changes, margin=0.5 * lmax * tau0,
+                    t, arw, true[rows.centre], changes, margin=0.5 * lmax * tau0,
                     span=lmax * tau0,
                 )  # fmt: skip
-            if keep != "all":
-                result = _drawn_windows(result)  # the whole surface is freed here
+            if keep != "all" and blocks is None:
+                result = drawn_rows(result, FIGURE_WINDOWS)  # the whole surface freed here
             runs[spec.name] = MethodRun(
                 name=spec.name, label=spec.label, window=w, schedule=sched, result=result,
                 fit=fit, arw=arw, nodes=nodes, intervals=interval_means(t, arw, ivals),

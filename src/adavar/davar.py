@@ -28,8 +28,9 @@ windows, edges, EDFs (of the statistic) and out-of-core paths.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
@@ -555,6 +556,7 @@ def davar(
     gaps: str = "error",
     shift: Sequence[int] | np.ndarray | None = None,
     bounds: bool = True,
+    rows: tuple[int, int] | None = None,
 ) -> DavarResult:
     """Dynamic Allan variance: the overlapping Allan (or Hadamard, modified) variance of a
     sliding window.
@@ -689,6 +691,15 @@ def davar(
         EDF table are made as usual (a noise fit weights by them): for surfaces whose
         bounds nothing reads (``compare(..., keep="figures")``), without the chi-square
         quantile of every distinct EDF.
+    rows : (int, int), optional
+        Only the rows (centres) ``start .. stop - 1`` of the surface (``stop`` past the
+        last centre stops there): a block of it, for a
+        caller that works through the surface of a long record piece by piece
+        (:mod:`adavar.surface_fit`). Every row equals that row of the whole surface bit
+        for bit; ``time``, ``avar``, ``window``, ``centre``, ``window_class`` and ``shift``
+        hold the block's rows, every other field (``alpha``, the EDF and bound tables,
+        ``notes``) is the whole surface's. An in-memory record without missing samples
+        (not ``lazy``, ``chunk_size`` or ``gaps="omit"``).
 
     Returns
     -------
@@ -717,6 +728,60 @@ def davar(
     for the noise identification, once for the windows: only their spans, so a sparse
     ``step`` reads little) and the cost is that of the in-memory path plus the reads.
     """
+    return next(_surfaces(
+        data, window=window, stat=stat, rate=rate, data_type=data_type, taus=taus,
+        edges=edges, step=step, confidence=confidence, tau0=tau0, t0=t0,
+        points_per_decade=points_per_decade, noise_type=noise_type, units=units,
+        chunk_size=chunk_size, lazy=lazy, edge_edf=edge_edf, gaps=gaps, shift=shift,
+        bounds=bounds, rows=rows, block_values=None,
+    ))  # fmt: skip
+
+
+def davar_blocks(
+    data: Sequence[float] | np.ndarray, *, block_values: int | None = None, **options: Any
+) -> Iterator[DavarResult]:
+    """:func:`davar` a block of consecutive windows at a time, for a surface too large to hold.
+
+    Parameters
+    ----------
+    data : array_like
+        The record, in memory, without missing samples.
+    block_values : int, optional
+        Values per block (default :data:`BLOCK_VALUES`): whole rows, a multiple of the
+        window kernel's chunk of centres (at least one chunk).
+    **options
+        Keywords of :func:`davar` but ``rows``.
+
+    Yields
+    ------
+    DavarResult
+        Consecutive blocks of rows (``centre`` tells which), each as ``davar(...,
+        rows=)`` gives it: every row equals that row of the whole surface bit for bit,
+        ``alpha``, the EDF and bound tables and ``notes`` are the whole surface's. The
+        record is read, the schedule made and the noise types identified once.
+    """
+    arguments = inspect.signature(davar).bind(data, **options)
+    arguments.apply_defaults()
+    if arguments.arguments["rows"] is not None:
+        raise AdavarInputError("davar_blocks chooses the rows itself: leave rows= out")
+    values = BLOCK_VALUES if block_values is None else int(block_values)
+    if values < 1:
+        raise AdavarInputError(f"block_values must be a positive number, got {block_values!r}")
+    return _surfaces(**arguments.arguments, block_values=values)
+
+
+#: surface values per block of :func:`davar_blocks` (64 MiB of float64)
+BLOCK_VALUES = 1 << 23
+
+
+def _surfaces(
+    data: Any, *, window: Any, stat: str, rate: float, data_type: str, taus: Any, edges: str,
+    step: Any, confidence: float | None, tau0: float | None, t0: float, points_per_decade: int,
+    noise_type: Any, units: str | None, chunk_size: int | None, lazy: bool | None,
+    edge_edf: str, gaps: str, shift: Any, bounds: bool, rows: tuple[int, int] | None,
+    block_values: int | None,
+) -> Iterator[DavarResult]:  # fmt: skip
+    """The body of :func:`davar`: one result, or (``block_values``) blocks of rows."""
     dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
@@ -741,6 +806,11 @@ def davar(
                 "shifted windows (shift=) are not supported on a record with missing "
                 "samples: fill the gaps first, or use centred windows"
             )
+        if found is not None and (rows is not None or block_values is not None):
+            raise AdavarInputError(
+                "rows of a surface (rows=, davar_blocks) are for records without missing "
+                "samples: compute the whole surface"
+            )
         if found is not None:
             result = gap_davar(
                 found[0], found[1], notes=found[2], window=window, stat=name, rate=rate,
@@ -748,7 +818,8 @@ def davar(
                 confidence=confidence, t0=t0, points_per_decade=points_per_decade,
                 noise_type=noise_type, units=units, edge_edf=edge_edf,
             )  # fmt: skip
-            return result if bounds else dataclasses.replace(result, bound_table=None)
+            yield result if bounds else dataclasses.replace(result, bound_table=None)
+            return
     refuse_masked(data)
     # computed at scale 1 (exact: powers of two), the variances scaled back by 2**exponent
     dt_mantissa, dt_exponent = math.frexp(dt)
@@ -786,8 +857,31 @@ def davar(
     longest = int(sched.length.max())
     ms, notes = tau_factors(taus, longest // 3, dt, points_per_decade)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
+    n_rows = sched.centre.size
+    if rows is not None or block_values is not None:
+        if chunked or lazy:
+            raise AdavarInputError(
+                "rows of a surface (rows=, davar_blocks) are for a record in memory: pass "
+                "an array (not chunk_size or lazy)"
+            )
+    if rows is not None:
+        start, stop = (int(r) for r in rows)
+        if not 0 <= start < min(stop, n_rows):
+            raise AdavarInputError(
+                f"rows=({start}, {stop}) must start in 0 .. {n_rows - 1} (the centres) "
+                "before it stops"
+            )
+        stop = min(stop, n_rows)
+    else:
+        start, stop = 0, n_rows
     if not lazy:
-        _check_memory(sched.centre.size, ms.size, 1)
+        held = stop - start
+        if block_values is not None:
+            held = min(
+                n_rows,
+                max(block_values // max(1, ms.size), _chunk_size(n_rows, longest, sched.step)),
+            )
+        _check_memory(held, ms.size, 1)
 
     dmax = 3 if name == "ohdev" else 2  # differences of the statistic, as deviation()
 
@@ -814,19 +908,6 @@ def davar(
         if bounds:
             bound_table = np.stack(_bound_factors(table, float(confidence)))
 
-    if lazy:
-        avar = _lazy_avar(data, dtype, sched, ms, scale, chunk, exponent, name)
-    else:
-        if chunked:
-            inc, k = increments()
-            avar = _chunked_avar(inc, sched, ms, scale, chunk, name)
-        else:
-            avar = _window_surface(
-                name, sched.extend(u), ms, sched.window_centre, sched.length,
-                offset=sched.pad_before, scale=scale,
-                chunk=_chunk_size(sched.centre.size, longest, sched.step),
-            )  # fmt: skip
-        avar = unscale(avar, 2 * k + exponent, _plural(name), underflow=False)
     with np.errstate(over="ignore"):
         # dividing by an integral rate rounds once: 3999 / 10 is 399.9, 3999 * 0.1 is not
         time = t0 + (sched.centre * dt if tau0 is not None else sched.centre / float(rate))
@@ -835,27 +916,64 @@ def davar(
             f"the time of the last centre ({int(sched.centre[-1])} samples of {dt:g} s after "
             f"t0 = {t0:g} s) overflows float64: check the rate (Hz), tau0 (s) and t0 (s)"
         )
-    surface = dict(
-        time=time,
-        tau=ms * dt,
-        avar=avar,
-        window=sched.length,
-        centre=sched.centre,
-        m=ms,
-        alpha=alpha,
-        tau0=dt,
-        data_type=dtype,
-        edges=sched.edges,
-        step=sched.step,
-        confidence=float("nan") if confidence is None else float(confidence),
-        n_samples=int(n_samples),
-        units=units,
-        notes=notes,
-        edf_table=table,
-        window_class=window_class,
-        bound_table=bound_table,
-        shift=sched.shift,
-    )
-    if name == "oadev":
-        return DavarResult(**surface)
-    return DavarStatResult(**surface, stat=name)
+    # the kernel computes chunks of centres each on its own: a block that starts and ends
+    # on them (or is cut from whole ones) has the whole surface's rows
+    chunk_rows = _chunk_size(n_rows, longest, sched.step)
+    extended = None if lazy or chunked else sched.extend(u)
+
+    def block(start: int, stop: int) -> DavarResult:
+        """Rows ``start .. stop - 1`` of the surface (all of them: the whole surface)."""
+        whole = (start, stop) == (0, n_rows)
+        power = 0 if chunked else k  # the record's scale (out of core: once it is read)
+        if lazy:
+            avar = _lazy_avar(data, dtype, sched, ms, scale, chunk, exponent, name)
+        elif chunked:
+            inc, power = increments()
+            avar = _chunked_avar(inc, sched, ms, scale, chunk, name)
+        else:
+            a = start - start % chunk_rows
+            b = min(n_rows, -(-stop // chunk_rows) * chunk_rows)
+            avar = _window_surface(
+                name, extended, ms, sched.window_centre[a:b], sched.length[a:b],
+                offset=sched.pad_before, scale=scale, chunk=chunk_rows,
+            )  # fmt: skip
+            if (a, b) != (start, stop):  # the block's rows alone, not a view of the chunks
+                avar = avar[start - a : stop - a].copy()
+        if not lazy:
+            avar = unscale(avar, 2 * power + exponent, _plural(name), underflow=False)
+
+        def rows_of(values: np.ndarray | None) -> np.ndarray | None:
+            """A block's rows as arrays of their own (a view would hold the record's)."""
+            return values if values is None or whole else values[start:stop].copy()
+
+        surface = dict(
+            time=rows_of(time),
+            tau=ms * dt,
+            avar=avar,
+            window=rows_of(sched.length),
+            centre=rows_of(sched.centre),
+            m=ms,
+            alpha=alpha,
+            tau0=dt,
+            data_type=dtype,
+            edges=sched.edges,
+            step=sched.step,
+            confidence=float("nan") if confidence is None else float(confidence),
+            n_samples=int(n_samples),
+            units=units,
+            notes=notes,
+            edf_table=table,
+            window_class=rows_of(window_class),
+            bound_table=bound_table,
+            shift=rows_of(sched.shift),
+        )
+        if name == "oadev":
+            return DavarResult(**surface)
+        return DavarStatResult(**surface, stat=name)
+
+    if block_values is None:
+        yield block(start, stop)
+        return
+    per_block = max(1, block_values // max(1, ms.size) // chunk_rows) * chunk_rows
+    for first in range(0, n_rows, per_block):
+        yield block(first, min(first + per_block, n_rows))

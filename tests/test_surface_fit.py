@@ -1,0 +1,156 @@
+"""A DAVAR surface a block of windows at a time: ``davar(rows=)`` and its block-wise fit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import adavar
+from adavar import simulate
+from adavar._figures import spread_indices
+from adavar.davar import davar_blocks
+from adavar.errors import AdavarInputError
+from adavar.surface_fit import concatenate_fits, drawn_rows, fit_davar_in_blocks
+
+RATE = 200.0
+
+
+@pytest.fixture(scope="module")
+def gyro():
+    """Six seconds of a 200 Hz MEMS gyro (40 Hz filter, LSB 1/131 deg/s) and a schedule
+    of three window lengths, as an adaptive pass gives."""
+    x = simulate.sensor(
+        6000, rate=RATE, angle_random_walk=0.01, bias_instability=0.003, bandwidth=40.0,
+        lsb=1 / 131, bias=0.5, seed=11,
+    )  # fmt: skip
+    window = np.r_[np.full(2500, 300), np.full(2000, 900), np.full(1500, 450)]
+    return x, window
+
+
+FIELDS = ("avar", "time", "window", "centre", "window_class")
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {},
+        {"stat": "ohvar"},
+        {"stat": "mvar", "taus": "octave"},
+        {"data_type": "phase"},
+        {"confidence": None},
+        {"shift": "one-sided"},
+    ],
+    ids=["oavar", "ohvar", "mvar", "phase", "no-confidence", "shifted"],
+)
+def test_rows_are_the_whole_surfaces_rows(gyro, options):
+    x, window = gyro
+    options = dict(options)
+    if options.get("data_type") == "phase":
+        x = np.cumsum(x) / RATE
+        window = window[1:]
+    if options.get("shift") == "one-sided":
+        options["shift"] = -(window // 2)
+    whole = adavar.davar(x, window=window, rate=RATE, **options)
+    n_rows = whole.time.size
+    for start, stop in [(0, 1), (0, 700), (700, 2501), (2499, 4600), (5000, n_rows + 10)]:
+        block = adavar.davar(x, window=window, rate=RATE, rows=(start, stop), **options)
+        stop = min(stop, n_rows)
+        for name in FIELDS:
+            got, want = getattr(block, name), getattr(whole, name)
+            if want is None:
+                assert got is None
+                continue
+            np.testing.assert_array_equal(got, want[start:stop], err_msg=name)
+            assert got.base is None or got.base.size == got.size  # not a view of the whole
+        np.testing.assert_array_equal(block.alpha, whole.alpha)
+        if whole.edf_table is not None:
+            np.testing.assert_array_equal(block.edf_table, whole.edf_table)
+            np.testing.assert_array_equal(block.bound_table, whole.bound_table)
+            np.testing.assert_array_equal(block.avar_low, whole.avar_low[start:stop])
+        if whole.shift is not None:
+            np.testing.assert_array_equal(block.shift, whole.shift[start:stop])
+
+
+def test_rows_refused_where_they_cannot_be_honoured(gyro):
+    x, _ = gyro
+    with pytest.raises(AdavarInputError, match="rows="):
+        adavar.davar(x, window=300, rows=(6000, 6001))
+    with pytest.raises(AdavarInputError, match="rows="):
+        adavar.davar(x, window=300, rows=(10, 10))
+    with pytest.raises(AdavarInputError, match="in memory"):
+        adavar.davar(x, window=300, rows=(0, 10), chunk_size=4096)
+    with pytest.raises(AdavarInputError, match="in memory"):
+        next(davar_blocks(x, window=300, chunk_size=4096))
+    gappy = x.copy()
+    gappy[100:120] = np.nan
+    with pytest.raises(AdavarInputError, match="missing samples"):
+        adavar.davar(gappy, window=300, rows=(0, 10), gaps="omit")
+    with pytest.raises(AdavarInputError, match="missing samples"):
+        next(davar_blocks(gappy, window=300, gaps="omit"))
+    with pytest.raises(AdavarInputError, match="rows="):
+        davar_blocks(x, window=300, rows=(0, 10))
+    with pytest.raises(AdavarInputError, match="block_values"):
+        davar_blocks(x, window=300, block_values=0)
+    with pytest.raises(TypeError):
+        davar_blocks(x, window=300, no_such_option=1)
+
+
+@pytest.mark.parametrize("block_values", [1, 20_000])
+def test_davar_blocks_cover_the_surface(gyro, block_values):
+    """Consecutive blocks of whole kernel chunks; together the whole surface, bit for bit."""
+    x, window = gyro
+    whole = adavar.davar(x, window=window, rate=RATE, taus="octave")
+    blocks = list(davar_blocks(x, window=window, rate=RATE, taus="octave",
+                               block_values=block_values))  # fmt: skip
+    assert len(blocks) > 1
+    for name in FIELDS:
+        joined = np.concatenate([getattr(b, name) for b in blocks])
+        np.testing.assert_array_equal(joined, getattr(whole, name), err_msg=name)
+    for b in blocks:
+        np.testing.assert_array_equal(b.edf_table, whole.edf_table)
+        assert b.notes == whole.notes
+
+
+@pytest.mark.parametrize("block_values", [1, 30_000, 10**9])
+def test_fit_in_blocks_is_the_fit_of_the_whole_surface(gyro, block_values):
+    x, window = gyro
+    whole = adavar.davar(x, window=window, rate=RATE, taus="all")
+    fit = adavar.fit_noise(whole, cells=False)
+    got = fit_davar_in_blocks(
+        x, window=window, rate=RATE, taus="all", fit_options={"cells": False},
+        drawn=50, block_values=block_values,
+    )  # fmt: skip
+    for name in ("coefficients", "coefficient_uncertainty", "chi2", "dof", "n_points", "time"):
+        np.testing.assert_array_equal(getattr(got.fit, name), getattr(fit, name), err_msg=name)
+    assert got.fit.tau is fit.tau or np.array_equal(got.fit.tau, fit.tau)
+    np.testing.assert_array_equal(got.time, whole.time)
+    np.testing.assert_array_equal(got.window, whole.window)
+    np.testing.assert_array_equal(got.centre, whole.centre)
+    drawn = drawn_rows(whole, 50)
+    assert got.drawn.avar.shape == (50, whole.m.size)
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(got.drawn, name), getattr(drawn, name))
+    np.testing.assert_array_equal(got.drawn.time, whole.time[spread_indices(6000, 50)])
+
+
+def test_fit_in_blocks_refuses_what_it_cannot_block(gyro):
+    x, _ = gyro
+    with pytest.raises(AdavarInputError, match="mirror"):
+        fit_davar_in_blocks(x, window=300, edges="valid")
+    with pytest.raises(AdavarInputError, match="rows="):
+        fit_davar_in_blocks(x, window=300, rows=(0, 10))
+
+
+def test_concatenate_fits_joins_the_curves(gyro):
+    x, _ = gyro
+    surface = adavar.davar(x, window=600, rate=RATE)
+    fit = adavar.fit_noise(surface)
+    parts = [adavar.fit_noise(adavar.davar(x, window=600, rate=RATE, rows=r))
+             for r in [(0, 1000), (1000, 1001), (1001, 6000)]]  # fmt: skip
+    joined = concatenate_fits(parts)
+    for name in ("coefficients", "coefficient_uncertainty", "chi2", "reduced_chi2", "used"):
+        np.testing.assert_array_equal(getattr(joined, name), getattr(fit, name), err_msg=name)
+    with pytest.raises(ValueError, match="terms and taus"):
+        concatenate_fits(
+            [parts[0], adavar.fit_noise(surface, terms=["angle_random_walk", "rate_random_walk"])]
+        )
