@@ -126,7 +126,8 @@ def test_fit_in_blocks_is_the_fit_of_the_whole_surface(gyro, block_values):
     np.testing.assert_array_equal(got.time, whole.time)
     np.testing.assert_array_equal(got.window, whole.window)
     np.testing.assert_array_equal(got.centre, whole.centre)
-    drawn = drawn_rows(whole, 50)
+    rows, drawn = drawn_rows(whole, 50)
+    np.testing.assert_array_equal(got.rows, rows)
     assert got.drawn.avar.shape == (50, whole.m.size)
     for name in FIELDS:
         np.testing.assert_array_equal(getattr(got.drawn, name), getattr(drawn, name))

@@ -79,7 +79,7 @@ from adavar.paper.reference import (
 from adavar.results import DavarResult
 from adavar.settings import CONTROLLER
 from adavar.statistics import as_samples
-from adavar.surface_fit import drawn_rows, fit_davar_in_blocks
+from adavar.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows
 from adavar.windows import window_overhang
 from adavar.writers import jsonable
 
@@ -387,8 +387,8 @@ class MethodRun:
         The DAVAR surface on ``window`` (with ``keep="figures"`` only the windows the
         surface figure draws, see :func:`compare`).
     fit : NoiseFit
-        The noise model fitted to every window (with ``keep="figures"`` without the
-        per-cell ``used`` and ``residuals``).
+        The noise model fitted to every window (``keep="figures"``: to the windows of
+        ``result``, without the per-cell ``used`` and ``residuals``).
     arw : ndarray, shape (T,)
         ``N(t)``, the angle random walk of every window (``fit.angle_random_walk.value``).
     nodes : tuple of Nodes
@@ -739,11 +739,12 @@ def compare(
         per-cell residuals of its fit, held together. ``"figures"``: what the tables and
         :func:`adavar.plots.comparison_figures` read: each surface is freed once fitted,
         keeping only the :data:`FIGURE_WINDOWS` windows (evenly spread over the record)
-        that :func:`adavar.plots.davar_surface_figure` draws, the fits have no per-cell
-        ``used`` and ``residuals`` and the surfaces no confidence bounds (``avar_low``,
+        that :func:`adavar.plots.davar_surface_figure` draws, with the fits of those
+        windows only (without per-cell ``used`` and ``residuals``; ``arw`` holds every
+        window's N), and the surfaces without confidence bounds (``avar_low``,
         ``avar_high`` and ``bound_table`` None; ``davar(..., bounds=False)``); every other
-        value is the same, and the memory is that of one surface instead of one per method
-        (``adavar compare`` uses it).
+        value is the same, and each surface is computed and fitted a block of windows at a
+        time (:mod:`adavar.surface_fit`; ``adavar compare`` uses it).
 
     Returns
     -------
@@ -943,8 +944,9 @@ def run_comparison(
                     t, arw, true[rows.centre], changes, margin=0.5 * lmax * tau0,
                     span=lmax * tau0,
                 )  # fmt: skip
-            if keep != "all" and blocks is None:
-                result = drawn_rows(result, FIGURE_WINDOWS)  # the whole surface freed here
+            if keep != "all":  # the figures' windows: the whole surface and fit freed here
+                drawn = (blocks.rows, result) if blocks else drawn_rows(result, FIGURE_WINDOWS)
+                fit, result = fit_rows(fit, drawn[0]), drawn[1]
             runs[spec.name] = MethodRun(
                 name=spec.name, label=spec.label, window=w, schedule=sched, result=result,
                 fit=fit, arw=arw, nodes=nodes, intervals=interval_means(t, arw, ivals),

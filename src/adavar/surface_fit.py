@@ -21,7 +21,7 @@ from adavar._figures import spread_indices
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult, NoiseFit
 
-__all__ = ["BlockFit", "concatenate_fits", "drawn_rows", "fit_davar_in_blocks"]
+__all__ = ["BlockFit", "concatenate_fits", "drawn_rows", "fit_davar_in_blocks", "fit_rows"]
 
 #: the fields of a :class:`NoiseFit` of a stack that hold one entry per curve
 _PER_CURVE = (
@@ -44,28 +44,39 @@ class BlockFit:
     drawn : DavarResult
         The surface with only the rows asked for (``drawn_rows``); every other field is
         the whole surface's.
+    rows : ndarray of int
+        Which rows ``drawn`` holds.
     time, window, centre : ndarray
         Time, window length and centre of every window.
     """
 
     fit: NoiseFit
     drawn: DavarResult
+    rows: np.ndarray
     time: np.ndarray
     window: np.ndarray
     centre: np.ndarray
 
 
-def drawn_rows(result: DavarResult, most: int) -> DavarResult:
-    """``result`` with at most ``most`` of its windows, evenly spread (the rows a surface
-    figure draws); every other field unchanged."""
+def drawn_rows(result: DavarResult, most: int) -> tuple[np.ndarray, DavarResult]:
+    """``(rows, result with only those rows)``: at most ``most`` of its windows, evenly
+    spread (the rows a surface figure draws); every other field unchanged."""
     rows = spread_indices(int(np.size(result.time)), most)
-    return _take_rows(result, rows)
+    return rows, _take_rows(result, rows)
 
 
 def _take_rows(result: DavarResult, rows: np.ndarray) -> DavarResult:
     return dataclasses.replace(result, **{name: None if getattr(result, name) is None
                                           else np.asarray(getattr(result, name))[rows]
                                           for name in _PER_ROW})  # fmt: skip
+
+
+def fit_rows(fit: NoiseFit, rows: np.ndarray) -> NoiseFit:
+    """The fit of a stack of curves with only the curves ``rows`` (the per-curve fields
+    taken at them; the rest unchanged)."""
+    taken = {name: np.asarray(getattr(fit, name))[rows]
+             for name in _PER_CURVE if getattr(fit, name) is not None}  # fmt: skip
+    return dataclasses.replace(fit, **taken)
 
 
 def concatenate_fits(fits: list[NoiseFit]) -> NoiseFit:
@@ -152,6 +163,7 @@ def fit_davar_in_blocks(
     return BlockFit(
         fit=concatenate_fits(fits),
         drawn=dataclasses.replace(first, **joined),
+        rows=rows,
         time=np.concatenate(times),
         window=np.concatenate(windows),
         centre=np.concatenate(centres),
