@@ -155,3 +155,25 @@ def test_concatenate_fits_joins_the_curves(gyro):
         concatenate_fits(
             [parts[0], adavar.fit_noise(surface, terms=["angle_random_walk", "rate_random_walk"])]
         )
+
+
+@pytest.mark.parametrize(("edges", "step"), [("mirror", 7), ("valid", 1), ("valid", 5)])
+def test_rows_and_blocks_with_steps_and_valid_edges(gyro, edges, step):
+    x, _ = gyro
+    whole = adavar.davar(x, window=500, rate=RATE, edges=edges, step=step, taus="octave")
+    n_rows = whole.time.size
+    block = adavar.davar(x, window=500, rate=RATE, edges=edges, step=step, taus="octave",
+                         rows=(3, n_rows - 2))  # fmt: skip
+    np.testing.assert_array_equal(block.avar, whole.avar[3 : n_rows - 2])
+    np.testing.assert_array_equal(block.centre, whole.centre[3 : n_rows - 2])
+    blocks = list(davar_blocks(x, window=500, rate=RATE, edges=edges, step=step,
+                               taus="octave", block_values=1))  # fmt: skip
+    np.testing.assert_array_equal(np.concatenate([b.avar for b in blocks]), whole.avar)
+    if edges == "mirror":
+        got = fit_davar_in_blocks(x, window=500, rate=RATE, step=step, taus="octave",
+                                  block_values=1, drawn=10)  # fmt: skip
+        np.testing.assert_array_equal(got.centre, whole.centre)
+        np.testing.assert_array_equal(
+            got.fit.coefficients, adavar.fit_noise(whole, cells=False).coefficients
+        )
+        np.testing.assert_array_equal(got.drawn.centre, whole.centre[spread_indices(n_rows, 10)])
