@@ -337,6 +337,13 @@ def test_compiled_rules_are_the_python_rules():
                 for ratio in np.geomspace(1e-6, 2.0, 60):
                     args = (alpha, float(ratio), m, white, flicker, strict)
                     assert nid._rn_decision_compiled(*args) == nid.rn_decision(*args)
+    for m in [1, 2, 3, 17, 1000, 55_109, 10**6, 9 * 10**7]:  # 55_109**4 overflows int64
+        for terms in (1, 7, 10**6):
+            total = float(rng.uniform(0.1, 10.0)) * 10.0 ** int(rng.integers(-20, 20))
+            assert nid._avar_of_sum_compiled(total, m, terms) == nid.avar_of_sum(total, m, terms)
+            want = total / (2.0 * m**4 * terms)  # the exact integer m**4, rounded once
+            assert nid._mvar_of_sum_compiled(total, m, terms) == nid.mvar_of_sum(total, m, terms)
+            assert nid.mvar_of_sum(total, m, terms) == want
     for avar, mvar in [(1.0, 0.5), (0.0, 1.0), (-1.0, 1.0), (1.0, math.inf), (1.0, math.nan)]:
         got, want = nid._rn_value_compiled(avar, mvar), nid.rn_value(avar, mvar)
         assert got == want or (math.isnan(got) and math.isnan(want))

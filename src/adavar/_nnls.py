@@ -240,8 +240,9 @@ def _fit_curve(
         for a in range(n_terms):
             for b in range(a):
                 G[b, a] = G[a, b]
-        # candidates: the previous pass's optimum, then the Lawson-Hanson active
-        # set, then every set from the largest down (exhaustive fallback)
+        # candidates: this pass's optimum for the previous curve, this curve's previous
+        # pass's optimum, the Lawson-Hanson active set, then every set from the largest
+        # down (exhaustive fallback)
         prev = best_mask if _pass > 0 else 0
         hint = hints[_pass]
         lh = -1

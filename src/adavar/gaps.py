@@ -100,9 +100,11 @@ from adavar.noise_id import (
     NoiseIdError,
     alpha_from_lag1,
     alpha_from_phase_lag1,
+    avar_of_sum,
     b1_with_rn,
     clamp_alpha,
     fill_unidentified,
+    mvar_of_sum,
     pm_with_rn,
     rn_ratio,
 )
@@ -365,8 +367,8 @@ def _gap_rn(phase: diff.AnchoredPhase, layout: GapLayout, m: int) -> float | Non
     m_sum, m_n = kept_sums(phase, layout, "mdev", ms)
     if a_n[0] == 0 or m_n[0] == 0:
         return None
-    avar = float(a_sum[0]) / (2.0 * m * m * int(a_n[0]))
-    return rn_ratio(avar, float(m_sum[0]) / (2.0 * m**4 * int(m_n[0])))
+    avar = avar_of_sum(float(a_sum[0]), m, int(a_n[0]))
+    return rn_ratio(avar, mvar_of_sum(float(m_sum[0]), m, int(m_n[0])))
 
 
 def gap_noise_types(

@@ -44,6 +44,7 @@ __all__ = [
     "NoiseIdError",
     "alpha_from_lag1",
     "alpha_from_phase_lag1",
+    "avar_of_sum",
     "b1_with_rn",
     "clamp_alpha",
     "decimated_phase_lag1",
@@ -52,6 +53,7 @@ __all__ = [
     "identify_noise_b1",
     "identify_noise_lag1",
     "lag1_decision",
+    "mvar_of_sum",
     "pm_with_rn",
     "rate_noise_types",
     "rn_decision",
@@ -763,6 +765,22 @@ def alpha_from_phase_lag1(
 NOISE_ID_RULES = ("sp1065", "stable32")
 
 
+def avar_of_sum(total: float, m: int, terms: int) -> float:
+    """The overlapping Allan variance from its sum of squared second differences of the
+    phase: ``total / (2 m^2 n)`` (the R(n) drivers' one normalisation)."""
+    return total / (2.0 * m * m * terms)
+
+
+def mvar_of_sum(total: float, m: int, terms: int) -> float:
+    """The modified Allan variance from its sum of squared m-sums: ``total / (2 m^4 n)``.
+
+    ``m^4`` as ``float(m*m)**2`` rounds once, as the exact integer would, for ``m`` below
+    9.4e7 (and does not overflow a compiled integer).
+    """
+    square = float(m * m)
+    return total / (2.0 * (square * square) * terms)
+
+
 def rn_value(avar: float, mvar: float) -> float:
     """R(n) = MVAR / AVAR, or NaN where it is undefined."""
     return mvar / avar if avar > 0 and math.isfinite(mvar) else math.nan
@@ -815,6 +833,8 @@ def b1_with_rn(z: np.ndarray, m: int, dmax: int, rn, *, strict: bool = False) ->
 _lag1_decision_compiled = jit(lag1_decision)
 _clamp_alpha_compiled = jit(clamp_alpha)
 _rn_value_compiled = jit(rn_value)
+_avar_of_sum_compiled = jit(avar_of_sum)
+_mvar_of_sum_compiled = jit(mvar_of_sum)
 _rn_wanted_compiled = jit(rn_wanted)
 _rn_decision_compiled = jit(rn_decision)
 
@@ -871,12 +891,11 @@ def _rate_noise_kernel(r, hh, hl, shift, fused, ms, dmax, avar, strict):  # prag
                     one_m[0] = m
                     one_count[0] = n_points - 2 * m
                     sums = overlapping_sums_kernel(r, hh, hl, one_m, zero, one_count, SECOND)
-                    var = sums[0] / (2.0 * m * m * (n_points - 2 * m))
+                    var = _avar_of_sum_compiled(sums[0], m, n_points - 2 * m)
                 one_m[0] = m
                 one_count[0] = n_points + 1 - 3 * m
                 mod = modified_sums_kernel(r, hh, hl, one_m, one_count)[0]
-                square = float(m * m)  # m**4 rounded once, as the exact integer's would be
-                ratio = _rn_value_compiled(var, mod / (2.0 * (square * square) * one_count[0]))
+                ratio = _rn_value_compiled(var, _mvar_of_sum_compiled(mod, m, one_count[0]))
                 if not math.isnan(ratio):
                     white, flicker = _rn_theory_pm_compiled(m)
                     alpha = _rn_decision_compiled(alpha, ratio, m, white, flicker, strict)

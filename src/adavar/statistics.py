@@ -21,7 +21,15 @@ from adavar import extended_statistics as ext
 from adavar import stream
 from adavar import stream_statistics as sstat
 from adavar.errors import AdavarInputError
-from adavar.noise_id import NOISE_ID_RULES, b1_with_rn, pm_with_rn, rate_noise_types, rn_ratio
+from adavar.noise_id import (
+    NOISE_ID_RULES,
+    avar_of_sum,
+    b1_with_rn,
+    mvar_of_sum,
+    pm_with_rn,
+    rate_noise_types,
+    rn_ratio,
+)
 from adavar.results import DeviationResult
 from adavar.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, STATISTICS
 from adavar.taus import averaging_factors
@@ -335,12 +343,12 @@ def _rn_in_memory(
     if need:
         sums = diff.overlapping_sums(phase, np.array(need, dtype=np.int64), 2).tolist()
         avar = avar | {
-            m: total / (2.0 * m * m * (phase.n_points - 2 * m))
+            m: avar_of_sum(total, m, phase.n_points - 2 * m)
             for m, total in zip(need, sums, strict=True)
         }
     mod_sums, counts = diff.modified_sums(phase, np.array(ms, dtype=np.int64))
     return {
-        m: rn_ratio(avar[m], mod_sum / (2.0 * m**4 * count))
+        m: rn_ratio(avar[m], mvar_of_sum(mod_sum, m, count))
         for m, mod_sum, count in zip(ms, mod_sums.tolist(), counts.tolist(), strict=True)
     }
 

@@ -448,7 +448,7 @@ def noise_types(
     taus that read "PM" costs one more streamed pass (overlapping and modified sums).
     """
     from adavar import stream_statistics as sstat
-    from adavar.noise_id import b1_with_rn, pm_with_rn, rn_ratio
+    from adavar.noise_id import avar_of_sum, b1_with_rn, mvar_of_sum, pm_with_rn, rn_ratio
 
     src = as_source(source)
     ms = np.atleast_1d(np.asarray(ms, dtype=np.int64))
@@ -468,9 +468,12 @@ def noise_types(
                 phase_src.append(sstat.streamed_phase(src, chunk))
             ph = phase_src[0]
             one = np.array([m], dtype=np.int64)
-            avar = sstat.overlapping_sums(ph, one, 2)[0] / (2.0 * m * m * (src.size + 1 - 2 * m))
+            total = float(sstat.overlapping_sums(ph, one, 2)[0])
             sums, n = sstat.modified_sums(ph, one)
-            rn_cache[m] = rn_ratio(float(avar), float(sums[0] / (2.0 * m**4 * n[0])))
+            rn_cache[m] = rn_ratio(
+                avar_of_sum(total, m, src.size + 1 - 2 * m),
+                mvar_of_sum(float(sums[0]), m, int(n[0])),
+            )
         return rn_cache[m]
 
     for t, (m, st, pst) in enumerate(zip(ms, stats, pstats, strict=True)):
