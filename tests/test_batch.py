@@ -674,3 +674,33 @@ def test_fixed_window_events_follow_the_controller_flags(records):
     fitting = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 90})
     assert fitting.events()["items"] is not None
     assert analyse_file(records["g2"], {"units": "deg/s", "rate": RATE}).events() is None
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{"adaptive": True, "lmax": 600, "lmin": 400, "l": 100},
+     {"adaptive": True, "step": 3, "taus": "all"}, {"window": 1000, "l": 100},
+     {"adaptive": True, "data_type": "phase"}],
+    ids=["adaptive", "step-all-taus", "fixed", "phase"],
+)  # fmt: skip
+def test_keep_figures_gives_the_same_report_and_events(records, options, monkeypatch):
+    """``keep="figures"`` (what adavar report and batch use) fits the surface a block at a
+    time and keeps its drawn rows: the same page, events and shape as the whole surface."""
+    monkeypatch.setattr(sys.modules["adavar.davar"], "BLOCK_VALUES", 4096)  # many blocks
+    options = {"units": "deg/s", "rate": RATE, **options}
+    whole = analyse_file(records["g2"], options)
+    blocks = analyse_file(records["g2"], options, keep="figures")
+    assert analysis.surface_shape(blocks.surface) == analysis.surface_shape(whole.surface)
+    assert blocks.surface.drawn.avar.shape[0] < whole.surface.avar.shape[0]
+    assert writers.dumps(blocks.events()) == writers.dumps(whole.events())
+    stamp = re.compile(r" on \d{4}-\d\d-\d\d \d\d:\d\d:\d\d UTC")
+    assert stamp.sub("", blocks.html()) == stamp.sub("", whole.html())
+    fit, want = blocks.coefficients, whole.coefficients
+    for name in ("coefficients", "coefficient_uncertainty", "chi2", "time"):
+        np.testing.assert_array_equal(getattr(fit, name), getattr(want, name), err_msg=name)
+    if whole.adaptive is not None:
+        for name in ("window", "centre", "kurtosis", "s", "f"):
+            np.testing.assert_array_equal(getattr(blocks.adaptive, name),
+                                          getattr(whole.adaptive, name), err_msg=name)  # fmt: skip
+    with pytest.raises(analysis.AdavarInputError, match="unknown keep"):
+        analyse_file(records["g2"], options, keep="some")

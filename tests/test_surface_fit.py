@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import adavar
 from adavar import simulate
@@ -177,3 +179,120 @@ def test_rows_and_blocks_with_steps_and_valid_edges(gyro, edges, step):
             got.fit.coefficients, adavar.fit_noise(whole, cells=False).coefficients
         )
         np.testing.assert_array_equal(got.drawn.centre, whole.centre[spread_indices(n_rows, 10)])
+
+
+@pytest.fixture(scope="module")
+def step_gyro():
+    """Twenty seconds of the 200 Hz gyro with a 2-second burst of extra noise (the
+    controller shortens its window around it)."""
+    x = simulate.sensor(
+        4000, rate=RATE, angle_random_walk=0.01, bias_instability=0.003, bandwidth=40.0,
+        lsb=1 / 131, bias=0.5, seed=12,
+    )  # fmt: skip
+    x[2000:2400] += 0.2 * np.random.default_rng(3).standard_normal(400)
+    return x
+
+
+ADAPTIVE_FIELDS = (*FIELDS, "kurtosis", "s", "f1", "f2", "f")
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{}, {"step": 7}, {"method": "ici"}, {"data_type": "phase"}, {"edges": "valid"},
+     {"method": "kurtosis", "confidence": None}],
+    ids=["adaptive", "step", "ici", "phase", "valid", "kurtosis-no-confidence"],
+)  # fmt: skip
+def test_adaptive_blocks_are_the_adaptive_surface(step_gyro, options):
+    from adavar.adaptive import adaptive_blocks
+
+    x = np.cumsum(step_gyro) / RATE if options.get("data_type") == "phase" else step_gyro
+    whole = adavar.adaptive_davar(x, rate=RATE, taus="octave", lmax=300, lmin=100, l=50,
+                                  **options)  # fmt: skip
+    assert np.any(whole.window < 300)  # the burst shortened windows
+    blocks = list(adaptive_blocks(x, rate=RATE, taus="octave", lmax=300, lmin=100, l=50,
+                                  block_values=3000, **options))  # fmt: skip
+    assert len(blocks) > 1
+    for name in ADAPTIVE_FIELDS:
+        want = getattr(whole, name)
+        if want is None:
+            assert all(getattr(b, name) is None for b in blocks)
+            continue
+        joined = np.concatenate([getattr(b, name) for b in blocks])
+        np.testing.assert_array_equal(joined, want, err_msg=name)
+    for b in blocks:
+        assert b.parameters == whole.parameters and b.method == whole.method
+        assert b.notes == whole.notes
+        np.testing.assert_array_equal(b.alpha, whole.alpha)
+
+
+@pytest.mark.parametrize("options", [{}, {"step": 3}, {"method": "ici"}],
+                         ids=["adaptive", "step", "ici"])  # fmt: skip
+def test_adaptive_fit_in_blocks_is_the_fit_of_the_whole_surface(step_gyro, options):
+    from adavar.surface_fit import fit_adaptive_in_blocks
+
+    common = dict(rate=RATE, taus="all", lmax=300, lmin=100, l=50, **options)
+    whole = adavar.adaptive_davar(step_gyro, **common)
+    fit = adavar.fit_noise(whole, cells=False)
+    got = fit_adaptive_in_blocks(step_gyro, fit_options={"cells": False}, drawn=40,
+                                 block_values=5000, bounds=False, **common)  # fmt: skip
+    for name in ("coefficients", "coefficient_uncertainty", "chi2", "dof", "n_points", "time"):
+        np.testing.assert_array_equal(getattr(got.fit, name), getattr(fit, name), err_msg=name)
+    windows = got.windows
+    assert isinstance(windows, adavar.AdaptiveResult)
+    assert windows.avar.shape == (whole.time.size, 0) and windows.tau.size == 0
+    for name in ADAPTIVE_FIELDS[1:]:
+        if name == "window_class":  # no cells, so no EDF classes
+            assert windows.window_class is None and windows.edf_table is None
+            continue
+        np.testing.assert_array_equal(getattr(windows, name), getattr(whole, name), name)
+    assert windows.time is got.time and got.fit.time is got.time  # one copy
+    assert got.n_windows == whole.time.size and got.n_taus == whole.tau.size
+    rows, drawn = drawn_rows(whole, 40)
+    np.testing.assert_array_equal(got.rows, rows)
+    for name in ADAPTIVE_FIELDS:
+        np.testing.assert_array_equal(getattr(got.drawn, name), getattr(drawn, name), name)
+    assert got.drawn.avar_low is None  # bounds=False: none made
+
+
+def test_adaptive_blocks_refuse_a_record_out_of_core(step_gyro, tmp_path):
+    from adavar.adaptive import adaptive_blocks
+
+    path = tmp_path / "x.npy"
+    np.save(path, step_gyro)
+    with pytest.raises(AdavarInputError, match="chunk_size"):
+        next(adaptive_blocks(np.load(path, mmap_mode="r"), rate=RATE))
+    with pytest.raises(AdavarInputError, match="chunk_size"):
+        next(adaptive_blocks(step_gyro, rate=RATE, chunk_size=1000))
+    with pytest.raises(AdavarInputError, match="block_values"):
+        next(adaptive_blocks(step_gyro, rate=RATE, block_values=0))
+    with pytest.raises(TypeError):
+        next(adaptive_blocks(step_gyro, rate=RATE, no_such_option=1))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(1, 40), min_size=1, max_size=8), st.integers(0, 5),
+       st.sampled_from(["views", "copies", "view-then-copy", "strided"]))  # fmt: skip
+def test_joined_rows_are_the_concatenation(sizes, offset, kind):
+    """Blocks that are consecutive views of one array join to a view of it; any other
+    blocks to a copy; either way the concatenation of the blocks."""
+    from adavar.surface_fit import _Joined
+
+    total = sum(sizes)
+    base = np.arange(offset + 2 * total + 3, dtype=float) * 1.5
+    parts, start = [], 0
+    for k, size in enumerate(sizes):
+        if kind == "views" or (kind == "view-then-copy" and k < len(sizes) - 1):
+            part = base[offset + start : offset + start + size]
+        elif kind == "strided":
+            part = base[offset + 2 * start : offset + 2 * (start + size) : 2]
+        else:
+            part = base[offset + start : offset + start + size].copy()
+        parts.append((part, start))
+        start += size
+    joined = _Joined(total)
+    for part, at in parts:
+        joined.add(part, at)
+    got = joined.array()
+    np.testing.assert_array_equal(got, np.concatenate([p for p, _ in parts]))
+    assert np.shares_memory(got, base) == (kind == "views" or (kind == "view-then-copy"
+                                                             and len(sizes) == 1))  # fmt: skip

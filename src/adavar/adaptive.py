@@ -30,8 +30,9 @@ change times), ``"fixed"`` (DAVAR-L with ``L = lmax``, its kurtosis and S record
 
 from __future__ import annotations
 
+import inspect
 import math
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -39,7 +40,7 @@ import numpy as np
 
 from adavar import stream
 from adavar.controller import REANCHOR, check_whole, controller_outputs, make_controller
-from adavar.davar import davar
+from adavar.davar import davar, davar_blocks
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
 from adavar.ici import ici_schedule
@@ -60,6 +61,7 @@ __all__ = [
     "METHODS",
     "AdaptiveResult",
     "Schedule",
+    "adaptive_blocks",
     "adaptive_davar",
     "adaptive_schedule",
     "calibrated_thresholds",
@@ -508,6 +510,7 @@ def adaptive_davar(
     ici_sides: str = "both",
     ici_edf: str = "correlation",
     ici_edf_samples: int | None = None,
+    bounds: bool = True,
 ) -> AdaptiveResult:
     """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
 
@@ -594,6 +597,9 @@ def adaptive_davar(
         ``ici_edf_samples`` samples only (what :class:`adavar.OnlineAdaptive` knows when it
         starts; its default is :data:`adavar.online_ici.ICI_EDF_SAMPLES`); default None:
         the whole record.
+    bounds : bool
+        As in :func:`adavar.davar` (False: no per-cell confidence bounds, for a surface
+        whose bounds nothing reads).
 
     Returns
     -------
@@ -605,6 +611,63 @@ def adaptive_davar(
     The controller is an O(N) sequential pass; the surface is :func:`adavar.davar` with
     ``window`` = the schedule, so it costs what a fixed window costs.
     """
+    # every argument, by name: the body is shared with adaptive_blocks
+    arguments = {name: value for name, value in locals().items() if name != "data"}
+    return next(_adaptive_surfaces(data, **arguments, in_blocks=False, block_values=None))
+
+
+def adaptive_blocks(
+    data: Sequence[float] | np.ndarray, *, block_values: int | None = None, **options: Any
+) -> Iterator[AdaptiveResult]:
+    """:func:`adaptive_davar` a block of consecutive windows at a time.
+
+    The controller runs once over the whole record; its surface is then computed a block
+    of windows at a time (:func:`adavar.davar.davar_blocks`), for a record whose surface
+    is too large to hold while its per-window results are not.
+
+    Parameters
+    ----------
+    data : array_like
+        The record, in memory (a memory map, a dask array or a source: use
+        ``adaptive_davar(..., chunk_size=)``, which holds ``N / step`` rows).
+    block_values : int, optional
+        Surface values per block (default :data:`adavar.davar.BLOCK_VALUES`).
+    **options
+        Keywords of :func:`adaptive_davar` but ``chunk_size``.
+
+    Yields
+    ------
+    AdaptiveResult
+        Consecutive blocks of rows: every row (its variances, window, centre, kurtosis,
+        S and flags) equals that row of ``adaptive_davar(data, **options)`` bit for bit;
+        ``alpha``, the EDF and bound tables, ``notes`` and ``parameters`` are the whole
+        surface's.
+    """
+    arguments = inspect.signature(adaptive_davar).bind(data, **options)
+    arguments.apply_defaults()
+    given = dict(arguments.arguments)
+    if given.pop("chunk_size") is not None or stream.is_chunked(data):
+        raise AdavarInputError(
+            "adaptive_blocks takes a record in memory: for a memory map, a dask array or "
+            "a source use adaptive_davar(..., chunk_size=), which holds N / step rows"
+        )
+    if block_values is not None and int(block_values) < 1:
+        raise AdavarInputError(f"block_values must be a positive number, got {block_values!r}")
+    return _adaptive_surfaces(given.pop("data"), **given, chunk_size=None, in_blocks=True,
+                              block_values=block_values)  # fmt: skip
+
+
+def _adaptive_surfaces(
+    data: Any, *, method: str, lmax: Length, lmin: Length, k1: float, k2: float, s1: float,
+    s2: float, l: Length, dl0: int, dl1: int, s_test: str, combine: str,  # noqa: E741
+    taus: Any, edges: str, change_times: Any, thresholds: str, false_alarm: float,
+    step: Length, confidence: float | None, data_type: str, rate: float, tau0: float | None,
+    t0: float, points_per_decade: int, noise_type: Any, units: str | None,
+    chunk_size: int | None, edge_edf: str, false_alarm_per_hour: float | None,
+    ici_gamma: float, ici_lengths: Any, ici_taus: Any, ici_sides: str, ici_edf: str,
+    ici_edf_samples: int | None, bounds: bool, in_blocks: bool, block_values: int | None,
+) -> Iterator[AdaptiveResult]:  # fmt: skip
+    """The body of :func:`adaptive_davar`: one result, or (``in_blocks``) blocks of rows."""
     dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
@@ -624,7 +687,7 @@ def adaptive_davar(
     surface_options = dict(
         rate=rate, data_type=dtype, taus=taus, edges=edges, confidence=confidence, tau0=tau0,
         t0=t0, points_per_decade=points_per_decade, noise_type=noise_type, units=units,
-        edge_edf=edge_edf,
+        edge_edf=edge_edf, bounds=bounds,
     )  # fmt: skip
     step = int(step) if isinstance(step, (int, np.integer)) and not isinstance(step, bool) else 0
     if step < 1:
@@ -651,32 +714,45 @@ def adaptive_davar(
             window = sched.window
             window.flags.writeable = False  # shared with the surface, not copied
         surface = davar(source, window=window, step=step, chunk_size=chunk_size, **surface_options)
-        rows = slice(None)
-        if not np.array_equal(sched.centre, surface.centre):  # pragma: no cover
-            raise AssertionError("internal: surface centres differ from the schedule's")
+        yield _with_record(surface, sched, method)
+        return
+    x = as_samples(data, min_length=min_length)
+    u = x if dtype == "rate" else np.diff(x)
+    sched = adaptive_schedule(u, **controller)
+    shift = sched.shift
+    if edges == "valid":
+        # the schedule covers the centres where an lmax window fits; others are not
+        # computed
+        full = np.full(u.size, lmax, dtype=np.int64)
+        full[sched.centre] = sched.window
+        window = full
+        if shift is not None:
+            shift = np.zeros(u.size, dtype=np.int64)
+            shift[sched.centre] = sched.shift
     else:
-        x = as_samples(data, min_length=min_length)
-        u = x if dtype == "rate" else np.diff(x)
-        sched = adaptive_schedule(u, **controller)
-        shift = sched.shift
-        if edges == "valid":
-            # the schedule covers the centres where an lmax window fits; others are not
-            # computed
-            full = np.full(u.size, lmax, dtype=np.int64)
-            full[sched.centre] = sched.window
-            window = full
-            if shift is not None:
-                shift = np.zeros(u.size, dtype=np.int64)
-                shift[sched.centre] = sched.shift
-        else:
-            window = sched.window
-            window.flags.writeable = False  # shared with the surface, not copied
-        surface = davar(x, window=window, step=step, shift=shift, **surface_options)
-        # the surface's centres are every step-th of the schedule's: slices, no copies
-        first = int(surface.centre[0] - sched.centre[0])
-        rows = slice(first, first + step * (surface.centre.size - 1) + 1, step)
-        if not np.array_equal(sched.centre[rows], surface.centre):  # pragma: no cover
-            raise AssertionError("internal: surface centres outside the schedule")
+        window = sched.window
+        window.flags.writeable = False  # shared with the surface, not copied
+    if not in_blocks:
+        yield _with_record(
+            davar(x, window=window, step=step, shift=shift, **surface_options), sched,
+            method,
+        )  # fmt: skip
+        return
+    for block in davar_blocks(x, window=window, step=step, shift=shift,
+                              block_values=block_values, **surface_options):  # fmt: skip
+        yield _with_record(block, sched, method)
+
+
+def _with_record(surface: DavarResult, sched: Schedule, method: str) -> AdaptiveResult:
+    """The surface (or a block of its rows) with the schedule's record of its centres."""
+    # the surface's centres are every (step / sched.step)-th of the schedule's from the
+    # first one's row: slices, no copies
+    stride = max(1, int(surface.step) // int(sched.step))
+    count = int(surface.centre.size)
+    first = int(surface.centre[0] - sched.centre[0]) // int(sched.step) if count else 0
+    rows = slice(first, first + stride * (count - 1) + 1 if count else first, stride)
+    if not np.array_equal(sched.centre[rows], surface.centre):  # pragma: no cover
+        raise AssertionError("internal: surface centres outside the schedule")
     fields = {
         name: getattr(surface, name) for name in surface.__dataclass_fields__ if name != "_cache"
     }

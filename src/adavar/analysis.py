@@ -232,13 +232,20 @@ def resolve_resolution(args: Any, tau0: float, n_samples: int, channels: int = 1
 
 def analyse_channel(
     args: Any, samples: np.ndarray, units: str, tau0: float, status: Callable[[str], None],
-    tag: str = "",
+    tag: str = "", keep: str = "all",
 ) -> dict[str, Any]:  # fmt: skip
     """The analysis of one channel that ``adavar report`` shows and ``adavar batch`` writes.
 
     The deviation at the chosen taus, its noise fit, and (with ``window`` or ``adaptive``)
     the DAVAR surface and the fit of every window. ``status`` receives one line per step.
+    ``keep="figures"``: the surface is computed and fitted a block of windows at a time
+    (:mod:`adavar.surface_fit`); ``surface`` is then a :class:`~adavar.surface_fit.BlockFit`
+    (the rows the report draws and every window's time, length and centre) and
+    ``adaptive`` its windows without their cells (:attr:`BlockFit.windows`). The numbers
+    are the same; the peak memory is a block, not the surface.
     """
+    if keep not in KEEP:
+        raise AdavarInputError(f"unknown keep {keep!r}: use one of {', '.join(KEEP)}")
     from adavar.units import rate_unit
 
     rate_u = rate_unit(units, args.data_type)
@@ -256,14 +263,20 @@ def analyse_channel(
     surface = adaptive = coefficients = None
     common = dict(data_type=args.data_type, taus=args.taus, step=args.step, units=rate_u,
                   **rate_kw)  # fmt: skip
-    if args.adaptive:
+    if keep == "figures" and (args.adaptive or args.window is not None):
+        status(f"{tag}{'adaptive ' if args.adaptive else ''}DAVAR surface and the noise "
+               "coefficients of every window, a block of windows at a time")  # fmt: skip
+        surface = _fit_in_blocks(args, samples, fit, common)
+        coefficients = surface.fit
+        adaptive = surface.windows if args.adaptive else None
+    elif args.adaptive:
         status(f"{tag}adaptive DAVAR surface")
         adaptive = adaptive_davar(samples, **controller_settings(args), **common)
         surface = adaptive
     elif args.window is not None:
         status(f"{tag}DAVAR surface")
         surface = davar(samples, window=args.window, **common)
-    if surface is not None:
+    if surface is not None and coefficients is None:
         status(f"{tag}noise coefficients of every window")
         try:
             # the windows' coefficients only: no per-cell residuals (a surface's size)
@@ -275,6 +288,40 @@ def analyse_channel(
         "coefficients": coefficients, "units": units, "rate_units": rate_u,
         "samples": samples.size,
     }  # fmt: skip
+
+
+#: What :func:`analyse_channel` and :func:`analyse_file` keep of a surface.
+KEEP = ("all", "figures")
+
+
+def _fit_in_blocks(
+    args: Any, samples: np.ndarray, whole: Any, common: dict[str, Any]
+) -> Any:  # fmt: skip
+    """The surface of ``analyse_channel(..., keep="figures")``: a :class:`BlockFit`."""
+    from adavar.report import MAX_SURFACE_TIMES
+    from adavar.surface_fit import fit_adaptive_in_blocks, fit_davar_in_blocks
+
+    # the windows' coefficients only: no per-cell residuals (a surface's size); no
+    # per-cell bounds (neither the report nor the fit reads them)
+    options = dict(fit_options={**window_fit_keywords(args, whole), "cells": False},
+                   drawn=MAX_SURFACE_TIMES, bounds=False, **common)  # fmt: skip
+    try:
+        if args.adaptive:
+            return fit_adaptive_in_blocks(samples, **controller_settings(args), **options)
+        return fit_davar_in_blocks(samples, window=args.window, **options)
+    except ValueError as exc:
+        raise AdavarInputError(str(exc)) from None
+
+
+def surface_shape(surface: Any) -> dict[str, Any] | None:
+    """What a command's JSON says of a surface (a result or a :class:`BlockFit`; None
+    without one): ``{"windows", "taus", "method"}``."""
+    if surface is None:
+        return None
+    drawn = getattr(surface, "drawn", surface)  # a BlockFit keeps the drawn rows
+    windows = surface.n_windows if drawn is not surface else np.shape(surface.avar)[0]
+    return {"windows": int(windows), "taus": int(np.size(drawn.tau)),
+            "method": getattr(drawn, "method", "fixed")}  # fmt: skip
 
 
 def controller_settings(args: Any) -> dict[str, Any]:
@@ -406,6 +453,10 @@ class ReportAnalysis:
         Its noise fit.
     surface, adaptive : DavarResult, AdaptiveResult or None
         The DAVAR surface (``window``) or the adaptive one (``adaptive``; then both are it).
+        With ``analyse_file(..., keep="figures")``: ``surface`` is a
+        :class:`adavar.surface_fit.BlockFit` (the rows the report draws, every window's
+        time, length and centre) and ``adaptive`` its :attr:`~BlockFit.windows` (every
+        window's controller record, no cells).
     coefficients : NoiseFit or None
         The fit of every window of the surface (without the per-cell ``used`` and
         ``residuals``: ``fit_noise(..., cells=False)``).
@@ -568,6 +619,7 @@ def analyse_file(
     options: Mapping[str, Any] | argparse.Namespace | None = None,
     *,
     title: str | None = None,
+    keep: str = "all",
 ) -> ReportAnalysis:
     """Read, preprocess and analyse one file exactly as ``adavar report FILE`` does.
 
@@ -583,6 +635,12 @@ def analyse_file(
         the file has time stamps) are needed.
     title : str, optional
         Title of the report (default: the file and column).
+    keep : {"all", "figures"}
+        ``"all"``: the whole surface (``surface.avar`` of every window and tau);
+        ``"figures"`` (what ``adavar report`` and ``adavar batch`` use): the surface
+        computed and fitted a block of windows at a time, keeping what the report and
+        the events read (see :class:`ReportAnalysis`): the same report and numbers in the
+        memory of a block instead of the surface.
 
     Returns
     -------
@@ -612,7 +670,7 @@ def analyse_file(
     else:
         samples, units = loaded, units_of
     segment_given = opts.get("segment") is not None
-    run = analyse_channel(args, samples, units, tau0, lambda what: None, "")
+    run = analyse_channel(args, samples, units, tau0, lambda what: None, "", keep=keep)
     # the lengths as used (durations and the record's windows resolved), for the events
     opts = {**opts, **{k: getattr(args, k) for k in _LENGTHS if hasattr(args, k)}}
     opts["segment_given"] = segment_given

@@ -61,9 +61,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from adavar.analysis import ReportAnalysis, analyse_file, report_options
+from adavar.analysis import ReportAnalysis, analyse_file, report_options, surface_shape
 from adavar.batch_cluster import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, connect, gather
 from adavar.batch_state import (
     STATUS_ABSENT,
@@ -327,7 +325,7 @@ def _process_file(
     worker = _worker_name()
     try:
         fingerprint = _fingerprint(path)
-        analysis = analyse_file(path, options)
+        analysis = analyse_file(path, options, keep="figures")
         events = analysis.events()
         fit_json = _fit_json(analysis.fit)
         row = _summary_row(path, name, analysis, fit_json, events)
@@ -348,11 +346,7 @@ def _process_file(
             "options": _plain(options),
             "parameters": analysis.parameters,
             "fit": fit_json,
-            "surface": None if analysis.surface is None else {
-                "windows": int(np.shape(analysis.surface.avar)[0]),
-                "taus": int(np.shape(analysis.surface.avar)[1]),
-                "method": getattr(analysis.surface, "method", "fixed"),
-            },
+            "surface": surface_shape(analysis.surface),
             "events": events,
             "worker": worker,
             "finished": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),

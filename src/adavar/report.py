@@ -344,16 +344,29 @@ def _term_texts(fit: Any, unit: str | None) -> dict[str, tuple[str, str]]:
     return out
 
 
-def _surface_figure(surface: Any, units: str | None) -> tuple[dict[str, Any], str]:
-    tau = np.asarray(surface.tau, dtype=float)
+def _surface_figure(surface: Any, units: str | None) -> tuple[dict[str, Any], str, str]:
+    """The 3-D surface figure, its caption and the surface's notes (HTML)."""
+    drawn = getattr(surface, "drawn", surface)  # a BlockFit holds the drawn rows only
+    tau = np.asarray(drawn.tau, dtype=float)
     time = np.asarray(surface.time, dtype=float)
     rows = spread_indices(time.size, MAX_SURFACE_TIMES)
     cols = spread_log(tau, MAX_SURFACE_TAUS)
-    avar = np.asarray(surface.avar, dtype=float)[np.ix_(rows, cols)]
+    if drawn is surface:
+        avar = np.asarray(surface.avar, dtype=float)[np.ix_(rows, cols)]
+    else:  # the rows' places among those the BlockFit kept
+        kept = np.asarray(surface.rows)
+        at = np.minimum(np.searchsorted(kept, rows), max(kept.size - 1, 0))
+        if kept.size == 0 or not np.array_equal(kept[at], rows):
+            raise ValueError(
+                f"surface= a BlockFit that kept {kept.size} of {time.size} windows; the "
+                f"report draws {rows.size}: fit it with drawn=MAX_SURFACE_TIMES "
+                f"({MAX_SURFACE_TIMES})"
+            )
+        avar = np.asarray(drawn.avar, dtype=float)[np.ix_(at, cols)]
     good = np.isfinite(avar) & (avar > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         z = np.where(good, 0.5 * np.log10(np.where(good, avar, 1.0)), np.nan)
-    unit = rate_unit(surface.units or units, surface.data_type)
+    unit = rate_unit(drawn.units or units, drawn.data_type)
     zlabel = "log10 σ" + (f" [{_esc(unit)}]" if unit else "")
     trace = {
         "type": "surface", "x": _num(np.log10(tau[cols]), 5), "y": _num(time[rows], 7),
@@ -375,7 +388,7 @@ def _surface_figure(surface: Any, units: str | None) -> tuple[dict[str, Any], st
         f"{cols.size} of {tau.size} taus (evenly spread in log τ) drawn; "
         "blank cells: τ beyond a third of the window. Drag to rotate, scroll to zoom."
     )
-    return {"data": [trace], "layout": layout, "config": _config()}, caption
+    return {"data": [trace], "layout": layout, "config": _config()}, caption, _notes(drawn.notes)
 
 
 def _coefficient_figure(fit: Any, units: str | None) -> tuple[dict[str, Any], list[str]]:
@@ -740,10 +753,12 @@ def build_report(
         A single-curve fit (:func:`adavar.fit_noise` of ``deviation``): the model and every
         non-zero term on the deviation plot, and the coefficient table (data units and,
         when the unit is known, conventional units).
-    surface : DavarResult, optional
+    surface : DavarResult or BlockFit, optional
         From :func:`adavar.davar` (or :func:`adavar.adaptive_davar`): a rotatable 3-D
         surface (log10 tau, time, log10 deviation), thinned to at most
-        :data:`MAX_SURFACE_TIMES` x :data:`MAX_SURFACE_TAUS` cells.
+        :data:`MAX_SURFACE_TIMES` x :data:`MAX_SURFACE_TAUS` cells. Or a surface fitted a
+        block at a time (:func:`adavar.surface_fit.fit_davar_in_blocks` with ``drawn=``
+        :data:`MAX_SURFACE_TIMES`): the same figure from the rows it kept.
     coefficients : NoiseFit, optional
         The fit of every DAVAR window (``adavar.fit_noise(surface)``): every term in the
         model that is non-zero somewhere, over time, with its 1-sigma band.
@@ -818,11 +833,11 @@ def build_report(
                         f"{_coefficient_table(fit, units)}</section>")  # fmt: skip
 
     if surface is not None:
-        figure, caption = _surface_figure(surface, units)
+        figure, caption, notes = _surface_figure(surface, units)
         sections.append(
             '<section id="surface"><h2>Dynamic Allan deviation surface</h2>'
             f'{plot("surface", figure)}<p class="caption">{_esc(caption)}</p>'
-            f"{_notes(surface.notes)}</section>"
+            f"{notes}</section>"
         )
 
     if coefficients is not None:

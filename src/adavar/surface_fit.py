@@ -7,11 +7,14 @@ A per-sample surface of a long record at many taus does not fit in memory (two h
 (:func:`adavar.fit_noise`: every window is fitted on its own, so the coefficients are those
 of the whole surface's fit) and keeps the fits, the time, length and centre of every window,
 and the few rows a surface figure draws. Its peak is one block, not the surface.
+:func:`fit_adaptive_in_blocks` does the same for :func:`adavar.adaptive_davar` (the
+controller runs once; its per-window record is kept).
 """
 
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,7 +24,15 @@ from adavar._figures import spread_indices
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult, NoiseFit
 
-__all__ = ["BlockFit", "concatenate_fits", "drawn_rows", "fit_davar_in_blocks", "fit_rows"]
+__all__ = [
+    "BlockFit",
+    "concatenate_fits",
+    "drawn_rows",
+    "fit_adaptive_in_blocks",
+    "fit_blocks",
+    "fit_davar_in_blocks",
+    "fit_rows",
+]
 
 #: the fields of a :class:`NoiseFit` of a stack that hold one entry per curve
 _PER_CURVE = (
@@ -29,8 +40,10 @@ _PER_CURVE = (
     "time", "used", "residuals", "coefficient_covariance",
 )  # fmt: skip
 
-#: the per-window fields of a :class:`DavarResult` (one row each)
+#: the per-window fields of a :class:`DavarResult` (one row each) and of an
+#: :class:`adavar.adaptive.AdaptiveResult` (the controller's record)
 _PER_ROW = ("time", "avar", "window", "centre", "window_class", "terms", "shift")
+_RECORD = ("kurtosis", "s", "f1", "f2", "f")
 
 
 @dataclass(frozen=True)
@@ -48,6 +61,11 @@ class BlockFit:
         Which rows ``drawn`` holds.
     time, window, centre : ndarray
         Time, window length and centre of every window.
+    windows : DavarResult or AdaptiveResult
+        The surface without its cells: every window's fields (``time``, ``window``,
+        ``centre``, ``window_class``, ``shift``; an adaptive surface's ``kurtosis``, ``s``
+        and flags), no taus (``tau`` empty, ``avar`` of shape ``(windows, 0)``). Shares
+        ``time``, ``window`` and ``centre`` with the fields above.
     """
 
     fit: NoiseFit
@@ -56,6 +74,17 @@ class BlockFit:
     time: np.ndarray
     window: np.ndarray
     centre: np.ndarray
+    windows: DavarResult
+
+    @property
+    def n_windows(self) -> int:
+        """Windows (rows) of the whole surface."""
+        return int(self.time.size)
+
+    @property
+    def n_taus(self) -> int:
+        """Taus (columns) of the surface."""
+        return int(np.size(self.drawn.tau))
 
 
 def drawn_rows(result: DavarResult, most: int) -> tuple[np.ndarray, DavarResult]:
@@ -65,10 +94,15 @@ def drawn_rows(result: DavarResult, most: int) -> tuple[np.ndarray, DavarResult]
     return rows, _take_rows(result, rows)
 
 
+def _row_fields(result: DavarResult) -> tuple[str, ...]:
+    """The per-window fields of ``result``'s type."""
+    return _PER_ROW + tuple(name for name in _RECORD if hasattr(result, name))
+
+
 def _take_rows(result: DavarResult, rows: np.ndarray) -> DavarResult:
     return dataclasses.replace(result, **{name: None if getattr(result, name) is None
                                           else np.asarray(getattr(result, name))[rows]
-                                          for name in _PER_ROW})  # fmt: skip
+                                          for name in _row_fields(result)})  # fmt: skip
 
 
 def fit_rows(fit: NoiseFit, rows: np.ndarray) -> NoiseFit:
@@ -131,40 +165,176 @@ def fit_davar_in_blocks(
         The same numbers as fitting the whole surface, bit for bit.
     """
     from adavar.davar import davar_blocks
+
+    blocks = davar_blocks(data, block_values=block_values, **davar_options)
+    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn)
+
+
+def fit_adaptive_in_blocks(
+    data: Any,
+    *,
+    fit_options: dict[str, Any] | None = None,
+    drawn: int = 400,
+    block_values: int | None = None,
+    **adaptive_options: Any,
+) -> BlockFit:
+    """``fit_noise(adaptive_davar(data, **adaptive_options), **fit_options)`` a block of
+    windows at a time (:func:`adavar.adaptive.adaptive_blocks`).
+
+    Parameters
+    ----------
+    data : array_like
+        The record, in memory.
+    fit_options, drawn, block_values
+        As in :func:`fit_davar_in_blocks`.
+    **adaptive_options
+        Keywords of :func:`adavar.adaptive_davar` but ``chunk_size``.
+
+    Returns
+    -------
+    BlockFit
+        ``drawn`` and ``windows`` are :class:`adavar.adaptive.AdaptiveResult`; ``windows``
+        holds the controller's record (kurtosis, S, flags) of every window.
+    """
+    from adavar.adaptive import adaptive_blocks
+
+    blocks = adaptive_blocks(data, block_values=block_values, **adaptive_options)
+    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn)
+
+
+def fit_blocks(
+    blocks: Iterable[DavarResult], *, fit_options: dict[str, Any] | None = None, drawn: int = 400
+) -> BlockFit:
+    """Fit the consecutive blocks of rows of one surface and keep what :class:`BlockFit`
+    holds (each block is dropped once fitted).
+
+    Parameters
+    ----------
+    blocks : iterable of DavarResult
+        The blocks, in order (:func:`adavar.davar.davar_blocks`,
+        :func:`adavar.adaptive.adaptive_blocks`), with ``edges="mirror"``.
+    fit_options : dict, optional
+        Keywords of :func:`adavar.fit_noise`.
+    drawn : int
+        Windows kept in :attr:`BlockFit.drawn`.
+
+    Returns
+    -------
+    BlockFit
+    """
     from adavar.noise_model import fit_noise
 
     fit_options = dict(fit_options or {})
-    fits: list[NoiseFit] = []
+    first_fit: NoiseFit | None = None
     kept: list[DavarResult] = []
-    times, windows, centres = [], [], []
+    # every window's fields and fits, filled a block at a time (no second copy to join)
+    fields: dict[str, _Joined] = {}
+    per_curve: dict[str, np.ndarray] = {}
     rows = np.empty(0, dtype=np.int64)
-    start = 0  # the block's first row
-    for block in davar_blocks(data, block_values=block_values, **davar_options):
+    total = start = 0  # rows of the surface; the block's first row
+    for block in blocks:
         if not kept:  # the first block tells the number of rows
             if block.edges != "mirror":
                 raise AdavarInputError(
                     "a surface fitted in blocks has edges='mirror' (a row every step)"
                 )
             n = block.n_samples - (1 if block.data_type == "phase" else 0)
-            rows = spread_indices(len(range(0, n, block.step)), drawn)
+            total = len(range(0, n, block.step))
+            rows = spread_indices(total, drawn)
         stop = start + block.centre.size
-        fits.append(fit_noise(block, **fit_options))
+        fit = fit_noise(block, **fit_options)
+        if first_fit is None:
+            first_fit = fit
+        elif fit.terms != first_fit.terms or not np.array_equal(fit.tau, first_fit.tau):
+            raise ValueError("internal: the fits of a stack's blocks must share terms and taus")
+        _fill(per_curve, fit, _PER_CURVE, start, total)
+        for name in _row_fields(block):
+            if name not in ("avar", "window_class") and getattr(block, name) is not None:
+                fields.setdefault(name, _Joined(total)).add(getattr(block, name), start)
         kept.append(_take_rows(block, rows[(rows >= start) & (rows < stop)] - start))
-        times.append(block.time)
-        windows.append(block.window)
-        centres.append(block.centre)
         start = stop
-    if not kept:
+    if not kept or first_fit is None:
         raise ValueError("internal: a surface has at least one block")
+    if start != total:  # pragma: no cover
+        raise AssertionError("internal: the blocks do not cover the surface")
     first = kept[0]
     joined = {name: None if getattr(first, name) is None
               else np.concatenate([getattr(k, name) for k in kept], axis=0)
-              for name in _PER_ROW}  # fmt: skip
+              for name in _row_fields(first)}  # fmt: skip
+    every = {name: joined_rows.array() for name, joined_rows in fields.items()}
+    # the windows without cells: no taus, so no EDF or bound tables either
+    windows = dataclasses.replace(
+        first, **{name: every.get(name) for name in _row_fields(first)
+                  if name not in ("avar", "window_class")},
+        tau=first.tau[:0], avar=np.empty((total, 0)), m=first.m[:0], alpha=first.alpha[:0],
+        edf_table=None, bound_table=None, window_class=None,
+    )  # fmt: skip
+    if np.array_equal(per_curve.get("time"), every["time"]):
+        per_curve["time"] = every["time"]  # one copy of the times
+    fit = dataclasses.replace(first_fit, **per_curve)
     return BlockFit(
-        fit=concatenate_fits(fits),
-        drawn=dataclasses.replace(first, **joined),
-        rows=rows,
-        time=np.concatenate(times),
-        window=np.concatenate(windows),
-        centre=np.concatenate(centres),
-    )
+        fit=fit, drawn=dataclasses.replace(first, **joined), rows=rows, time=every["time"],
+        window=every["window"], centre=every["centre"], windows=windows,
+    )  # fmt: skip
+
+
+class _Joined:
+    """One per-row field of a surface's blocks, joined. While the blocks are consecutive
+    views of one array (an adaptive schedule's record) it is that array, not a copy;
+    otherwise the blocks are copied into one array of ``total`` rows."""
+
+    def __init__(self, total: int) -> None:
+        self.total = total
+        self.base: np.ndarray | None = None  # the array the blocks are views of
+        self.offset = 0  # the first block's first element in ``base``
+        self.parts: list[np.ndarray] = []  # the blocks, while they may be views
+        self.out: np.ndarray | None = None  # the copy, once they are not
+
+    def add(self, value: np.ndarray, start: int) -> None:
+        value = np.asarray(value)
+        if self.out is None and self._continues(value, start):
+            self.parts.append(value)
+            return
+        if self.out is None:  # from now on a copy: the views so far first
+            self.out = np.empty((self.total, *value.shape[1:]), dtype=value.dtype)
+            at = 0
+            for part in self.parts:
+                self.out[at : at + part.shape[0]] = part
+                at += part.shape[0]
+            self.parts = []
+        self.out[start : start + value.shape[0]] = value
+
+    def _continues(self, value: np.ndarray, start: int) -> bool:
+        base = value.base
+        if not isinstance(base, np.ndarray) or base.ndim != 1 or value.ndim != 1:
+            return False
+        if value.strides != base.strides:
+            return False
+        here = (value.__array_interface__["data"][0]
+                - base.__array_interface__["data"][0]) // base.itemsize  # fmt: skip
+        if not self.parts:
+            self.base, self.offset = base, here - start
+            return 0 <= self.offset and self.offset + self.total <= base.size
+        return base is self.base and here == self.offset + start
+
+    def array(self) -> np.ndarray:
+        if self.out is not None:
+            return self.out
+        if self.base is None or not self.parts:  # pragma: no cover - a surface has rows
+            raise ValueError("internal: no rows to join")
+        return self.base[self.offset : self.offset + self.total]
+
+
+def _fill(
+    store: dict[str, np.ndarray], source: Any, names: Any, start: int, total: int
+) -> None:  # fmt: skip
+    """Copy the per-row fields ``names`` of ``source`` (a block's rows from ``start``) into
+    ``store``'s arrays of ``total`` rows, made at the first block."""
+    for name in names:
+        value = getattr(source, name)
+        if value is None:
+            continue
+        value = np.asarray(value)
+        if name not in store:
+            store[name] = np.empty((total, *value.shape[1:]), dtype=value.dtype)
+        store[name][start : start + value.shape[0]] = value

@@ -26,7 +26,7 @@ from adavar.writers import dumps, fit_json
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from adavar.analysis import analyse_channel, load_input
+    from adavar.analysis import analyse_channel, load_input, surface_shape
     from adavar.report import build_report, write_report
 
     check_arguments(args)
@@ -46,9 +46,11 @@ def _cmd_report(args: argparse.Namespace) -> int:
     figures: dict[str, dict[str, Any]] = {}
     for k, name in enumerate(names):
         tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
-        run = analyse_channel(args, loaded[name], units_of[name], tau0, status, tag)
+        # the surface a block of windows at a time: the report reads a few of its rows
+        run = analyse_channel(args, loaded[name], units_of[name], tau0, status, tag,
+                              keep="figures")  # fmt: skip
         run["events"] = _events(args, loaded[name], run, tau0, segment_given)
-        run["shape"] = _surface_shape(run["surface"])
+        run["shape"] = surface_shape(run["surface"])
         run["controller"] = None if run["adaptive"] is None else run["adaptive"].parameters
         if several:  # its plots now, and its surface freed before the next one is computed
             sections.append(_channel_section(k + 1, name, run, figures))
@@ -154,15 +156,6 @@ def _events(
     return analysis.events()
 
 
-def _surface_shape(surface: Any) -> dict[str, Any] | None:
-    """What the JSON says of a channel's surface (None without one)."""
-    if surface is None:
-        return None
-    windows, taus = np.shape(surface.avar)
-    return {"windows": int(windows), "taus": int(taus),
-            "method": getattr(surface, "method", "fixed")}  # fmt: skip
-
-
 def _channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, Any]) -> str:
     """The HTML section of channel number ``k`` (its plots go into ``figures``).
 
@@ -192,11 +185,11 @@ def _channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, 
     ]
     surface = run["surface"]
     if surface is not None:
-        figure, caption = rp._surface_figure(surface, units)
+        figure, caption, notes = rp._surface_figure(surface, units)
         parts += [
             "<h3>Dynamic Allan deviation surface</h3>",
             plot(f"plot-{k}-surface", figure),
-            f'<p class="caption">{rp._esc(caption)}</p>{rp._notes(surface.notes)}',
+            f'<p class="caption">{rp._esc(caption)}</p>{notes}',
         ]
         figure, terms = rp._coefficient_figure(run["coefficients"], units)
         events = (run.get("events") or {}).get("items")
