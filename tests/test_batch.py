@@ -27,6 +27,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from adavar import analysis, batch, cli, simulate, writers
+from adavar import report as report_module
 from adavar.adaptive import record_windows
 from adavar.batch import (
     BATCH_MARKER,
@@ -695,9 +696,14 @@ def test_keep_figures_gives_the_same_report_and_events(records, options, monkeyp
     assert writers.dumps(blocks.events()) == writers.dumps(whole.events())
     stamp = re.compile(r" on \d{4}-\d\d-\d\d \d\d:\d\d:\d\d UTC")
     assert stamp.sub("", blocks.html()) == stamp.sub("", whole.html())
+    # the whole fit of the windows the coefficient figure draws; every window's terms
     fit, want = blocks.coefficients, whole.coefficients
+    rows = blocks.surface.fit_rows
+    np.testing.assert_array_equal(rows, report_module.series_rows(want.time.size))
     for name in ("coefficients", "coefficient_uncertainty", "chi2", "time"):
-        np.testing.assert_array_equal(getattr(fit, name), getattr(want, name), err_msg=name)
+        np.testing.assert_array_equal(getattr(fit, name), getattr(want, name)[rows], name)
+    for name in want.terms:
+        np.testing.assert_array_equal(blocks.surface.term_values(name), want.term(name).value)
     if whole.adaptive is not None:
         for name in ("window", "centre", "kurtosis", "s", "f"):
             np.testing.assert_array_equal(getattr(blocks.adaptive, name),

@@ -431,3 +431,38 @@ def test_report_renders_in_chromium(report: str, tmp_path: Path) -> None:
     parsed = parse(dom)
     assert "img" not in [tag for tag, _ in parsed.tags]
     assert EVIL_FILE in "".join(parsed.text)
+
+
+def test_coefficients_of_a_block_fit_draw_the_same_figure() -> None:
+    """A surface fitted a block at a time keeps the whole fit of the windows the figure
+    draws: the same figure as the fit of every window, including a term that is above 0
+    only in windows the figure does not draw (it still gets its panel)."""
+    import dataclasses
+
+    from adavar import report
+    from adavar.surface_fit import fit_davar_in_blocks
+
+    x = adavar.simulate.sensor(9000, rate=100.0, angle_random_walk=0.01, bias_instability=0.002,
+                               bandwidth=30.0, lsb=1e-3, seed=4)  # fmt: skip
+    blocks = fit_davar_in_blocks(x, window=600, rate=100.0, taus="octave", block_values=4000,
+                                 fit_options={"cells": False}, fit_rows=report.series_rows,
+                                 drawn=MAX_SURFACE_TIMES)  # fmt: skip
+    whole = adavar.fit_noise(adavar.davar(x, window=600, rate=100.0, taus="octave"), cells=False)
+    assert blocks.fit.time.size == report.MAX_SERIES_POINTS < whole.time.size
+    got = report._coefficient_figure(blocks.fit, "deg/s", blocks)
+    want = report._coefficient_figure(whole, "deg/s")
+    assert json.dumps(got) == json.dumps(want)
+    # Q above 0 in one window between two drawn ones, 0 elsewhere
+    hidden = int(np.setdiff1d(np.arange(whole.time.size), blocks.fit_rows)[7])
+    c = np.array(whole.coefficients)
+    c[:, 0] = 0.0
+    c[hidden, 0] = 1e-6
+    whole_q = dataclasses.replace(whole, coefficients=c)
+    thin_q = dataclasses.replace(blocks.fit, coefficients=c[blocks.fit_rows])
+    blocks_q = dataclasses.replace(blocks, fit=thin_q, coefficients=c)
+    got, names = report._coefficient_figure(thin_q, "deg/s", blocks_q)
+    want, want_names = report._coefficient_figure(whole_q, "deg/s")
+    assert names == want_names and any(n.startswith("Q") for n in names)
+    assert json.dumps(got) == json.dumps(want)
+    assert report._whole_of(thin_q, blocks_q) is blocks_q
+    assert report._whole_of(whole, blocks) is None

@@ -118,3 +118,22 @@ def cell_edges(centres: np.ndarray, log: bool, half_width: float) -> np.ndarray:
         mid = 0.5 * (x[1:] + x[:-1])
         edges = np.concatenate([[x[0] - (mid[0] - x[0])], mid, [x[-1] + (x[-1] - mid[-1])]])
     return np.exp(edges) if log else edges
+
+
+def run_ends(values: np.ndarray, step: bool = False) -> np.ndarray:
+    """Indices of the points a piecewise-constant series needs to draw the same shape.
+
+    ``step=True`` (a step plot or fill, ``step="post"``): the first point of every run
+    of equal values and the last point. ``step=False`` (a line through the points): the
+    first and last point of every run (the points in between lie on the segment joining
+    them). A flag or a window length per centre of a long record has a few thousand runs
+    among millions of points; the figure then holds those instead of every point.
+    """
+    v = np.asarray(values)
+    n = v.shape[0]
+    if n <= 2:
+        return np.arange(n)
+    change = v[1:] != v[:-1]  # NaN != NaN: every NaN point is kept
+    keep = np.ones(n, dtype=bool)
+    keep[1:-1] = change[:-1] if step else (change[:-1] | change[1:])
+    return np.flatnonzero(keep)

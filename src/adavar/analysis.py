@@ -240,9 +240,11 @@ def analyse_channel(
     the DAVAR surface and the fit of every window. ``status`` receives one line per step.
     ``keep="figures"``: the surface is computed and fitted a block of windows at a time
     (:mod:`adavar.surface_fit`); ``surface`` is then a :class:`~adavar.surface_fit.BlockFit`
-    (the rows the report draws and every window's time, length and centre) and
-    ``adaptive`` its windows without their cells (:attr:`BlockFit.windows`). The numbers
-    are the same; the peak memory is a block, not the surface.
+    (the rows the report draws, every window's time, length, centre and coefficients),
+    ``adaptive`` its windows without their cells (:attr:`BlockFit.windows`) and
+    ``coefficients`` the whole fit of the windows the report's coefficient figure draws
+    (:func:`adavar.report.series_rows`). The report is the same; the peak memory is a
+    block, not the surface.
     """
     if keep not in KEEP:
         raise AdavarInputError(f"unknown keep {keep!r}: use one of {', '.join(KEEP)}")
@@ -298,13 +300,15 @@ def _fit_in_blocks(
     args: Any, samples: np.ndarray, whole: Any, common: dict[str, Any]
 ) -> Any:  # fmt: skip
     """The surface of ``analyse_channel(..., keep="figures")``: a :class:`BlockFit`."""
-    from adavar.report import MAX_SURFACE_TIMES
+    from adavar.report import MAX_SURFACE_TIMES, series_rows
     from adavar.surface_fit import fit_adaptive_in_blocks, fit_davar_in_blocks
 
     # the windows' coefficients only: no per-cell residuals (a surface's size); no
-    # per-cell bounds (neither the report nor the fit reads them)
+    # per-cell bounds (neither the report nor the fit reads them); the whole fit of the
+    # windows the coefficient figure draws, the coefficients of every window
     options = dict(fit_options={**window_fit_keywords(args, whole), "cells": False},
-                   drawn=MAX_SURFACE_TIMES, bounds=False, **common)  # fmt: skip
+                   drawn=MAX_SURFACE_TIMES, bounds=False, fit_rows=series_rows,
+                   **common)  # fmt: skip
     try:
         if args.adaptive:
             return fit_adaptive_in_blocks(samples, **controller_settings(args), **options)
@@ -455,11 +459,13 @@ class ReportAnalysis:
         The DAVAR surface (``window``) or the adaptive one (``adaptive``; then both are it).
         With ``analyse_file(..., keep="figures")``: ``surface`` is a
         :class:`adavar.surface_fit.BlockFit` (the rows the report draws, every window's
-        time, length and centre) and ``adaptive`` its :attr:`~BlockFit.windows` (every
-        window's controller record, no cells).
+        time, length, centre and coefficients: ``surface.term_values(name)``) and
+        ``adaptive`` its :attr:`~BlockFit.windows` (every window's controller record, no
+        cells).
     coefficients : NoiseFit or None
         The fit of every window of the surface (without the per-cell ``used`` and
-        ``residuals``: ``fit_noise(..., cells=False)``).
+        ``residuals``: ``fit_noise(..., cells=False)``); with ``keep="figures"`` of the
+        windows the report's coefficient figure draws (``surface.fit_rows``).
     parameters : dict
         The parameter table of the report.
     preprocessing : list of str
@@ -530,7 +536,10 @@ class ReportAnalysis:
         centre = np.asarray(surface.centre, dtype=np.int64)
         t0 = float(time_s[0] - self._seconds(centre[0])) if time_s.size else 0.0
         fit = self.coefficients
-        terms = {} if fit is None else {name: fit.term(name).value for name in fit.terms}
+        if hasattr(self.surface, "term_values"):  # a BlockFit: every window's terms
+            terms = {name: self.surface.term_values(name) for name in fit.terms}
+        else:
+            terms = {} if fit is None else {name: fit.term(name).value for name in fit.terms}
         duration = t0 + float(self._seconds(self.n_samples))
         if self.adaptive is not None:
             lmax = int(self.adaptive.parameters["lmax"])

@@ -916,7 +916,7 @@ def run_comparison(
                 elif edf_cache is None:  # the surface a block of windows at a time
                     blocks = fit_davar_in_blocks(
                         x, fit_options=dict(terms=terms, cells=False), drawn=FIGURE_WINDOWS,
-                        bounds=False, **surface,
+                        bounds=False, fit_rows="drawn", **surface,
                     )  # fmt: skip
                     result, fit = blocks.drawn, blocks.fit
             except ValueError as exc:
@@ -928,7 +928,8 @@ def run_comparison(
                 alpha = np.broadcast_to(np.asarray(noise_type, dtype=np.int64), result.m.shape)
                 fit = fit_avar(result.tau, result.avar, edf_cache.cells(result, alpha),
                                terms=terms, cells=keep == "all")  # fmt: skip
-            arw = np.asarray(fit.angle_random_walk.value, dtype=float)
+            arw = np.asarray(fit.angle_random_walk.value if blocks is None
+                             else blocks.term_values("angle_random_walk"), dtype=float)  # fmt: skip
             rows = result if blocks is None else blocks  # every window's time, length, centre
             t = np.asarray(rows.time, dtype=float)
             w = np.asarray(rows.window, dtype=np.int64)
@@ -944,8 +945,8 @@ def run_comparison(
                     t, arw, true[rows.centre], changes, margin=0.5 * lmax * tau0,
                     span=lmax * tau0,
                 )  # fmt: skip
-            if keep != "all":  # the figures' windows: the whole surface and fit freed here
-                drawn = (blocks.rows, result) if blocks else drawn_rows(result, FIGURE_WINDOWS)
+            if keep != "all" and blocks is None:  # the figures' windows only from here
+                drawn = drawn_rows(result, FIGURE_WINDOWS)
                 fit, result = fit_rows(fit, drawn[0]), drawn[1]
             runs[spec.name] = MethodRun(
                 name=spec.name, label=spec.label, window=w, schedule=sched, result=result,

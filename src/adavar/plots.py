@@ -34,6 +34,7 @@ from adavar._figures import (
     colour_limits,
     log_scale,
     new_figure,
+    run_ends,
     spread_indices,
     spread_log,
 )
@@ -626,7 +627,8 @@ def _mark_changes(ax: Any, change_times: Sequence[float]) -> None:
 
 
 def _step_panel(ax: Any, t: np.ndarray, flag: np.ndarray, name: str, colour: str) -> None:
-    ax.fill_between(t, 0, np.asarray(flag, dtype=float), step="post", color=colour,
+    at = run_ends(flag, step=True)  # the same filled shape
+    ax.fill_between(t[at], 0, np.asarray(flag, dtype=float)[at], step="post", color=colour,
                     alpha=0.6, linewidth=0, rasterized=True)  # fmt: skip
     ax.set_ylim(-0.15, 1.15)
     ax.set_yticks([0, 1])
@@ -798,13 +800,17 @@ def controller_figure(
     axes = fig.subplots(6, 1, sharex=True, height_ratios=[2, 0.8, 2, 0.8, 0.8, 1.6])
     ax = axes[0]
     ax.plot(t, schedule.kurtosis, color="C0", linewidth=0.7)
-    ax.plot(t, th.k1[w], color="k", linestyle="--", linewidth=0.8)
-    ax.plot(t, th.k2[w], color="k", linestyle="--", linewidth=0.8)
+    # the thresholds are constant over runs of one window length: the runs' ends draw the
+    # same lines (the window's own line keeps every point: its ramps are anti-aliased
+    # differently once thinned)
+    at = run_ends(w)
+    ax.plot(t[at], th.k1[w[at]], color="k", linestyle="--", linewidth=0.8)
+    ax.plot(t[at], th.k2[w[at]], color="k", linestyle="--", linewidth=0.8)
     ax.set_ylabel("kurtosis")
     _step_panel(axes[1], t, schedule.f1, "f1", "C0")
     ax = axes[2]
     ax.plot(t, schedule.s, color="C3", linewidth=0.7)
-    ax.plot(t, th.s2[w], color="k", linestyle="--", linewidth=0.8)
+    ax.plot(t[at], th.s2[w[at]], color="k", linestyle="--", linewidth=0.8)
     ax.set_ylabel("S (last l\nof the window)")
     _step_panel(axes[3], t, schedule.f2, "f2", "C3")
     _step_panel(axes[4], t, schedule.f, "f", "C2")

@@ -51,6 +51,7 @@ __all__ = [
     "MAX_SURFACE_TAUS",
     "MAX_SURFACE_TIMES",
     "build_report",
+    "series_rows",
     "write_report",
 ]
 
@@ -391,7 +392,19 @@ def _surface_figure(surface: Any, units: str | None) -> tuple[dict[str, Any], st
     return {"data": [trace], "layout": layout, "config": _config()}, caption, _notes(drawn.notes)
 
 
-def _coefficient_figure(fit: Any, units: str | None) -> tuple[dict[str, Any], list[str]]:
+def series_rows(n: int) -> np.ndarray:
+    """The points of a series of ``n`` a report's time-series figures draw: the first of
+    each of at most :data:`MAX_SERIES_POINTS` bins (all ``n`` when there are no more)."""
+    starts = _bins(int(n), MAX_SERIES_POINTS)
+    return np.arange(int(n)) if starts is None else starts
+
+
+def _coefficient_figure(
+    fit: Any, units: str | None, every: Any = None
+) -> tuple[dict[str, Any], list[str]]:  # fmt: skip
+    """The coefficients over time. ``every``: a :class:`~adavar.surface_fit.BlockFit`
+    whose ``fit`` is ``fit``, kept at the windows :func:`series_rows` draws; its
+    coefficients of every window tell which terms are drawn (those above 0 somewhere)."""
     if fit.time is None or np.ndim(fit.coefficients) != 2:
         raise ValueError(
             "coefficients= takes the fit of a DAVAR surface, "
@@ -401,8 +414,12 @@ def _coefficient_figure(fit: Any, units: str | None) -> tuple[dict[str, Any], li
     time = np.asarray(fit.time, dtype=float)
     starts = _bins(time.size, MAX_SERIES_POINTS)
     t = _num(_pool(time, starts, "first"), 8)
+
+    def values(name: str) -> Any:  # of every window
+        return fit.term(name).value if every is None else every.term_values(name)
+
     terms = [name for name in TERM_NAMES
-             if name in fit.terms and np.any(np.asarray(fit.term(name).value) > 0)]  # fmt: skip
+             if name in fit.terms and np.any(np.asarray(values(name)) > 0)]  # fmt: skip
     traces: list[dict[str, Any]] = []
     labels = []
     for k, name in enumerate(terms):
@@ -720,6 +737,13 @@ def _mapping_table(mapping: Mapping[str, Any]) -> str:
 # --------------------------------------------------------------------------------------
 
 
+def _whole_of(coefficients: Any, surface: Any) -> Any:
+    """The BlockFit whose thinned fit ``coefficients`` is (None: it is a whole fit)."""
+    if getattr(surface, "fit", None) is coefficients and hasattr(surface, "term_values"):
+        return surface
+    return None
+
+
 def build_report(
     *,
     title: str,
@@ -841,7 +865,7 @@ def build_report(
         )
 
     if coefficients is not None:
-        figure, names = _coefficient_figure(coefficients, units)
+        figure, names = _coefficient_figure(coefficients, units, _whole_of(coefficients, surface))
         if figure and events:
             figure["layout"]["shapes"] = event_shapes(events)
         if figure:

@@ -358,6 +358,15 @@ class NoiseTerm:
     uncertainty: Any
 
 
+def coefficient_value(coefficient: Any, k: int) -> Any:
+    """The value of noise term ``k`` (0..4: Q, N, B, K, R) from its coefficient ``C_k`` of
+    the Allan variance model (:attr:`NoiseFit.coefficients`), as :class:`NoiseTerm` gives
+    it."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # a negative tau^-2 coefficient is the roll-off term (see `rolloff`): Q is 0
+        return np.sqrt(np.maximum(coefficient, 0.0) / _K[k])
+
+
 @dataclass(frozen=True, eq=False)
 class NoiseFit:
     """The result of :func:`fit_noise` / :func:`fit_avar`.
@@ -539,9 +548,8 @@ class NoiseFit:
     def _term(self, k: int) -> NoiseTerm:
         c = self.coefficients[..., k]
         sig = self.coefficient_uncertainty[..., k]
+        value = coefficient_value(c, k)
         with np.errstate(divide="ignore", invalid="ignore"):
-            # a negative tau^-2 coefficient is the roll-off term (see `rolloff`): Q is 0
-            value = np.sqrt(np.maximum(c, 0.0) / _K[k])
             # sigma_value = sigma_C * dvalue/dC; pinned at 0: sqrt of the 1-sigma bound on C
             unc = np.where(c > 0, sig / (2.0 * np.sqrt(_K[k] * c)), np.sqrt(sig / _K[k]))
         return NoiseTerm(value[()], unc[()])

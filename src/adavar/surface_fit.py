@@ -14,7 +14,7 @@ controller runs once; its per-window record is kept).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,7 +22,7 @@ import numpy as np
 
 from adavar._figures import spread_indices
 from adavar.errors import AdavarInputError
-from adavar.results import DavarResult, NoiseFit
+from adavar.results import DavarResult, NoiseFit, coefficient_value
 
 __all__ = [
     "BlockFit",
@@ -53,7 +53,13 @@ class BlockFit:
     Attributes
     ----------
     fit : NoiseFit
-        The fit of every window (as ``fit_noise`` of the whole surface).
+        The fit of every window (as ``fit_noise`` of the whole surface), or with
+        ``fit_rows=`` of the windows ``fit_rows`` only.
+    coefficients : ndarray, shape (windows, 5)
+        Every window's model coefficients (:attr:`NoiseFit.coefficients`; ``fit``'s own
+        when it holds every window): :meth:`term_values` gives the terms.
+    fit_rows : ndarray of int or None
+        The windows ``fit`` holds (None: every window).
     drawn : DavarResult
         The surface with only the rows asked for (``drawn_rows``); every other field is
         the whole surface's.
@@ -75,6 +81,16 @@ class BlockFit:
     window: np.ndarray
     centre: np.ndarray
     windows: DavarResult
+    coefficients: np.ndarray
+    fit_rows: np.ndarray | None = None
+
+    def term_values(self, name: str) -> np.ndarray:
+        """Every window's value of the term ``name`` (``fit.term(name).value`` of the
+        whole surface's fit)."""
+        from adavar.terms import term_index
+
+        k = term_index(name)
+        return coefficient_value(self.coefficients[:, k], k)
 
     @property
     def n_windows(self) -> int:
@@ -108,7 +124,12 @@ def _take_rows(result: DavarResult, rows: np.ndarray) -> DavarResult:
 def fit_rows(fit: NoiseFit, rows: np.ndarray) -> NoiseFit:
     """The fit of a stack of curves with only the curves ``rows`` (the per-curve fields
     taken at them; the rest unchanged)."""
-    taken = {name: np.asarray(getattr(fit, name))[rows]
+    return _fit_at(fit, rows)
+
+
+def _fit_at(fit: NoiseFit, rows: np.ndarray) -> NoiseFit:
+    # fancy indexing: copies, not views of ``fit``'s arrays
+    taken = {name: np.asarray(getattr(fit, name))[np.asarray(rows, dtype=np.int64)]
              for name in _PER_CURVE if getattr(fit, name) is not None}  # fmt: skip
     return dataclasses.replace(fit, **taken)
 
@@ -140,6 +161,7 @@ def fit_davar_in_blocks(
     fit_options: dict[str, Any] | None = None,
     drawn: int = 400,
     block_values: int | None = None,
+    fit_rows: str | Callable[[int], np.ndarray] = "all",
     **davar_options: Any,
 ) -> BlockFit:
     """``fit_noise(davar(data, **davar_options), **fit_options)`` a block of windows at a time.
@@ -155,6 +177,8 @@ def fit_davar_in_blocks(
         last included).
     block_values : int, optional
         Surface values per block (default :data:`adavar.davar.BLOCK_VALUES`).
+    fit_rows : {"all", "drawn"} or callable
+        The windows whose whole fit :attr:`BlockFit.fit` keeps (:func:`fit_blocks`).
     **davar_options
         Keywords of :func:`adavar.davar` (``window``, ``rate``, ``taus``, ``confidence``,
         ``noise_type``...) but ``rows``.
@@ -167,7 +191,7 @@ def fit_davar_in_blocks(
     from adavar.davar import davar_blocks
 
     blocks = davar_blocks(data, block_values=block_values, **davar_options)
-    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn)
+    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn, fit_rows=fit_rows)
 
 
 def fit_adaptive_in_blocks(
@@ -176,6 +200,7 @@ def fit_adaptive_in_blocks(
     fit_options: dict[str, Any] | None = None,
     drawn: int = 400,
     block_values: int | None = None,
+    fit_rows: str | Callable[[int], np.ndarray] = "all",
     **adaptive_options: Any,
 ) -> BlockFit:
     """``fit_noise(adaptive_davar(data, **adaptive_options), **fit_options)`` a block of
@@ -185,7 +210,7 @@ def fit_adaptive_in_blocks(
     ----------
     data : array_like
         The record, in memory.
-    fit_options, drawn, block_values
+    fit_options, drawn, block_values, fit_rows
         As in :func:`fit_davar_in_blocks`.
     **adaptive_options
         Keywords of :func:`adavar.adaptive_davar` but ``chunk_size``.
@@ -199,11 +224,15 @@ def fit_adaptive_in_blocks(
     from adavar.adaptive import adaptive_blocks
 
     blocks = adaptive_blocks(data, block_values=block_values, **adaptive_options)
-    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn)
+    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn, fit_rows=fit_rows)
 
 
 def fit_blocks(
-    blocks: Iterable[DavarResult], *, fit_options: dict[str, Any] | None = None, drawn: int = 400
+    blocks: Iterable[DavarResult],
+    *,
+    fit_options: dict[str, Any] | None = None,
+    drawn: int = 400,
+    fit_rows: str | Callable[[int], np.ndarray] = "all",
 ) -> BlockFit:
     """Fit the consecutive blocks of rows of one surface and keep what :class:`BlockFit`
     holds (each block is dropped once fitted).
@@ -217,6 +246,10 @@ def fit_blocks(
         Keywords of :func:`adavar.fit_noise`.
     drawn : int
         Windows kept in :attr:`BlockFit.drawn`.
+    fit_rows : {"all", "drawn"} or callable
+        The windows whose whole fit (uncertainties, chi-square...) :attr:`BlockFit.fit`
+        keeps: every window, the drawn ones, or those a function of the number of windows
+        returns (sorted indices). Every window's coefficients are kept either way.
 
     Returns
     -------
@@ -226,6 +259,8 @@ def fit_blocks(
 
     fit_options = dict(fit_options or {})
     first_fit: NoiseFit | None = None
+    fits: list[NoiseFit] = []  # with fit_rows: the fits of those windows
+    wanted: np.ndarray | None = None
     kept: list[DavarResult] = []
     # every window's fields and fits, filled a block at a time (no second copy to join)
     fields: dict[str, _Joined] = {}
@@ -241,13 +276,18 @@ def fit_blocks(
             n = block.n_samples - (1 if block.data_type == "phase" else 0)
             total = len(range(0, n, block.step))
             rows = spread_indices(total, drawn)
+            wanted = _fit_rows(fit_rows, total, rows)
         stop = start + block.centre.size
         fit = fit_noise(block, **fit_options)
         if first_fit is None:
             first_fit = fit
         elif fit.terms != first_fit.terms or not np.array_equal(fit.tau, first_fit.tau):
             raise ValueError("internal: the fits of a stack's blocks must share terms and taus")
-        _fill(per_curve, fit, _PER_CURVE, start, total)
+        if wanted is None:
+            _fill(per_curve, fit, _PER_CURVE, start, total)
+        else:
+            _fill(per_curve, fit, ("coefficients",), start, total)
+            fits.append(_fit_at(fit, wanted[(wanted >= start) & (wanted < stop)] - start))
         for name in _row_fields(block):
             if name not in ("avar", "window_class") and getattr(block, name) is not None:
                 fields.setdefault(name, _Joined(total)).add(getattr(block, name), start)
@@ -269,13 +309,37 @@ def fit_blocks(
         tau=first.tau[:0], avar=np.empty((total, 0)), m=first.m[:0], alpha=first.alpha[:0],
         edf_table=None, bound_table=None, window_class=None,
     )  # fmt: skip
-    if np.array_equal(per_curve.get("time"), every["time"]):
-        per_curve["time"] = every["time"]  # one copy of the times
-    fit = dataclasses.replace(first_fit, **per_curve)
+    if wanted is None:
+        if np.array_equal(per_curve.get("time"), every["time"]):
+            per_curve["time"] = every["time"]  # one copy of the times
+        fit = dataclasses.replace(first_fit, **per_curve)
+    else:
+        fit = concatenate_fits(fits)
     return BlockFit(
         fit=fit, drawn=dataclasses.replace(first, **joined), rows=rows, time=every["time"],
         window=every["window"], centre=every["centre"], windows=windows,
+        coefficients=per_curve["coefficients"], fit_rows=wanted,
     )  # fmt: skip
+
+
+def _fit_rows(
+    fit_rows: str | Callable[[int], np.ndarray], total: int, drawn: np.ndarray
+) -> np.ndarray | None:  # fmt: skip
+    """The windows whose whole fit a :class:`BlockFit` keeps (None: every window)."""
+    if isinstance(fit_rows, str):
+        if fit_rows not in ("all", "drawn"):
+            raise AdavarInputError(f"unknown fit_rows {fit_rows!r}: use 'all', 'drawn' or a "
+                                   "function of the number of windows")  # fmt: skip
+        return None if fit_rows == "all" else drawn
+    rows = np.asarray(fit_rows(total), dtype=np.int64)
+    if (
+        rows.ndim != 1
+        or np.any(np.diff(rows) <= 0)
+        or (rows.size and not 0 <= rows[0] <= rows[-1] < total)
+    ):
+        raise AdavarInputError(f"fit_rows gave rows that are not increasing indices of the "
+                               f"{total} windows")  # fmt: skip
+    return rows
 
 
 class _Joined:

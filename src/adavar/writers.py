@@ -52,10 +52,12 @@ __all__ = [
     "SURFACE_FORMATS",
     "atomic_directory",
     "atomic_file",
+    "block_rows",
     "check_output_directory",
     "check_surface_format",
     "conventional",
     "csv_cell",
+    "csv_pieces",
     "csv_text",
     "deviation_json",
     "dumps",
@@ -914,6 +916,39 @@ def csv_text(
     -------
     str
     """
+    return "".join(csv_pieces(columns, rows, comment=comment))
+
+
+def block_rows(columns: Sequence[np.ndarray], block: int = 1 << 16) -> Iterator[tuple]:
+    """The rows of a table held as columns (arrays of one length), as Python numbers, a
+    block of rows converted at a time (a list of every row's numbers would hold tens of
+    times the arrays)."""
+    size = int(np.size(columns[0])) if len(columns) else 0
+    for start in range(0, size, block):
+        yield from zip(*(np.asarray(c)[start : start + block].tolist() for c in columns),
+                       strict=True)  # fmt: skip
+
+
+#: rows of a CSV made into one piece of text by :func:`csv_pieces`
+CSV_PIECE_ROWS = 1 << 14
+
+
+def csv_pieces(
+    columns: Sequence[str], rows: Iterable[Sequence[Any]], *, comment: str | None = None
+) -> Iterator[str]:
+    """:func:`csv_text` as consecutive pieces of text (:data:`CSV_PIECE_ROWS` rows each),
+    for a table too large to hold as one string (``file.writelines(csv_pieces(...))``).
+
+    Parameters
+    ----------
+    columns, rows, comment
+        As in :func:`csv_text`; ``rows`` is read as the pieces are.
+
+    Yields
+    ------
+    str
+        The text, in order: ``"".join`` of them is ``csv_text(columns, rows, comment)``.
+    """
     buffer = _stdio.StringIO()
     if comment:
         for line in str(comment).splitlines() or [""]:
@@ -931,9 +966,16 @@ def csv_text(
         buffer.write(line.getvalue()[:-2] + "\n")
 
     put([spreadsheet_safe(str(c)) for c in columns])
+    count = 0
     for row in rows:
         put([csv_cell(c) for c in row])
-    return buffer.getvalue()
+        count += 1
+        if count == CSV_PIECE_ROWS:
+            yield buffer.getvalue()
+            buffer.seek(0)
+            buffer.truncate()
+            count = 0
+    yield buffer.getvalue()
 
 
 def write_deviation_csv(path: Path, result: DeviationResult, comment: str | None = None) -> None:

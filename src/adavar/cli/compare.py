@@ -6,6 +6,7 @@ import argparse
 import math
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -44,8 +45,9 @@ from adavar.settings import CONTROLLER
 from adavar.terms import TERM_NAMES
 from adavar.writers import (
     atomic_directory,
+    block_rows,
     check_output_directory,
-    csv_text,
+    csv_pieces,
     dumps,
 )
 
@@ -252,9 +254,11 @@ def compare_report(comp: Any, study: Any, thr: Any) -> list[str]:
 
 def compare_tables(
     comp: Any, study: Any, thr: Any, descriptions: dict[str, str] | None = None
-) -> dict[str, str]:
-    """CSV file name -> text (plain CSV); ``descriptions`` (if given) gets each file's
-    description (for the result.json next to them)."""
+) -> dict[str, Iterator[str]]:
+    """CSV file name -> its text (plain CSV) in pieces, made as they are read
+    (``file.writelines(pieces)``: ``arw.csv`` has a row per window, hundreds of MB on a
+    long record); ``descriptions`` (if given) gets each file's description (for the
+    result.json next to them)."""
     from adavar.paper.reference import PAPER_REFERENCE, paper_arw, paper_crossings
     from adavar.paper.studies import finite_median
 
@@ -263,7 +267,7 @@ def compare_tables(
     files: dict[str, str] = {}
 
     def table(name: str, description: str, columns: list[str], rows: Any) -> None:
-        files[name] = csv_text(columns, rows)
+        files[name] = csv_pieces(columns, rows)
         if descriptions is not None:
             descriptions[name] = description
 
@@ -343,16 +347,10 @@ def compare_tables(
     arrays += [comp.methods[m].arw for m in names] + [comp.methods[m].window for m in names]
     arrays = [np.asarray(a, dtype=float if a.dtype.kind == "f" else np.int64) for a in arrays]
 
-    def body() -> Any:
-        """The rows a block at a time: a list of every row's numbers held a few hundred
-        MB on a 30-minute 200 Hz record."""
-        for start in range(0, comp.time.size, 1 << 16):
-            yield from zip(*(a[start : start + (1 << 16)].tolist() for a in arrays), strict=True)
-
     table(
         "arw.csv",
         f"{head}; N(t) of every window (sample unit x sqrt(s)) and window lengths (samples)",
-        cols_arw, body(),
+        cols_arw, block_rows(arrays),
     )  # fmt: skip
     if thr is not None:
         rows = []
@@ -563,8 +561,9 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         status(f"writing {args.out}")
         try:
             with atomic_directory(args.out, replace=args.force) as tmp:
-                for name, body in tables.items():
-                    (tmp / name).write_text(body, encoding="utf-8")
+                for name, pieces in tables.items():
+                    with open(tmp / name, "w", encoding="utf-8") as file:
+                        file.writelines(pieces)
                 for stem, (draw, fig_args, fig_kwargs) in figures.items():
                     status(f"drawing {stem}")
                     fig = draw(*fig_args, **fig_kwargs)

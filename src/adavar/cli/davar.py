@@ -37,9 +37,11 @@ from adavar.windows import MIN_WINDOW
 from adavar.writers import (
     SURFACE_FORMATS,
     atomic_directory,
+    block_rows,
     check_output_directory,
     check_surface_format,
     conventional,
+    csv_pieces,
     csv_text,
     dumps,
     write_marker,
@@ -128,9 +130,9 @@ def _write_coefficients(path: Path, result: DavarResult, fit: NoiseFit) -> None:
         term = fit.term(name)
         columns += [(name, term.value), (f"{name}_uncertainty", term.uncertainty)]
     columns.append(("reduced_chi2", fit.reduced_chi2))
-    lists = [np.asarray(values).reshape(-1).tolist() for _, values in columns]
-    text = csv_text([name for name, _ in columns], zip(*lists, strict=True))
-    path.write_text(text, encoding="utf-8")
+    arrays = [np.asarray(values).reshape(-1) for _, values in columns]
+    with open(path, "w", encoding="utf-8") as file:
+        file.writelines(csv_pieces([name for name, _ in columns], block_rows(arrays)))
 
 
 def _davar_summary(

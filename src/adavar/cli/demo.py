@@ -174,7 +174,7 @@ def _demo_outputs(
                 (str(tmp), stem, *recipe) for stem, recipe in recipes.items()
             ])  # fmt: skip
             status("building the HTML report")
-            tables: dict[str, str] = {}
+            tables: dict[str, Any] = {}
             descriptions: dict[str, str] = {}
             if paper is not None:
                 tables = {
@@ -184,8 +184,9 @@ def _demo_outputs(
                     ).items()
                 }
                 descriptions = {f"paper_{name}": text for name, text in descriptions.items()}
-            for name, body in tables.items():
-                (tmp / name).write_text(body, encoding="utf-8")
+            for name, pieces in tables.items():
+                with open(tmp / name, "w", encoding="utf-8") as file:
+                    file.writelines(pieces)
             (tmp / "report.html").write_text(_demo_report(demo), encoding="utf-8")
             drawn = sorted(stem for stem in recipes if stem != "gyro_oadev")
             files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json", *tables,

@@ -191,7 +191,9 @@ def _channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, 
             plot(f"plot-{k}-surface", figure),
             f'<p class="caption">{rp._esc(caption)}</p>{notes}',
         ]
-        figure, terms = rp._coefficient_figure(run["coefficients"], units)
+        figure, terms = rp._coefficient_figure(
+            run["coefficients"], units, rp._whole_of(run["coefficients"], surface)
+        )  # fmt: skip
         events = (run.get("events") or {}).get("items")
         if figure and events:
             figure["layout"]["shapes"] = rp.event_shapes(events)
