@@ -7,6 +7,8 @@ import re
 import matplotlib
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from matplotlib.figure import Figure
 
 import adavar
@@ -222,3 +224,29 @@ def test_log_axes_draw_no_mathtext(gyro, tmp_path):
     labels = [t.get_text() for t in ax.get_xticklabels() + ax.get_yticklabels() if t.get_text()]
     assert labels and not any("$" in label for label in labels)
     assert "10⁻¹" in labels and "10⁰" in labels
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.sampled_from([0.0, 1.0, 2.5, 400.0, float("nan")]), min_size=0, max_size=40),
+    st.booleans(),
+)
+def test_run_ends_draw_the_same_shape(values, step):
+    """The points run_ends keeps draw the same line (or step fill) as every point: each
+    dropped point lies on the segment (or the step) of the kept points around it."""
+    from adavar._figures import run_ends
+
+    v = np.array(values)
+    at = run_ends(v, step=step)
+    n = v.size
+    assert np.all(np.diff(at) > 0) and (n == 0 or (at[0] == 0 and at[-1] == n - 1))
+    for i in range(n):
+        if i in at:
+            continue
+        before = at[at < i].max()  # kept points on both sides of a dropped one
+        after = at[at > i].min()
+        if step:  # the value in force since the last kept point
+            assert v[i] == v[before]
+        else:  # on the segment: both ends equal it
+            assert v[before] == v[i] == v[after]
+    assert not np.any(np.isnan(v[np.setdiff1d(np.arange(n), at)]))  # every NaN kept

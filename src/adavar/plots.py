@@ -800,9 +800,8 @@ def controller_figure(
     axes = fig.subplots(6, 1, sharex=True, height_ratios=[2, 0.8, 2, 0.8, 0.8, 1.6])
     ax = axes[0]
     ax.plot(t, schedule.kurtosis, color="C0", linewidth=0.7)
-    # the thresholds are constant over runs of one window length: the runs' ends draw the
-    # same lines (the window's own line keeps every point: its ramps are anti-aliased
-    # differently once thinned)
+    # the window and its thresholds are constant over runs of one length: the runs' ends
+    # draw the same lines (a few thousand points instead of one per centre)
     at = run_ends(w)
     ax.plot(t[at], th.k1[w[at]], color="k", linestyle="--", linewidth=0.8)
     ax.plot(t[at], th.k2[w[at]], color="k", linestyle="--", linewidth=0.8)
@@ -814,7 +813,7 @@ def controller_figure(
     ax.set_ylabel("S (last l\nof the window)")
     _step_panel(axes[3], t, schedule.f2, "f2", "C3")
     _step_panel(axes[4], t, schedule.f, "f", "C2")
-    axes[5].plot(t, w, color="C2", linewidth=1.0)
+    axes[5].plot(t[at], w[at], color="C2", linewidth=1.0)
     axes[5].set_ylabel("window L\n[samples]")
     for ax in axes:
         _mark_changes(ax, change_times)
@@ -854,7 +853,9 @@ def arw_comparison_figure(
     ax, axw = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1.2])
     for k, run in enumerate(comparison.methods.values()):
         ax.plot(t, run.arw, color=f"C{k}", linewidth=0.9, label=run.label)
-        axw.plot(t, run.window, color=f"C{k}", linewidth=0.9, label=run.label)
+        at = run_ends(run.window)
+        axw.plot(t[at], np.asarray(run.window)[at], color=f"C{k}", linewidth=0.9,
+                 label=run.label)  # fmt: skip
     if comparison.truth is not None:
         ax.plot(t, comparison.truth, color="k", linestyle="--", linewidth=1.1,
                 label="true N")  # fmt: skip
