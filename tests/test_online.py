@@ -317,3 +317,22 @@ def test_ici_edf_samples_offline():
     assert not np.array_equal(head.edf, whole.edf)
     with pytest.raises(AdavarInputError, match="ici_edf_samples"):
         ici_schedule(x, lmax=1200, lmin=800, edf_samples=1)
+
+
+def test_a_backlog_is_fitted_in_blocks(monkeypatch):
+    """Rows fitted a block at a time (a backlog after the hourly thresholds are set is up
+    to DEPENDENCE_SAMPLES rows): the same windows, N(t) and events as one block, and as
+    the offline pass."""
+    import adavar.online as online
+
+    x = record()
+    controller = dict(thresholds="calibrated", false_alarm_per_hour=0.1)
+    whole = pushed(x, [x.size], **controller)
+    monkeypatch.setattr(online, "FIT_ROWS", 997)
+    blocks = pushed(x, [x.size], **controller)
+    assert np.array_equal(blocks.arw, whole.arw)
+    assert [e.as_dict() for e in blocks.events] == [e.as_dict() for e in whole.events]
+    assert_same(blocks, x, **controller)
+    ici = pushed(x, [5000, x.size], method="ici")  # one-sided windows, in blocks too
+    monkeypatch.setattr(online, "FIT_ROWS", 1 << 30)
+    np.testing.assert_array_equal(ici.arw, pushed(x, [5000, x.size], method="ici").arw)

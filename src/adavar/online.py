@@ -112,6 +112,10 @@ def _check_noise_type(noise_type: Any, size: int) -> np.ndarray:
     return alpha.astype(np.int64)
 
 
+#: rows whose variances are computed and fitted together (a backlog goes in blocks)
+FIT_ROWS = 1 << 15
+
+
 class _Rows:
     """Append-only columns in growable arrays (amortised O(1) a row), trimmed in front."""
 
@@ -758,6 +762,17 @@ class OnlineAdaptive:
             if self._ici is not None:
                 shifts = np.concatenate([h for _, _, h in self._pending if h is not None])
         self._pending = []
+        # a block of rows at a time: the first rows after the thresholds are set are a
+        # backlog of up to DEPENDENCE_SAMPLES centres (a surface of hundreds of MB at once);
+        # every row is fitted on its own, so the blocks change no number
+        for b0 in range(0, centres.size, FIT_ROWS):
+            part = slice(b0, b0 + FIT_ROWS)
+            self._fit_rows(centres[part], lengths[part],
+                           None if shifts is None else shifts[part])  # fmt: skip
+        self._fitted = total
+
+    def _fit_rows(self, centres: np.ndarray, lengths: np.ndarray, shifts: Any) -> None:
+        """Variances and fit of consecutive rows; their coefficients appended."""
         final = self._finished
         c0, c1 = int(centres[0]), int(centres[-1])
         pad = self._pad
@@ -769,7 +784,6 @@ class OnlineAdaptive:
         fit = fit_avar(self.tau, avar, edf, terms=self.terms, units=self.units,
                        **self._fit_options)  # fmt: skip
         self._coef.append(**{name: fit.term(name).value for name in self.terms})
-        self._fitted = total
 
     def _edf(self, centres: np.ndarray, lengths: np.ndarray) -> np.ndarray:
         """EDF of each row: exact per (length, overhang), as the offline surface's table."""
