@@ -124,6 +124,7 @@ COMMANDS = {
     "batch (2 files, gz)": ("batch GYRO GYRO2 --column gz --out out", "out", 2),
     "batch --adaptive (2 files, gz)": ("batch GYRO GYRO2 --column gz --adaptive --out out",
                                        "out", 2),
+    "monitor (gz)": ("monitor GYRO --column 3 --idle-timeout 0.5", "out", 1),
     "simulate": ("simulate -o sim.csv --n N --rate 200 --arw 0.005 --bias-instability 0.002 "
                  "--rrw 1e-4 --bandwidth 50 --lsb 1e-4", "sim.csv", 1),
     "demo": ("demo --out out", "out", 0),

@@ -439,7 +439,7 @@ def test_coefficients_of_a_block_fit_draw_the_same_figure() -> None:
     only in windows the figure does not draw (it still gets its panel)."""
     import dataclasses
 
-    from adavar import report
+    from adavar import report, report_parts
     from adavar.surface_fit import fit_davar_in_blocks
 
     x = adavar.simulate.sensor(9000, rate=100.0, angle_random_walk=0.01, bias_instability=0.002,
@@ -449,8 +449,8 @@ def test_coefficients_of_a_block_fit_draw_the_same_figure() -> None:
                                  drawn=MAX_SURFACE_TIMES)  # fmt: skip
     whole = adavar.fit_noise(adavar.davar(x, window=600, rate=100.0, taus="octave"), cells=False)
     assert blocks.fit.time.size == report.MAX_SERIES_POINTS < whole.time.size
-    got = report._coefficient_figure(blocks.fit, "deg/s", blocks)
-    want = report._coefficient_figure(whole, "deg/s")
+    got = report_parts.coefficient_plot(blocks.fit, "deg/s", blocks)
+    want = report_parts.coefficient_plot(whole, "deg/s")
     assert json.dumps(got) == json.dumps(want)
     # Q above 0 in one window between two drawn ones, 0 elsewhere
     hidden = int(np.setdiff1d(np.arange(whole.time.size), blocks.fit_rows)[7])
@@ -460,9 +460,9 @@ def test_coefficients_of_a_block_fit_draw_the_same_figure() -> None:
     whole_q = dataclasses.replace(whole, coefficients=c)
     thin_q = dataclasses.replace(blocks.fit, coefficients=c[blocks.fit_rows])
     blocks_q = dataclasses.replace(blocks, fit=thin_q, coefficients=c)
-    got, names = report._coefficient_figure(thin_q, "deg/s", blocks_q)
-    want, want_names = report._coefficient_figure(whole_q, "deg/s")
+    got, names = report_parts.coefficient_plot(thin_q, "deg/s", blocks_q)
+    want, want_names = report_parts.coefficient_plot(whole_q, "deg/s")
     assert names == want_names and any(n.startswith("Q") for n in names)
     assert json.dumps(got) == json.dumps(want)
-    assert report._whole_of(thin_q, blocks_q) is blocks_q
-    assert report._whole_of(whole, blocks) is None
+    assert report_parts.block_fit_of(thin_q, blocks_q) is blocks_q
+    assert report_parts.block_fit_of(whole, blocks) is None

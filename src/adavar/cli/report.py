@@ -27,7 +27,7 @@ from adavar.writers import dumps, fit_json
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from adavar.analysis import analyse_channel, load_input, surface_shape
-    from adavar.report import build_report, write_report
+    from adavar.report import build_report, channel_section, channels_page, write_report
 
     check_arguments(args)
     output = check_output_file(args.output, args.force, (".html", ".htm"))
@@ -53,7 +53,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         run["shape"] = surface_shape(run["surface"])
         run["controller"] = None if run["adaptive"] is None else run["adaptive"].parameters
         if several:  # its plots now, and its surface freed before the next one is computed
-            sections.append(_channel_section(k + 1, name, run, figures))
+            sections.append(channel_section(k + 1, name, run, figures))
             run.update(result=None, surface=None, adaptive=None, coefficients=None)
         runs.append(run)
     first = runs[0]
@@ -78,7 +78,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     status("building the figures and the HTML")
     if several:
         title = args.title or f"{Path(meta['path']).name}, columns {', '.join(names)}"
-        html = _channels_page(
+        html = channels_page(
             title=title,
             source={"file": meta["path"], "columns": ", ".join(names), "format": meta["kind"],
                     "samples": int(first["samples"])},
@@ -154,96 +154,6 @@ def _events(
         adaptive=run["adaptive"], coefficients=run["coefficients"],
     )  # fmt: skip
     return analysis.events()
-
-
-def _channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, Any]) -> str:
-    """The HTML section of channel number ``k`` (its plots go into ``figures``).
-
-    Made of :func:`adavar.report.build_report`'s figure and table builders, with plot ids
-    prefixed by the channel's number so that they stay unique.
-    """
-    from adavar import report as rp
-
-    def plot(key: str, figure: dict[str, Any]) -> str:
-        figures[key] = figure
-        return f'<div class="plot" id="{key}"></div>'
-
-    units, dev, fit = run["rate_units"], run["result"], run["fit"]
-    stat = rp.STAT_NAMES.get(dev.stat, dev.stat)
-    cap = (
-        f"{stat} of {dev.n_samples} samples at {dev.rate:.6g} Hz ({dev.data_type} data), "
-        f"{dev.tau.size} taus; bars: {100 * dev.confidence:.1f} % confidence interval. "
-        "Hover for values."
-    )
-    parts = [
-        f'<section id="channel-{k}" class="channel"><h2>Channel {rp._esc(name)} '
-        f"({rp._esc(run['units'])})</h2>",
-        "<h3>Deviation and noise fit</h3>",
-        plot(f"plot-{k}-deviation", rp._deviation_figure(dev, fit, units)),
-        f'<p class="caption">{rp._esc(cap)}</p>{rp._notes(dev.notes)}',
-        f"<h3>Noise coefficients</h3>{rp._coefficient_table(fit, units)}",
-    ]
-    surface = run["surface"]
-    if surface is not None:
-        figure, caption, notes = rp._surface_figure(surface, units)
-        parts += [
-            "<h3>Dynamic Allan deviation surface</h3>",
-            plot(f"plot-{k}-surface", figure),
-            f'<p class="caption">{rp._esc(caption)}</p>{notes}',
-        ]
-        figure, terms = rp._coefficient_figure(
-            run["coefficients"], units, rp._whole_of(run["coefficients"], surface)
-        )  # fmt: skip
-        events = (run.get("events") or {}).get("items")
-        if figure and events:
-            figure["layout"]["shapes"] = rp.event_shapes(events)
-        parts.append("<h3>Noise coefficients over time</h3>")
-        if figure:
-            parts.append(plot(f"plot-{k}-coefficients", figure))
-            cap = (
-                f"{', '.join(terms)} of every window over time; band: ±1σ (clipped at "
-                "0; from 0 to the 1-sigma upper bound where a term is pinned at 0)."
-            )
-        else:
-            cap = "No term is non-zero in any window."
-        parts.append(f'<p class="caption">{rp._esc(cap)}</p>')
-        if events is not None:
-            parts.append("<h3>Events</h3>"
-                         + rp.events_table(events, run["coefficients"], units))  # fmt: skip
-    if run["adaptive"] is not None:
-        parts += [
-            "<h3>Adaptive window controller</h3>",
-            plot(f"plot-{k}-adaptive", rp._adaptive_figure(run["adaptive"])),
-        ]
-    parts.append("</section>")
-    return "".join(parts)
-
-
-def _channels_page(
-    *, title: str, source: dict[str, Any], sections: list[str], figures: dict[str, Any],
-    parameters: dict[str, Any], preprocessing: list[str],
-) -> str:  # fmt: skip
-    """One HTML report with a section per channel (:func:`_channel_section`).
-
-    The page (head, data, parameters, preprocessing, footer) is :func:`build_report`'s.
-    """
-    from adavar import report as rp
-
-    page = rp.build_report(title=title, source=source, parameters=parameters,
-                           preprocessing=preprocessing)  # fmt: skip
-    plotly_js, plotly_version = rp._plotly_js()
-    scripts = (
-        f"<script>{plotly_js}</script>\n"
-        f'<script type="application/json" id="adavar-figures">'
-        f"{rp._script_json(figures)}</script>\n<script>{rp._RENDER_JS}</script>\n"
-    )
-    # after the data section (or at the top of <main>), before the parameters
-    anchor = '<section id="parameters">' if parameters else "\n</main>"
-    page = page.replace(anchor, "\n".join(sections) + "\n" + anchor, 1)
-    page = page.replace(
-        ".</footer>", f"; plots by plotly.js {rp._esc(plotly_version)} (embedded).</footer>", 1
-    )
-    return page.replace("\n</body>", "\n" + scripts + "</body>", 1)  # fmt: skip
 
 
 def add_report_parser(sub: Any) -> argparse.ArgumentParser:
