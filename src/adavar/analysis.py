@@ -266,8 +266,8 @@ def analyse_channel(
     common = dict(data_type=args.data_type, taus=args.taus, step=args.step, units=rate_u,
                   **rate_kw)  # fmt: skip
     if keep == "figures" and (args.adaptive or args.window is not None):
-        status(f"{tag}{'adaptive ' if args.adaptive else ''}DAVAR surface and the noise "
-               "coefficients of every window, a block of windows at a time")  # fmt: skip
+        kind = "adaptive " if args.adaptive else ""
+        status(f"{tag}{kind}DAVAR surface and noise coefficients of every window")
         surface = _fit_in_blocks(args, samples, fit, common)
         coefficients = surface.fit
         adaptive = surface.windows if args.adaptive else None
