@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 import adavar
@@ -250,3 +251,34 @@ def test_run_ends_draw_the_same_shape(values, step):
         else:  # on the segment: both ends equal it
             assert v[before] == v[i] == v[after]
     assert not np.any(np.isnan(v[np.setdiff1d(np.arange(n), at)]))  # every NaN kept
+
+
+@pytest.mark.parametrize("n", [5000, 60_000])
+def test_flag_panels_are_every_points_pixels(n):
+    """A flag panel drawn from its runs' ends has the pixels of the panel drawn with every
+    point, runs narrower than a pixel included (a snapped path of few vertices lost
+    them)."""
+    from adavar.plots import _step_panel
+
+    rng = np.random.default_rng(5)
+    t = np.arange(n) / 200.0
+    flag = np.zeros(n, dtype=bool)
+    for start in rng.integers(0, n - 50, 40):
+        flag[start : start + rng.integers(1, 50)] = True
+
+    def drawn(thinned: bool) -> np.ndarray:
+        fig = Figure(figsize=(6.0, 1.5), dpi=100)
+        FigureCanvasAgg(fig)
+        ax = fig.subplots()
+        if thinned:
+            _step_panel(ax, t, flag, "f", "C0")
+        else:
+            ax.fill_between(t, 0, flag.astype(float), step="post", color="C0", alpha=0.6,
+                            linewidth=0, rasterized=True)  # fmt: skip
+            ax.set_ylim(-0.15, 1.15)
+            ax.set_yticks([0, 1])
+            ax.set_ylabel("f")
+        fig.canvas.draw()
+        return np.asarray(fig.canvas.buffer_rgba()).copy()
+
+    np.testing.assert_array_equal(drawn(True), drawn(False))

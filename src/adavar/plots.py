@@ -628,8 +628,10 @@ def _mark_changes(ax: Any, change_times: Sequence[float]) -> None:
 
 def _step_panel(ax: Any, t: np.ndarray, flag: np.ndarray, name: str, colour: str) -> None:
     at = run_ends(flag, step=True)  # the same filled shape
+    # snap=False: matplotlib snaps a rectilinear path of few vertices to whole pixels,
+    # which would drop a flag narrower than a pixel (every point's path was not snapped)
     ax.fill_between(t[at], 0, np.asarray(flag, dtype=float)[at], step="post", color=colour,
-                    alpha=0.6, linewidth=0, rasterized=True)  # fmt: skip
+                    alpha=0.6, linewidth=0, rasterized=True, snap=False)  # fmt: skip
     ax.set_ylim(-0.15, 1.15)
     ax.set_yticks([0, 1])
     ax.set_ylabel(name)
@@ -803,17 +805,17 @@ def controller_figure(
     # the window and its thresholds are constant over runs of one length: the runs' ends
     # draw the same lines (a few thousand points instead of one per centre)
     at = run_ends(w)
-    ax.plot(t[at], th.k1[w[at]], color="k", linestyle="--", linewidth=0.8)
-    ax.plot(t[at], th.k2[w[at]], color="k", linestyle="--", linewidth=0.8)
+    ax.plot(t[at], th.k1[w[at]], color="k", linestyle="--", linewidth=0.8, snap=False)
+    ax.plot(t[at], th.k2[w[at]], color="k", linestyle="--", linewidth=0.8, snap=False)
     ax.set_ylabel("kurtosis")
     _step_panel(axes[1], t, schedule.f1, "f1", "C0")
     ax = axes[2]
     ax.plot(t, schedule.s, color="C3", linewidth=0.7)
-    ax.plot(t[at], th.s2[w[at]], color="k", linestyle="--", linewidth=0.8)
+    ax.plot(t[at], th.s2[w[at]], color="k", linestyle="--", linewidth=0.8, snap=False)
     ax.set_ylabel("S (last l\nof the window)")
     _step_panel(axes[3], t, schedule.f2, "f2", "C3")
     _step_panel(axes[4], t, schedule.f, "f", "C2")
-    axes[5].plot(t[at], w[at], color="C2", linewidth=1.0)
+    axes[5].plot(t[at], w[at], color="C2", linewidth=1.0, snap=False)
     axes[5].set_ylabel("window L\n[samples]")
     for ax in axes:
         _mark_changes(ax, change_times)
@@ -855,7 +857,7 @@ def arw_comparison_figure(
         ax.plot(t, run.arw, color=f"C{k}", linewidth=0.9, label=run.label)
         at = run_ends(run.window)
         axw.plot(t[at], np.asarray(run.window)[at], color=f"C{k}", linewidth=0.9,
-                 label=run.label)  # fmt: skip
+                 label=run.label, snap=False)  # fmt: skip
     if comparison.truth is not None:
         ax.plot(t, comparison.truth, color="k", linestyle="--", linewidth=1.1,
                 label="true N")  # fmt: skip
