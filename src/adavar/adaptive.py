@@ -611,9 +611,18 @@ def adaptive_davar(
     The controller is an O(N) sequential pass; the surface is :func:`adavar.davar` with
     ``window`` = the schedule, so it costs what a fixed window costs.
     """
-    # every argument, by name: the body is shared with adaptive_blocks
-    arguments = {name: value for name, value in locals().items() if name != "data"}
-    return next(_adaptive_surfaces(data, **arguments, in_blocks=False, block_values=None))
+    # the body is shared with adaptive_blocks
+    return next(_adaptive_surfaces(
+        data, method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l,
+        dl0=dl0, dl1=dl1, s_test=s_test, combine=combine, taus=taus, edges=edges,
+        change_times=change_times, thresholds=thresholds, false_alarm=false_alarm, step=step,
+        confidence=confidence, data_type=data_type, rate=rate, tau0=tau0, t0=t0,
+        points_per_decade=points_per_decade, noise_type=noise_type, units=units,
+        chunk_size=chunk_size, edge_edf=edge_edf, false_alarm_per_hour=false_alarm_per_hour,
+        ici_gamma=ici_gamma, ici_lengths=ici_lengths, ici_taus=ici_taus, ici_sides=ici_sides,
+        ici_edf=ici_edf, ici_edf_samples=ici_edf_samples, bounds=bounds, in_blocks=False,
+        block_values=None,
+    ))  # fmt: skip
 
 
 def adaptive_blocks(
