@@ -320,12 +320,16 @@ def _fit_in_blocks(
 def surface_shape(surface: Any) -> dict[str, Any] | None:
     """What a command's JSON says of a surface (a result or a :class:`BlockFit`; None
     without one): ``{"windows", "taus", "method"}``."""
+    from adavar.surface_fit import BlockFit
+
     if surface is None:
         return None
-    drawn = getattr(surface, "drawn", surface)  # a BlockFit keeps the drawn rows
-    windows = surface.n_windows if drawn is not surface else np.shape(surface.avar)[0]
-    return {"windows": int(windows), "taus": int(np.size(drawn.tau)),
-            "method": getattr(drawn, "method", "fixed")}  # fmt: skip
+    if isinstance(surface, BlockFit):  # its drawn rows carry the kind of surface
+        windows, taus, result = surface.n_windows, surface.n_taus, surface.drawn
+    else:
+        (windows, taus), result = np.shape(surface.avar), surface
+    return {"windows": int(windows), "taus": int(taus),
+            "method": getattr(result, "method", "fixed")}  # fmt: skip
 
 
 def controller_settings(args: Any) -> dict[str, Any]:
@@ -535,8 +539,10 @@ class ReportAnalysis:
         time_s = np.asarray(surface.time, dtype=float)
         centre = np.asarray(surface.centre, dtype=np.int64)
         t0 = float(time_s[0] - self._seconds(centre[0])) if time_s.size else 0.0
+        from adavar.surface_fit import BlockFit
+
         fit = self.coefficients
-        if hasattr(self.surface, "term_values"):  # a BlockFit: every window's terms
+        if isinstance(self.surface, BlockFit):  # every window's terms (fit: a few windows)
             terms = {name: self.surface.term_values(name) for name in fit.terms}
         else:
             terms = {} if fit is None else {name: fit.term(name).value for name in fit.terms}

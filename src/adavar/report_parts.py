@@ -712,6 +712,8 @@ def mapping_table(mapping: Mapping[str, Any]) -> str:
 
 def block_fit_of(coefficients: Any, surface: Any) -> Any:
     """The BlockFit whose thinned fit ``coefficients`` is (None: it is a whole fit)."""
-    if getattr(surface, "fit", None) is coefficients and hasattr(surface, "term_values"):
+    from adavar.surface_fit import BlockFit
+
+    if isinstance(surface, BlockFit) and surface.fit is coefficients:
         return surface
     return None

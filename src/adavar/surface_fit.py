@@ -264,7 +264,7 @@ def fit_blocks(
     kept: list[DavarResult] = []
     # every window's fields and fits, filled a block at a time (no second copy to join)
     fields: dict[str, _Joined] = {}
-    per_curve: dict[str, np.ndarray] = {}
+    curves: dict[str, _Joined] = {}
     rows = np.empty(0, dtype=np.int64)
     total = start = 0  # rows of the surface; the block's first row
     for block in blocks:
@@ -283,14 +283,11 @@ def fit_blocks(
             first_fit = fit
         elif fit.terms != first_fit.terms or not np.array_equal(fit.tau, first_fit.tau):
             raise ValueError("internal: the fits of a stack's blocks must share terms and taus")
-        if wanted is None:
-            _fill(per_curve, fit, _PER_CURVE, start, total)
-        else:
-            _fill(per_curve, fit, ("coefficients",), start, total)
+        if wanted is not None:
             fits.append(_fit_at(fit, wanted[(wanted >= start) & (wanted < stop)] - start))
-        for name in _row_fields(block):
-            if name not in ("avar", "window_class") and getattr(block, name) is not None:
-                fields.setdefault(name, _Joined(total)).add(getattr(block, name), start)
+        _join(curves, fit, _PER_CURVE if wanted is None else ("coefficients",), start, total)
+        _join(fields, block, [name for name in _row_fields(block)
+                              if name not in ("avar", "window_class")], start, total)  # fmt: skip
         kept.append(_take_rows(block, rows[(rows >= start) & (rows < stop)] - start))
         start = stop
     if not kept or first_fit is None:
@@ -301,7 +298,8 @@ def fit_blocks(
     joined = {name: None if getattr(first, name) is None
               else np.concatenate([getattr(k, name) for k in kept], axis=0)
               for name in _row_fields(first)}  # fmt: skip
-    every = {name: joined_rows.array() for name, joined_rows in fields.items()}
+    every = {name: joined.array() for name, joined in fields.items()}
+    per_curve = {name: joined.array() for name, joined in curves.items()}
     # the windows without cells: no taus, so no EDF or bound tables either
     windows = dataclasses.replace(
         first, **{name: every.get(name) for name in _row_fields(first)
@@ -389,16 +387,12 @@ class _Joined:
         return self.base[self.offset : self.offset + self.total]
 
 
-def _fill(
-    store: dict[str, np.ndarray], source: Any, names: Any, start: int, total: int
+def _join(
+    store: dict[str, _Joined], source: Any, names: Any, start: int, total: int
 ) -> None:  # fmt: skip
-    """Copy the per-row fields ``names`` of ``source`` (a block's rows from ``start``) into
-    ``store``'s arrays of ``total`` rows, made at the first block."""
+    """Add the per-row fields ``names`` of ``source`` (a block's rows from ``start``) to
+    ``store``'s joins of ``total`` rows."""
     for name in names:
         value = getattr(source, name)
-        if value is None:
-            continue
-        value = np.asarray(value)
-        if name not in store:
-            store[name] = np.empty((total, *value.shape[1:]), dtype=value.dtype)
-        store[name][start : start + value.shape[0]] = value
+        if value is not None:
+            store.setdefault(name, _Joined(total)).add(value, start)
