@@ -70,6 +70,7 @@ __all__ = [
     "sweep_stale_temporaries",
     "write_deviation_csv",
     "write_marker",
+    "write_pieces",
     "write_surface",
 ]
 
@@ -920,13 +921,18 @@ def csv_text(
 
 
 def block_rows(columns: Sequence[np.ndarray], block: int = 1 << 16) -> Iterator[tuple]:
-    """The rows of a table held as columns (arrays of one length), as Python numbers, a
-    block of rows converted at a time (a list of every row's numbers would hold tens of
-    times the arrays)."""
+    """The rows of columns of one length as Python numbers, ``block`` rows converted at a
+    time (a list of every row's numbers holds tens of times the arrays)."""
     size = int(np.size(columns[0])) if len(columns) else 0
     for start in range(0, size, block):
         yield from zip(*(np.asarray(c)[start : start + block].tolist() for c in columns),
                        strict=True)  # fmt: skip
+
+
+def write_pieces(path: str | os.PathLike[str], pieces: Iterable[str]) -> None:
+    """Write text made in pieces (:func:`csv_pieces`) to ``path`` (UTF-8) as they come."""
+    with open(path, "w", encoding="utf-8") as file:
+        file.writelines(pieces)
 
 
 #: rows of a CSV made into one piece of text by :func:`csv_pieces`
@@ -939,15 +945,8 @@ def csv_pieces(
     """:func:`csv_text` as consecutive pieces of text (:data:`CSV_PIECE_ROWS` rows each),
     for a table too large to hold as one string (``file.writelines(csv_pieces(...))``).
 
-    Parameters
-    ----------
-    columns, rows, comment
-        As in :func:`csv_text`; ``rows`` is read as the pieces are.
-
-    Yields
-    ------
-    str
-        The text, in order: ``"".join`` of them is ``csv_text(columns, rows, comment)``.
+    ``columns``, ``rows`` (read as the pieces are) and ``comment`` are :func:`csv_text`'s;
+    ``"".join`` of the pieces is ``csv_text(columns, rows, comment=comment)``.
     """
     buffer = _stdio.StringIO()
     if comment:

@@ -49,6 +49,7 @@ from adavar.writers import (
     check_output_directory,
     csv_pieces,
     dumps,
+    write_pieces,
 )
 
 
@@ -264,7 +265,7 @@ def compare_tables(
 
     head = f"adavar {__version__}: {comp.description}"
     names = list(comp.methods)
-    files: dict[str, str] = {}
+    files: dict[str, Iterator[str]] = {}
 
     def table(name: str, description: str, columns: list[str], rows: Any) -> None:
         files[name] = csv_pieces(columns, rows)
@@ -562,8 +563,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         try:
             with atomic_directory(args.out, replace=args.force) as tmp:
                 for name, pieces in tables.items():
-                    with open(tmp / name, "w", encoding="utf-8") as file:
-                        file.writelines(pieces)
+                    write_pieces(tmp / name, pieces)
                 for stem, (draw, fig_args, fig_kwargs) in figures.items():
                     status(f"drawing {stem}")
                     fig = draw(*fig_args, **fig_kwargs)

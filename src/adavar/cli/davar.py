@@ -45,6 +45,7 @@ from adavar.writers import (
     csv_text,
     dumps,
     write_marker,
+    write_pieces,
     write_surface,
 )
 
@@ -131,8 +132,7 @@ def _write_coefficients(path: Path, result: DavarResult, fit: NoiseFit) -> None:
         columns += [(name, term.value), (f"{name}_uncertainty", term.uncertainty)]
     columns.append(("reduced_chi2", fit.reduced_chi2))
     arrays = [np.asarray(values).reshape(-1) for _, values in columns]
-    with open(path, "w", encoding="utf-8") as file:
-        file.writelines(csv_pieces([name for name, _ in columns], block_rows(arrays)))
+    write_pieces(path, csv_pieces([name for name, _ in columns], block_rows(arrays)))
 
 
 def _davar_summary(

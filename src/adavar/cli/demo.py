@@ -29,6 +29,7 @@ from adavar.writers import (
     dumps,
     fit_json,
     is_adavar_folder,
+    write_pieces,
 )
 
 # DEMO_MARKER (adavar.writers) marks a folder written by ``adavar demo``: such a folder is
@@ -185,8 +186,7 @@ def _demo_outputs(
                 }
                 descriptions = {f"paper_{name}": text for name, text in descriptions.items()}
             for name, pieces in tables.items():
-                with open(tmp / name, "w", encoding="utf-8") as file:
-                    file.writelines(pieces)
+                write_pieces(tmp / name, pieces)
             (tmp / "report.html").write_text(_demo_report(demo), encoding="utf-8")
             drawn = sorted(stem for stem in recipes if stem != "gyro_oadev")
             files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json", *tables,
