@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from adavar.errors import AdavarInputError
 from adavar.io import atomic_directory, check_output_directory, read_text
@@ -272,3 +274,39 @@ def test_csv_pieces_cut_anywhere_join_to_the_text(monkeypatch):
     rows = list(csv_module.reader(io.StringIO(whole)))[1:]
     assert [float(r[0]) for r in rows] == columns[0].tolist()
     assert [int(r[1]) for r in rows] == columns[1].tolist()
+
+
+_CELLS = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(-(10**20), 10**20),
+    st.none(),
+    st.booleans(),
+    st.text(alphabet=st.sampled_from(list('ab ,"\r\n=+-@\t1.e')), max_size=8),
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(rows=st.lists(st.lists(_CELLS, min_size=1, max_size=4), min_size=1, max_size=6))
+def test_csv_rows_are_the_csv_modules_rows(rows):
+    """Rows written without the csv module (nothing to quote) and with it (text that
+    needs quotes) are, line for line, the csv module's, and read back as the cells."""
+    import csv as csv_module
+    import io
+
+    from adavar import writers
+
+    width = max(len(r) for r in rows)
+    rows = [r + [None] * (width - len(r)) for r in rows]
+    columns = [f"c{k}" for k in range(width)]
+    text = writers.csv_text(columns, rows)
+    line = io.StringIO()
+    writer = csv_module.writer(line, lineterminator="\r\n")
+    want = []
+    for cells in [columns, *rows]:
+        line.seek(0)
+        line.truncate()
+        writer.writerow(cells if cells is columns else [writers.csv_cell(c) for c in cells])
+        want.append(line.getvalue()[:-2] + "\n")
+    assert text == "".join(want)
+    back = list(csv_module.reader(io.StringIO(text, newline="")))[1:]
+    assert back == [[writers.csv_cell(c) for c in r] for r in rows]

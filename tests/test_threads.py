@@ -20,6 +20,19 @@ def test_adavar_threads_sets_the_kernels_threads_and_waits_passively():
     assert done.stdout.split() == ["1", "PASSIVE"]
 
 
+def test_kernels_compile_at_o2_unless_the_environment_says_otherwise():
+    code = ("import adavar.statistics, numba; from numba.core import config; "
+            "config.reload_config(); print(int(config.OPT))")  # fmt: skip
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, check=False)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["2"]
+    done = _run(code, NUMBA_OPT="3")
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["3"]
+
+
 def test_a_bad_thread_setting_is_a_one_line_error_on_the_command_line(tmp_path):
     path = tmp_path / "x.csv"
     path.write_text("x\n" + "".join(f"{(k * 7919) % 101 / 100}\n" for k in range(200)))

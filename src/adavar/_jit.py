@@ -9,6 +9,13 @@ behave on a machine that is doing something else too:
 - ``ADAVAR_THREADS=N``: the number of threads of every parallel kernel (default: Numba's,
   the number of cores; ``NUMBA_NUM_THREADS`` caps it). ``ADAVAR_THREADS=1`` runs everything
   on one thread.
+
+Compilation. ``NUMBA_OPT=2`` (set here unless the environment sets it) has LLVM optimise
+at -O2 rather than Numba's -O3: the kernels compile about 18 % faster on a first run
+(an empty cache: 27.4 -> 22.5 s for every kernel of ``adavar demo`` in one process) and
+ran as fast in every benchmark measured (``docs/benchmarks.md``, ninth pass). Numba reads
+the setting at each compilation, so it applies to other Numba code of the same process
+too; ``NUMBA_OPT=3`` in the environment restores Numba's default.
 """
 
 from __future__ import annotations
@@ -20,6 +27,7 @@ from collections.abc import Iterator
 
 # before the OpenMP runtime starts (it reads the policy once, when Numba loads it)
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+os.environ.setdefault("NUMBA_OPT", "2")
 
 import numba
 

@@ -21,6 +21,8 @@ Every returned alpha is clamped to the statistic's range (:func:`clamp_alpha`).
 
 from __future__ import annotations
 
+import functools
+import itertools
 import math
 from typing import Final
 
@@ -28,12 +30,11 @@ import numpy as np
 
 from adavar._jit import jit
 from adavar.differences import (
-    SECOND,
     AnchoredPhase,
     cluster_differences,
     cluster_lag1_sums,
-    modified_sums_kernel,
-    overlapping_sums_kernel,
+    modified_sums,
+    overlapping_sums,
 )
 
 __all__ = [
@@ -45,6 +46,7 @@ __all__ = [
     "alpha_from_lag1",
     "alpha_from_phase_lag1",
     "avar_of_sum",
+    "b1_rn_alpha",
     "b1_with_rn",
     "clamp_alpha",
     "decimated_phase_lag1",
@@ -327,111 +329,30 @@ _B1_MUS: Final = (-2, -1, 0, 1)
 #: what the B1 kernels return for a constant series (no noise to identify)
 _CONSTANT_SERIES: Final = 99
 
-#: Numba twins of the rules above (the same source compiled), for the compiled drivers
-_b1_theory_compiled = jit(_b1_theory)
-_rn_theory_pm_compiled = jit(rn_theory_pm)
 
-
-@jit
-def _numpy_sum(a, n):  # pragma: no cover - compiled
-    """``np.add.reduce(a[:n])`` of a contiguous float64 array, bit for bit: NumPy's pairwise sum.
-
-    Blocks of at most 128 values are summed in 8 interleaved partial sums (fewer than 8
-    values: in order); longer ranges split in two halves (the first a multiple of 8), here
-    walked with an explicit stack because a recursive kernel cannot be cached.
-    """
-    lo_stack = np.empty(64, np.int64)
-    n_stack = np.empty(64, np.int64)
-    left = np.empty(64)  # the finished left half's sum, while its right half runs
-    state = np.zeros(64, np.int64)  # 0: left half pending, 1: right half pending
-    top = 0
-    lo_stack[0] = 0
-    n_stack[0] = n
-    while True:
-        lo = lo_stack[top]
-        size = n_stack[top]
-        if size > 128:  # split: go down into the left half
-            half = size // 2
-            half -= half % 8
-            state[top] = 0
-            top += 1
-            lo_stack[top] = lo
-            n_stack[top] = half
-            continue
-        if size < 8:
-            value = 0.0
-            for i in range(lo, lo + size):
-                value += a[i]
-        else:
-            r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-            r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-            i = 8
-            while i < size - size % 8:
-                r0 += a[lo + i]
-                r1 += a[lo + i + 1]
-                r2 += a[lo + i + 2]
-                r3 += a[lo + i + 3]
-                r4 += a[lo + i + 4]
-                r5 += a[lo + i + 5]
-                r6 += a[lo + i + 6]
-                r7 += a[lo + i + 7]
-                i += 8
-            value = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-            while i < size:
-                value += a[lo + i]
-                i += 1
-        # hand the value up: a left half starts its sibling, a right half completes its parent
-        while top > 0:
-            top -= 1
-            if state[top] == 0:
-                left[top] = value
-                state[top] = 1
-                half = n_stack[top] // 2
-                half -= half % 8
-                top += 1
-                lo_stack[top] = lo_stack[top - 1] + half
-                n_stack[top] = n_stack[top - 1] - half
-                break
-            value = left[top] + value
-        else:
-            return 0.0 + value
-
-
-@jit
-def _b1_kernel(y, dmax):  # pragma: no cover - compiled
+def _b1_series_alpha(y: np.ndarray, dmax: int) -> int:
     """B1 alpha of a finite rate series before R(n), or ``_CONSTANT_SERIES``.
 
     The alpha in {1 (PM), 0, -1, -2} whose B1(N, mu) is nearest (geometrically) to the
     data's. With ``dmax >= 3`` a random-walk FM or redder answer is tested again on the
-    differenced rate, whose alpha is 2 higher (see :func:`identify_noise_b1`). The sums
-    are NumPy's (``np.var(y, ddof=1)`` and ``np.mean(np.diff(y) ** 2)`` bit for bit).
-    Loops, not array expressions: those compile NumPy's broadcasting checks and their
-    messages (over a second on a cold cache).
+    differenced rate, whose alpha is 2 higher (see :func:`identify_noise_b1`). NumPy
+    throughout: it runs on tens of values (the taus too long for the lag-1 test), where a
+    compiled version saves microseconds and costs seconds of compilation on a first run.
     """
-    alpha = _CONSTANT_SERIES
-    work = np.empty(y.size)
-    values = np.empty(y.size)
+    values = y
     for first in range(2):  # the series, then (dmax >= 3) its differences
-        n = y.size - first
-        for i in range(n):
-            values[i] = y[i + 1] - y[i] if first else y[i]
-        for i in range(n - 1):
-            step = values[i + 1] - values[i]
-            work[i] = step * step
-        avar = 0.5 * (_numpy_sum(work, n - 1) / (n - 1))
+        if first:
+            values = values[1:] - values[:-1]
+        n = values.size
+        steps = values[1:] - values[:-1]
+        avar = 0.5 * (np.add.reduce(steps * steps) / (n - 1))
         if not avar > 0.0:
             return _CONSTANT_SERIES
-        mean = _numpy_sum(values, n) / n
-        for i in range(n):
-            centred = values[i] - mean
-            work[i] = centred * centred
-        ratio = (_numpy_sum(work, n) / (n - 1)) / avar
+        centred = values - np.add.reduce(values) / n
+        ratio = (np.add.reduce(centred * centred) / (n - 1)) / avar
         found = _B1_ALPHAS[0]
-        for k in range(len(_B1_ALPHAS) - 1):
-            # the boundary between adjacent types: the geometric mean of their B1(n, mu)
-            lo = _b1_theory_compiled(n, _B1_MUS[k])
-            hi = _b1_theory_compiled(n, _B1_MUS[k + 1])
-            if ratio <= math.sqrt(lo * hi):
+        for k, boundary in enumerate(_b1_boundaries(n)):
+            if ratio <= boundary:
                 break
             found = _B1_ALPHAS[k + 1]
         if first:  # differencing raised alpha by 2: RWFM -> 0, FWFM -> -1, RRFM -> -2
@@ -442,9 +363,17 @@ def _b1_kernel(y, dmax):  # pragma: no cover - compiled
     return alpha
 
 
+@functools.lru_cache(maxsize=256)
+def _b1_boundaries(n: int) -> tuple[float, ...]:
+    """The B1 ratios between adjacent noise types at ``n`` values: the geometric means of
+    their B1(n, mu)."""
+    theory = [_b1_theory(n, mu) for mu in _B1_MUS]
+    return tuple(math.sqrt(lo * hi) for lo, hi in itertools.pairwise(theory))
+
+
 def _b1_alpha(y: np.ndarray) -> int:
     """alpha in {1 (PM), 0, -1, -2} whose B1(N, mu) is nearest (geometrically) to the data's."""
-    alpha = _b1_kernel(np.array(y, dtype=np.float64), 0)
+    alpha = _b1_series_alpha(np.array(y, dtype=np.float64), 0)
     if alpha == _CONSTANT_SERIES:
         raise NoiseIdError("the series is constant: no noise to identify")
     return alpha
@@ -529,7 +458,7 @@ def _b1_rate_alpha(y: np.ndarray, dmax: int, min_points: int = MIN_POINTS_B1) ->
     n = y.size
     if n < max(int(min_points), 4):  # >= 3 values left after the dmax=3 difference
         raise NoiseIdError(f"B1 noise identification needs >= {min_points} rate values, got {n}")
-    alpha = _b1_kernel(np.array(y, dtype=np.float64), int(dmax))
+    alpha = _b1_series_alpha(np.array(y, dtype=np.float64), int(dmax))
     if alpha == _CONSTANT_SERIES:
         raise NoiseIdError("the series is constant: no noise to identify")
     return alpha
@@ -818,11 +747,16 @@ def b1_with_rn(z: np.ndarray, m: int, dmax: int, rn, *, strict: bool = False) ->
     ``strict`` keeps to SP 1065 (and Stable32's tables): R(n) only where B1 says PM.
     """
     alpha = _b1_rate_alpha(_as_series(z), dmax)  # identify_noise_b1(z, data_type="rate")
-    if rn_wanted(alpha, m, strict):
-        ratio = rn()
-        if ratio is not None:
-            white, flicker = rn_theory_pm(m)
-            alpha = rn_decision(alpha, ratio, int(m), white, flicker, strict)
+    ratio = rn() if rn_wanted(alpha, m, strict) else None
+    return b1_rn_alpha(alpha, m, dmax, ratio, strict=strict)
+
+
+def b1_rn_alpha(alpha: int, m: int, dmax: int, ratio: float | None, *, strict: bool) -> int:
+    """The last step of :func:`b1_with_rn`: B1's ``alpha`` as R(n) = ``ratio`` (None: not
+    consulted or undefined) decides it, clamped to the statistic's range."""
+    if ratio is not None and rn_wanted(alpha, m, strict):
+        white, flicker = rn_theory_pm(m)
+        alpha = rn_decision(alpha, ratio, int(m), white, flicker, strict)
     return clamp_alpha(alpha, dmax)
 
 
@@ -832,25 +766,16 @@ def b1_with_rn(z: np.ndarray, m: int, dmax: int, rn, *, strict: bool = False) ->
 
 _lag1_decision_compiled = jit(lag1_decision)
 _clamp_alpha_compiled = jit(clamp_alpha)
-_rn_value_compiled = jit(rn_value)
-_avar_of_sum_compiled = jit(avar_of_sum)
-_mvar_of_sum_compiled = jit(mvar_of_sum)
-_rn_wanted_compiled = jit(rn_wanted)
-_rn_decision_compiled = jit(rn_decision)
 
 
 @jit
-def _rate_noise_kernel(r, hh, hl, shift, fused, ms, dmax, avar, strict):  # pragma: no cover
-    """Alpha per ``m`` of rate data (NaN: not identified); see :func:`rate_noise_types`."""
-    n_points = r.size
-    n_increments = n_points - 1
+def _rate_noise_kernel(r, hh, hl, fused, ms, dmax):  # pragma: no cover - compiled
+    """Lag-1 alpha per ``m`` of rate data (NaN: not identified); see :func:`rate_noise_types`."""
+    n_increments = r.size - 1
     out = np.empty(ms.size)
     r1 = np.empty(dmax + 1)
     den = np.empty(dmax + 1)
     sizes = np.empty(dmax + 1, np.int64)
-    one_m = np.empty(1, np.int64)
-    one_count = np.empty(1, np.int64)
-    zero = np.zeros(1, np.int64)
     for t in range(ms.size):
         m = ms[t]
         count = n_increments // m
@@ -877,29 +802,6 @@ def _rate_noise_kernel(r, hh, hl, shift, fused, ms, dmax, avar, strict):  # prag
             status, alpha, _ = _lag1_decision_compiled(r1, den, sizes, scale, 0, 0, orders)
             if status == 0:
                 out[t] = _clamp_alpha_compiled(alpha, dmax)
-        elif count >= MIN_POINTS_B1:
-            z = cluster_differences(r, hh, hl, m, count)
-            for q in range(count):
-                z[q] = (z[q] + shift * m) / m  # the cluster means
-            alpha = _b1_kernel(z, dmax)
-            if alpha == _CONSTANT_SERIES:
-                continue
-            if _rn_wanted_compiled(alpha, m, strict):
-                if avar.size:
-                    var = avar[t]
-                else:
-                    one_m[0] = m
-                    one_count[0] = n_points - 2 * m
-                    sums = overlapping_sums_kernel(r, hh, hl, one_m, zero, one_count, SECOND)
-                    var = _avar_of_sum_compiled(sums[0], m, n_points - 2 * m)
-                one_m[0] = m
-                one_count[0] = n_points + 1 - 3 * m
-                mod = modified_sums_kernel(r, hh, hl, one_m, one_count)[0]
-                ratio = _rn_value_compiled(var, _mvar_of_sum_compiled(mod, m, one_count[0]))
-                if not math.isnan(ratio):
-                    white, flicker = _rn_theory_pm_compiled(m)
-                    alpha = _rn_decision_compiled(alpha, ratio, m, white, flicker, strict)
-            out[t] = _clamp_alpha_compiled(alpha, dmax)
     return out
 
 
@@ -914,21 +816,45 @@ def rate_noise_types(
     """Alpha per averaging factor of rate data in memory, NaN where none is identified.
 
     The rule of :func:`identify_noise` on the m-cluster means of the record integrated in
-    ``phase`` (:func:`adavar.differences.anchored_phase`), every tau in one compiled call:
-    with at least :data:`MIN_POINTS_LAG1` clusters the lag-1 rule on the linearly
-    detrended cluster sums (:func:`lag1_decision`; order 0 from the moments gathered while
-    integrating where ``m`` is a fused level, other orders only when order 0 does not
-    decide), with at least :data:`MIN_POINTS_B1` the B1 ratio with R(n) as
-    :func:`b1_with_rn` consults it (``strict``: only where B1 says PM). ``avar``, if given,
-    is the overlapping Allan variance at every ``m`` (R(n) then reuses it). Each alpha is
-    clamped to the statistic's range; NaN are left for :func:`fill_unidentified`.
+    ``phase`` (:func:`adavar.differences.anchored_phase`): with at least
+    :data:`MIN_POINTS_LAG1` clusters the lag-1 rule on the linearly detrended cluster sums
+    (:func:`lag1_decision`; order 0 from the moments gathered while integrating where ``m``
+    is a fused level, other orders only when order 0 does not decide), every such tau in
+    one compiled call; with at least :data:`MIN_POINTS_B1` the B1 ratio with R(n) as
+    :func:`b1_with_rn` consults it (``strict``: only where B1 says PM), in NumPy on the
+    few taus concerned. ``avar``, if given, is the overlapping Allan variance at every
+    ``m`` (R(n) then reuses it). Each alpha is clamped to the statistic's range; NaN are
+    left for :func:`fill_unidentified`.
     """
     fused = phase.fused if phase.fused is not None else np.empty((0, 4))
-    known = np.empty(0) if avar is None else np.ascontiguousarray(avar, dtype=np.float64)
-    if known.size not in (0, len(ms)):
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    if avar is not None and len(avar) != len(ms):
         raise ValueError("internal: avar must give one value per averaging factor")
-    out = _rate_noise_kernel(
-        phase.r, phase.hh, phase.hl, float(phase.shift), fused,
-        np.ascontiguousarray(ms, dtype=np.int64), int(dmax), known, bool(strict),
-    )  # fmt: skip
-    return out.tolist()
+    out = _rate_noise_kernel(phase.r, phase.hh, phase.hl, fused, ms, int(dmax)).tolist()
+    n_points = phase.n_points
+    b1: dict[int, int] = {}  # tau index -> B1 alpha, on the taus too long for lag-1
+    for t, m in enumerate(ms.tolist()):
+        count = (n_points - 1) // m
+        if MIN_POINTS_B1 <= count < MIN_POINTS_LAG1:
+            z = cluster_differences(phase.r, phase.hh, phase.hl, m, count)
+            try:
+                b1[t] = _b1_rate_alpha((z + phase.shift * m) / m, int(dmax))  # cluster means
+            except NoiseIdError:  # a constant series: nothing to identify
+                continue
+    # R(n) where B1 wants it, every such tau in one pass of each kernel
+    asked = [t for t, alpha in b1.items() if rn_wanted(alpha, int(ms[t]), strict)]
+    ratios: dict[int, float | None] = {}
+    if asked:
+        m_asked = ms[asked]
+        sums = overlapping_sums(phase, m_asked, 2) if avar is None else None
+        mod, counts = modified_sums(phase, m_asked)
+        for k, t in enumerate(asked):
+            m = int(ms[t])
+            if sums is None:
+                var = float(avar[t])
+            else:
+                var = avar_of_sum(float(sums[k]), m, n_points - 2 * m)
+            ratios[t] = rn_ratio(var, mvar_of_sum(float(mod[k]), m, int(counts[k])))
+    for t, alpha in b1.items():
+        out[t] = float(b1_rn_alpha(alpha, int(ms[t]), int(dmax), ratios.get(t), strict=strict))
+    return out
