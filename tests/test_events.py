@@ -71,3 +71,71 @@ def test_cli_adaptive_reports_the_disturbance(capsys, tmp_path):
                                   "--taus", "octave"])  # fmt: skip
     assert code == 0, err
     assert "Events (non-stationary stretches" in out
+
+
+def _events_by_masks(window, centre, time, lmax, tau0, coefficients, t0, duration):
+    """find_events as it was written first: boolean masks over every window."""
+    from adavar.events import stretch_summary
+
+    time = np.asarray(time, dtype=float)
+    changes = []
+    for c in change_times(window, centre, lmax, tau0, t0):
+        if not changes or c - changes[-1] > 0.25 * lmax * tau0:
+            changes.append(c)
+    margin = 0.5 * lmax * tau0
+    out = []
+    for k in range(0, len(changes), 2):
+        start = changes[k]
+        end = changes[k + 1] if k + 1 < len(changes) else None
+        previous = changes[k - 1] if k > 0 else -np.inf
+        following = changes[k + 2] if k + 2 < len(changes) else np.inf
+        stop = end if end is not None else duration
+        sides = [(time > previous + margin) & (time < start - margin),
+                 (time > start + margin) & (time < stop - margin),
+                 (time > stop + margin) & (time < following - margin)]  # fmt: skip
+        if end is None:
+            sides[2] = np.zeros(time.size, dtype=bool)
+        out.append([{n: stretch_summary(np.asarray(v, dtype=float)[m])
+                     for n, v in coefficients.items()} for m in sides])  # fmt: skip
+    return out
+
+
+class _Slices:
+    """An object that gives its values by slices only (as a spilled block fit's terms)."""
+
+    def __init__(self, values):
+        self.values = np.asarray(values)
+
+    def __len__(self):
+        return self.values.size
+
+    def __getitem__(self, rows):
+        assert isinstance(rows, slice)
+        return self.values[rows].copy()
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_find_events_reads_ranges_as_the_masks_did(seed):
+    """Stretches read as ranges of windows (and from slice-only readers) give the events
+    the boolean masks gave; windows out of time order fall back to the masks."""
+    rng = np.random.default_rng(seed)
+    n, lmax, tau0 = 3000, 60, 0.01
+    window = np.full(n, lmax)
+    for a in rng.integers(0, n - 40, rng.integers(0, 6)):
+        window[a : a + rng.integers(2, 40)] = rng.integers(10, lmax)
+    centre = np.arange(n) * int(rng.integers(1, 3))
+    time = 5.0 + centre * tau0
+    values = {"angle_random_walk": rng.lognormal(size=n), "bias_instability": rng.normal(size=n)}
+    values["bias_instability"][rng.random(n) < 0.05] = np.nan
+    duration = float(time[-1] + 1.0)
+    want = _events_by_masks(window, centre, time, lmax, tau0, values, 5.0, duration)
+    for given in (values, {k: _Slices(v) for k, v in values.items()}):
+        got = find_events(window, centre, time, lmax, tau0, given, t0=5.0, duration=duration)
+        assert [[e.before, e.during, e.after] for e in got] == want
+    shuffled = rng.permutation(n)  # not in time order: every window is looked at
+    got = find_events(window, centre, time[shuffled], lmax, tau0,
+                      {k: v[shuffled] for k, v in values.items()}, t0=5.0,
+                      duration=duration)  # fmt: skip
+    want = _events_by_masks(window, centre, time[shuffled], lmax, tau0,
+                            {k: v[shuffled] for k, v in values.items()}, 5.0, duration)  # fmt: skip
+    assert [[e.before, e.during, e.after] for e in got] == want

@@ -318,6 +318,22 @@ def test_fit_rows_keep_the_whole_fit_of_some_windows(step_gyro, fit_rows):
     everything = fit_adaptive_in_blocks(step_gyro, fit_options={"cells": False},
                                         block_values=2000, **common)  # fmt: skip
     assert everything.fit_rows is None and everything.coefficients is everything.fit.coefficients
+    spilled = fit_adaptive_in_blocks(step_gyro, fit_options={"cells": False}, drawn=30,
+                                     block_values=2000, fit_rows=fit_rows, spill=True,
+                                     **common)  # fmt: skip
+    assert spilled.coefficients is None and spilled.spilled is not None
+    np.testing.assert_array_equal(spilled.fit.coefficients, got.fit.coefficients)
+    for name in whole.terms:
+        want = whole.term(name).value
+        np.testing.assert_array_equal(spilled.term_values(name), want)
+        for start, stop in ((0, 1), (3, n // 2), (n - 7, None), (n // 3, n // 3)):
+            np.testing.assert_array_equal(spilled.term_values(name, start, stop),
+                                          want[start:stop])  # fmt: skip
+        reader = spilled.term_reader(name)
+        assert len(reader) == n
+        np.testing.assert_array_equal(reader[5 : n - 5], want[5 : n - 5])
+        with pytest.raises(TypeError, match="slices"):
+            reader[[1, 2]]
     with pytest.raises(AdavarInputError, match="fit_rows"):
         fit_adaptive_in_blocks(step_gyro, fit_rows="some", **common)
     with pytest.raises(AdavarInputError, match="increasing"):

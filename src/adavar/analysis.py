@@ -306,8 +306,10 @@ def _fit_in_blocks(
     # the windows' coefficients only: no per-cell residuals (a surface's size); no
     # per-cell bounds (neither the report nor the fit reads them); the whole fit of the
     # windows the coefficient figure draws, the coefficients of every window
+    # the coefficients of every window (five a window) wait in temporary files for the
+    # events, which read their stretches only
     options = dict(fit_options={**window_fit_keywords(args, whole), "cells": False},
-                   drawn=MAX_SURFACE_TIMES, bounds=False, fit_rows=series_rows,
+                   drawn=MAX_SURFACE_TIMES, bounds=False, fit_rows=series_rows, spill=True,
                    **common)  # fmt: skip
     try:
         if args.adaptive:
@@ -543,7 +545,7 @@ class ReportAnalysis:
 
         fit = self.coefficients
         if isinstance(self.surface, BlockFit):  # every window's terms (fit: a few windows)
-            terms = {name: self.surface.term_values(name) for name in fit.terms}
+            terms = {name: self.surface.term_reader(name) for name in fit.terms}
         else:
             terms = {} if fit is None else {name: fit.term(name).value for name in fit.terms}
         duration = t0 + float(self._seconds(self.n_samples))

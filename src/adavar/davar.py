@@ -758,7 +758,10 @@ def davar_blocks(
         Consecutive blocks of rows (``centre`` tells which), each as ``davar(...,
         rows=)`` gives it: every row equals that row of the whole surface bit for bit,
         ``alpha``, the EDF and bound tables and ``notes`` are the whole surface's. The
-        record is read, the schedule made and the noise types identified once.
+        record is read, the schedule made and the noise types identified once. The
+        per-window fields (``time``, ``window``, ``centre``, ``window_class``, ``shift``)
+        are read-only views of the whole surface's arrays: consecutive blocks join into
+        them without a copy, and a block kept keeps them.
     """
     arguments = inspect.signature(davar).bind(data, **options)
     arguments.apply_defaults()
@@ -944,8 +947,16 @@ def _surfaces(
             avar = unscale(avar, 2 * power + exponent, _plural(name), underflow=False)
 
         def rows_of(values: np.ndarray | None) -> np.ndarray | None:
-            """A block's rows as arrays of their own (a view would hold the record's)."""
-            return values if values is None or whole else values[start:stop].copy()
+            """A block's rows: for ``rows=``, arrays of their own (a view would hold the
+            record's); for the blocks of :func:`davar_blocks`, read-only views of the whole
+            surface's per-window arrays (its consumer joins them without a copy)."""
+            if values is None or whole:
+                return values
+            if block_values is None:
+                return values[start:stop].copy()
+            view = values[start:stop]
+            view.flags.writeable = False
+            return view
 
         surface = dict(
             time=rows_of(time),

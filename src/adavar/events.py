@@ -143,7 +143,10 @@ def find_events(
     tau0 : float
         Sample interval (s).
     coefficients : dict of str to array_like
-        Term name -> its value at each window (``fit.angle_random_walk.value``, ...).
+        Term name -> its value at each window (``fit.angle_random_walk.value``, ...): an
+        array, or any object whose slices ``values[start:stop]`` give those windows'
+        values (:meth:`adavar.surface_fit.BlockFit.term_reader`, which reads them from
+        disk); only the windows of the stretches are read.
     t0 : float
         Time of the first sample.
     duration : float, optional
@@ -165,7 +168,20 @@ def find_events(
             changes.append(c)
     end_of_record = float(duration if duration is not None else time[-1])
     margin = 0.5 * lmax * tau0
-    series = {name: np.asarray(v, dtype=float) for name, v in coefficients.items()}
+    # the windows are in time order: each stretch is a range of them, read alone
+    ordered = bool(np.all(np.diff(time) >= 0))
+
+    def summaries(low: float, high: float) -> dict[str, Any]:
+        """Each term's summary over the windows with ``low < time < high``."""
+        if ordered:
+            start = int(np.searchsorted(time, low, side="right"))
+            stop = max(start, int(np.searchsorted(time, high, side="left")))
+            return {name: stretch_summary(np.asarray(v[start:stop], dtype=float))
+                    for name, v in coefficients.items()}  # fmt: skip
+        inside = (time > low) & (time < high)
+        return {name: stretch_summary(np.asarray(v[:], dtype=float)[inside])
+                for name, v in coefficients.items()}  # fmt: skip
+
     events = []
     for k in range(0, len(changes), 2):
         start = changes[k]
@@ -173,15 +189,12 @@ def find_events(
         previous = changes[k - 1] if k > 0 else -np.inf
         following = changes[k + 2] if k + 2 < len(changes) else np.inf
         stop = end if end is not None else end_of_record
-        before = (time > previous + margin) & (time < start - margin)
-        during = (time > start + margin) & (time < stop - margin)
-        after = (time > stop + margin) & (time < following - margin)
-        if end is None:
-            after = np.zeros(time.size, dtype=bool)
         events.append(Event(
             start_s=start, end_s=end,
-            before={n: stretch_summary(v[before]) for n, v in series.items()},
-            during={n: stretch_summary(v[during]) for n, v in series.items()},
-            after={n: stretch_summary(v[after]) for n, v in series.items()},
+            before=summaries(previous + margin, start - margin),
+            during=summaries(start + margin, stop - margin),
+            # a stretch open at the end of the record has no windows after it
+            after=summaries(stop + margin, following - margin) if end is not None
+            else summaries(np.inf, -np.inf),
         ))  # fmt: skip
     return events

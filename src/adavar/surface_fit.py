@@ -55,9 +55,6 @@ class BlockFit:
     fit : NoiseFit
         The fit of every window (as ``fit_noise`` of the whole surface), or with
         ``fit_rows=`` of the windows ``fit_rows`` only.
-    coefficients : ndarray, shape (windows, 5)
-        Every window's model coefficients (:attr:`NoiseFit.coefficients`; ``fit``'s own
-        when it holds every window): :meth:`term_values` gives the terms.
     fit_rows : ndarray of int or None
         The windows ``fit`` holds (None: every window).
     drawn : DavarResult
@@ -72,6 +69,12 @@ class BlockFit:
         ``centre``, ``window_class``, ``shift``; an adaptive surface's ``kurtosis``, ``s``
         and flags), no taus (``tau`` empty, ``avar`` of shape ``(windows, 0)``). Shares
         ``time``, ``window`` and ``centre`` with the fields above.
+    coefficients : ndarray, shape (windows, 5), or None
+        Every window's model coefficients (:attr:`NoiseFit.coefficients`; ``fit``'s own
+        when it holds every window); None when they are in temporary files
+        (``fit_blocks(..., spill=True)``): :meth:`term_values` reads them either way.
+    spilled : object or None
+        The temporary files of the coefficients (None: in memory).
     """
 
     fit: NoiseFit
@@ -81,16 +84,27 @@ class BlockFit:
     window: np.ndarray
     centre: np.ndarray
     windows: DavarResult
-    coefficients: np.ndarray
+    coefficients: np.ndarray | None
     fit_rows: np.ndarray | None = None
+    spilled: _Columns | None = None
 
-    def term_values(self, name: str) -> np.ndarray:
-        """Every window's value of the term ``name`` (``fit.term(name).value`` of the
-        whole surface's fit)."""
+    def term_values(self, name: str, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """The value of the term ``name`` (``fit.term(name).value`` of the whole surface's
+        fit) of every window, or of windows ``start .. stop - 1``."""
         from adavar.terms import term_index
 
         k = term_index(name)
-        return coefficient_value(self.coefficients[:, k], k)
+        if self.coefficients is not None:
+            return coefficient_value(self.coefficients[start:stop, k], k)
+        if self.spilled is None:
+            raise ValueError("internal: a block fit without coefficients")
+        return coefficient_value(self.spilled.column(k, start, stop), k)
+
+    def term_reader(self, name: str) -> _TermReader:
+        """The term ``name`` of every window as an object whose slices
+        (``reader[start:stop]``) read those windows' values only
+        (:func:`adavar.events.find_events` takes it)."""
+        return _TermReader(self, name)
 
     @property
     def n_windows(self) -> int:
@@ -162,6 +176,7 @@ def fit_davar_in_blocks(
     drawn: int = 400,
     block_values: int | None = None,
     fit_rows: str | Callable[[int], np.ndarray] = "all",
+    spill: bool = False,
     **davar_options: Any,
 ) -> BlockFit:
     """``fit_noise(davar(data, **davar_options), **fit_options)`` a block of windows at a time.
@@ -179,6 +194,8 @@ def fit_davar_in_blocks(
         Surface values per block (default :data:`adavar.davar.BLOCK_VALUES`).
     fit_rows : {"all", "drawn"} or callable
         The windows whose whole fit :attr:`BlockFit.fit` keeps (:func:`fit_blocks`).
+    spill : bool
+        Every window's coefficients in temporary files (:func:`fit_blocks`).
     **davar_options
         Keywords of :func:`adavar.davar` (``window``, ``rate``, ``taus``, ``confidence``,
         ``noise_type``...) but ``rows``.
@@ -191,7 +208,7 @@ def fit_davar_in_blocks(
     from adavar.davar import davar_blocks
 
     blocks = davar_blocks(data, block_values=block_values, **davar_options)
-    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn, fit_rows=fit_rows)
+    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn, fit_rows=fit_rows, spill=spill)
 
 
 def fit_adaptive_in_blocks(
@@ -201,6 +218,7 @@ def fit_adaptive_in_blocks(
     drawn: int = 400,
     block_values: int | None = None,
     fit_rows: str | Callable[[int], np.ndarray] = "all",
+    spill: bool = False,
     **adaptive_options: Any,
 ) -> BlockFit:
     """``fit_noise(adaptive_davar(data, **adaptive_options), **fit_options)`` a block of
@@ -210,7 +228,7 @@ def fit_adaptive_in_blocks(
     ----------
     data : array_like
         The record, in memory.
-    fit_options, drawn, block_values, fit_rows
+    fit_options, drawn, block_values, fit_rows, spill
         As in :func:`fit_davar_in_blocks`.
     **adaptive_options
         Keywords of :func:`adavar.adaptive_davar` but ``chunk_size``.
@@ -224,7 +242,7 @@ def fit_adaptive_in_blocks(
     from adavar.adaptive import adaptive_blocks
 
     blocks = adaptive_blocks(data, block_values=block_values, **adaptive_options)
-    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn, fit_rows=fit_rows)
+    return fit_blocks(blocks, fit_options=fit_options, drawn=drawn, fit_rows=fit_rows, spill=spill)
 
 
 def fit_blocks(
@@ -233,6 +251,7 @@ def fit_blocks(
     fit_options: dict[str, Any] | None = None,
     drawn: int = 400,
     fit_rows: str | Callable[[int], np.ndarray] = "all",
+    spill: bool = False,
 ) -> BlockFit:
     """Fit the consecutive blocks of rows of one surface and keep what :class:`BlockFit`
     holds (each block is dropped once fitted).
@@ -250,6 +269,10 @@ def fit_blocks(
         The windows whose whole fit (uncertainties, chi-square...) :attr:`BlockFit.fit`
         keeps: every window, the drawn ones, or those a function of the number of windows
         returns (sorted indices). Every window's coefficients are kept either way.
+    spill : bool
+        With ``fit_rows`` other than ``"all"``: write every window's coefficients to
+        temporary files (one per term, deleted with the result) instead of holding them,
+        five values a window (:attr:`BlockFit.spilled`); the values are the same.
 
     Returns
     -------
@@ -265,6 +288,7 @@ def fit_blocks(
     # every window's fields and fits, filled a block at a time (no second copy to join)
     fields: dict[str, _Joined] = {}
     curves: dict[str, _Joined] = {}
+    columns: _Columns | None = None  # every window's coefficients, with fit_rows
     rows = np.empty(0, dtype=np.int64)
     total = start = 0  # rows of the surface; the block's first row
     for block in blocks:
@@ -283,9 +307,13 @@ def fit_blocks(
             first_fit = fit
         elif fit.terms != first_fit.terms or not np.array_equal(fit.tau, first_fit.tau):
             raise ValueError("internal: the fits of a stack's blocks must share terms and taus")
-        if wanted is not None:
+        if wanted is None:
+            _join(curves, fit, _PER_CURVE, start, total)
+        else:
             fits.append(_fit_at(fit, wanted[(wanted >= start) & (wanted < stop)] - start))
-        _join(curves, fit, _PER_CURVE if wanted is None else ("coefficients",), start, total)
+            if columns is None:
+                columns = _Columns(total, np.shape(fit.coefficients)[1], spill)
+            columns.add(fit.coefficients, start)
         _join(fields, block, [name for name in _row_fields(block)
                               if name not in ("avar", "window_class")], start, total)  # fmt: skip
         kept.append(_take_rows(block, rows[(rows >= start) & (rows < stop)] - start))
@@ -311,12 +339,17 @@ def fit_blocks(
         if np.array_equal(per_curve.get("time"), every["time"]):
             per_curve["time"] = every["time"]  # one copy of the times
         fit = dataclasses.replace(first_fit, **per_curve)
+        columns = _Columns.of(per_curve["coefficients"])
     else:
         fit = concatenate_fits(fits)
+    if columns is None:  # pragma: no cover - a surface has rows
+        raise ValueError("internal: no coefficients")
+    columns.finish()
     return BlockFit(
         fit=fit, drawn=dataclasses.replace(first, **joined), rows=rows, time=every["time"],
         window=every["window"], centre=every["centre"], windows=windows,
-        coefficients=per_curve["coefficients"], fit_rows=wanted,
+        coefficients=columns.array, fit_rows=wanted,
+        spilled=None if columns.files is None else columns,
     )  # fmt: skip
 
 
@@ -338,6 +371,72 @@ def _fit_rows(
         raise AdavarInputError(f"fit_rows gave rows that are not increasing indices of the "
                                f"{total} windows")  # fmt: skip
     return rows
+
+
+class _Columns:
+    """Every window's coefficients (rows x width float64), filled a block of rows at a
+    time: in one array, or (``spill``) in a temporary file per column, read back a range
+    of rows at a time."""
+
+    def __init__(self, total: int, width: int, spill: bool = False) -> None:
+        self.total, self.width = int(total), int(width)
+        self.array: np.ndarray | None = None
+        self.files: list[Any] | None = None
+        if spill:
+            import tempfile
+
+            self.files = [tempfile.TemporaryFile() for _ in range(self.width)]
+        else:
+            self.array = np.empty((self.total, self.width))
+
+    @classmethod
+    def of(cls, array: np.ndarray) -> _Columns:
+        """The columns of an array held as it is."""
+        held = cls.__new__(cls)
+        held.total, held.width = array.shape
+        held.array, held.files = array, None
+        return held
+
+    def add(self, values: np.ndarray, start: int) -> None:
+        values = np.asarray(values, dtype=np.float64)
+        if self.files is None:
+            self.array[start : start + values.shape[0]] = values
+            return
+        for k, file in enumerate(self.files):
+            file.seek(start * 8)
+            file.write(np.ascontiguousarray(values[:, k]).tobytes())
+
+    def finish(self) -> None:
+        """Every row is written: flush the files before the first read."""
+        for file in self.files or ():
+            file.flush()
+
+    def column(self, k: int, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """Rows ``start .. stop - 1`` of column ``k`` (a view when held in memory)."""
+        start, stop, _ = slice(start, stop).indices(self.total)
+        if self.files is None:
+            return self.array[start:stop, k]
+        out = np.empty(max(0, stop - start))
+        file = self.files[k]
+        file.seek(start * 8)
+        if out.size and file.readinto(memoryview(out).cast("B")) != out.nbytes:
+            raise OSError("a temporary file of window coefficients was cut short")
+        return out
+
+
+class _TermReader:
+    """One term of every window of a :class:`BlockFit`, read a slice at a time."""
+
+    def __init__(self, fit: BlockFit, name: str) -> None:
+        self.fit, self.name = fit, name
+
+    def __len__(self) -> int:
+        return self.fit.n_windows
+
+    def __getitem__(self, rows: slice) -> np.ndarray:
+        if not isinstance(rows, slice) or rows.step not in (None, 1):
+            raise TypeError("a term reader takes slices of consecutive windows")
+        return self.fit.term_values(self.name, rows.start or 0, rows.stop)
 
 
 class _Joined:
