@@ -338,3 +338,35 @@ def test_fit_rows_keep_the_whole_fit_of_some_windows(step_gyro, fit_rows):
         fit_adaptive_in_blocks(step_gyro, fit_rows="some", **common)
     with pytest.raises(AdavarInputError, match="increasing"):
         fit_adaptive_in_blocks(step_gyro, fit_rows=lambda n: np.array([3, 1]), **common)
+
+
+def test_spilled_coefficients_fall_back_or_fail_clearly(step_gyro, monkeypatch):
+    """No temporary folder: the coefficients stay in memory; a full one: a one-line error
+    that names TMPDIR."""
+    import tempfile
+
+    from adavar import surface_fit
+
+    common = dict(rate=RATE, taus="octave", lmax=300, lmin=100, l=50, block_values=2000,
+                  fit_options={"cells": False}, fit_rows="drawn")  # fmt: skip
+    want = surface_fit.fit_adaptive_in_blocks(step_gyro, **common)
+
+    def refuse():
+        raise PermissionError(13, "Permission denied")
+
+    monkeypatch.setattr(tempfile, "TemporaryFile", refuse)
+    held = surface_fit.fit_adaptive_in_blocks(step_gyro, spill=True, **common)
+    assert held.spilled is None
+    np.testing.assert_array_equal(held.coefficients, want.coefficients)
+
+    class Full:
+        def seek(self, offset):
+            pass
+
+        def write(self, data):
+            raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(tempfile, "TemporaryFile", Full)
+    with pytest.raises(AdavarInputError, match="TMPDIR") as caught:
+        surface_fit.fit_adaptive_in_blocks(step_gyro, spill=True, **common)
+    assert "\n" not in str(caught.value) and "No space left" in str(caught.value)

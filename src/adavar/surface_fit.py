@@ -8,7 +8,9 @@ A per-sample surface of a long record at many taus does not fit in memory (two h
 of the whole surface's fit) and keeps the fits, the time, length and centre of every window,
 and the few rows a surface figure draws. Its peak is one block, not the surface.
 :func:`fit_adaptive_in_blocks` does the same for :func:`adavar.adaptive_davar` (the
-controller runs once; its per-window record is kept).
+controller runs once; its per-window record is kept). With ``spill=True`` every window's
+coefficients go to temporary files (one per term, in the folder ``TMPDIR`` names; in
+memory when none can be made) and are read back a range of windows at a time.
 """
 
 from __future__ import annotations
@@ -385,8 +387,11 @@ class _Columns:
         if spill:
             import tempfile
 
-            self.files = [tempfile.TemporaryFile() for _ in range(self.width)]
-        else:
+            try:
+                self.files = [tempfile.TemporaryFile() for _ in range(self.width)]
+            except OSError:  # no usable temporary folder: hold them after all
+                self.files = None
+        if self.files is None:
             self.array = np.empty((self.total, self.width))
 
     @classmethod
@@ -402,9 +407,18 @@ class _Columns:
         if self.files is None:
             self.array[start : start + values.shape[0]] = values
             return
-        for k, file in enumerate(self.files):
-            file.seek(start * 8)
-            file.write(np.ascontiguousarray(values[:, k]).tobytes())
+        try:
+            for k, file in enumerate(self.files):
+                file.seek(start * 8)
+                file.write(np.ascontiguousarray(values[:, k]).tobytes())
+        except OSError as exc:
+            import tempfile
+
+            raise AdavarInputError(
+                f"cannot write the windows' coefficients to the temporary folder "
+                f"{tempfile.gettempdir()} ({exc.strerror or exc}): set TMPDIR to a folder "
+                "with space"
+            ) from None
 
     def finish(self) -> None:
         """Every row is written: flush the files before the first read."""
