@@ -260,14 +260,14 @@ def test_csv_pieces_cut_anywhere_join_to_the_text(monkeypatch):
     import csv as csv_module
     import io
 
-    from adavar import writers
+    from adavar import csv_tables, writers
 
     rng = np.random.default_rng(4)
     columns = [rng.standard_normal(1000), np.arange(1000, dtype=np.int64)]
     whole = writers.csv_text(["x", "k"], zip(columns[0].tolist(), columns[1].tolist(),
                                               strict=True))  # fmt: skip
     for per_piece in (1, 7, 999, 1000, 5000):
-        monkeypatch.setattr(writers, "CSV_PIECE_ROWS", per_piece)
+        monkeypatch.setattr(csv_tables, "CSV_PIECE_ROWS", per_piece)
         pieces = list(writers.csv_pieces(["x", "k"], writers.block_rows(columns, block=64)))
         assert "".join(pieces) == whole
         assert len(pieces) == 1000 // per_piece + 1

@@ -334,6 +334,12 @@ def test_fit_rows_keep_the_whole_fit_of_some_windows(step_gyro, fit_rows):
         np.testing.assert_array_equal(reader[5 : n - 5], want[5 : n - 5])
         with pytest.raises(TypeError, match="slices"):
             reader[[1, 2]]
+    import pickle
+
+    carried = pickle.loads(pickle.dumps(spilled))  # another process gets the values
+    assert carried.spilled.files is None
+    for name in whole.terms:
+        np.testing.assert_array_equal(carried.term_values(name), whole.term(name).value)
     with pytest.raises(AdavarInputError, match="fit_rows"):
         fit_adaptive_in_blocks(step_gyro, fit_rows="some", **common)
     with pytest.raises(AdavarInputError, match="increasing"):

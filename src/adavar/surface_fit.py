@@ -420,6 +420,13 @@ class _Columns:
                 "with space"
             ) from None
 
+    def __reduce__(self) -> tuple[Any, tuple[np.ndarray]]:
+        # a pickle (for another process) carries the values; the files stay with this one
+        every = self.array if self.files is None else np.column_stack(
+            [self.column(k) for k in range(self.width)]
+        )  # fmt: skip
+        return (_Columns.of, (every,))
+
     def finish(self) -> None:
         """Every row is written: flush the files before the first read."""
         for file in self.files or ():

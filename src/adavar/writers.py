@@ -9,9 +9,9 @@ such a folder is ever replaced. :func:`atomic_file` does the same for one file.
 ``scipy.io.netcdf_file``, ncdump, ...) or Parquet (pandas, pyarrow, polars, DuckDB, ...),
 so that it can be read without adavar. :func:`dumps`, :func:`deviation_json` and
 :func:`fit_json` give the JSON that ``adavar ... --json`` prints and ``result.json`` holds;
-:func:`csv_text` makes every CSV adavar writes (plain: the header row first, text cells a
-spreadsheet would run as a formula neutralised), :func:`write_deviation_csv` the
-``deviation.csv`` of ``avar`` and ``batch``.
+:func:`csv_text` (from :mod:`adavar.csv_tables`, re-exported here) makes every CSV adavar
+writes (plain: the header row first, text cells a spreadsheet would run as a formula
+neutralised), :func:`write_deviation_csv` the ``deviation.csv`` of ``avar`` and ``batch``.
 
 Every problem with the user's input raises :class:`adavar.errors.AdavarInputError` with a
 one-line message that names the problem and the way out.
@@ -20,11 +20,8 @@ one-line message that names the problem and the way out.
 from __future__ import annotations
 
 import contextlib
-import csv
-import io as _stdio
 import json
 import math
-import numbers
 import os
 import re
 import secrets
@@ -33,12 +30,21 @@ import signal
 import socket
 import threading
 import time
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, BinaryIO
 
 import numpy as np
 
+from adavar.csv_tables import (
+    CSV_PIECE_ROWS,
+    block_rows,
+    csv_cell,
+    csv_pieces,
+    csv_text,
+    spreadsheet_safe,
+    write_pieces,
+)
 from adavar.errors import AdavarInputError
 
 if TYPE_CHECKING:
@@ -47,6 +53,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "BATCH_MARKER",
+    "CSV_PIECE_ROWS",
     "DEMO_MARKER",
     "OUTPUT_MARKER",
     "SURFACE_FORMATS",
@@ -843,151 +850,6 @@ def fit_json(fit: NoiseFit) -> dict[str, Any]:
             for n, v in fit.slopes.values.items()
         }  # fmt: skip
     return out
-
-
-#: First characters that make a spreadsheet run a text cell as a formula (CSV injection).
-_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
-
-
-def spreadsheet_safe(text: str) -> str:
-    """A text cell a spreadsheet shows as text: ``'`` before a leading ``=``, ``+``, ``-``,
-    ``@``, tab or carriage return, unless the text is a number (``-1.5``, ``-inf``).
-
-    Parameters
-    ----------
-    text : str
-
-    Returns
-    -------
-    str
-    """
-    if not text.startswith(_FORMULA_START):
-        return text
-    try:
-        float(text)
-    except ValueError:
-        return "'" + text
-    return text
-
-
-def csv_cell(value: Any) -> str:
-    """The text of one CSV cell: numbers in their shortest exact form (``repr``; NaN as
-    ``nan``), None as an empty cell, booleans as ``true``/``false``, text through
-    :func:`spreadsheet_safe`.
-
-    Raises
-    ------
-    TypeError
-        A value that is not a number, text, a path or None.
-    """
-    kind = type(value)
-    if kind is float:  # the common cells first: the checks below cost microseconds each
-        return repr(value)
-    if kind is int:
-        return str(value)
-    if value is None:
-        return ""
-    if isinstance(value, (bool, np.bool_)):
-        return "true" if value else "false"
-    if isinstance(value, numbers.Integral):
-        return str(int(value))
-    if isinstance(value, numbers.Real):
-        return repr(float(value))  # shortest round-trip form; nan, inf, -inf
-    if isinstance(value, (str, os.PathLike)):
-        return spreadsheet_safe(os.fspath(value))
-    if isinstance(value, np.ndarray) and value.ndim == 0:
-        return csv_cell(value.item())
-    raise TypeError(f"a CSV cell must be a number, text or None, got {type(value).__name__}")
-
-
-def csv_text(
-    columns: Sequence[str], rows: Iterable[Sequence[Any]], *, comment: str | None = None
-) -> str:
-    """A plain CSV table: the header row first, then one line per row (:func:`csv_cell`).
-
-    Every CSV adavar writes is made here: ``pandas.read_csv(path)`` and spreadsheets read
-    it as it is (its metadata is in the ``result.json`` next to it).
-
-    Parameters
-    ----------
-    columns : sequence of str
-        The column names (made :func:`spreadsheet_safe` too).
-    rows : iterable of sequence
-        The cells of every row, in column order.
-    comment : str, optional
-        Only for callers that want it: free text written before the header as ``# `` lines
-        (a reader then needs ``comment="#"``). adavar's own files have none.
-
-    Returns
-    -------
-    str
-    """
-    return "".join(csv_pieces(columns, rows, comment=comment))
-
-
-def block_rows(columns: Sequence[np.ndarray], block: int = 1 << 16) -> Iterator[tuple]:
-    """The rows of columns of one length as Python numbers, ``block`` rows converted at a
-    time (a list of every row's numbers holds tens of times the arrays)."""
-    size = int(np.size(columns[0])) if len(columns) else 0
-    for start in range(0, size, block):
-        yield from zip(*(np.asarray(c)[start : start + block].tolist() for c in columns),
-                       strict=True)  # fmt: skip
-
-
-def write_pieces(path: str | os.PathLike[str], pieces: Iterable[str]) -> None:
-    """Write text made in pieces (:func:`csv_pieces`) to ``path`` (UTF-8) as they come."""
-    with open(path, "w", encoding="utf-8") as file:
-        file.writelines(pieces)
-
-
-#: characters that make the csv module quote a cell (besides the delimiter)
-_QUOTED = re.compile('["\\r\\n]')
-
-#: rows of a CSV made into one piece of text by :func:`csv_pieces`
-CSV_PIECE_ROWS = 1 << 14
-
-
-def csv_pieces(
-    columns: Sequence[str], rows: Iterable[Sequence[Any]], *, comment: str | None = None
-) -> Iterator[str]:
-    """:func:`csv_text` as consecutive pieces of text (:data:`CSV_PIECE_ROWS` rows each),
-    for a table too large to hold as one string (``file.writelines(csv_pieces(...))``).
-
-    ``columns``, ``rows`` (read as the pieces are) and ``comment`` are :func:`csv_text`'s;
-    ``"".join`` of the pieces is ``csv_text(columns, rows, comment=comment)``.
-    """
-    buffer = _stdio.StringIO()
-    if comment:
-        for line in str(comment).splitlines() or [""]:
-            buffer.write(f"# {line}".rstrip() + "\n")
-    # csv quotes a cell holding a character of its line terminator: "\r\n" makes it quote a
-    # carriage return too (which "\n" would not, and a reader takes for a line break);
-    # each line then ends with "\n"
-    line = _stdio.StringIO()
-    writer = csv.writer(line, lineterminator="\r\n")
-
-    def put(cells: list[str]) -> None:
-        text = ",".join(cells)
-        # nothing to quote (numbers never are): the csv module's line, without its cost
-        if len(cells) > 1 and text.count(",") == len(cells) - 1 and not _QUOTED.search(text):
-            buffer.write(text + "\n")
-            return
-        line.seek(0)
-        line.truncate()
-        writer.writerow(cells)
-        buffer.write(line.getvalue()[:-2] + "\n")
-
-    put([spreadsheet_safe(str(c)) for c in columns])
-    count = 0
-    for row in rows:
-        put([csv_cell(c) for c in row])
-        count += 1
-        if count == CSV_PIECE_ROWS:
-            yield buffer.getvalue()
-            buffer.seek(0)
-            buffer.truncate()
-            count = 0
-    yield buffer.getvalue()
 
 
 def write_deviation_csv(path: Path, result: DeviationResult, comment: str | None = None) -> None:
