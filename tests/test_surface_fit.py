@@ -376,3 +376,23 @@ def test_spilled_coefficients_fall_back_or_fail_clearly(step_gyro, monkeypatch):
     with pytest.raises(AdavarInputError, match="TMPDIR") as caught:
         surface_fit.fit_adaptive_in_blocks(step_gyro, spill=True, **common)
     assert "\n" not in str(caught.value) and "No space left" in str(caught.value)
+
+
+@pytest.mark.parametrize("fit_rows", ["all", "drawn"])
+def test_blocks_fitted_a_few_windows_at_a_time_are_the_whole_fit(step_gyro, monkeypatch,
+                                                                fit_rows):  # fmt: skip
+    """A block's windows fitted FIT_ROWS at a time (37 here: every block cut unevenly)
+    give the whole surface's fit, bit for bit."""
+    from adavar import surface_fit
+
+    monkeypatch.setattr(surface_fit, "FIT_ROWS", 37)
+    common = dict(rate=RATE, taus="octave", lmax=300, lmin=100, l=50)
+    whole = adavar.fit_noise(adavar.adaptive_davar(step_gyro, **common), cells=False)
+    got = surface_fit.fit_adaptive_in_blocks(step_gyro, fit_options={"cells": False},
+                                             drawn=30, block_values=2000, fit_rows=fit_rows,
+                                             spill=fit_rows == "drawn", **common)  # fmt: skip
+    for name in whole.terms:
+        np.testing.assert_array_equal(got.term_values(name), whole.term(name).value)
+    rows = slice(None) if fit_rows == "all" else got.rows
+    for name in ("coefficients", "coefficient_uncertainty", "chi2", "dof", "time"):
+        np.testing.assert_array_equal(getattr(got.fit, name), getattr(whole, name)[rows], name)

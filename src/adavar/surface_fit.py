@@ -42,6 +42,9 @@ _PER_CURVE = (
     "time", "used", "residuals", "coefficient_covariance",
 )  # fmt: skip
 
+#: windows per call of :func:`adavar.fit_noise` in :func:`fit_blocks`
+FIT_ROWS = 1 << 14
+
 #: the per-window fields of a :class:`DavarResult` (one row each) and of an
 #: :class:`adavar.adaptive.AdaptiveResult` (the controller's record)
 _PER_ROW = ("time", "avar", "window", "centre", "window_class", "terms", "shift")
@@ -304,18 +307,26 @@ def fit_blocks(
             rows = spread_indices(total, drawn)
             wanted = _fit_rows(fit_rows, total, rows)
         stop = start + block.centre.size
-        fit = fit_noise(block, **fit_options)
-        if first_fit is None:
-            first_fit = fit
-        elif fit.terms != first_fit.terms or not np.array_equal(fit.tau, first_fit.tau):
-            raise ValueError("internal: the fits of a stack's blocks must share terms and taus")
-        if wanted is None:
-            _join(curves, fit, _PER_CURVE, start, total)
-        else:
-            fits.append(_fit_at(fit, wanted[(wanted >= start) & (wanted < stop)] - start))
-            if columns is None:
-                columns = _Columns(total, np.shape(fit.coefficients)[1], spill)
-            columns.add(fit.coefficients, start)
+        # a few thousand windows per fit: its per-window arrays (a covariance matrix each)
+        # are then small beside the block; every window is fitted on its own
+        for a in range(start, stop, FIT_ROWS):
+            b = min(a + FIT_ROWS, stop)
+            part = (
+                block if (a, b) == (start, stop) else _take_rows(block, slice(a - start, b - start))
+            )
+            fit = fit_noise(part, **fit_options)
+            if first_fit is None:  # its settings, not its rows
+                first_fit = _fit_at(fit, np.arange(0))
+            elif fit.terms != first_fit.terms or not np.array_equal(fit.tau, first_fit.tau):
+                raise ValueError("internal: the fits of a stack's blocks must share terms and taus")
+            if wanted is None:
+                _join(curves, fit, _PER_CURVE, a, total)
+            else:
+                fits.append(_fit_at(fit, wanted[(wanted >= a) & (wanted < b)] - a))
+                if columns is None:
+                    columns = _Columns(total, np.shape(fit.coefficients)[1], spill)
+                columns.add(fit.coefficients, a)
+            del fit, part
         _join(fields, block, [name for name in _row_fields(block)
                               if name not in ("avar", "window_class")], start, total)  # fmt: skip
         kept.append(_take_rows(block, rows[(rows >= start) & (rows < stop)] - start))
