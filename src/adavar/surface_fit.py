@@ -27,6 +27,7 @@ from adavar.errors import AdavarInputError
 from adavar.results import DavarResult, NoiseFit, coefficient_value
 
 __all__ = [
+    "FIT_ROWS",
     "BlockFit",
     "concatenate_fits",
     "drawn_rows",
