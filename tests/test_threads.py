@@ -21,7 +21,7 @@ def test_adavar_threads_sets_the_kernels_threads_and_waits_passively():
 
 
 def test_kernels_compile_at_o2_unless_the_environment_says_otherwise():
-    code = ("import adavar.statistics, numba; from numba.core import config; "
+    code = ("import adavar._jit; from numba.core import config; "
             "config.reload_config(); print(int(config.OPT))")  # fmt: skip
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_OPT"}
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
