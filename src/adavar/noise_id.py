@@ -326,7 +326,7 @@ def rn_theory_pm(m: int) -> tuple[float, float]:
 _B1_ALPHAS: Final = (1, 0, -1, -2)
 _B1_MUS: Final = (-2, -1, 0, 1)
 
-#: what the B1 kernels return for a constant series (no noise to identify)
+#: what :func:`_b1_series_alpha` returns for a constant series (no noise to identify)
 _CONSTANT_SERIES: Final = 99
 
 
@@ -753,8 +753,9 @@ def b1_with_rn(z: np.ndarray, m: int, dmax: int, rn, *, strict: bool = False) ->
 
 def b1_rn_alpha(alpha: int, m: int, dmax: int, ratio: float | None, *, strict: bool) -> int:
     """The last step of :func:`b1_with_rn`: B1's ``alpha`` as R(n) = ``ratio`` (None: not
-    consulted or undefined) decides it, clamped to the statistic's range."""
-    if ratio is not None and rn_wanted(alpha, m, strict):
+    consulted or undefined) decides it (:func:`rn_decision`, which leaves the types R(n)
+    is not asked about alone), clamped to the statistic's range."""
+    if ratio is not None:
         white, flicker = rn_theory_pm(m)
         alpha = rn_decision(alpha, ratio, int(m), white, flicker, strict)
     return clamp_alpha(alpha, dmax)

@@ -353,17 +353,17 @@ def fit_blocks(
         if np.array_equal(per_curve.get("time"), every["time"]):
             per_curve["time"] = every["time"]  # one copy of the times
         fit = dataclasses.replace(first_fit, **per_curve)
-        columns = _Columns.of(per_curve["coefficients"])
+        coefficients, spilled = per_curve["coefficients"], None
     else:
         fit = concatenate_fits(fits)
-    if columns is None:  # pragma: no cover - a surface has rows
-        raise ValueError("internal: no coefficients")
-    columns.finish()
+        if columns is None:  # pragma: no cover - a surface has rows
+            raise ValueError("internal: no coefficients")
+        columns.finish()
+        coefficients, spilled = (columns.array, None) if columns.files is None else (None, columns)
     return BlockFit(
         fit=fit, drawn=dataclasses.replace(first, **joined), rows=rows, time=every["time"],
         window=every["window"], centre=every["centre"], windows=windows,
-        coefficients=columns.array, fit_rows=wanted,
-        spilled=None if columns.files is None else columns,
+        coefficients=coefficients, fit_rows=wanted, spilled=spilled,
     )  # fmt: skip
 
 
