@@ -119,9 +119,11 @@ def test_find_events_reads_ranges_as_the_masks_did(seed):
     """Stretches read as ranges of windows (and from slice-only readers) give the events
     the boolean masks gave; windows out of time order fall back to the masks."""
     rng = np.random.default_rng(seed)
-    n, lmax, tau0 = 3000, 60, 0.01
+    # tau0 a power of two: the stretches' bounds fall exactly on window times, where the
+    # strict inequalities of the masks decide
+    n, lmax, tau0 = 3000, 60, 0.25
     window = np.full(n, lmax)
-    for a in rng.integers(0, n - 40, rng.integers(0, 6)):
+    for a in rng.integers(0, n - 40, rng.integers(1, 6)):
         window[a : a + rng.integers(2, 40)] = rng.integers(10, lmax)
     centre = np.arange(n) * int(rng.integers(1, 3))
     time = 5.0 + centre * tau0
@@ -129,6 +131,7 @@ def test_find_events_reads_ranges_as_the_masks_did(seed):
     values["bias_instability"][rng.random(n) < 0.05] = np.nan
     duration = float(time[-1] + 1.0)
     want = _events_by_masks(window, centre, time, lmax, tau0, values, 5.0, duration)
+    assert want  # every record has a change
     for given in (values, {k: _Slices(v) for k, v in values.items()}):
         got = find_events(window, centre, time, lmax, tau0, given, t0=5.0, duration=duration)
         assert [[e.before, e.during, e.after] for e in got] == want
