@@ -56,6 +56,7 @@ from adavar.statistics import (
 )
 from adavar.stream import ChunkedSource
 from adavar.thresholds import Thresholds, calibrated_thresholds, threshold_summary
+from adavar.windows import centre_range
 
 __all__ = [
     "METHODS",
@@ -364,7 +365,7 @@ def adaptive_schedule(
 
     # kept rows: the centres that are multiples of step
     c0 = -(-first // step) * step
-    centres = np.arange(c0, first + n_c, step, dtype=np.int64)
+    centres = centre_range(c0, first + n_c, step)  # the surface's centres too (mirror)
     if not chunked:
         ext = x if edges == "valid" else np.pad(x, pad, mode="symmetric")
         out, _ = run(ext, first if edges == "valid" else pad, 0, n_c, lmax)
@@ -395,7 +396,7 @@ def adaptive_schedule(
         if kept != centres.size:  # pragma: no cover - internal consistency
             raise AssertionError("internal: kept rows do not match the centres")
     if step == 1:
-        centres = np.arange(first, first + n_c, dtype=np.int64)
+        centres = centre_range(first, first + n_c)
     window, kurt, scoef, f1, f2, f = out
     parameters = dict(
         method=method, lmax=lmax, lmin=lmin, k1=float(k1), k2=float(k2), s1=float(s1),
@@ -749,7 +750,10 @@ def _adaptive_surfaces(
         return
     for block in davar_blocks(x, window=window, step=step, shift=shift,
                               block_values=block_values, **surface_options):  # fmt: skip
-        yield _with_record(block, sched, method)
+        rows = _with_record(block, sched, method)
+        del block  # the generator holds no block while the next one is made
+        yield rows
+        del rows
 
 
 def _with_record(surface: DavarResult, sched: Schedule, method: str) -> AdaptiveResult:

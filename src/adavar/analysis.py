@@ -77,6 +77,7 @@ def load_input(
     The rate comes from --rate/--tau0 or from the file's time stamps (both: they must
     agree); the unit from --units or from the format (ROS bags declare rad/s and m/s^2).
     """
+    from adavar._heap import release_free_memory
     from adavar.preprocess import preprocess
     from adavar.readers import read_record
 
@@ -152,6 +153,10 @@ def load_input(
             for sl in record.segments
         ],
     }  # fmt: skip
+    # the record's other columns, its time stamps and the parser threads' arenas are
+    # freed now: their pages go back before the analysis makes its peak
+    del record, piece, pieces, x
+    release_free_memory()
     if several:
         return channels, meta, units_of, tau0
     return samples, meta, units, tau0

@@ -59,7 +59,7 @@ from adavar.statistics import (
     tau_factors,
     unscale,
 )
-from adavar.windows import window_overhang, window_schedule
+from adavar.windows import window_classes, window_schedule
 
 __all__ = ["STATS", "DavarStatResult", "davar", "edf_table"]
 
@@ -297,28 +297,6 @@ def _edf_grid(stat: str, alpha: int, m: int, k_hi: int) -> tuple[Any, Any, Any]:
         _EDF_GRIDS.clear()
     _EDF_GRIDS[key] = (k_hi, nodes, values, curve)
     return nodes, values, curve
-
-
-def _edge_classes(
-    sched: Any,
-    n: int,
-    ms: np.ndarray,
-    alpha: np.ndarray,
-    table: np.ndarray,
-    window_class: np.ndarray,
-    stat: str = "oadev",
-) -> tuple[np.ndarray, np.ndarray]:
-    """Extra EDF rows for the windows that hold mirrored samples (few: near the two ends)."""
-    overhang = window_overhang(sched.window_centre, sched.length, n)
-    edge = np.flatnonzero(overhang > 0)
-    if edge.size == 0:
-        return table, window_class
-    keys = np.stack([sched.length[edge], overhang[edge]], axis=1)
-    pairs, inverse = np.unique(keys, axis=0, return_inverse=True)
-    rows = edf_table(pairs[:, 0], ms, alpha, overhang=pairs[:, 1], stat=stat)
-    window_class = window_class.copy()
-    window_class[edge] = table.shape[0] + inverse.ravel()
-    return np.vstack([table, rows]), window_class
 
 
 def _bound_factors(table: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
@@ -896,19 +874,20 @@ def _surfaces(
             diff.anchored_phase(u, cluster_stats=True), ms, dmax, data_type=dtype
         )
 
-    bound_table = table = window_class = None
+    bound_table = table = classes = None
     if confidence is None:
         alpha = np.full(ms.size, -1, dtype=np.int64)
     else:
         alpha, id_notes = _noise_alpha(noise_type, ms, identify, name)
         notes = notes + id_notes
-        # lengths are small integers: classes by a lookup table, not a sort of N values
-        present = np.bincount(sched.length) > 0
-        distinct = np.flatnonzero(present)
-        window_class = (np.cumsum(present) - 1)[sched.length]
-        table = _interior_edf_table(distinct, ms, alpha, name)
-        if edge_edf == "distinct":
-            table, window_class = _edge_classes(sched, n, ms, alpha, table, window_class, name)
+        # the windows near the two ends that hold mirrored samples get rows of their own;
+        # each block's classes are found when it is made (none for every window at once)
+        classes = window_classes(sched, edges_apart=edge_edf == "distinct")
+        table = _interior_edf_table(classes.lengths, ms, alpha, name)
+        if classes.edge_pairs.size:
+            pairs = classes.edge_pairs
+            table = np.vstack([table, edf_table(pairs[:, 0], ms, alpha, overhang=pairs[:, 1],
+                                                stat=name)])  # fmt: skip
         if bounds:
             bound_table = np.stack(_bound_factors(table, float(confidence)))
 
@@ -975,7 +954,7 @@ def _surfaces(
             units=units,
             notes=notes,
             edf_table=table,
-            window_class=rows_of(window_class),
+            window_class=None if classes is None else classes.rows(start, stop),
             bound_table=bound_table,
             shift=rows_of(sched.shift),
         )

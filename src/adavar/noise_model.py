@@ -587,8 +587,9 @@ def _fit(
     if spacing == "octave" and tau.size > 1:
         order = np.argsort(tau)
         share[order] = np.minimum(1.0, np.gradient(np.log2(tau[order])))
-        if np.any(share < 1.0):
-            edf = edf * share
+    # each block's EDF rows are scaled by their octave shares below: the same products,
+    # without a scaled copy of a surface's whole EDF table at every call
+    octaves = not np.all(share == 1.0)
 
     lead = avar.shape[:-1]
     n_tau = tau.size
@@ -625,7 +626,6 @@ def _fit(
         n_curves >= PARALLEL_MIN and n_curves * n_tau >= SERIAL_WORK and get_num_threads() > 1
     )
     kernel = nnls_parallel if parallel else nnls_serial
-    octaves = not np.all(share == 1.0)
     cells = cells or not lead
     used = np.empty((n_curves, n_tau), dtype=bool) if cells else None
     resid = np.empty((n_curves, n_tau)) if cells else None
@@ -640,7 +640,7 @@ def _fit(
             a2b = a2b - offset
         a2b = np.ascontiguousarray(a2b)
         e2b = e2[classes[a:b]] if classes is not None else e2 if e2.shape[0] == 1 else e2[a:b]
-        e2b = np.ascontiguousarray(e2b)
+        e2b = e2b * share if octaves else np.ascontiguousarray(e2b)
         # inputs as read-only views: one compiled version whether a caller's array is
         # writable or not (a broadcast EDF row is read-only, a stacked one is not); each
         # curve is fitted on its own, so blocks give the numbers of one call

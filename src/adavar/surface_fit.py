@@ -127,7 +127,22 @@ def drawn_rows(result: DavarResult, most: int) -> tuple[np.ndarray, DavarResult]
     """``(rows, result with only those rows)``: at most ``most`` of its windows, evenly
     spread (the rows a surface figure draws); every other field unchanged."""
     rows = spread_indices(int(np.size(result.time)), most)
-    return rows, _take_rows(result, rows)
+    return rows, _own_edf_rows(_take_rows(result, rows))
+
+
+def _own_edf_rows(result: DavarResult) -> DavarResult:
+    """``result`` with only the rows of its EDF and bound tables that its windows use
+    (a few rows drawn from a surface need not keep its whole table: one row for each
+    window that reaches into a mirrored end)."""
+    table, classes = result.edf_table, result.window_class
+    if table is None or classes is None:
+        return result
+    used, inverse = np.unique(classes, return_inverse=True)
+    bound = result.bound_table
+    return dataclasses.replace(
+        result, edf_table=table[used], window_class=inverse.reshape(classes.shape),
+        bound_table=None if bound is None else bound[:, used],
+    )  # fmt: skip
 
 
 def _row_fields(result: DavarResult) -> tuple[str, ...]:
@@ -332,6 +347,7 @@ def fit_blocks(
                               if name not in ("avar", "window_class")], start, total)  # fmt: skip
         kept.append(_take_rows(block, rows[(rows >= start) & (rows < stop)] - start))
         start = stop
+        del block  # before the next block is made: one block at a time, not two
     if not kept or first_fit is None:
         raise ValueError("internal: a surface has at least one block")
     if start != total:  # pragma: no cover
@@ -361,7 +377,8 @@ def fit_blocks(
         columns.finish()
         coefficients, spilled = (columns.array, None) if columns.files is None else (None, columns)
     return BlockFit(
-        fit=fit, drawn=dataclasses.replace(first, **joined), rows=rows, time=every["time"],
+        fit=fit, drawn=_own_edf_rows(dataclasses.replace(first, **joined)), rows=rows,
+        time=every["time"],
         window=every["window"], centre=every["centre"], windows=windows,
         coefficients=coefficients, fit_rows=wanted, spilled=spilled,
     )  # fmt: skip

@@ -17,6 +17,8 @@ mode="symmetric")``), which is the total-variance reflection of the integrated s
 
 from __future__ import annotations
 
+import threading
+import weakref
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,7 +29,10 @@ from adavar.errors import AdavarInputError
 __all__ = [
     "EDGES",
     "MIN_WINDOW",
+    "WindowClasses",
     "WindowSchedule",
+    "centre_range",
+    "window_classes",
     "window_overhang",
     "window_schedule",
     "window_start",
@@ -35,6 +40,27 @@ __all__ = [
 
 EDGES = ("mirror", "valid")
 MIN_WINDOW = 3  # the shortest window with one Allan-variance term at m = 1
+
+
+_LAST_RANGE: list[Any] = [None, None]  # (start, stop, step), a weak reference to it
+_RANGE_LOCK = threading.Lock()
+
+
+def centre_range(start: int, stop: int, step: int = 1) -> np.ndarray:
+    """``np.arange(start, stop, step)`` of int64, read-only, and while someone holds it the
+    same array for the next caller who asks for the same range.
+
+    The adaptive controller's centres and its surface's are the same N integers: one
+    array for both instead of two (a copy of the record each, at an analysis' peak).
+    """
+    key = (int(start), int(stop), int(step))
+    with _RANGE_LOCK:
+        held = _LAST_RANGE[1]() if _LAST_RANGE[0] == key else None
+        if held is None:
+            held = np.arange(*key, dtype=np.int64)
+            held.flags.writeable = False
+            _LAST_RANGE[:] = [key, weakref.ref(held)]
+    return held
 
 
 def window_start(centre: Any, length: Any) -> Any:
@@ -113,6 +139,77 @@ class WindowSchedule:
         if self.pad_before == 0 and self.pad_after == 0:
             return samples
         return np.pad(samples, (self.pad_before, self.pad_after), mode="symmetric")
+
+
+#: windows scanned at a time for the ones that reach into a mirrored end
+_SCAN_ROWS = 1 << 16
+
+
+class WindowClasses:
+    """The windows of a schedule grouped by what their EDF depends on.
+
+    An interior window's EDF depends on its length only; a window that reaches into a
+    mirrored end (``edges="mirror"``) on its length and its overhang
+    (:func:`window_overhang`). Class ``k < lengths.size`` is the interior windows of
+    length ``lengths[k]``; class ``lengths.size + j`` the edge windows of (length,
+    overhang) ``edge_pairs[j]``. :meth:`rows` gives the classes of a range of windows,
+    so a surface computed a block of windows at a time never holds every window's.
+
+    Attributes
+    ----------
+    lengths : ndarray of int64
+        The distinct window lengths, increasing.
+    edge_pairs : ndarray of int64, shape (k, 2)
+        The distinct (length, overhang) of the windows that overhang, in lexicographic
+        order (none when the schedule's edge windows are classed by length).
+    """
+
+    def __init__(self, schedule: WindowSchedule, edges_apart: bool = True) -> None:
+        self.schedule = schedule
+        present = np.bincount(schedule.length) > 0
+        self.lengths = np.flatnonzero(present)
+        # lengths are small integers: classes by a lookup table, not a sort of N values
+        self._lookup = np.cumsum(present) - 1
+        self._base = int(self.lengths[-1]) + 1  # > any overhang: codes keep pair order
+        codes = []
+        if edges_apart and schedule.pad_before + schedule.pad_after > 0:
+            for a in range(0, schedule.centre.size, _SCAN_ROWS):
+                length, overhang = self._overhang(a, a + _SCAN_ROWS)
+                edge = overhang > 0
+                codes.append(length[edge] * self._base + overhang[edge])
+        self._codes = np.unique(np.concatenate(codes)) if codes else np.empty(0, np.int64)
+        self.edge_pairs = np.stack(np.divmod(self._codes, self._base), axis=1)
+
+    def _overhang(self, start: int, stop: int) -> tuple[np.ndarray, np.ndarray]:
+        """Lengths and overhangs of windows ``start .. stop - 1``."""
+        sched = self.schedule
+        centre, length = sched.centre[start:stop], sched.length[start:stop]
+        if sched.shift is not None:
+            centre = centre + sched.shift[start:stop]
+        return length, window_overhang(centre, length, sched.n_samples)
+
+    @property
+    def n_classes(self) -> int:
+        """Number of classes (rows of an EDF table)."""
+        return int(self.lengths.size + self._codes.size)
+
+    def rows(self, start: int = 0, stop: int | None = None) -> np.ndarray:
+        """The class of each window ``start .. stop - 1`` (default: every window)."""
+        stop = self.schedule.centre.size if stop is None else min(stop, self.schedule.centre.size)
+        classes = self._lookup[self.schedule.length[start:stop]]
+        if self._codes.size:
+            for a in range(start, stop, _SCAN_ROWS):
+                length, overhang = self._overhang(a, min(stop, a + _SCAN_ROWS))
+                edge = np.flatnonzero(overhang > 0)
+                code = length[edge] * self._base + overhang[edge]
+                classes[a - start + edge] = self.lengths.size + np.searchsorted(self._codes, code)
+        return classes
+
+
+def window_classes(schedule: WindowSchedule, *, edges_apart: bool = True) -> WindowClasses:
+    """The EDF classes of a schedule's windows (:class:`WindowClasses`); ``edges_apart=
+    False`` classes the windows that overhang by their length, as interior ones."""
+    return WindowClasses(schedule, edges_apart)
 
 
 def _as_step(step: Any) -> int:
@@ -209,7 +306,7 @@ def window_schedule(
     step = _as_step(step)
     n_samples = int(n_samples)
     lengths = _as_lengths(window, n_samples)
-    candidates = np.arange(0, n_samples, step, dtype=np.int64)
+    candidates = centre_range(0, n_samples, step)
     offsets = _as_shift(shift, n_samples, candidates, step)
     if offsets is not None and isinstance(lengths, int):
         lengths = np.full(candidates.size, lengths, dtype=np.int64)  # per-window starts

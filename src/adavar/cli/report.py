@@ -26,6 +26,7 @@ from adavar.writers import dumps, fit_json
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
+    from adavar._heap import release_free_memory
     from adavar.analysis import analyse_channel, load_input, surface_shape
     from adavar.report import build_report, channel_section, channels_page, write_report
 
@@ -55,6 +56,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         if several:  # its plots now, and its surface freed before the next one is computed
             sections.append(channel_section(k + 1, name, run, figures))
             run.update(result=None, surface=None, adaptive=None, coefficients=None)
+            release_free_memory()  # the surface's pages, before the next channel's
         runs.append(run)
     first = runs[0]
     units = first["units"] if not several else "; ".join(
