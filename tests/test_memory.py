@@ -73,8 +73,10 @@ def test_compare_holds_one_surface_at_a_time(small_blocks, monkeypatch):
         # table of the drawn windows' rows only (the whole one has a row per edge window)
         assert got.result.avar_low is None and got.result.bound_table is None
         assert run.result.avar_low is not None
-        np.testing.assert_array_equal(got.result.edf_table[got.result.window_class],
-                                      run.result.edf_table[run.result.window_class[rows]])
+        np.testing.assert_array_equal(
+            got.result.edf_table[got.result.window_class],
+            run.result.edf_table[run.result.window_class[rows]],
+        )
         assert got.result.edf_table.shape[0] == np.unique(got.result.window_class).size
         assert got.result.edf_table.shape[0] < run.result.edf_table.shape[0]
     np.testing.assert_array_equal(lean.time, whole.time)
