@@ -9,8 +9,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from adavar import windows as windows_module
 from adavar.errors import AdavarInputError
-from adavar.windows import EDGES, MIN_WINDOW, WindowSchedule, window_schedule, window_start
+from adavar.windows import (
+    EDGES,
+    MIN_WINDOW,
+    WindowSchedule,
+    centre_range,
+    window_classes,
+    window_overhang,
+    window_schedule,
+    window_start,
+)
 
 
 def _expected(n, lengths_per_candidate, edges, step):
@@ -229,3 +239,74 @@ def test_bad_schedules(window, kw):
     with pytest.raises(AdavarInputError) as info:
         window_schedule(30, window, **kw)
     assert "\n" not in str(info.value)
+
+
+# ---------------------------------------------------------------------------------------
+# the EDF classes of the windows, a range at a time
+
+
+def _classes_at_once(sched: WindowSchedule, edges_apart: bool) -> tuple[np.ndarray, ...]:
+    """The classes as the surface found them before (every window at once): interior
+    windows by length, edge windows by (length, overhang) in lexicographic order."""
+    distinct = np.unique(sched.length)
+    classes = np.searchsorted(distinct, sched.length)
+    pairs = np.empty((0, 2), dtype=np.int64)
+    if edges_apart:
+        overhang = window_overhang(sched.window_centre, sched.length, sched.n_samples)
+        edge = np.flatnonzero(overhang > 0)
+        if edge.size:
+            keys = np.stack([sched.length[edge], overhang[edge]], axis=1)
+            pairs, inverse = np.unique(keys, axis=0, return_inverse=True)
+            classes[edge] = distinct.size + inverse.ravel()
+    return distinct, pairs, classes
+
+
+@settings(max_examples=150, deadline=None)
+@given(_schedules(), st.booleans(), st.booleans(), st.integers(1, 9), st.data())
+def test_window_classes_by_ranges_are_those_of_every_window_at_once(
+    case, shifted, edges_apart, scan, data
+):
+    n, window, _, edges, step = case
+    shift = None
+    if shifted:  # one-sided windows of the ICI: centred windows at shifted centres
+        shift = np.array(data.draw(st.lists(st.integers(-n // 3, n // 3), min_size=n,
+                                            max_size=n)), dtype=np.int64)  # fmt: skip
+    try:
+        sched = window_schedule(n, window, edges=edges, step=step, shift=shift)
+    except AdavarInputError:
+        return
+    distinct, pairs, want = _classes_at_once(sched, edges_apart)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(windows_module, "_SCAN_ROWS", scan)  # ranges cut across the scans
+        classes = window_classes(sched, edges_apart=edges_apart)
+        np.testing.assert_array_equal(classes.lengths, distinct)
+        np.testing.assert_array_equal(classes.edge_pairs.reshape(-1, 2), pairs)
+        assert classes.n_classes == distinct.size + pairs.shape[0]
+        np.testing.assert_array_equal(classes.rows(), want)
+        a = data.draw(st.integers(0, want.size))
+        b = data.draw(st.integers(a, want.size + 3))
+        np.testing.assert_array_equal(classes.rows(a, b), want[a:b])
+
+
+def test_window_classes_of_a_long_window_on_a_long_record():
+    """Lengths near the record's and overhangs of many thousands: the codes that order
+    the (length, overhang) pairs do not overflow or collide."""
+    n = 3_000_000
+    sched = window_schedule(n, np.arange(n) % 977 + n // 2, edges="mirror", step=7)
+    classes = window_classes(sched)
+    distinct, pairs, want = _classes_at_once(sched, True)
+    np.testing.assert_array_equal(classes.lengths, distinct)
+    np.testing.assert_array_equal(classes.edge_pairs, pairs)
+    np.testing.assert_array_equal(classes.rows(), want)
+
+
+def test_centre_range_is_one_read_only_array_while_held():
+    first = centre_range(0, 1000, 3)
+    np.testing.assert_array_equal(first, np.arange(0, 1000, 3))
+    assert first.dtype == np.int64 and not first.flags.writeable
+    assert centre_range(0, 1000, 3) is first  # the controller's and the surface's
+    assert centre_range(0, 1000, 1) is not first
+    other = centre_range(0, 1001, 3)
+    np.testing.assert_array_equal(other, np.arange(0, 1001, 3))
+    with pytest.raises(ValueError):
+        first[0] = 5

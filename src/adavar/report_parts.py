@@ -372,6 +372,10 @@ def series_rows(n: int) -> np.ndarray:
     return np.arange(int(n)) if starts is None else starts
 
 
+#: windows of every window's coefficients read at a time
+_SCAN_WINDOWS = 1 << 16
+
+
 def coefficient_plot(
     fit: Any, units: str | None, every: Any = None
 ) -> tuple[dict[str, Any], list[str]]:  # fmt: skip
@@ -388,11 +392,15 @@ def coefficient_plot(
     starts = _bins(time.size, MAX_SERIES_POINTS)
     t = _num(_pool(time, starts, "first"), 8)
 
-    def values(name: str) -> Any:  # of every window
-        return fit.term(name).value if every is None else every.term_values(name)
+    def positive(name: str) -> bool:  # in some window
+        if every is None:
+            return bool(np.any(np.asarray(fit.term(name).value) > 0))
+        # read by slices: the whole term of a long record is a copy of the samples
+        reader = every.term_reader(name)
+        return any(bool(np.any(reader[a : a + _SCAN_WINDOWS] > 0))
+                   for a in range(0, len(reader), _SCAN_WINDOWS))  # fmt: skip
 
-    terms = [name for name in TERM_NAMES
-             if name in fit.terms and np.any(np.asarray(values(name)) > 0)]  # fmt: skip
+    terms = [name for name in TERM_NAMES if name in fit.terms and positive(name)]
     traces: list[dict[str, Any]] = []
     labels = []
     for k, name in enumerate(terms):

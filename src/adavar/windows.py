@@ -170,7 +170,9 @@ class WindowClasses:
         self.lengths = np.flatnonzero(present)
         # lengths are small integers: classes by a lookup table, not a sort of N values
         self._lookup = np.cumsum(present) - 1
-        self._base = int(self.lengths[-1]) + 1  # > any overhang: codes keep pair order
+        # the extended record holds every window, so no overhang exceeds the two pads:
+        # length * base + overhang orders the pairs as (length, overhang) does
+        self._base = schedule.pad_before + schedule.pad_after + 1
         codes = []
         if edges_apart and schedule.pad_before + schedule.pad_after > 0:
             for a in range(0, schedule.centre.size, _SCAN_ROWS):
