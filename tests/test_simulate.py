@@ -200,7 +200,9 @@ def test_flicker_matches_kasdin_walter_direct_convolution():
     k = np.arange(1, n)
     hk = np.concatenate([[1.0], np.cumprod((k - 0.5) / k)])
     direct = np.convolve(rng_w, hk)[:n]
-    np.testing.assert_allclose(sim.flicker(n, h_minus1=0.7, seed=5), direct, rtol=1e-9, atol=1e-12)
+    got = sim.flicker(n, h_minus1=0.7, seed=5)
+    np.testing.assert_allclose(got, direct, rtol=1e-9, atol=1e-12)
+    assert got.base is None  # its own n samples, not a view of the padded transform
 
 
 def test_bias_instability_is_scaled_flicker():

@@ -300,8 +300,13 @@ def flicker(
     # the linear convolution as scipy.signal.fftconvolve computes it (same transforms, same
     # length), without importing scipy.signal (a second, most of it scipy.stats)
     size = fft.next_fast_len(2 * n - 1, real=True)
-    spectrum = fft.rfft(w, size) * fft.rfft(_kasdin_walter_coefficients(n, 1.0), size)
-    return np.asarray(fft.irfft(spectrum, size)[:n], np.float64)
+    # in place where the numbers allow it: a long record's transforms are 4 times its size
+    spectrum = fft.rfft(w, size)
+    del w
+    spectrum *= fft.rfft(_kasdin_walter_coefficients(n, 1.0), size)
+    full = fft.irfft(spectrum, size, overwrite_x=True)
+    del spectrum
+    return np.array(full[:n], np.float64)  # not a view that holds the padded 2 n
 
 
 def markov(
