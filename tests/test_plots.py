@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 
 import adavar
 from adavar import simulate
-from adavar._figures import power_label
+from adavar._figures import envelope, power_label
 from adavar.plots import (
     deviation_figure,
     deviation_unit,
@@ -282,3 +282,66 @@ def test_flag_panels_are_every_points_pixels(n):
         return np.asarray(fig.canvas.buffer_rgba()).copy()
 
     np.testing.assert_array_equal(drawn(True), drawn(False))
+
+
+def _envelope_reference(y: np.ndarray, bins: int) -> np.ndarray:
+    """Point by point: the first lowest and first highest finite point of each run of
+    ceil(n / bins) points (a run with none: its first point), the first and the last."""
+    n = len(y)
+    if n <= 4 * bins:
+        return np.arange(n)
+    width = -(-n // bins)
+    keep = {0, n - 1}
+    for a in range(0, n, width):
+        run = y[a : a + width]
+        finite = [i for i in range(len(run)) if np.isfinite(run[i])]
+        if not finite:
+            keep.add(a)
+            continue
+        keep.add(a + min(finite, key=lambda i: (run[i], i)))
+        keep.add(a + max(finite, key=lambda i: (run[i], -i)))
+    return np.array(sorted(keep))
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    st.integers(1, 9),
+    st.lists(
+        st.one_of(
+            st.floats(-1e300, 1e300),
+            st.just(np.nan),
+            st.just(np.inf),
+            st.just(-np.inf),
+            st.sampled_from([0.0, 1.0]),
+        ),
+        min_size=1,
+        max_size=200,
+    ),
+)
+def test_envelope_keeps_each_runs_extremes(bins, values):
+    y = np.array(values, dtype=float)
+    at = envelope(y, bins)
+    np.testing.assert_array_equal(at, _envelope_reference(y, bins))
+    finite = y[np.isfinite(y)]
+    if y.size > 4 * bins and finite.size:  # the axes' limits: the whole line's
+        assert np.min(y[at][np.isfinite(y[at])]) == finite.min()
+        assert np.max(y[at][np.isfinite(y[at])]) == finite.max()
+
+
+def test_long_lines_are_drawn_by_their_envelope_short_ones_whole():
+    """Fig. 6 of a 2-hour 200 Hz record: its lines hold a few thousand points each (they
+    held every one: 376 MB in matplotlib with Fig. 7); a short record's, every point."""
+    from adavar.paper.studies import kurtosis_study
+    from adavar.plots import kurtosis_windows_figure
+
+    for n, drawn in ((16_000, 16_000), (1_440_000, 2 * 4096 + 2)):
+        x = simulate.white(n, seed=2)
+        study = kurtosis_study(x, rate=200.0, windows=(11, 201))
+        fig = kurtosis_windows_figure(study)
+        for ax in fig.axes:
+            line = ax.get_lines()[0]
+            assert len(line.get_xdata()) <= drawn
+            if n == 16_000:
+                assert len(line.get_xdata()) == n
+        y = np.asarray(fig.axes[1].get_lines()[0].get_ydata())
+        assert np.nanmax(y) == np.nanmax(study.kurtosis[11])

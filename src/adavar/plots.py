@@ -32,6 +32,7 @@ from adavar._figures import (
     PNG_COMPRESS_LEVEL,
     cell_edges,
     colour_limits,
+    envelope,
     log_scale,
     new_figure,
     run_ends,
@@ -621,6 +622,12 @@ def _save_one(fig: Figure, base: Path, folder: Path, fmt: str, dpi: int) -> Path
 # --------------------------------------------------------------------------------------
 
 
+def _long_line(ax: Any, t: np.ndarray, y: Any, **style: Any) -> None:
+    """A line of one point per sample, drawn by its envelope when it is long."""
+    at = envelope(y)
+    ax.plot(t[at], np.asarray(y)[at], **style)
+
+
 def _mark_changes(ax: Any, change_times: Sequence[float]) -> None:
     for x in change_times:
         ax.axvline(float(x), color="0.45", linestyle=":", linewidth=1.0, zorder=0)
@@ -661,10 +668,10 @@ def kurtosis_windows_figure(
     fig = new_figure((8.0, 2.0 + 1.6 * len(windows)))
     axes = fig.subplots(len(windows) + 1, 1, sharex=True)
     t = np.asarray(study.time, dtype=float)
-    axes[0].plot(t, study.data, color="0.3", linewidth=0.5)
+    _long_line(axes[0], t, study.data, color="0.3", linewidth=0.5)
     axes[0].set_ylabel(f"rate [{units}]" if units else "rate")
     for k, (ax, w) in enumerate(zip(axes[1:], windows, strict=True)):
-        ax.plot(t, study.kurtosis[w], color=f"C{k}", linewidth=0.8)
+        _long_line(ax, t, study.kurtosis[w], color=f"C{k}", linewidth=0.8)
         ax.axhline(3.0, color="k", linestyle="--", linewidth=0.8)
         ax.set_ylabel(f"kurtosis\nL = {w}")
     for ax in axes:
@@ -702,13 +709,13 @@ def contribution_figure(
     fig = new_figure((8.0, 2.0 + 1.7 * (n_panels - 1)))
     axes = fig.subplots(n_panels, 1, sharex=True)
     t = np.asarray(study.time, dtype=float)
-    axes[0].plot(t, study.data, color="0.3", linewidth=0.5)
+    _long_line(axes[0], t, study.data, color="0.3", linewidth=0.5)
     axes[0].set_ylabel(f"rate [{units}]" if units else "rate")
     if has_k:
-        axes[1].plot(t, study.kurtosis[seg], color="C0", linewidth=0.6)
+        _long_line(axes[1], t, study.kurtosis[seg], color="C0", linewidth=0.6)
         axes[1].axhline(3.0, color="k", linestyle="--", linewidth=0.8)
         axes[1].set_ylabel(f"kurtosis\nL = {seg}")
-    axes[-1].plot(t, study.contribution, color="C3", linewidth=0.7)
+    _long_line(axes[-1], t, study.contribution, color="C3", linewidth=0.7)
     axes[-1].axhline(0.0, color="k", linestyle="--", linewidth=0.8)
     axes[-1].set_ylabel(f"S (window {seg}\nvs the record)")
     for ax in axes:
@@ -740,11 +747,11 @@ def threshold_figure(study: ThresholdStudy, *, title: str | None = None) -> Figu
     fig = new_figure((8.5, 4.8))
     ax = fig.add_subplot()
     t = np.asarray(study.time, dtype=float)
-    ax.plot(t, study.kurtosis, color="0.25", linewidth=0.8,
-            label=f"kurtosis, fixed window of {study.window} samples")  # fmt: skip
+    _long_line(ax, t, study.kurtosis, color="0.25", linewidth=0.8,
+               label=f"kurtosis, fixed window of {study.window} samples")  # fmt: skip
     if study.expected is not None:
-        ax.plot(t, study.expected, color="0.25", linestyle="--", linewidth=0.9,
-                label="expected from the true levels")  # fmt: skip
+        _long_line(ax, t, study.expected, color="0.25", linestyle="--", linewidth=0.9,
+                   label="expected from the true levels")  # fmt: skip
     for k, th in enumerate(study.thresholds):
         colour = f"C{k}"
         ax.axhline(th, color=colour, linewidth=0.9, label=f"K2 = {th:g}")
@@ -801,7 +808,7 @@ def controller_figure(
     fig = new_figure((8.5, 9.0))
     axes = fig.subplots(6, 1, sharex=True, height_ratios=[2, 0.8, 2, 0.8, 0.8, 1.6])
     ax = axes[0]
-    ax.plot(t, schedule.kurtosis, color="C0", linewidth=0.7)
+    _long_line(ax, t, schedule.kurtosis, color="C0", linewidth=0.7)
     # the window and its thresholds are constant over runs of one length: the runs' ends
     # draw the same lines (a few thousand points instead of one per centre)
     at = run_ends(w)
@@ -810,7 +817,7 @@ def controller_figure(
     ax.set_ylabel("kurtosis")
     _step_panel(axes[1], t, schedule.f1, "f1", "C0")
     ax = axes[2]
-    ax.plot(t, schedule.s, color="C3", linewidth=0.7)
+    _long_line(ax, t, schedule.s, color="C3", linewidth=0.7)
     ax.plot(t[at], th.s2[w[at]], color="k", linestyle="--", linewidth=0.8, snap=False)
     ax.set_ylabel("S (last l\nof the window)")
     _step_panel(axes[3], t, schedule.f2, "f2", "C3")
@@ -854,13 +861,13 @@ def arw_comparison_figure(
     fig = new_figure((9.0, 6.5))
     ax, axw = fig.subplots(2, 1, sharex=True, height_ratios=[3, 1.2])
     for k, run in enumerate(comparison.methods.values()):
-        ax.plot(t, run.arw, color=f"C{k}", linewidth=0.9, label=run.label)
+        _long_line(ax, t, run.arw, color=f"C{k}", linewidth=0.9, label=run.label)
         at = run_ends(run.window)
         axw.plot(t[at], np.asarray(run.window)[at], color=f"C{k}", linewidth=0.9,
                  label=run.label, snap=False)  # fmt: skip
     if comparison.truth is not None:
-        ax.plot(t, comparison.truth, color="k", linestyle="--", linewidth=1.1,
-                label="true N")  # fmt: skip
+        _long_line(ax, t, comparison.truth, color="k", linestyle="--", linewidth=1.1,
+                   label="true N")  # fmt: skip
     for a in (ax, axw):
         _mark_changes(a, comparison.change_times)
         a.grid(True, alpha=0.3)
