@@ -155,7 +155,7 @@ def load_input(
     }  # fmt: skip
     # the record's other columns, its time stamps and the parser threads' arenas are
     # freed now: their pages go back before the analysis makes its peak
-    del record, piece, pieces, x
+    record = piece = pieces = x = None
     release_free_memory()
     if several:
         return channels, meta, units_of, tau0
