@@ -378,8 +378,7 @@ def fit_blocks(
         coefficients, spilled = (columns.array, None) if columns.files is None else (None, columns)
     return BlockFit(
         fit=fit, drawn=_own_edf_rows(dataclasses.replace(first, **joined)), rows=rows,
-        time=every["time"],
-        window=every["window"], centre=every["centre"], windows=windows,
+        time=every["time"], window=every["window"], centre=every["centre"], windows=windows,
         coefficients=coefficients, fit_rows=wanted, spilled=spilled,
     )  # fmt: skip
 
