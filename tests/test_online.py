@@ -333,6 +333,15 @@ def test_a_backlog_is_fitted_in_blocks(monkeypatch):
     assert np.array_equal(blocks.arw, whole.arw)
     assert [e.as_dict() for e in blocks.events] == [e.as_dict() for e in whole.events]
     assert_same(blocks, x, **controller)
+    # the controller over a backlog in parts too (at finish here: the record is shorter
+    # than DEPENDENCE_SAMPLES), and over one large push with the paper's thresholds
+    monkeypatch.setattr(online, "BACKLOG_CENTRES", 4 * online.REANCHOR)
+    parts = pushed(x, [x.size], **controller)
+    assert np.array_equal(parts.window, whole.window)
+    assert np.array_equal(parts.arw, whole.arw)
+    assert [e.as_dict() for e in parts.events] == [e.as_dict() for e in whole.events]
+    assert_same(pushed(x, [x.size - 7000, 7000]), x)
+    assert_same(pushed(x, [x.size], step=3), x, step=3)
     ici = pushed(x, [5000, x.size], method="ici")  # one-sided windows, in blocks too
     monkeypatch.setattr(online, "FIT_ROWS", 1 << 30)
     np.testing.assert_array_equal(ici.arw, pushed(x, [5000, x.size], method="ici").arw)

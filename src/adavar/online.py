@@ -60,6 +60,7 @@ scaling, online or offline).
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
 import math
 from collections.abc import Sequence
@@ -114,10 +115,18 @@ def _check_noise_type(noise_type: Any, size: int) -> np.ndarray:
 
 #: rows whose variances are computed and fitted together (a backlog goes in blocks)
 FIT_ROWS = 1 << 15
+#: centres the controller runs at once (a multiple of REANCHOR): the first rows after the
+#: calibrated thresholds exist are a backlog of a million centres, whose per-centre
+#: outputs would otherwise be held all at once
+BACKLOG_CENTRES = 1 << 16
 
 
 class _Rows:
-    """Append-only columns in growable arrays (amortised O(1) a row), trimmed in front."""
+    """Append-only columns in growable arrays (amortised O(1) a row), trimmed in front.
+
+    The arrays grow by half (not double): a stationary stream keeps every row since its
+    start, and the spare capacity and the copy at each growth set the monitor's peak.
+    """
 
     def __init__(self, names: Sequence[str], dtypes: Sequence[Any]) -> None:
         self.capacity = 1024
@@ -131,7 +140,7 @@ class _Rows:
         capacity = self.capacity
         if self.start + self.size + count > capacity:  # move the rows down, or grow
             if self.size + count > capacity // 2:
-                capacity = max(2 * capacity, 2 * (self.size + count))
+                capacity = max(capacity + capacity // 2, (3 * (self.size + count)) // 2)
             for name, array in self.data.items():
                 moved = array if capacity == self.capacity else np.empty(capacity, array.dtype)
                 moved[: self.size] = array[self.start : self.start + self.size]
@@ -426,9 +435,12 @@ class OnlineAdaptive:
         self._length = lmax  # the length in force at centre _q
         self._emitted = 0  # centres whose row has been emitted
         self._finished = False
-        # the kept rows and their coefficients
-        columns = ("window", "centre", "time") + (("shift",) if self._ici else ())
-        self._rows = _Rows(columns, (np.int64, np.int64, float, np.int64)[: len(columns)])
+        # the kept rows and their coefficients; row r (over all rows ever) is centre
+        # r * step, so centres and times are computed, not held (a stationary stream keeps
+        # every row since its start)
+        columns = ("window",) + (("shift",) if self._ici else ())
+        lengths = np.int32 if lmax < 2**31 else np.int64
+        self._rows = _Rows(columns, (lengths, np.int64)[: len(columns)])
         self._coef = _Rows(self.terms, (float,) * len(self.terms))
         self._fitted = 0  # rows (over all ever) with coefficients
         # rows to fit: centres, lengths, shifts (None: centred)
@@ -447,12 +459,13 @@ class OnlineAdaptive:
     @property
     def window(self) -> np.ndarray:
         """Window length of every kept row so far (int64)."""
-        return self._rows.column("window").copy()
+        return self._rows.column("window").astype(np.int64)
 
     @property
     def centre(self) -> np.ndarray:
         """Centre (sample index) of every kept row so far."""
-        return self._rows.column("centre").copy()
+        first = self._rows.first
+        return np.arange(first, first + self._rows.size, dtype=np.int64) * self.step
 
     @property
     def shift(self) -> np.ndarray:
@@ -465,7 +478,20 @@ class OnlineAdaptive:
     @property
     def time(self) -> np.ndarray:
         """Time (s) of every kept row so far: ``t0 + centre / rate``."""
-        return self._rows.column("time").copy()
+        with np.errstate(over="ignore"):
+            return self.t0 + self.centre / self.rate  # as davar: an integral rate rounds once
+
+    def _row_time(self, row: int) -> float:
+        """:attr:`time` of row ``row`` (over all rows ever), computed as that array is."""
+        with np.errstate(over="ignore"):
+            return float(self.t0 + np.int64(row * self.step) / self.rate)
+
+    def _rows_before(self, when: float, side: str) -> int:
+        """Held rows with a time below ``when`` (``side="right"``: at or below), as
+        ``np.searchsorted(self.time, when, side)`` without building the array."""
+        first = self._rows.first
+        at = bisect.bisect_right if side == "right" else bisect.bisect_left
+        return at(range(self._rows.size), when, key=lambda r: self._row_time(first + r))
 
     @property
     def first_row(self) -> int:
@@ -491,7 +517,7 @@ class OnlineAdaptive:
         if self._rows.size == 0:
             return {}
         out: dict[str, Any] = {
-            "time": float(self._rows.last("time")),
+            "time": self._row_time(self._rows.first + self._rows.size - 1),
             "window": int(self._rows.last("window")),
         }
         if self._coef.size:
@@ -678,10 +704,17 @@ class OnlineAdaptive:
             return []
         if self._ici is not None:
             return self._advance_ici(final)
+        avail = self._n if final else self._n - self.lmax // 2  # centres whose windows fit
+        new: list[Event] = []
+        # a backlog in parts that end at multiples of REANCHOR, as pushes that end there
+        while avail - self._q > BACKLOG_CENTRES + self.lmax:
+            new += self._advance_to(self._q + BACKLOG_CENTRES, final=False)
+        return new + self._advance_to(avail, final)
+
+    def _advance_to(self, avail: int, final: bool) -> list[Event]:
+        """The rows of the centres before ``avail`` (every window of which has arrived)."""
         ctl = self._ctl
         assert ctl is not None
-        n = self._n
-        avail = n if final else n - self.lmax // 2  # centres whose every window fits
         q = self._q
         if avail <= max(q, self._emitted):
             return []
@@ -702,10 +735,8 @@ class OnlineAdaptive:
         if centres.size == 0:
             return []
         lengths = window[e0 - q :] if self.step == 1 else window[centres - q]
-        with np.errstate(over="ignore"):
-            times = self.t0 + centres / self.rate  # as davar: an integral rate rounds once
         start_row = self._rows.first + self._rows.size
-        self._rows.append(window=lengths, centre=centres, time=times)
+        self._rows.append(window=lengths)
         if self.terms:
             self._pending.append((centres, lengths, None))
             if final or start_row + centres.size - self._fitted >= self.fit_batch:
@@ -723,10 +754,8 @@ class OnlineAdaptive:
             centres = np.arange(start, first + window.size, self.step, dtype=np.int64)
             lengths, shifts = window[centres - first], shift[centres - first]
             if centres.size:
-                with np.errstate(over="ignore"):
-                    times = self.t0 + centres / self.rate  # as davar
                 start_row = self._rows.first + self._rows.size
-                self._rows.append(window=lengths, centre=centres, time=times, shift=shifts)
+                self._rows.append(window=lengths, shift=shifts)
                 if self.terms:
                     self._pending.append((centres, lengths, shifts))
                     if final or start_row + centres.size - self._fitted >= self.fit_batch:
@@ -813,9 +842,8 @@ class OnlineAdaptive:
         if not self.terms:
             return {}
         self._flush_fit()
-        time = self._rows.column("time")  # increasing: the rows are a contiguous range
-        lo = int(np.searchsorted(time, above, side="right"))
-        hi = max(lo, int(np.searchsorted(time, below, side="left")))
+        lo = self._rows_before(above, "right")
+        hi = max(lo, self._rows_before(below, "left"))
         return {name: stretch_summary(self._coef.column(name)[lo:hi]) for name in self.terms}
 
     def _scan_changes(self, start_row: int, lengths: np.ndarray, centres: np.ndarray) -> list:
@@ -894,7 +922,7 @@ class OnlineAdaptive:
     def _trim(self) -> None:
         """keep="recent": rows before the last change (and older than lmax rows) go."""
         last = self._changes[-1] if self._changes else -np.inf
-        since = int(np.searchsorted(self._rows.column("time"), last, side="right"))
+        since = self._rows_before(last, "right")
         recent = max(0, self._rows.size - max(1, self.lmax // self.step))
         self._drop_rows(self._rows.first + min(since, recent))
         self._trimmed_at = self._rows.size
