@@ -243,10 +243,22 @@ def random_walk(
     return np.cumsum(step_std * _rng(seed).standard_normal(n))
 
 
-def _kasdin_walter_coefficients(n: int, alpha: float) -> FloatArray:
-    """Impulse response of ``(1 - z^-1)^(-alpha/2)``: ``h_0 = 1, h_k = h_{k-1} (k-1+alpha/2)/k``."""
+def _kasdin_walter_coefficients(n: int, alpha: float, size: int | None = None) -> FloatArray:
+    """Impulse response of ``(1 - z^-1)^(-alpha/2)``: ``h_0 = 1, h_k = h_{k-1} (k-1+alpha/2)/k``.
+
+    ``size``: the response followed by zeros up to that length (the padded input of an
+    FFT), built in place: one array of ``size`` and one of ``n`` at a time.
+    """
+    out = np.zeros(max(n, size or n))
+    out[0] = 1.0
     k = np.arange(1, n, dtype=np.float64)
-    return np.concatenate([[1.0], np.cumprod((k - 1.0 + 0.5 * alpha) / k)])
+    h = out[1:n]
+    np.subtract(k, 1.0, out=h)
+    h += 0.5 * alpha
+    h /= k
+    del k
+    np.cumprod(h, out=h)
+    return out
 
 
 def flicker(
@@ -292,18 +304,23 @@ def flicker(
     n = _check_n(n)
     _check_rate(rate)
     h_minus1 = _check_nonneg(h_minus1, "h_minus1")
-    w = math.sqrt(math.pi * h_minus1) * _rng(seed).standard_normal(n)
+    rng = _rng(seed)
     if n == 1:
-        return w
+        return math.sqrt(math.pi * h_minus1) * rng.standard_normal(n)
     from scipy import fft
 
     # the linear convolution as scipy.signal.fftconvolve computes it (same transforms, same
-    # length), without importing scipy.signal (a second, most of it scipy.stats)
+    # length), without importing scipy.signal (a second, most of it scipy.stats). The
+    # transforms of a long record are twice its size each: the filter's first, then the
+    # noise's, each input padded in place, so that at most three such arrays coexist
     size = fft.next_fast_len(2 * n - 1, real=True)
-    # in place where the numbers allow it: a long record's transforms are 4 times its size
-    spectrum = fft.rfft(w, size)
-    del w
-    spectrum *= fft.rfft(_kasdin_walter_coefficients(n, 1.0), size)
+    response = fft.rfft(_kasdin_walter_coefficients(n, 1.0, size), overwrite_x=True)
+    padded = np.zeros(size)
+    np.multiply(math.sqrt(math.pi * h_minus1), rng.standard_normal(n), out=padded[:n])
+    spectrum = fft.rfft(padded, overwrite_x=True)
+    del padded
+    spectrum *= response
+    del response
     full = fft.irfft(spectrum, size, overwrite_x=True)
     del spectrum
     return np.array(full[:n], np.float64)  # not a view that holds the padded 2 n
