@@ -914,9 +914,12 @@ def run_comparison(
                     result = davar(x, **surface)
                     fit = fit_noise(result, terms=terms, cells=True)
                 elif edf_cache is None:  # the surface a block of windows at a time
+                    # every window's coefficients wait on disk (one column, N, is read
+                    # back): a table of every term of every window is ten copies of the
+                    # record
                     blocks = fit_davar_in_blocks(
                         x, fit_options=dict(terms=terms, cells=False), drawn=FIGURE_WINDOWS,
-                        bounds=False, fit_rows="drawn", **surface,
+                        bounds=False, fit_rows="drawn", spill=True, **surface,
                     )  # fmt: skip
                     result, fit = blocks.drawn, blocks.fit
             except ValueError as exc:
@@ -933,6 +936,12 @@ def run_comparison(
             rows = result if blocks is None else blocks  # every window's time, length, centre
             t = np.asarray(rows.time, dtype=float)
             w = np.asarray(rows.window, dtype=np.int64)
+            # the surface's lengths are a copy: hold the schedule's (the same numbers), and
+            # a fixed window's as one value seen at every centre (a read-only view)
+            if sched is not None and np.array_equal(sched.window, w):
+                w = sched.window
+            elif spec.kind == "fixed":
+                w = np.broadcast_to(np.int64(spec.window), w.shape)
             if centres is None:
                 centres = t, np.asarray(rows.centre)
             if spec.kind == "fixed":

@@ -824,16 +824,15 @@ class OnlineAdaptive:
             over = np.zeros_like(over)
         keys = lengths * (self.lmax + 1) + over
         distinct, inverse = np.unique(keys, return_inverse=True)
-        rows = []
-        for key in distinct.tolist():
-            length, h = divmod(key, self.lmax + 1)
-            row = self._edf_rows.get((length, h))
-            if row is None:
-                row = edf_table(np.array([length]), self._ms, self._alpha,
-                                overhang=None if h == 0 else np.array([h]))[0]  # fmt: skip
-                self._edf_rows[(length, h)] = row
-            rows.append(row)
-        return np.stack(rows)[inverse.ravel()]
+        pairs = [divmod(key, self.lmax + 1) for key in distinct.tolist()]
+        missing = [pair for pair in pairs if pair not in self._edf_rows]
+        if missing:
+            # one table for every new pair (a row's EDF depends on its own length and
+            # overhang only, and an overhang of 0 is the interior window's exact EDF)
+            length, h = np.array(missing, dtype=np.int64).T
+            table = edf_table(length, self._ms, self._alpha, overhang=h)
+            self._edf_rows.update(zip(missing, table, strict=True))
+        return np.stack([self._edf_rows[pair] for pair in pairs])[inverse.ravel()]
 
     # ------------------------------------------------------------------ events
 
