@@ -9,6 +9,7 @@ neither works the tests skip, unless ``ADAVAR_REQUIRE_STABLE32=1``: then they fa
 
 from __future__ import annotations
 
+import functools
 import gzip
 import os
 import subprocess
@@ -95,11 +96,15 @@ def stable32_root() -> Path:
     raise AssertionError("unreachable")  # pragma: no cover
 
 
+@functools.lru_cache(maxsize=None)
 def read_data(path: Path) -> np.ndarray:
-    """One number per line, ``#`` comments skipped (gzip by extension)."""
+    """One number per line, ``#`` comments skipped (gzip by extension); read once per
+    process (tens of tests read the same records), returned read-only."""
     opener = gzip.open if path.suffix == ".gz" else open
     with opener(path, "rt", encoding="latin-1") as f:
-        return np.array([float(v) for v in f if v.strip() and not v.startswith("#")])
+        values = np.array([float(v) for v in f if v.strip() and not v.startswith("#")])
+    values.flags.writeable = False
+    return values
 
 
 def read_table(path: Path) -> np.ndarray:
