@@ -96,7 +96,7 @@ def stable32_root() -> Path:
     raise AssertionError("unreachable")  # pragma: no cover
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def read_data(path: Path) -> np.ndarray:
     """One number per line, ``#`` comments skipped (gzip by extension); read once per
     process (tens of tests read the same records), returned read-only."""

@@ -380,7 +380,8 @@ class MethodRun:
     label : str
         For tables and legends: ``"DAVAR-400"``, ``"DAVAR-K-3.3"``, ``"A-DAVAR"``, ...
     window : ndarray of int64, shape (T,)
-        Window length at every centre.
+        Window length at every centre (read-only: the schedule's own array, or for a fixed
+        window one value seen at every centre).
     schedule : Schedule or None
         The controller's record (kurtosis, S, f1, f2, f); None for a fixed window.
     result : DavarResult

@@ -810,19 +810,21 @@ def controller_figure(
     ax = axes[0]
     _long_line(ax, t, schedule.kurtosis, color="C0", linewidth=0.7)
     # the window and its thresholds are constant over runs of one length: the runs' ends
-    # draw the same lines (a few thousand points instead of one per centre)
+    # draw the same lines, by their envelope when they are many (a long record's window
+    # changes length hundreds of thousands of times: 140 MB while the SVG was written)
     at = run_ends(w)
-    ax.plot(t[at], th.k1[w[at]], color="k", linestyle="--", linewidth=0.8, snap=False)
-    ax.plot(t[at], th.k2[w[at]], color="k", linestyle="--", linewidth=0.8, snap=False)
+    ta, wa = t[at], w[at]
+    _long_line(ax, ta, th.k1[wa], color="k", linestyle="--", linewidth=0.8, snap=False)
+    _long_line(ax, ta, th.k2[wa], color="k", linestyle="--", linewidth=0.8, snap=False)
     ax.set_ylabel("kurtosis")
     _step_panel(axes[1], t, schedule.f1, "f1", "C0")
     ax = axes[2]
     _long_line(ax, t, schedule.s, color="C3", linewidth=0.7)
-    ax.plot(t[at], th.s2[w[at]], color="k", linestyle="--", linewidth=0.8, snap=False)
+    _long_line(ax, ta, th.s2[wa], color="k", linestyle="--", linewidth=0.8, snap=False)
     ax.set_ylabel("S (last l\nof the window)")
     _step_panel(axes[3], t, schedule.f2, "f2", "C3")
     _step_panel(axes[4], t, schedule.f, "f", "C2")
-    axes[5].plot(t[at], w[at], color="C2", linewidth=1.0, snap=False)
+    _long_line(axes[5], ta, wa, color="C2", linewidth=1.0, snap=False)
     axes[5].set_ylabel("window L\n[samples]")
     for ax in axes:
         _mark_changes(ax, change_times)
@@ -863,8 +865,8 @@ def arw_comparison_figure(
     for k, run in enumerate(comparison.methods.values()):
         _long_line(ax, t, run.arw, color=f"C{k}", linewidth=0.9, label=run.label)
         at = run_ends(run.window)
-        axw.plot(t[at], np.asarray(run.window)[at], color=f"C{k}", linewidth=0.9,
-                 label=run.label, snap=False)  # fmt: skip
+        _long_line(axw, t[at], np.asarray(run.window)[at], color=f"C{k}", linewidth=0.9,
+                   label=run.label, snap=False)  # fmt: skip
     if comparison.truth is not None:
         _long_line(ax, t, comparison.truth, color="k", linestyle="--", linewidth=1.1,
                    label="true N")  # fmt: skip

@@ -557,6 +557,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     }
     text = dumps(payload)
     if args.out is not None:
+        from adavar._heap import release_free_memory
         from adavar.plots import save_figure
 
         status(f"writing {args.out}")
@@ -569,6 +570,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                     fig = draw(*fig_args, **fig_kwargs)
                     save_figure(fig, tmp / stem)
                     fig.clear()  # its artists' arrays go now, not at the next collection
+                    del fig
+                    release_free_memory()  # and their pages, before the next figure's
                 (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
         except OSError as exc:
             raise output_error(args.out, exc) from None
