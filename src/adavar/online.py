@@ -281,17 +281,18 @@ class OnlineAdaptive:
     once, when complete (O(J) window variances a centre, J the candidates), the side and
     change rules over the newly computed centres only: O(N J) in all, the same work as
     offline. Otherwise the controller is O(1) per sample plus ``REANCHOR`` centres and a
-    Python call per push; the rows' variances O(M) per kept row; the fit a few
-    microseconds per kept row (``docs/benchmarks.md``, "Online adaptive pass"). Memory:
-    with ``keep="recent"`` the last push, the samples of one ``REANCHOR`` block and a
-    window (before hourly thresholds are set, the first ``DEPENDENCE_SAMPLES``; ICI: an
-    engine unit and two ``lmax``, the first ``ici_edf_samples`` until the EDF is set, and
-    the state of an open run of tied sides), the rows since the last change, and the
-    events. N(t) equals the offline one to rounding when the offline EDF table is
-    exact (at most 4096 (length, tau) pairs or 32 lengths per tau: octave taus, or every
-    tau on short windows); beyond that the offline surface interpolates the EDF between
-    lengths, and N differs by up to about 1e-6 relative (``taus="all"`` with the default
-    windows: 7.9e-7 at worst, 2e-16 in the median on the 200 Hz sensor simulator).
+    Python call per push; the rows' variances O(M) per kept row; the fit a few microseconds
+    per kept row (``docs/benchmarks.md``, "Online adaptive pass"). Memory: with
+    ``keep="recent"`` the last push, the samples of one ``REANCHOR`` block and a window
+    (before hourly thresholds are set, the first ``DEPENDENCE_SAMPLES``; ICI: an engine unit
+    and two ``lmax``, the first ``ici_edf_samples`` until the EDF is set, and the state of
+    an open run of tied sides), the rows since the last change (a window length and each
+    term's value: 12 bytes a row with N alone; centres and times are computed when asked),
+    and the events. N(t) equals the offline one to rounding when the offline EDF table is
+    exact (at most 4096 (length, tau) pairs or 32 lengths per tau: octave taus, or every tau
+    on short windows); beyond that the offline surface interpolates the EDF between lengths,
+    and N differs by up to about 1e-6 relative (``taus="all"`` with the default windows:
+    7.9e-7 at worst, 2e-16 in the median on the 200 Hz sensor simulator).
 
     Examples
     --------
