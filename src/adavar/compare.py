@@ -380,8 +380,7 @@ class MethodRun:
     label : str
         For tables and legends: ``"DAVAR-400"``, ``"DAVAR-K-3.3"``, ``"A-DAVAR"``, ...
     window : ndarray of int64, shape (T,)
-        Window length at every centre (read-only: the schedule's own array, or for a fixed
-        window one value seen at every centre).
+        Window length at every centre (read-only; a fixed window: one value, broadcast).
     schedule : Schedule or None
         The controller's record (kurtosis, S, f1, f2, f); None for a fixed window.
     result : DavarResult
@@ -914,10 +913,7 @@ def run_comparison(
                 if edf_cache is None and keep == "all":
                     result = davar(x, **surface)
                     fit = fit_noise(result, terms=terms, cells=True)
-                elif edf_cache is None:  # the surface a block of windows at a time
-                    # every window's coefficients wait on disk (one column, N, is read
-                    # back): a table of every term of every window is ten copies of the
-                    # record
+                elif edf_cache is None:  # a block of windows at a time, the terms on disk
                     blocks = fit_davar_in_blocks(
                         x, fit_options=dict(terms=terms, cells=False), drawn=FIGURE_WINDOWS,
                         bounds=False, fit_rows="drawn", spill=True, **surface,
@@ -937,8 +933,7 @@ def run_comparison(
             rows = result if blocks is None else blocks  # every window's time, length, centre
             t = np.asarray(rows.time, dtype=float)
             w = np.asarray(rows.window, dtype=np.int64)
-            # the surface's lengths are a copy: hold the schedule's (the same numbers), and
-            # a fixed window's as one value seen at every centre (a read-only view)
+            # held once: the schedule's lengths, or a fixed window as a read-only view
             if sched is not None and np.array_equal(sched.window, w):
                 w = sched.window
             elif spec.kind == "fixed":
@@ -987,10 +982,8 @@ def run_comparison(
 # ---------------------------------------------------------------------------------------
 # the paper's studies, defined in adavar.paper.studies (which imports this module)
 
-_STUDY_NAMES = frozenset({
-    "KurtosisStudy", "SeedStudy", "ThresholdStudy", "compare_seeds", "kurtosis_study",
-    "threshold_study",
-})  # fmt: skip
+_STUDY_NAMES = frozenset({"KurtosisStudy", "SeedStudy", "ThresholdStudy", "compare_seeds",
+                          "kurtosis_study", "threshold_study"})  # fmt: skip
 
 
 def __getattr__(name: str) -> Any:
