@@ -62,6 +62,11 @@ def test_compare_holds_one_surface_at_a_time(small_blocks, monkeypatch):
         got = lean.methods[name]
         np.testing.assert_array_equal(got.arw, run.arw)
         np.testing.assert_array_equal(got.window, run.window)
+        # the lengths held once: the schedule's own array, a fixed window one value
+        if got.schedule is not None:
+            assert got.window is got.schedule.window
+        else:
+            assert got.window.strides == (0,) and not got.window.flags.writeable
         # the windows the surface figure draws, and only those, with their fits
         assert got.result.avar.shape == (FIGURE_WINDOWS, 50)
         rows = np.searchsorted(run.result.time, got.result.time)

@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 
 import adavar
 from adavar import simulate
-from adavar._figures import envelope, power_label
+from adavar._figures import envelope, power_label, run_ends
 from adavar.plots import (
     deviation_figure,
     deviation_unit,
@@ -326,6 +326,40 @@ def test_envelope_keeps_each_runs_extremes(bins, values):
     if y.size > 4 * bins and finite.size:  # the axes' limits: the whole line's
         assert np.min(y[at][np.isfinite(y[at])]) == finite.min()
         assert np.max(y[at][np.isfinite(y[at])]) == finite.max()
+
+
+def test_a_window_of_many_runs_is_drawn_by_the_envelope_of_its_run_ends():
+    """Fig. 10 of a long record: the window and its thresholds change at hundreds of
+    thousands of centres (217,771 on a 2-hour 200 Hz log); their lines hold at most the
+    envelope of those run ends, with the same extremes, and a few runs are drawn whole."""
+    import dataclasses
+
+    from adavar.plots import controller_figure
+
+    x = simulate.white(3000, seed=4)
+    short = adavar.adaptive_schedule(x, rate=200.0, lmax=300, lmin=200, l=50)
+    lmin, lmax = 200, 300
+    for n, runs in ((3000, None), (400_000, 100_000)):
+        schedule = short
+        if runs is not None:  # every 4 centres a new length, from lmin to lmax and back
+            phase = np.arange(n) // 4 % (2 * (lmax - lmin))
+            window = lmin + np.minimum(phase, 2 * (lmax - lmin) - phase)
+            rows = {f: np.resize(getattr(short, f), n)
+                    for f in ("kurtosis", "s", "f1", "f2", "f", "centre")}  # fmt: skip
+            schedule = dataclasses.replace(short, window=window.astype(np.int64), **rows)
+        t = np.arange(n) / 200.0
+        fig = controller_figure(schedule, t)
+        lines = [fig.axes[0].get_lines()[1], fig.axes[5].get_lines()[0]]
+        ends = run_ends(schedule.window)
+        for line, want in zip(lines, (schedule.thresholds.k1[schedule.window],
+                                      schedule.window), strict=True):  # fmt: skip
+            y = np.asarray(line.get_ydata())
+            if runs is None:
+                assert y.size == ends.size  # every run end
+            else:
+                assert ends.size > 16384 and y.size <= 2 * 4096 + 2
+                assert y.min() == want.min() and y.max() == want.max()
+                assert line.get_xdata()[0] == t[0] and line.get_xdata()[-1] == t[ends[-1]]
 
 
 def test_long_lines_are_drawn_by_their_envelope_short_ones_whole():
