@@ -8,9 +8,13 @@
   hour at 200 Hz, against the sizes of the input and of what each writes;
 * kernels: the default ``deviation`` (OADEV with intervals) against ``allantools.oadev``
   (without intervals) at N = 1e3 .. 1e7 (``--max-n``), quiet and with another process
-  busy on one core, on Numba's default threads and on one (``ADAVAR_THREADS=1``).
+  busy on one core, on Numba's default threads and on one (``ADAVAR_THREADS=1``);
+* threaded kernels (``--only threaded``): a DAVAR surface, the adaptive schedule, the
+  record-form kurtosis contribution and the noise fit of every window, on one hour of a
+  simulated MEMS gyro at 200 Hz (50 Hz bandwidth, quantised), in the same four settings.
 
-Run: ``python benchmarks/bench_load.py [--max-n 10000000] [--skip-demo] [--only memory]``.
+Run: ``python benchmarks/bench_load.py [--max-n 10000000] [--skip-demo]
+[--only memory|threaded]``.
 """
 
 from __future__ import annotations
@@ -215,16 +219,86 @@ def kernels(max_n: int) -> list[str]:
     return lines
 
 
+def _threaded_times() -> dict[str, float]:
+    """Best of 3 of each threaded kernel's public call (compiled first)."""
+    import adavar
+    from adavar.kurtosis import kurtosis_contribution
+
+    x = adavar.simulate.sensor(
+        720_000, rate=200.0, angle_random_walk=0.01, bias_instability=0.003, bandwidth=50.0,
+        lsb=1e-4, seed=3,
+    )  # fmt: skip
+    surface = adavar.davar(x, rate=200.0, window=12_000, taus="octave")
+    calls = {
+        "davar, window 12000, octave taus": lambda: adavar.davar(
+            x, rate=200.0, window=12_000, taus="octave"
+        ),
+        "adaptive_schedule (Lmax 12000)": lambda: adavar.adaptive_schedule(
+            x, rate=200.0, lmax=12_000, lmin=8_000, l=2_000
+        ),
+        "kurtosis_contribution, record form": lambda: kurtosis_contribution(
+            x, window=12_000, reference="record"
+        ),
+        "fit_noise of that surface (720k windows)": lambda: adavar.fit_noise(surface),
+    }
+    out = {}
+    for name, call in calls.items():
+        call()
+        best = np.inf
+        for _ in range(3):
+            start = time.perf_counter()
+            call()
+            best = min(best, time.perf_counter() - start)
+        out[name] = best
+    return out
+
+
+def threaded() -> list[str]:
+    """The threaded kernels quiet and with one core busy, default threads and one."""
+    times = {}
+    for label, busy in (("quiet", False), ("one core busy", True)):
+        for threads in (None, "1"):
+            env = dict(os.environ)
+            if threads:
+                env["ADAVAR_THREADS"] = threads
+            stop = mp.Event()
+            spinner = mp.Process(target=_spin, args=(stop,)) if busy else None
+            if spinner:
+                spinner.start()
+            code = (f"import sys; sys.path.insert(0, {os.path.dirname(__file__)!r});"
+                    f"import bench_load as b; print(b._threaded_times())")  # fmt: skip
+            done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                                  env=env, check=True)  # fmt: skip
+            if spinner:
+                stop.set()
+                spinner.join()
+            times[label, threads] = eval(done.stdout.strip().splitlines()[-1])  # our own
+    lines = []
+    for name in times["quiet", None]:
+        q2, q1 = times["quiet", None][name], times["quiet", "1"][name]
+        b2, b1 = times["one core busy", None][name], times["one core busy", "1"][name]
+        lines.append(f"| {name} | {1e3 * q2:.0f} / {1e3 * q1:.0f} ms | {1e3 * b2:.0f} / "
+                     f"{1e3 * b1:.0f} ms | {q2 / min(q1, q2):.2f} | {b2 / q1:.2f} |")  # fmt: skip
+    return lines
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-n", type=int, default=10**7)
     parser.add_argument("--skip-demo", action="store_true")
-    parser.add_argument("--only", choices=("memory",), help="run one section")
+    parser.add_argument("--only", choices=("memory", "threaded"), help="run one section")
     args = parser.parse_args()
     print(f"machine: {describe()}")
     if args.only == "memory":
         print("| command | memory | sizes |\n|---|---|---|")
         for line in memory():
+            print(line, flush=True)
+        return
+    if args.only == "threaded":
+        print("| kernel | quiet: default threads / one | one core busy: default / one | "
+              "quiet default / best quiet | busy default / quiet one |")  # fmt: skip
+        print("|---|---|---|---|---|")
+        for line in threaded():
             print(line, flush=True)
         return
     print("| what | time |\n|---|---|")

@@ -42,7 +42,6 @@ def _group_a() -> None:
 
 def _group_b() -> None:
     import adavar
-    from adavar import _jit
 
     x = np.random.default_rng(1).standard_normal(3000)
     adavar.adaptive_schedule(x, rate=1.0, lmax=300, lmin=200, l=50)
@@ -55,14 +54,6 @@ def _group_b() -> None:
     adavar.davar(y, rate=1.0, window=300, gaps="omit")
     for stat in ("ohvar", "mvar"):
         adavar.davar(x, rate=1.0, window=300, stat=stat)
-    # the parallel twins, which the tests of large records and of the twins reach
-    saved = _jit.SERIAL_WORK
-    _jit.SERIAL_WORK = 0
-    try:
-        adavar.davar(x, rate=1.0, window=300)
-        adavar.adaptive_schedule(x, rate=1.0, lmax=300, lmin=200, l=50)
-    finally:
-        _jit.SERIAL_WORK = saved
 
 
 def pytest_sessionstart(session) -> None:

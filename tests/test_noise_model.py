@@ -302,11 +302,11 @@ def _stack_with_holes():
     return tau, curves, edf2
 
 
-@pytest.mark.parametrize("repeat", [1, 20])  # 60 curves: serial kernel; 1200: parallel
+@pytest.mark.parametrize("repeat", [1, 20])  # 60 curves: one thread; 1200: in threads
 def test_stack_equals_curve_by_curve_bit_for_bit(repeat, monkeypatch):
-    from adavar import noise_model
+    from adavar import _jit
 
-    monkeypatch.setattr(noise_model, "SERIAL_WORK", 0)  # the parallel kernel from 1024 curves
+    monkeypatch.setattr(_jit, "SERIAL_WORK", 0)  # blocks in threads from 1024 curves
     tau, curves, edf = _stack_with_holes()
     fit = fit_avar(tau, np.tile(curves, (repeat, 1)), np.tile(edf, (repeat, 1)))
     assert fit.coefficients.shape == (60 * repeat, 5)

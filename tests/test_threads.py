@@ -46,7 +46,7 @@ def test_a_bad_thread_setting_is_a_one_line_error_on_the_command_line(tmp_path):
     assert len(lines) == 1 and "ADAVAR_THREADS='many'" in lines[0], done.stderr
 
 
-# --- twin kernels: the serial and the parallel version give the same bits -------------
+# --- threaded kernels: one thread and several give the same bits -----------------------
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
@@ -56,7 +56,8 @@ from adavar import _jit  # noqa: E402
 
 @pytest.fixture
 def force(monkeypatch):
-    """Run every twin kernel on one version: ``force("serial")`` or ``force("parallel")``."""
+    """Run every threaded kernel on the calling thread alone (``force("serial")``) or on
+    every thread from the smallest input (``force("parallel")``)."""
 
     def choose(which: str) -> None:
         monkeypatch.setattr(_jit, "SERIAL_WORK", 1 << 62 if which == "serial" else 0)
@@ -80,7 +81,7 @@ def _both(force, call):
     return a, b
 
 
-def test_twin_davar_window_kernel_is_bit_identical(force):
+def test_threaded_davar_window_kernel_is_bit_identical(force):
     from adavar._kernels.window_avar import window_avar
 
     x = _record(40_000)
@@ -91,7 +92,7 @@ def test_twin_davar_window_kernel_is_bit_identical(force):
     np.testing.assert_array_equal(a, b)
 
 
-def test_twin_kurtosis_kernels_are_bit_identical(force):
+def test_threaded_kurtosis_kernels_are_bit_identical(force):
     from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
 
     x = _record(30_000, seed=3)
@@ -104,7 +105,7 @@ def test_twin_kurtosis_kernels_are_bit_identical(force):
         np.testing.assert_array_equal(a, b)
 
 
-def test_twin_adaptive_controller_is_bit_identical(force):
+def test_threaded_adaptive_controller_is_bit_identical(force):
     from adavar.adaptive import adaptive_schedule
 
     x = _record(60_000, seed=5)
@@ -129,3 +130,68 @@ def test_the_controller_survives_a_huge_burst(force, where):
     a, b = _both(force, lambda: adaptive_schedule(x, rate=1.0).window)
     np.testing.assert_array_equal(a, b)
     assert 400 <= a.min() and a.max() <= 600
+
+
+# --- the thread driver of the kernels ------------------------------------------------
+
+
+@_jit.threaded_jit(cache=False)
+def _count_items(out, fail_at, w_lo, w_hi):  # pragma: no cover - compiled
+    for w in range(w_lo, w_hi):
+        if w == fail_at:
+            raise ValueError("item failed")
+        out[w] += w + 1
+
+
+@pytest.mark.parametrize("items", [1, 2, 7, 64])
+def test_every_item_runs_once_on_any_number_of_threads(force, items):
+    for which in ("serial", "parallel"):
+        force(which)
+        out = np.zeros(items)
+        _count_items.run(1, items, out, -1)
+        np.testing.assert_array_equal(out, np.arange(1, items + 1))
+
+
+def test_an_error_in_an_item_reaches_the_caller_and_the_pool_goes_on(force):
+    force("parallel")
+    out = np.zeros(40)
+    with pytest.raises(ValueError, match="item failed"):
+        _count_items.run(1, 40, out, 17)
+    assert out[17] == 0  # items after the failure may or may not have run: never twice
+    assert set(np.unique(out)) <= set(np.arange(41.0))
+    out = np.zeros(40)
+    _count_items.run(1, 40, out, -1)
+    np.testing.assert_array_equal(out, np.arange(1, 41))
+
+
+def test_calls_from_many_threads_at_once_all_finish(force):
+    # the batch and the readers call kernels from their own threads: the callers share one
+    # pool, and none waits for an item another caller's thread has not started
+    from concurrent.futures import ThreadPoolExecutor
+
+    force("parallel")
+
+    def one(k):
+        out = np.zeros(50 + k)
+        _count_items.run(1, out.size, out, -1)
+        return np.array_equal(out, np.arange(1, out.size + 1))
+
+    with ThreadPoolExecutor(8) as pool:
+        assert all(pool.map(one, range(32)))
+
+
+def test_a_forked_child_runs_threaded_kernels(force):
+    import multiprocessing
+
+    force("parallel")
+    _count_items.run(1, 4, np.zeros(4), -1)  # the parent's pool exists before the fork
+    context = multiprocessing.get_context("fork")
+    with context.Pool(1) as pool:
+        assert pool.apply(_child_sum, (64,)) == 64 * 65 // 2
+
+
+def _child_sum(items):
+    _jit.SERIAL_WORK = 0
+    out = np.zeros(items)
+    _count_items.run(1, items, out, -1)
+    return int(out.sum())

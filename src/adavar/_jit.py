@@ -1,14 +1,17 @@
 """Numba entry points with the project's defaults (on-disk cache, no fast-math by default).
 
-Threads. The parallel kernels run on Numba's threading layer. Two settings make them
-behave on a machine that is doing something else too:
+Threads. The kernels that split their work (:class:`ThreadedKernel`) are compiled once,
+serially and ``nogil``, and run in parts on a pool of Python threads; the operating
+system schedules those, so on a machine that is doing something else too no thread spins
+while it waits, and a thread that a busy core slows down takes fewer parts.
 
-- ``OMP_WAIT_POLICY=PASSIVE`` (set here unless the environment sets it): a worker thread
-  that has finished its share sleeps instead of spinning, so it does not take a core from
-  another process, nor from the thread that still works when a core is busy;
-- ``ADAVAR_THREADS=N``: the number of threads of every parallel kernel (default: Numba's,
-  the number of cores; ``NUMBA_NUM_THREADS`` caps it). ``ADAVAR_THREADS=1`` runs everything
-  on one thread.
+- ``ADAVAR_THREADS=N``: the number of threads of every such kernel (default: Numba's
+  thread count, the number of cores; ``NUMBA_NUM_THREADS`` caps it).
+  ``ADAVAR_THREADS=1`` runs everything on one thread; so does
+  ``ADAVAR_SERIAL_KERNELS=1``.
+- ``OMP_WAIT_POLICY=PASSIVE`` (set here unless the environment sets it) still applies to
+  any Numba ``parallel=True`` code of the same process: a worker thread that has finished
+  its share sleeps instead of spinning.
 
 Compilation. ``NUMBA_OPT=2`` (set here unless the environment sets it) has LLVM optimise
 at -O2 rather than Numba's -O3: the kernels compile about 18 % faster on a first run
@@ -22,7 +25,6 @@ from __future__ import annotations
 
 import contextlib
 import os
-import types
 from collections.abc import Iterator
 
 # before the OpenMP runtime starts (it reads the policy once, when Numba loads it)
@@ -32,15 +34,17 @@ os.environ.setdefault("NUMBA_OPT", "2")
 import numba
 
 __all__ = [
+    "ITEMS_PER_THREAD",
     "SERIAL_WORK",
-    "TwinKernel",
+    "ThreadedKernel",
     "compilations",
     "get_num_threads",
     "jit",
-    "parallel_jit",
     "prange",
     "read_only",
     "thread_setting",
+    "threaded_jit",
+    "work_items",
 ]
 
 prange = numba.prange
@@ -117,55 +121,121 @@ def read_only(values, dtype=None):
     return view
 
 
-#: work (inner-loop steps, about 5-20 ns each) below which a twin kernel runs serially:
-#: under about a millisecond of arithmetic, waking the thread pool costs more than it saves
-#: (and on a busy machine a descheduled worker holds up the whole call)
+#: work (inner-loop steps, about 5-20 ns each) below which a threaded kernel runs on the
+#: calling thread alone: under about a millisecond of arithmetic, handing parts to other
+#: threads costs more than it saves (and on a busy machine a descheduled thread would hold
+#: up the whole call)
 SERIAL_WORK = 1 << 18
 
 
-class TwinKernel:
-    """A kernel compiled twice from one source: with ``prange`` parallel, and serially.
+#: work items a threaded kernel's input is cut into, per thread: a thread that a busy core
+#: slows down then takes fewer of them instead of holding up the call
+ITEMS_PER_THREAD = 4
 
-    ``kernel(*args)`` runs the parallel version; ``kernel.run(work, *args)`` picks the
-    serial one when ``work < SERIAL_WORK``, when one thread is set (``ADAVAR_THREADS=1``,
-    :func:`numba.set_num_threads`) or when ``ADAVAR_SERIAL_KERNELS=1``. Each version is
-    compiled on its first call only, so small inputs (and a first run on them) never pay
-    for compiling the parallel one; the two have separate on-disk cache entries.
+
+def work_items(units: int) -> int:
+    """Work items for ``units`` indivisible units of work (at least 1)."""
+    return int(max(1, min(ITEMS_PER_THREAD * numba.get_num_threads(), units)))
+
+
+class _Parts:
+    """Items ``0..n-1`` of one call, taken one at a time by whichever thread is free."""
+
+    def __init__(self, kernel, args: tuple, n: int) -> None:
+        import threading
+
+        self.kernel, self.args, self.n = kernel, args, n
+        self.lock = threading.Lock()
+        self.finished = threading.Event()
+        self.next = self.done = 0
+        self.error: BaseException | None = None
+
+    def work(self) -> None:
+        while True:
+            with self.lock:
+                k = self.next
+                if k >= self.n or self.error is not None:
+                    return
+                self.next = k + 1
+            try:
+                self.kernel(*self.args, k, k + 1)
+            except BaseException as exc:  # re-raised by the calling thread
+                with self.lock:
+                    self.error = self.error or exc
+                    self.finished.set()
+                return
+            with self.lock:
+                self.done += 1
+                if self.done == self.n:
+                    self.finished.set()
+
+
+_POOL: dict = {}  # "pool", "size", "pid": the threads that run parts of kernels
+
+
+def _pool(size: int):
+    """The process's thread pool for kernel parts, of at least ``size`` threads."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    pool = _POOL.get("pool")
+    # a forked child inherits the pool object but not its threads: a new one there
+    if pool is None or _POOL["size"] < size or _POOL["pid"] != os.getpid():
+        pool = ThreadPoolExecutor(max_workers=size, thread_name_prefix="adavar-kernel")
+        _POOL.update(pool=pool, size=size, pid=os.getpid())
+    return pool
+
+
+class ThreadedKernel:
+    """A kernel compiled once, serially and ``nogil``, whose items run on several threads.
+
+    The function's last two arguments are the range ``[lo, hi)`` of the items (work units
+    that write disjoint parts of the output) it runs. ``kernel.run(work, items, *args)``
+    runs items ``0..items-1``: on the calling thread alone when ``work < SERIAL_WORK``,
+    when one thread is set (``ADAVAR_THREADS=1``, :func:`numba.set_num_threads`) or when
+    ``ADAVAR_SERIAL_KERNELS=1``; else the calling thread and up to ``threads - 1`` pool
+    threads each take the next item not yet started until none is left. A thread that a
+    busy core slows down therefore takes fewer items rather than holding up the others,
+    and no thread spins while it waits. The result does not depend on the thread count:
+    each item is computed the same way by whichever thread runs it.
+
+    Numba's ``parallel=True`` (parfors) compiled a second version of every such kernel,
+    as long to compile as the serial one (several seconds each on a first run).
     """
 
     def __init__(self, func, kwargs):
         self.py_func = func
-        self.parallel = jit(parallel=True, **kwargs)(func)
-        twin = types.FunctionType(
-            func.__code__, func.__globals__, func.__name__, func.__defaults__, func.__closure__
-        )
-        # a name of its own: Numba's cache keys on the function's name, not on its options
-        twin.__qualname__ = func.__qualname__ + "__serial"
-        twin.__module__ = func.__module__
-        twin.__doc__ = func.__doc__
-        # a parallel region divides as NumPy does (inf/nan, no exception): so does the twin
-        self.serial = jit(parallel=False, **{"error_model": "numpy", **kwargs})(twin)
+        # a parallel region divided as NumPy does (inf/nan, no exception): so does this
+        self.kernel = jit(nogil=True, **{"error_model": "numpy", **kwargs})(func)
         self.__doc__ = func.__doc__
         self.__name__ = func.__name__
 
     def __call__(self, *args):
-        return self.parallel(*args)
+        """The kernel itself (every argument given, the item range included)."""
+        return self.kernel(*args)
 
-    def run(self, work, *args):
-        """Run on the version that suits ``work`` (see the class notes)."""
-        serial = (
-            work < SERIAL_WORK
-            or numba.get_num_threads() == 1
-            or os.environ.get("ADAVAR_SERIAL_KERNELS", "") == "1"
-        )
-        return (self.serial if serial else self.parallel)(*args)
+    def run(self, work, items, *args):
+        """Run items ``0..items-1`` on the threads that suit ``work`` (class notes)."""
+        threads = 1
+        if work >= SERIAL_WORK and os.environ.get("ADAVAR_SERIAL_KERNELS", "") != "1":
+            threads = min(numba.get_num_threads(), items)
+        if threads <= 1:
+            self.kernel(*args, 0, items)
+            return
+        parts = _Parts(self.kernel, args, items)
+        pool = _pool(threads - 1)
+        for _ in range(threads - 1):
+            pool.submit(parts.work)
+        parts.work()
+        parts.finished.wait()
+        if parts.error is not None:
+            raise parts.error
 
 
-def parallel_jit(*args, **kwargs):
-    """A :class:`TwinKernel`: ``jit`` with ``parallel=True`` and a serial twin."""
+def threaded_jit(*args, **kwargs):
+    """A :class:`ThreadedKernel` (``jit`` options as keywords)."""
     if args and callable(args[0]):
-        return TwinKernel(args[0], kwargs)
-    return lambda func: TwinKernel(func, kwargs)
+        return ThreadedKernel(args[0], kwargs)
+    return lambda func: ThreadedKernel(func, kwargs)
 
 
 thread_setting()

@@ -10,10 +10,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from adavar._jit import jit, parallel_jit, prange
+from adavar._jit import jit, threaded_jit
 
 _PIVOT_TOL = 1e-13  # smallest Cholesky pivot of an equilibrated normal matrix
-_BLOCK = 256  # curves per work item of the parallel kernel
+BLOCK = 256  # curves per work item of nnls_blocks
 PARALLEL_MIN = 1024  # smaller stacks run on the calling thread (no thread start-up cost)
 
 # --------------------------------------------------------------------------------------
@@ -321,12 +321,17 @@ def _fit_curve(
                 coef_sig[i, sel[a]] = math.sqrt(dg[a] * factor) * unscale[a]
 
 
-@jit(error_model="numpy")
-def nnls_serial(
+@threaded_jit
+def nnls_blocks(
     phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts, neff,
+    coef, coef_sig, chi2, npts, neff, blk_lo, blk_hi,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """:func:`_fit_curve` over every row, on the calling thread (small stacks)."""
+    """:func:`_fit_curve` over the rows of blocks ``blk_lo .. blk_hi - 1`` of ``BLOCK`` rows.
+
+    Each curve is fitted on its own (the hints change the order in which active sets are
+    tried, never the optimum), so the rows come out the same whichever thread fits which
+    block.
+    """
     n_curves, n_tau = avar.shape
     n_terms = phi.shape[1]
     w = np.empty(n_tau)
@@ -341,42 +346,12 @@ def nnls_serial(
     xcur = np.empty(n_terms)
     dg = np.empty(n_terms)
     hints = np.zeros(n_reweight + 1, dtype=np.int64)
-    for i in range(n_curves):
+    for i in range(blk_lo * BLOCK, min(blk_hi * BLOCK, n_curves)):
         _fit_curve(
             i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted,
             share, coef, coef_sig, chi2, npts, neff, w, ref, ok, G, h, L, dsc, x, best_x, xcur,
             dg, hints,
         )  # fmt: skip
-
-
-@parallel_jit(error_model="numpy")
-def nnls_parallel(
-    phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts, neff,
-):  # fmt: skip  # pragma: no cover - compiled
-    """:func:`_fit_curve` over every row, blocks of rows in parallel (large stacks)."""
-    n_curves, n_tau = avar.shape
-    n_terms = phi.shape[1]
-    n_blocks = (n_curves + _BLOCK - 1) // _BLOCK
-    for blk in prange(n_blocks):
-        w = np.empty(n_tau)
-        ref = np.empty(n_tau)
-        ok = np.empty(n_tau, dtype=np.bool_)
-        G = np.empty((n_terms, n_terms))
-        h = np.empty(n_terms)
-        L = np.empty((n_terms, n_terms))
-        dsc = np.empty(n_terms)
-        x = np.empty(n_terms)
-        best_x = np.empty(n_terms)
-        xcur = np.empty(n_terms)
-        dg = np.empty(n_terms)
-        hints = np.zeros(n_reweight + 1, dtype=np.int64)
-        for i in range(blk * _BLOCK, min((blk + 1) * _BLOCK, n_curves)):
-            _fit_curve(
-                i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale,
-                weighted, share, coef, coef_sig, chi2, npts, neff, w, ref, ok, G, h, L, dsc,
-                x, best_x, xcur, dg, hints,
-            )  # fmt: skip
 
 
 @lru_cache(maxsize=8)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
+from adavar._jit import jit, read_only, threaded_jit, work_items
 from adavar._kernels.double_double import two_sum
 from adavar.errors import AdavarInputError
 from adavar.thresholds import (
@@ -58,7 +58,7 @@ S_TESTS = ("upper", "band", "abs")
 COMBINES = ("or", "and")
 #: centres between re-anchorings of the running power sums (each costs O(L))
 REANCHOR = 512
-#: centres a speculative segment runs before its own start (see :func:`_controller`)
+#: centres a speculative segment runs before its own start (see :func:`_speculate`)
 WARM_UP = 8192
 
 _S_TEST_CODE = {"upper": 0, "band": 1, "abs": 2}
@@ -142,7 +142,7 @@ def _run(
     written as tuples passed through helper calls the loop ran six times slower). They are
     recomputed afresh, about the window's mean, at ``p_start`` and at every multiple of
     :data:`REANCHOR`: so everything from such a centre on depends only on the length in
-    force there, which is what lets :func:`_controller` run segments in parallel and still
+    force there, which is what lets :func:`_speculate` run segments in parallel and still
     give the sequential result bit for bit.
     """
     inv = np.empty(lmax + 1)  # 1/n by lookup: no division on the loop-carried path
@@ -267,34 +267,32 @@ def _run(
     return at_record, L
 
 
-@parallel_jit
-def _controller(
-    x, offset, n, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and,
-    adapt, given, window, kurt, scoef, f1, f2, f, n_segments, warm_up, start_length,
-):  # fmt: skip  # pragma: no cover - compiled
-    """The controller over centres ``0..n-1``: sequential result, segments in parallel.
-
-    The first centre starts from ``start_length`` (``lmax`` for a whole record; the length
-    carried over from the previous piece out of core). Returns the length after the last
-    update, which is where the next piece starts.
-
-    The record is cut into ``n_segments`` pieces whose bounds are multiples of
-    :data:`REANCHOR`. Each piece but the first is run speculatively from ``lmax``,
-    starting ``warm_up`` centres early (:data:`WARM_UP`) so that its length has forgotten
-    the guess (the length coalesces with the true one whenever both sit at ``lmax`` or
-    ``lmin``). Then, in order,
-    a piece whose speculative length at its start differs from the length its predecessor
-    actually ended with is run again from the true length. Since the running sums restart
-    at every multiple of REANCHOR, a piece that starts from the true length reproduces the
-    sequential pass exactly.
-    """
+@jit
+def _segment_bounds(n, n_segments):  # pragma: no cover - compiled
+    """Bounds of the speculative segments of :func:`_speculate`: multiples of REANCHOR."""
     bounds = np.empty(n_segments + 1, dtype=np.int64)
     for k in range(n_segments + 1):
         bounds[k] = min(n, (k * n // n_segments) // REANCHOR * REANCHOR)
     bounds[n_segments] = n
-    start_state = np.zeros(n_segments, dtype=np.int64)
-    end_state = np.zeros(n_segments, dtype=np.int64)
-    for k in prange(n_segments):
+    return bounds
+
+
+@threaded_jit
+def _speculate(
+    x, offset, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and, adapt,
+    given, window, kurt, scoef, f1, f2, f, bounds, warm_up, start_length, start_state,
+    end_state, k_lo, k_hi,
+):  # fmt: skip  # pragma: no cover - compiled
+    """Segments ``k_lo .. k_hi - 1`` of the controller pass, each from a guessed length.
+
+    The record is cut into pieces at ``bounds`` (multiples of :data:`REANCHOR`). Each
+    piece but the first is run speculatively from ``lmax``, starting ``warm_up`` centres
+    early (:data:`WARM_UP`) so that its length has forgotten the guess (the length
+    coalesces with the true one whenever both sit at ``lmax`` or ``lmin``). Writes the
+    length each piece had at its start and had after its end (:func:`_reconcile` then
+    checks the guesses).
+    """
+    for k in range(k_lo, k_hi):
         s0 = bounds[k]
         s1_ = bounds[k + 1]
         if s1_ <= s0:
@@ -305,20 +303,34 @@ def _controller(
             x, offset, p0, s1_, s0, L0, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test,
             use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
         )  # fmt: skip
-    last = start_length
-    if adapt:
-        last = -1
-        for k in range(n_segments):
-            s0 = bounds[k]
-            s1_ = bounds[k + 1]
-            if s1_ <= s0:
-                continue
-            if last >= 0 and start_state[k] != last:  # the guess did not coalesce: rerun
-                start_state[k], end_state[k] = _run(
-                    x, offset, s0, s1_, s0, last, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
-                    s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
-                )  # fmt: skip
-            last = end_state[k]
+
+
+@jit(error_model="numpy")
+def _reconcile(
+    x, offset, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and, adapt,
+    given, window, kurt, scoef, f1, f2, f, bounds, start_length, start_state, end_state,
+):  # fmt: skip  # pragma: no cover - compiled
+    """Check the speculative segments in order; returns the length after the last update.
+
+    A piece whose speculative length at its start differs from the length its predecessor
+    actually ended with is run again from the true length. Since the running sums restart
+    at every multiple of REANCHOR, a piece that starts from the true length reproduces the
+    sequential pass exactly.
+    """
+    if not adapt:
+        return start_length
+    last = -1
+    for k in range(bounds.size - 1):
+        s0 = bounds[k]
+        s1_ = bounds[k + 1]
+        if s1_ <= s0:
+            continue
+        if last >= 0 and start_state[k] != last:  # the guess did not coalesce: rerun
+            start_state[k], end_state[k] = _run(
+                x, offset, s0, s1_, s0, last, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
+                s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
+            )  # fmt: skip
+        last = end_state[k]
     return last
 
 
@@ -330,7 +342,7 @@ def _segments(n: int) -> int:
     """Pieces of the controller pass: a few per thread once the warm-up is cheap."""
     if n < 8 * WARM_UP:
         return 1
-    return int(min(4 * get_num_threads(), n // (4 * WARM_UP)))
+    return min(work_items(n), n // (4 * WARM_UP))
 
 
 def controller_outputs(m: int) -> tuple[np.ndarray, ...]:
@@ -417,14 +429,19 @@ class Controller:
         if given is None:
             given = np.zeros(1, dtype=np.int64)
         th = self.thresholds
-        # about eight inner steps per centre (moments, tests, the length update)
-        end = _controller.run(
-            8 * m, read_only(ext, np.float64), int(offset), m, self.lmax, self.lmin, th.k1,
-            th.k2, self.s1, th.s2, self.seg, self.dl0, self.dl1, _S_TEST_CODE[self.s_test],
+        n_segments = _segments(m) if segments is None else int(segments)
+        bounds = _segment_bounds(m, n_segments)
+        start_state = np.zeros(n_segments, dtype=np.int64)
+        end_state = np.zeros(n_segments, dtype=np.int64)
+        args = (
+            read_only(ext, np.float64), int(offset), self.lmax, self.lmin, th.k1, th.k2,
+            self.s1, th.s2, self.seg, self.dl0, self.dl1, _S_TEST_CODE[self.s_test],
             self.method != "kurtosis", self.combine == "and", self.adapts,
-            read_only(given, np.int64), *out,
-            _segments(m) if segments is None else int(segments), WARM_UP, int(start_length),
+            read_only(given, np.int64), *out, bounds,
         )  # fmt: skip
+        # about eight inner steps per centre (moments, tests, the length update)
+        _speculate.run(8 * m, n_segments, *args, WARM_UP, int(start_length), start_state, end_state)
+        end = _reconcile(*args, int(start_length), start_state, end_state)
         return out, int(end)
 
 

@@ -57,7 +57,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
+from adavar._jit import jit, read_only, threaded_jit, work_items
 from adavar._kernels.double_double import (
     dd_add,
     dd_div_d,
@@ -314,17 +314,18 @@ def _chunk_span(starts, lengths, c0, c1):  # pragma: no cover - compiled
     return lo, hi
 
 
-@parallel_jit
-def _sliding(y, starts, lengths, segment, chunk, workers, out):  # pragma: no cover - compiled
+@threaded_jit
+def _sliding(y, starts, lengths, segment, chunk, workers, out, w_lo, w_hi):  # pragma: no cover
     """Kurtosis (``segment == 0``) or the window-form contribution of every window.
 
     Window ``k`` holds ``y[starts[k] : starts[k] + lengths[k]]``; its complement for the
     contribution is the first ``lengths[k] - segment`` of them. Chunks of ``chunk`` centres
-    are dealt round-robin to ``workers`` work items, each with its own scratch.
+    are dealt round-robin to ``workers`` work items, each with its own scratch; this call
+    runs items ``w_lo .. w_hi - 1``.
     """
     nc = starts.size
     nch = (nc + chunk - 1) // chunk
-    for w in prange(workers):
+    for w in range(w_lo, w_hi):
         P = np.empty((1, 8))
         Q = np.empty((1, 8))
         R = np.empty(0, dtype=np.int64)
@@ -392,17 +393,14 @@ def _merge(na, ma, a2, a3, a4, nb, mb, b2, b3, b4):  # pragma: no cover - compil
     return n, mean, m2, m3, m4
 
 
-@parallel_jit
-def _grid_moments(x, anchor, scale, grid):  # pragma: no cover - compiled
-    """Moments of ``scale (x - anchor)`` over ``[0, g grid)`` and ``[g grid, N)`` for every g.
-
-    Rows are (count, mean, M2, M3, M4); each block is summed in two passes, the blocks are
-    then chained with :func:`_merge` (no subtraction of sums anywhere).
-    """
+@threaded_jit
+def _grid_blocks(x, anchor, scale, grid, per, blocks, p_lo, p_hi):  # pragma: no cover
+    """Moments (count, mean, M2, M3, M4) of ``scale (x - anchor)`` over each block of
+    ``grid`` samples, in two passes; work item ``p`` is blocks ``p per .. (p + 1) per - 1``,
+    and this call runs items ``p_lo .. p_hi - 1``."""
     n = x.size
-    nb = (n + grid - 1) // grid
-    blocks = np.zeros((nb, 5))
-    for b in prange(nb):
+    nb = blocks.shape[0]
+    for b in range(p_lo * per, min(p_hi * per, nb)):
         j0 = b * grid
         j1 = min(j0 + grid, n)
         s = 0.0
@@ -421,6 +419,13 @@ def _grid_moments(x, anchor, scale, grid):  # pragma: no cover - compiled
         blocks[b, 2] = m2
         blocks[b, 3] = m3
         blocks[b, 4] = m4
+
+
+@jit
+def _grid_chain(blocks):  # pragma: no cover - compiled
+    """Moments over ``[0, g grid)`` and ``[g grid, N)`` for every g: the blocks of
+    :func:`_grid_blocks` chained with :func:`_merge` (no subtraction of sums anywhere)."""
+    nb = blocks.shape[0]
     pre = np.zeros((nb + 1, 5))
     suf = np.zeros((nb + 1, 5))
     for b in range(nb):
@@ -476,7 +481,7 @@ def _piece(P, a, b, n, offset):  # pragma: no cover - compiled
     return float(n), offset + delta, m2, m3, m4
 
 
-@parallel_jit
+@threaded_jit
 def _record(
     x,
     a_arr,
@@ -491,8 +496,12 @@ def _record(
     kx,
     const,
     out,
+    w_lo,
+    w_hi,
 ):  # pragma: no cover - compiled
     """Record-form contribution: ``X = x``, ``s = x[a:b]``, ``c = x[:a] + x[b:]``.
+
+    Chunks and work items as in :func:`_sliding`.
 
     ``const = (f, g, ends_equal)``: first index whose value differs from ``x[0]``, last
     index whose value differs from ``x[-1]``, and whether ``x[0] == x[-1]``: the complement
@@ -502,7 +511,7 @@ def _record(
     nc = a_arr.size
     nch = (nc + chunk - 1) // chunk
     f_first, g_last, ends_equal = const[0], const[1], const[2]
-    for w in prange(workers):
+    for w in range(w_lo, w_hi):
         P = np.empty((1, 8))
         Q = np.empty((1, 8))
         R = np.empty(0, dtype=np.int64)
@@ -590,7 +599,7 @@ def _chunk(longest: int, step: int) -> int:
 
 
 def _workers(n_centres: int, chunk: int) -> int:
-    return int(max(1, min(get_num_threads(), -(-n_centres // chunk))))
+    return work_items(-(-n_centres // chunk))
 
 
 def _finish(centre: np.ndarray, values: np.ndarray, return_centres: bool):
@@ -653,7 +662,8 @@ def sliding_kurtosis(
     lengths = read_only(sched.length, np.int64)
     out = np.empty(starts.size)
     chunk = _chunk(int(lengths.max()), sched.step)
-    _sliding.run(y.size, y, starts, lengths, 0, chunk, _workers(starts.size, chunk), out)
+    workers = _workers(starts.size, chunk)
+    _sliding.run(y.size, workers, y, starts, lengths, 0, chunk, workers, out)
     return _finish(sched.centre, out, return_centres)
 
 
@@ -750,7 +760,7 @@ def kurtosis_contribution(
         seg = _as_segment(segment, int(lengths.min()))
         y = read_only(sched.extend(x), np.float64)
         starts = read_only(sched.start, np.int64)
-        _sliding.run(2 * y.size, y, starts, lengths, seg, chunk, workers, out)
+        _sliding.run(2 * y.size, workers, y, starts, lengths, seg, chunk, workers, out)
         return _finish(sched.centre, out, return_centres)
     if segment is not None:
         raise AdavarInputError(
@@ -770,9 +780,14 @@ def kurtosis_contribution(
     big = float(np.max(np.abs(x - anchor)))
     scale = _power_of_two_scale(big)
     x = read_only(x, np.float64)
-    pre, suf = _grid_moments.run(2 * x.size, x, anchor, scale, _GRID)
+    blocks = np.zeros((-(-x.size // _GRID), 5))
+    per = -(-blocks.shape[0] // work_items(blocks.shape[0]))
+    _grid_blocks.run(2 * x.size, -(-blocks.shape[0] // per), x, anchor, scale, _GRID, per, blocks)
+    pre, suf = _grid_chain(blocks)
     kx = pre[-1, 0] * pre[-1, 4] / pre[-1, 2] ** 2
     const = read_only(np.array([first, last, int(x[0] == x[-1])], dtype=np.int64))
     work = 2 * x.size + 8 * a.size
-    _record.run(work, x, a, b, chunk, workers, anchor, scale, pre, suf, _GRID, kx, const, out)
+    _record.run(
+        work, workers, x, a, b, chunk, workers, anchor, scale, pre, suf, _GRID, kx, const, out
+    )
     return _finish(sched.centre, out, return_centres)

@@ -93,8 +93,8 @@ from typing import Any
 import numpy as np
 
 from adavar import gls_fit
-from adavar._jit import SERIAL_WORK, get_num_threads, read_only
-from adavar._nnls import PARALLEL_MIN, nnls_parallel, nnls_serial, subsets
+from adavar._jit import read_only
+from adavar._nnls import BLOCK, PARALLEL_MIN, nnls_blocks, subsets
 from adavar.errors import AdavarInputError
 from adavar.results import ADEQUATE_P, DavarResult, NoiseFit, NoiseTerm
 from adavar.slopes import SlopeReadoff, read_slopes
@@ -619,13 +619,8 @@ def _fit(
     chi2 = np.empty(n_curves)
     npts = np.empty(n_curves, dtype=np.int64)
     neff = np.empty(n_curves)  # valid points, each counted by its octave share
-    # one thread set (a short record's comparison, ADAVAR_THREADS=1) or a few ms of work
-    # (about 25 ns per curve and tau): the serial kernel, so the parallel one (5 s to
-    # compile on a first run) is compiled only for stacks that gain from it
-    parallel = (
-        n_curves >= PARALLEL_MIN and n_curves * n_tau >= SERIAL_WORK and get_num_threads() > 1
-    )
-    kernel = nnls_parallel if parallel else nnls_serial
+    # a few ms of work (about 25 ns per curve and tau) run on the calling thread
+    work = n_curves * n_tau if n_curves >= PARALLEL_MIN else 0
     cells = cells or not lead
     used = np.empty((n_curves, n_tau), dtype=bool) if cells else None
     resid = np.empty((n_curves, n_tau)) if cells else None
@@ -644,8 +639,9 @@ def _fit(
         # inputs as read-only views: one compiled version whether a caller's array is
         # writable or not (a broadcast EDF row is read-only, a stacked one is not); each
         # curve is fitted on its own, so blocks give the numbers of one call
-        kernel(
-            read_only(phi, np.float64), read_only(a2b, np.float64), read_only(e2b, np.float64),
+        nnls_blocks.run(
+            work, -(-(b - a) // BLOCK), read_only(phi, np.float64),
+            read_only(a2b, np.float64), read_only(e2b, np.float64),
             n_reweight, read_only(sub_idx), read_only(sub_size), read_only(order),
             read_only(sel), read_only(tau_ref ** (-powers.astype(float)), np.float64),
             weighted, read_only(share, np.float64), coefficients[a:b], coef_sig[a:b],

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from adavar import differences as diff
-from adavar._jit import jit, parallel_jit, prange
+from adavar._jit import jit, threaded_jit, work_items
 from adavar._kernels.double_double import dd_add, two_sum
 from adavar.differences import anchor_combo, segment_end
 from adavar.stream import DEFAULT_CHUNK, ChunkedSource, read_extended
@@ -105,21 +105,34 @@ def _advance(u, u_first, p, q, shift, s, c, out, out_first):  # pragma: no cover
     return s, c
 
 
-@parallel_jit
-def _advance_blocks(u, u_first, p, q, shift, s, c, out, out_first):  # pragma: no cover
-    """:func:`_advance` with the whole blocks in parallel (each restarts at its start)."""
+@threaded_jit
+def _advance_blocks(
+    u, u_first, head, q, shift, out, out_first, per, fs, fc, k_lo, k_hi
+):  # pragma: no cover - compiled
+    """:func:`_advance` over whole blocks from ``head``, each restarting at its start.
+
+    Work item ``k`` is blocks ``k per .. (k + 1) per - 1``; this call runs items
+    ``k_lo .. k_hi - 1`` and writes each block's final state into ``fs``, ``fc``.
+    """
+    for b in range(k_lo * per, min(k_hi * per, fs.size)):
+        j0 = head + (b << SHIFT)
+        fs[b], fc[b] = _advance(u, u_first, j0, min(j0 + BLOCK, q), shift, 0.0, 0.0, out, out_first)
+
+
+def _advance_in_threads(u, u_first, p, q, shift, s, c, out, out_first):
+    """:func:`_advance` with the whole blocks on several threads."""
     head = min(q, ((p + _MASK) >> SHIFT) << SHIFT)
     s, c = _advance(u, u_first, p, head, shift, s, c, out, out_first)
     nb = (q - head + _MASK) >> SHIFT
+    if nb == 0:
+        return s, c
     fs = np.empty(nb)
     fc = np.empty(nb)
-    for k in prange(nb):
-        j0 = head + (k << SHIFT)
-        fs[k], fc[k] = _advance(u, u_first, j0, min(j0 + BLOCK, q), shift, 0.0, 0.0, out, out_first)
-    if nb > 0:
-        s = fs[nb - 1]
-        c = fc[nb - 1]
-    return s, c
+    per = max(16, -(-nb // work_items(nb)))  # items of at least 16 blocks
+    _advance_blocks.run(
+        q - head, -(-nb // per), u, u_first, head, q, shift, out, out_first, per, fs, fc
+    )
+    return float(fs[-1]), float(fc[-1])
 
 
 class StreamedPhase:
@@ -232,7 +245,7 @@ class _Window:
             u = ph.source.read(u_first, hi - 1) if hi - 1 > u_first else np.empty(0)
             args = (u, u_first, self.p, hi, ph.shift, self.s, self.c, self.buf, lo)
             if hi - self.p >= _PARALLEL_MIN:
-                self.s, self.c = _advance_blocks.run(hi - self.p, *args)
+                self.s, self.c = _advance_in_threads(*args)
             else:
                 self.s, self.c = _advance(*args)
             self.p = hi
@@ -300,17 +313,17 @@ def _sq_sum(x0, x1, x2, x3, lo, hi, m, hh, hl, coefs):  # pragma: no cover - com
     return _sq_range(x0, x1, x2, x3, lo, hi, 0, hi - lo, m, hh, hl, coefs)
 
 
-@parallel_jit
-def _sq_sum_parallel(x0, x1, x2, x3, lo, hi, m, hh, hl, coefs):  # pragma: no cover - compiled
+@threaded_jit
+def _sq_partials(
+    x0, x1, x2, x3, lo, hi, m, hh, hl, coefs, partial, sb_lo, sb_hi
+):  # pragma: no cover - compiled
+    """:func:`_sq_sum` of superblocks ``sb_lo .. sb_hi - 1`` into ``partial``."""
     n = hi - lo
-    nsb = (n + _SUPERBLOCK - 1) // _SUPERBLOCK
-    partial = np.zeros(nsb)
-    for sb in prange(nsb):
+    for sb in range(sb_lo, sb_hi):
         q0 = sb * _SUPERBLOCK
         partial[sb] = _sq_range(
             x0, x1, x2, x3, lo, hi, q0, min(q0 + _SUPERBLOCK, n), m, hh, hl, coefs
         )
-    return np.sum(partial)
 
 
 @jit
@@ -329,7 +342,12 @@ def _squares(xs, lo, hi, m, phase, coefs) -> float:
     x3 = xs[3] if len(xs) > 3 else xs[2]
     args = (xs[0], xs[1], xs[2], x3, lo, hi, m, phase.hh, phase.hl, coefs)
     if hi - lo >= _PARALLEL_MIN:
-        return float(_sq_sum_parallel.run(hi - lo, *args))
+        partial = np.zeros(-(-(hi - lo) // _SUPERBLOCK))
+        _sq_partials.run(hi - lo, partial.size, *args, partial)
+        total = 0.0
+        for value in partial.tolist():  # in order, whichever thread summed which part
+            total += value
+        return total
     return float(_sq_sum(*args))
 
 

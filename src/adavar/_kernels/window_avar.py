@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
+from adavar._jit import jit, read_only, threaded_jit, work_items
 from adavar._kernels.double_double import two_sum
 
 __all__ = [
@@ -302,9 +302,9 @@ def _window_chunk(
     return work
 
 
-@parallel_jit
+@threaded_jit
 def window_avar_kernel(
-    u, ms, centres, lengths, offset, chunk, workers, scale, out
+    u, ms, centres, lengths, offset, chunk, workers, scale, out, w_lo, w_hi
 ):  # fmt: skip  # pragma: no cover - compiled
     """Overlapping Allan variance of every window at every averaging factor.
 
@@ -312,12 +312,13 @@ def window_avar_kernel(
     ``a = centres[c] - (lengths[c] - 1) // 2 + offset``; at factor ``m`` it sums
     ``d_m[i]**2`` for ``n = L - 2m + 1`` starts ``i``, times ``scale / (2 m**2 n)``. The
     windows are cut into chunks of ``chunk`` consecutive centres, dealt round-robin to
-    ``workers`` work items (the scratch is allocated once per worker: fresh pages for every
-    chunk cost more than the arithmetic). Cells with ``3m > L`` are NaN.
+    ``workers`` work items, of which this call runs ``w_lo .. w_hi - 1`` (the scratch is
+    allocated once per item: fresh pages for every chunk cost more than the arithmetic).
+    Cells with ``3m > L`` are NaN.
     """
     nc = centres.size
     nch = (nc + chunk - 1) // chunk
-    for w in prange(workers):
+    for w in range(w_lo, w_hi):
         work = np.empty((_ROWS, 1))
         tmp = np.empty(MEDIAN_SAMPLES)
         for ch in range(w, nch, workers):
@@ -372,7 +373,7 @@ def prepare_windows(
     elif out.shape != (nc, nt):
         raise ValueError("internal: the output has the wrong shape")
     chunk = int(max(chunk, 1))
-    workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
+    workers = work_items(-(-nc // chunk))
     return u, ms, centres, lengths, out, chunk, workers, span
 
 
@@ -420,6 +421,7 @@ def window_avar(
     if centres.size:
         work = span * ms.size  # one term per sample of the windows' union, per m
         window_avar_kernel.run(
-            work, u, ms, centres, lengths, int(offset), chunk, workers, float(scale), out
-        )
+            work, workers, u, ms, centres, lengths, int(offset), chunk, workers, float(scale),
+            out,
+        )  # fmt: skip
     return out

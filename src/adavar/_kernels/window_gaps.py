@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import get_num_threads, jit, parallel_jit, prange, read_only
+from adavar._jit import jit, read_only, threaded_jit, work_items
 from adavar._kernels.window_avar import (
     MEDIAN_SAMPLES,
     _fill_differences,
@@ -229,19 +229,20 @@ def _window_chunk(
     return work, kc
 
 
-@parallel_jit
+@threaded_jit
 def window_gaps_kernel(
-    u, ms, ws, centres, lengths, offset, chunk, workers, kind, scale, cnt, pm, out, kept
+    u, ms, ws, centres, lengths, offset, chunk, workers, kind, scale, cnt, pm, out, kept,
+    w_lo, w_hi,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Kept-term variance of every window at every averaging factor (module notes).
 
-    Windows and chunks as in ``window_avar_kernel``; ``ws[t]`` is the keep test's window
+    Windows, chunks and work items as in ``window_avar_kernel``; ``ws[t]`` is the keep test's window
     at ``ms[t]`` (0: the missing-point test). Writes ``out`` (NaN where ``3m > L`` or no
     term is kept) and ``kept`` (the kept term counts).
     """
     nc = centres.size
     nch = (nc + chunk - 1) // chunk
-    for w in prange(workers):
+    for w in range(w_lo, w_hi):
         work = np.empty((_ROWS, 1))
         kc = np.empty(2, dtype=np.int64)
         tmp = np.empty(MEDIAN_SAMPLES)
@@ -318,10 +319,10 @@ def window_gaps(
     if first < 0 or stop > u.size or cnt.size < u.size + 2 or pm.size < u.size + 1:
         raise ValueError("internal: a window runs past the data or its gap layout")
     chunk = int(max(chunk, 1))
-    workers = int(min(get_num_threads(), max(1, -(-nc // chunk))))
+    workers = work_items(-(-nc // chunk))
     work = max(nc, stop - first) * nt * (2 if kind == MVAR else 1)
     window_gaps_kernel.run(
-        work, u, ms, ws, centres, lengths, int(offset), chunk, workers, int(kind),
+        work, workers, u, ms, ws, centres, lengths, int(offset), chunk, workers, int(kind),
         float(scale), cnt, pm, out, kept,
     )  # fmt: skip
     return out, kept

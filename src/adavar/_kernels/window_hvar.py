@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit, parallel_jit, prange
+from adavar._jit import jit, threaded_jit
 from adavar._kernels.double_double import two_sum
 from adavar._kernels.window_avar import (
     MEDIAN_SAMPLES,
@@ -272,20 +272,21 @@ def _window_chunk(
     return work
 
 
-@parallel_jit
+@threaded_jit
 def window_hvar_kernel(
-    u, ms, centres, lengths, offset, chunk, workers, kind, scale, out
+    u, ms, centres, lengths, offset, chunk, workers, kind, scale, out, w_lo, w_hi
 ):  # fmt: skip  # pragma: no cover - compiled
     """Overlapping Hadamard (``kind = OHVAR``) or modified Allan (``MVAR``) variance of
     every window at every averaging factor.
 
     Windows as in ``window_avar_kernel``: window ``c`` covers ``u[a : a + lengths[c]]``,
     ``a = centres[c] - (lengths[c] - 1) // 2 + offset``; chunks of ``chunk`` consecutive
-    centres are dealt round-robin to ``workers`` work items. Cells with ``3m > L`` are NaN.
+    centres are dealt round-robin to ``workers`` work items, of which this call runs
+    ``w_lo .. w_hi - 1``. Cells with ``3m > L`` are NaN.
     """
     nc = centres.size
     nch = (nc + chunk - 1) // chunk
-    for w in prange(workers):
+    for w in range(w_lo, w_hi):
         work = np.empty((_ROWS, 1))
         tmp = np.empty(MEDIAN_SAMPLES)
         for ch in range(w, nch, workers):
@@ -339,7 +340,7 @@ def window_hvar(
         # the moving sums cost about twice a third difference per sample
         work = span * ms.size * (2 if kind == MVAR else 1)
         window_hvar_kernel.run(
-            work, u, ms, centres, lengths, int(offset), chunk, workers, int(kind),
+            work, workers, u, ms, centres, lengths, int(offset), chunk, workers, int(kind),
             float(scale), out,
         )  # fmt: skip
     return out
