@@ -13,7 +13,7 @@ import numpy as np
 from adavar._jit import jit, threaded_jit
 
 _PIVOT_TOL = 1e-13  # smallest Cholesky pivot of an equilibrated normal matrix
-BLOCK = 256  # curves per work item of nnls_blocks
+BLOCK = 256  # curves per block of nnls_blocks
 PARALLEL_MIN = 1024  # smaller stacks run on the calling thread (no thread start-up cost)
 
 # --------------------------------------------------------------------------------------
@@ -324,9 +324,11 @@ def _fit_curve(
 @threaded_jit
 def nnls_blocks(
     phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted, share,
-    coef, coef_sig, chi2, npts, neff, blk_lo, blk_hi,
+    coef, coef_sig, chi2, npts, neff, per, k_lo, k_hi,
 ):  # fmt: skip  # pragma: no cover - compiled
-    """:func:`_fit_curve` over the rows of blocks ``blk_lo .. blk_hi - 1`` of ``BLOCK`` rows.
+    """:func:`_fit_curve` over the rows of work items ``k_lo .. k_hi - 1``.
+
+    Work item ``k`` is blocks ``k per .. (k + 1) per - 1`` of :data:`BLOCK` rows.
 
     Each curve is fitted on its own (the hints change the order in which active sets are
     tried, never the optimum), so the rows come out the same whichever thread fits which
@@ -346,7 +348,7 @@ def nnls_blocks(
     xcur = np.empty(n_terms)
     dg = np.empty(n_terms)
     hints = np.zeros(n_reweight + 1, dtype=np.int64)
-    for i in range(blk_lo * BLOCK, min(blk_hi * BLOCK, n_curves)):
+    for i in range(k_lo * per * BLOCK, min(k_hi * per * BLOCK, n_curves)):
         _fit_curve(
             i, phi, avar, edf, n_reweight, sub_idx, sub_size, order, sel, unscale, weighted,
             share, coef, coef_sig, chi2, npts, neff, w, ref, ok, G, h, L, dsc, x, best_x, xcur,

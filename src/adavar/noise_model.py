@@ -93,7 +93,7 @@ from typing import Any
 import numpy as np
 
 from adavar import gls_fit
-from adavar._jit import read_only
+from adavar._jit import read_only, work_items
 from adavar._nnls import BLOCK, PARALLEL_MIN, nnls_blocks, subsets
 from adavar.errors import AdavarInputError
 from adavar.results import ADEQUATE_P, DavarResult, NoiseFit, NoiseTerm
@@ -639,13 +639,15 @@ def _fit(
         # inputs as read-only views: one compiled version whether a caller's array is
         # writable or not (a broadcast EDF row is read-only, a stacked one is not); each
         # curve is fitted on its own, so blocks give the numbers of one call
+        blocks = -(-(b - a) // BLOCK)
+        per = -(-blocks // work_items(blocks))
         nnls_blocks.run(
-            work, -(-(b - a) // BLOCK), read_only(phi, np.float64),
+            work, -(-blocks // per), read_only(phi, np.float64),
             read_only(a2b, np.float64), read_only(e2b, np.float64),
             n_reweight, read_only(sub_idx), read_only(sub_size), read_only(order),
             read_only(sel), read_only(tau_ref ** (-powers.astype(float)), np.float64),
             weighted, read_only(share, np.float64), coefficients[a:b], coef_sig[a:b],
-            chi2[a:b], npts[a:b], neff[a:b],
+            chi2[a:b], npts[a:b], neff[a:b], per,
         )  # fmt: skip
         if used is not None and resid is not None:
             _cell_outputs(a, a2b, e2b, coefficients, basis, share, used, resid)
