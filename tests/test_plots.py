@@ -317,10 +317,18 @@ def _envelope_reference(y: np.ndarray, bins: int) -> np.ndarray:
         min_size=1,
         max_size=200,
     ),
+    st.integers(1, 60),
 )
-def test_envelope_keeps_each_runs_extremes(bins, values):
+def test_envelope_keeps_each_runs_extremes(bins, values, block):
+    from adavar import _figures
+
     y = np.array(values, dtype=float)
-    at = envelope(y, bins)
+    saved = _figures.ENVELOPE_BLOCK
+    _figures.ENVELOPE_BLOCK = block  # runs read a block at a time: any block size
+    try:
+        at = envelope(y, bins)
+    finally:
+        _figures.ENVELOPE_BLOCK = saved
     np.testing.assert_array_equal(at, _envelope_reference(y, bins))
     finite = y[np.isfinite(y)]
     if y.size > 4 * bins and finite.size:  # the axes' limits: the whole line's

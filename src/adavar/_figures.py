@@ -141,6 +141,8 @@ def run_ends(values: np.ndarray, step: bool = False) -> np.ndarray:
 
 #: a line of more points than four times this is drawn as its envelope (:func:`envelope`)
 ENVELOPE_BINS = 4096
+#: points :func:`envelope` reads at a time
+ENVELOPE_BLOCK = 1 << 16
 
 
 def envelope(y: Any, bins: int = ENVELOPE_BINS) -> np.ndarray:
@@ -160,15 +162,22 @@ def envelope(y: Any, bins: int = ENVELOPE_BINS) -> np.ndarray:
         return np.arange(n)
     width = -(-n // bins)
     bins = -(-n // width)
-    padded = np.full(bins * width, np.nan)
-    padded[:n] = v
-    runs = padded.reshape(bins, width)
-    finite = np.isfinite(runs)
-    lo = np.where(finite, runs, np.inf).argmin(axis=1)
-    hi = np.where(finite, runs, -np.inf).argmax(axis=1)
-    start = np.arange(bins) * width
-    empty = ~finite.any(axis=1)
-    lo[empty] = hi[empty] = 0  # the run's first point: its NaN is the gap
-    at = np.concatenate([[0], np.sort(np.stack([lo, hi], axis=1), axis=1).ravel()
-                         + np.repeat(start, 2), [n - 1]])  # fmt: skip
-    return np.unique(at)
+    # a block of runs at a time: the temporaries (a padded copy, masks) stay at a few
+    # hundred kB whatever the line's length, not four copies of it
+    per_block = max(1, ENVELOPE_BLOCK // width)
+    pairs = [np.zeros(1, dtype=np.int64)]
+    for r0 in range(0, bins, per_block):
+        r1 = min(bins, r0 + per_block)
+        a, b = r0 * width, min(r1 * width, n)
+        padded = np.full((r1 - r0) * width, np.nan)
+        padded[: b - a] = v[a:b]
+        runs = padded.reshape(r1 - r0, width)
+        finite = np.isfinite(runs)
+        lo = np.where(finite, runs, np.inf).argmin(axis=1)
+        hi = np.where(finite, runs, -np.inf).argmax(axis=1)
+        empty = ~finite.any(axis=1)
+        lo[empty] = hi[empty] = 0  # the run's first point: its NaN is the gap
+        start = np.arange(r0, r1) * width
+        pairs.append(np.sort(np.stack([lo, hi], axis=1), axis=1).ravel() + np.repeat(start, 2))
+    pairs.append(np.array([n - 1], dtype=np.int64))
+    return np.unique(np.concatenate(pairs))

@@ -767,17 +767,21 @@ def kurtosis_contribution(
             "segment is only used with reference='window'; with reference='record' the "
             "segment is the window itself: drop segment"
         )
-    start = sched.centre - (lengths - 1) // 2
-    a = read_only(np.clip(start, 0, x.size), np.int64)
-    b = read_only(np.clip(start + lengths, 0, x.size), np.int64)
-    differs = np.flatnonzero(x != x[0])
-    if differs.size == 0:  # a constant record has no kurtosis
+    # in place: each array of the record's length costs its size again (a long record)
+    a = sched.centre - (lengths - 1) // 2
+    b = a + lengths
+    a = read_only(np.clip(a, 0, x.size, out=a), np.int64)
+    b = read_only(np.clip(b, 0, x.size, out=b), np.int64)
+    differs = x != x[0]
+    if not differs.any():  # a constant record has no kurtosis
         out[:] = np.nan
         return _finish(sched.centre, out, return_centres)
-    first = int(differs[0])
-    last = int(np.flatnonzero(x != x[-1])[-1])
+    first = int(differs.argmax())
+    del differs
+    last = x.size - 1 - int((x[::-1] != x[-1]).argmax())
     anchor = float(np.median(x[:: max(1, x.size // _ANCHOR_SAMPLES)]))
-    big = float(np.max(np.abs(x - anchor)))
+    # max |x - anchor|, each difference rounded as it would be (rounding is monotonic)
+    big = max(abs(float(x.max()) - anchor), abs(anchor - float(x.min())))
     scale = _power_of_two_scale(big)
     x = read_only(x, np.float64)
     blocks = np.zeros((-(-x.size // _GRID), 5))
