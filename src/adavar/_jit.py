@@ -204,7 +204,7 @@ class ThreadedKernel:
 
     def __init__(self, func, kwargs):
         self.py_func = func
-        # a parallel region divided as NumPy does (inf/nan, no exception): so does this
+        # divisions as NumPy's (inf/nan, no exception), as the parfors versions had them
         self.kernel = jit(nogil=True, **{"error_model": "numpy", **kwargs})(func)
         self.__doc__ = func.__doc__
         self.__name__ = func.__name__
