@@ -195,3 +195,28 @@ def _child_sum(items):
     out = np.zeros(items)
     _count_items.run(1, items, out, -1)
     return int(out.sum())
+
+
+def test_ctrl_c_in_the_calling_thread_stops_the_other_threads(force):
+    import _thread
+    import threading
+    import time
+
+    force("parallel")
+    out = np.zeros(200)
+
+    def slow(out, lo, hi):  # a Python stand-in for a compiled kernel (sleeps without the GIL)
+        for w in range(lo, hi):
+            time.sleep(0.01)
+            out[w] += 1
+
+    kernel = object.__new__(_jit.ThreadedKernel)
+    kernel.kernel = slow
+    threading.Timer(0.1, _thread.interrupt_main).start()
+    with pytest.raises(KeyboardInterrupt):
+        kernel.run(1, out.size, out)
+    time.sleep(0.05)  # an item that was running when the interrupt came finishes
+    done = out.sum()
+    time.sleep(0.1)
+    assert out.sum() == done < out.size  # and no thread starts another one
+    assert set(np.unique(out)) <= {0.0, 1.0}

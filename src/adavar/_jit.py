@@ -150,6 +150,12 @@ class _Parts:
         self.next = self.done = 0
         self.error: BaseException | None = None
 
+    def stop(self, exc: BaseException) -> None:
+        """Start no further item (the items running finish)."""
+        with self.lock:
+            self.error = self.error or exc
+            self.finished.set()
+
     def work(self) -> None:
         while True:
             with self.lock:
@@ -160,9 +166,7 @@ class _Parts:
             try:
                 self.kernel(*self.args, k, k + 1)
             except BaseException as exc:  # re-raised by the calling thread
-                with self.lock:
-                    self.error = self.error or exc
-                    self.finished.set()
+                self.stop(exc)
                 return
             with self.lock:
                 self.done += 1
@@ -225,8 +229,12 @@ class ThreadedKernel:
         pool = _pool(threads - 1)
         for _ in range(threads - 1):
             pool.submit(parts.work)
-        parts.work()
-        parts.finished.wait()
+        try:
+            parts.work()
+            parts.finished.wait()
+        except BaseException as exc:  # Ctrl-C: the other threads start no further item
+            parts.stop(exc)
+            raise
         if parts.error is not None:
             raise parts.error
 
