@@ -199,6 +199,7 @@ def _child_sum(items):
 
 def test_ctrl_c_in_the_calling_thread_stops_the_other_threads(force):
     import _thread
+    import signal
     import threading
     import time
 
@@ -212,9 +213,15 @@ def test_ctrl_c_in_the_calling_thread_stops_the_other_threads(force):
 
     kernel = object.__new__(_jit.ThreadedKernel)
     kernel.kernel = slow
-    threading.Timer(0.1, _thread.interrupt_main).start()
-    with pytest.raises(KeyboardInterrupt):
-        kernel.run(1, out.size, out)
+    # a run started in the background ignores SIGINT (and then interrupt_main does nothing):
+    # Python's own handler, as a terminal's Ctrl-C finds it
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        threading.Timer(0.1, _thread.interrupt_main).start()
+        with pytest.raises(KeyboardInterrupt):
+            kernel.run(1, out.size, out)
+    finally:
+        signal.signal(signal.SIGINT, previous)
     time.sleep(0.05)  # an item that was running when the interrupt came finishes
     done = out.sum()
     time.sleep(0.1)
