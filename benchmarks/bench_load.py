@@ -195,8 +195,10 @@ def _kernel_times(max_n: int) -> dict[int, tuple[float, float]]:
     return out
 
 
-def kernels(max_n: int) -> list[str]:
-    lines = []
+def _in_four_settings(call: str) -> dict[tuple[str, str | None], object]:
+    """``bench_load.<call>`` in a fresh process, quiet and with another process spinning on
+    one core, on Numba's default threads and on one; its printed result per setting."""
+    results = {}
     for label, busy in (("quiet", False), ("one core busy", True)):
         for threads in (None, "1"):
             env = dict(os.environ)
@@ -207,18 +209,24 @@ def kernels(max_n: int) -> list[str]:
             if spinner:
                 spinner.start()
             code = (f"import sys; sys.path.insert(0, {os.path.dirname(__file__)!r});"
-                    f"import bench_load as b; print(b._kernel_times({max_n}))")  # fmt: skip
+                    f"import bench_load as b; print(b.{call})")  # fmt: skip
             done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                                   env=env, check=True)  # fmt: skip
             if spinner:
                 stop.set()
                 spinner.join()
-            times = eval(done.stdout.strip().splitlines()[-1])  # our own output
-            for n, (ours, peer) in times.items():
-                ratio = f"peer/adavar {peer / ours:.2f}" if np.isfinite(peer) else "-"
-                lines.append(f"| deviation (with intervals), N = {n:.0e}, {label}, threads "
-                             f"{threads or 'default'} | {1e3 * ours:.3g} ms | allantools.oadev "
-                             f"(no intervals) {1e3 * peer:.3g} ms: {ratio} |")  # fmt: skip
+            results[label, threads] = eval(done.stdout.strip().splitlines()[-1])  # our own
+    return results
+
+
+def kernels(max_n: int) -> list[str]:
+    lines = []
+    for (label, threads), times in _in_four_settings(f"_kernel_times({max_n})").items():
+        for n, (ours, peer) in times.items():
+            ratio = f"peer/adavar {peer / ours:.2f}" if np.isfinite(peer) else "-"
+            lines.append(f"| deviation (with intervals), N = {n:.0e}, {label}, threads "
+                         f"{threads or 'default'} | {1e3 * ours:.3g} ms | allantools.oadev "
+                         f"(no intervals) {1e3 * peer:.3g} ms: {ratio} |")  # fmt: skip
     return lines
 
 
@@ -303,24 +311,7 @@ def first_run_large() -> list[str]:
 
 def threaded() -> list[str]:
     """The threaded kernels quiet and with one core busy, default threads and one."""
-    times = {}
-    for label, busy in (("quiet", False), ("one core busy", True)):
-        for threads in (None, "1"):
-            env = dict(os.environ)
-            if threads:
-                env["ADAVAR_THREADS"] = threads
-            stop = mp.Event()
-            spinner = mp.Process(target=_spin, args=(stop,)) if busy else None
-            if spinner:
-                spinner.start()
-            code = (f"import sys; sys.path.insert(0, {os.path.dirname(__file__)!r});"
-                    f"import bench_load as b; print(b._threaded_times())")  # fmt: skip
-            done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                                  env=env, check=True)  # fmt: skip
-            if spinner:
-                stop.set()
-                spinner.join()
-            times[label, threads] = eval(done.stdout.strip().splitlines()[-1])  # our own
+    times = _in_four_settings("_threaded_times()")
     lines = []
     for name in times["quiet", None]:
         q2, q1 = times["quiet", None][name], times["quiet", "1"][name]
