@@ -324,6 +324,17 @@ def chromium_command(browser: str, page: Path, profile: Path) -> list[str]:
     ]  # fmt: skip
 
 
+def _run_chromium(
+    browser: str, page: Path, folder: Path, profile: str, *, timeout: float
+) -> subprocess.CompletedProcess:
+    """Headless ``browser`` on ``page`` (its profile and HOME in ``folder``)."""
+    return subprocess.run(
+        chromium_command(browser, page, folder / profile),
+        capture_output=True, text=True, timeout=timeout, check=False,
+        env={**os.environ, "HOME": str(folder)},
+    )  # fmt: skip
+
+
 #: Problem starting each browser (None: it starts), checked once per test session.
 _START_PROBLEMS: dict[str, str | None] = {}
 
@@ -334,11 +345,7 @@ def _start_problem(browser: str, folder: Path) -> str | None:
         page = folder / "start.html"
         page.write_text('<!DOCTYPE html><p id="adavar-start">ok</p>\n', encoding="utf-8")
         try:
-            run = subprocess.run(
-                chromium_command(browser, page, folder / "start-profile"),
-                capture_output=True, text=True, timeout=60, check=False,
-                env={**os.environ, "HOME": str(folder)},
-            )  # fmt: skip
+            run = _run_chromium(browser, page, folder, "start-profile", timeout=60)
         except (OSError, subprocess.TimeoutExpired) as exc:
             problem: str | None = f"{type(exc).__name__}: {exc}"
         else:
@@ -379,11 +386,7 @@ def render_in_chromium(document: str, folder: Path, n_plots: int) -> str:
     head = document.index("<head>") + len("<head>")
     write_report(page, document[:head] + _PROBE + document[head:])
     try:
-        run = subprocess.run(
-            chromium_command(browser, page, folder / "profile"),
-            capture_output=True, text=True, timeout=120, check=False,
-            env={**os.environ, "HOME": str(folder)},
-        )  # fmt: skip
+        run = _run_chromium(browser, page, folder, "profile", timeout=120)
     except (OSError, subprocess.TimeoutExpired):
         chromium_or_skip(folder)  # a browser that does not start at all: skip (or fail)
         raise  # it starts: this page hung it
