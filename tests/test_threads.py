@@ -227,3 +227,11 @@ def test_ctrl_c_in_the_calling_thread_stops_the_other_threads(force):
     time.sleep(0.1)
     assert out.sum() == done < out.size  # and no thread starts another one
     assert set(np.unique(out)) <= {0.0, 1.0}
+
+
+@pytest.mark.parametrize("least", [1, 16])
+def test_grouped_items_cover_every_unit_once(least):
+    for units in range(1, 300):
+        per, items = _jit.grouped_items(units, least)
+        assert per >= least and items <= max(1, _jit.work_items(units))
+        assert per * (items - 1) < units <= per * items  # no empty item, none missing

@@ -39,6 +39,7 @@ __all__ = [
     "ThreadedKernel",
     "compilations",
     "get_num_threads",
+    "grouped_items",
     "jit",
     "prange",
     "read_only",
@@ -136,6 +137,13 @@ ITEMS_PER_THREAD = 4
 def work_items(units: int) -> int:
     """Work items for ``units`` indivisible units of work (at least 1)."""
     return int(max(1, min(ITEMS_PER_THREAD * numba.get_num_threads(), units)))
+
+
+def grouped_items(units: int, least: int = 1) -> tuple[int, int]:
+    """``(per, items)``: :func:`work_items` of ``units`` consecutive units, ``per`` units
+    each (at least ``least``; the last item may hold fewer)."""
+    per = max(int(least), -(-units // work_items(units)))
+    return per, -(-units // per)
 
 
 class _Parts:

@@ -57,7 +57,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar._jit import jit, read_only, threaded_jit, work_items
+from adavar._jit import grouped_items, jit, read_only, threaded_jit, work_items
 from adavar._kernels.double_double import (
     dd_add,
     dd_div_d,
@@ -785,8 +785,8 @@ def kurtosis_contribution(
     scale = _power_of_two_scale(big)
     x = read_only(x, np.float64)
     blocks = np.zeros((-(-x.size // _GRID), 5))
-    per = -(-blocks.shape[0] // work_items(blocks.shape[0]))
-    _grid_blocks.run(2 * x.size, -(-blocks.shape[0] // per), x, anchor, scale, _GRID, per, blocks)
+    per, items = grouped_items(blocks.shape[0])
+    _grid_blocks.run(2 * x.size, items, x, anchor, scale, _GRID, per, blocks)
     pre, suf = _grid_chain(blocks)
     kx = pre[-1, 0] * pre[-1, 4] / pre[-1, 2] ** 2
     const = read_only(np.array([first, last, int(x[0] == x[-1])], dtype=np.int64))

@@ -93,7 +93,7 @@ from typing import Any
 import numpy as np
 
 from adavar import gls_fit
-from adavar._jit import read_only, work_items
+from adavar._jit import grouped_items, read_only
 from adavar._nnls import BLOCK, PARALLEL_MIN, nnls_blocks, subsets
 from adavar.errors import AdavarInputError
 from adavar.results import ADEQUATE_P, DavarResult, NoiseFit, NoiseTerm
@@ -639,10 +639,9 @@ def _fit(
         # inputs as read-only views: one compiled version whether a caller's array is
         # writable or not (a broadcast EDF row is read-only, a stacked one is not); each
         # curve is fitted on its own, so blocks give the numbers of one call
-        blocks = -(-(b - a) // BLOCK)
-        per = -(-blocks // work_items(blocks))
+        per, items = grouped_items(-(-(b - a) // BLOCK))
         nnls_blocks.run(
-            work, -(-blocks // per), read_only(phi, np.float64),
+            work, items, read_only(phi, np.float64),
             read_only(a2b, np.float64), read_only(e2b, np.float64),
             n_reweight, read_only(sub_idx), read_only(sub_size), read_only(order),
             read_only(sel), read_only(tau_ref ** (-powers.astype(float)), np.float64),

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from adavar import differences as diff
-from adavar._jit import jit, threaded_jit, work_items
+from adavar._jit import grouped_items, jit, threaded_jit
 from adavar._kernels.double_double import dd_add, two_sum
 from adavar.differences import anchor_combo, segment_end
 from adavar.stream import DEFAULT_CHUNK, ChunkedSource, read_extended
@@ -128,10 +128,8 @@ def _advance_in_threads(u, u_first, p, q, shift, s, c, out, out_first):
         return s, c
     fs = np.empty(nb)
     fc = np.empty(nb)
-    per = max(16, -(-nb // work_items(nb)))  # items of at least 16 blocks
-    _advance_blocks.run(
-        q - head, -(-nb // per), u, u_first, head, q, shift, out, out_first, per, fs, fc
-    )
+    per, items = grouped_items(nb, least=16)
+    _advance_blocks.run(q - head, items, u, u_first, head, q, shift, out, out_first, per, fs, fc)
     return float(fs[-1]), float(fc[-1])
 
 
