@@ -48,7 +48,9 @@ def without_out(payload):
 
 def test_davar_several_channels_json_and_folders(capsys, imu_csv, tmp_path):
     out = tmp_path / "all"
-    code, stdout, err = run(capsys, davar_argv(imu_csv, "gx,gy,gz", "--json", "--out", str(out)))
+    # PDF figures only, in each channel's folder as in the single channel's
+    code, stdout, err = run(capsys, davar_argv(imu_csv, "gx,gy,gz", "--json", "--out", str(out),
+                                               "--figures", "pdf"))  # fmt: skip
     assert code == 0, err
     payload = json.loads(stdout)
     assert list(payload) == ["adavar_version", "input", "channels", "out"]
@@ -59,9 +61,14 @@ def test_davar_several_channels_json_and_folders(capsys, imu_csv, tmp_path):
 
     # every channel is the single-channel run of that column, files included
     single = tmp_path / "gy"
-    code, stdout, err = run(capsys, davar_argv(imu_csv, "gy", "--json", "--out", str(single)))
+    code, stdout, err = run(capsys, davar_argv(imu_csv, "gy", "--json", "--out", str(single),
+                                               "--figures", "pdf"))  # fmt: skip
     assert code == 0, err
     alone = json.loads(stdout)
+    assert sorted(alone["out"]["files"]) == sorted(p.name for p in single.iterdir()
+                                                   if p.name != ".adavar-output")  # fmt: skip
+    assert {p.suffix for p in single.iterdir()} == {".pdf", ".csv", ".json", ".nc", ""}
+    assert (single / "arw.pdf").read_bytes()[:5] == b"%PDF-"
     assert list(alone) == SINGLE_KEYS  # one channel: today's JSON, no "channels"
     assert without_out(payload["channels"]["gy"]) == without_out(alone)
     assert payload["channels"]["gy"]["out"]["dir"] == f"{out}/gy"

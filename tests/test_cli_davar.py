@@ -32,6 +32,7 @@ FILES = [
     "arw.png", "arw.svg", "coefficients.csv", "davar_heatmap.png", "davar_heatmap.svg",
     "davar_surface.png", "davar_surface.svg", "events.csv", "result.json", "surface.nc",
 ]  # fmt: skip
+TABLES = [name for name in FILES if not name.endswith((".png", ".svg"))]
 
 
 @pytest.fixture(scope="module")
@@ -243,7 +244,9 @@ def test_existing_out_dir_needs_force(capsys, gyro_csv, tmp_path):
     out_dir = tmp_path / "result"
     out_dir.mkdir()
     (out_dir / "keep.txt").write_text("precious")
-    argv = davar_args(gyro_csv, "--out", str(out_dir), "--step", "40", "--taus", "octave")
+    # no figures: the folders are the subject here (test_out_folder draws them)
+    argv = davar_args(gyro_csv, "--out", str(out_dir), "--step", "40", "--taus", "octave",
+                      "--figures", "none")  # fmt: skip
     code, out, err = run(capsys, argv)
     assert_one_line_error(code, out, err, "exists already", "--force")
     assert [p.name for p in out_dir.iterdir()] == ["keep.txt"]
@@ -257,7 +260,7 @@ def test_existing_out_dir_needs_force(capsys, gyro_csv, tmp_path):
     for _ in range(2):  # an empty folder, then adavar's
         code, out, err = run(capsys, [*argv, "--force"])
         assert code == 0, err
-    assert sorted(p.name for p in out_dir.iterdir()) == [OUTPUT_MARKER, *FILES]
+    assert sorted(p.name for p in out_dir.iterdir()) == [OUTPUT_MARKER, *TABLES]
     assert [p.name for p in tmp_path.iterdir()] == ["result"]
 
     # --force never replaces the folder holding the input
@@ -268,6 +271,44 @@ def test_existing_out_dir_needs_force(capsys, gyro_csv, tmp_path):
     assert sorted(p.name for p in folder.iterdir()) == before
 
 
+@pytest.mark.parametrize("command", ["avar", "davar", "adaptive"])
+def test_figures_none_writes_the_tables_only_and_says_so(capsys, gyro_csv, tmp_path, command):
+    out_dir = tmp_path / command
+    argv = [command, str(gyro_csv), "--column", "gyro_x", "--rate", str(RATE), "--units",
+            "deg/s", "--json", "--out", str(out_dir), "--figures", " NONE "]  # fmt: skip
+    if command == "davar":
+        argv += ["--window", str(WINDOW)]
+    code, out, err = run(capsys, argv)
+    assert code == 0, err
+    files = sorted(p.name for p in out_dir.iterdir() if p.name != OUTPUT_MARKER)
+    if command == "avar":
+        assert files == ["deviation.csv", "result.json"]
+    else:
+        assert files == TABLES == sorted(json.loads(out)["out"]["files"])
+
+
+def test_figures_in_the_order_given_each_once(capsys, gyro_csv, tmp_path):
+    out_dir = tmp_path / "avar"
+    argv = ["avar", str(gyro_csv), "--column", "gyro_x", "--rate", str(RATE), "--units",
+            "deg/s", "--out", str(out_dir), "--figures", "svg,eps,svg"]  # fmt: skip
+    code, out, err = run(capsys, argv)
+    assert code == 0, err
+    assert "(deviation.csv, deviation.svg, deviation.eps, result.json)" in out
+    assert (out_dir / "deviation.eps").read_text()[:4] == "%!PS"
+    assert not (out_dir / "deviation.png").exists()
+
+
+@pytest.mark.parametrize("value", ["jpg", "png,,gif", "", "none,png"])
+def test_unknown_figure_format_is_one_line_and_writes_nothing(capsys, gyro_csv, tmp_path,
+                                                              value):  # fmt: skip
+    out_dir = tmp_path / "out"
+    argv = davar_args(gyro_csv, "--out", str(out_dir), "--figures", value)
+    code, out, err = run(capsys, argv)
+    assert_one_line_error(code, out, err, "--figures", "png, svg, pdf, eps, or none")
+    assert not out_dir.exists()
+
+
+# --------------------------------------------------------------------------------------
 # --------------------------------------------------------------------------------------
 # Bad input
 # --------------------------------------------------------------------------------------

@@ -20,6 +20,12 @@ if TYPE_CHECKING:
 #: figure 4x faster than the default 6 for files about 6 % larger
 PNG_COMPRESS_LEVEL = 1
 
+#: the formats the command line's ``--figures`` accepts (Matplotlib's own backends)
+FIGURE_FORMATS = ("png", "svg", "pdf", "eps")
+
+#: the formats a figure is written in unless told otherwise
+DEFAULT_FIGURE_FORMATS = ("png", "svg")
+
 _SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 # the labels of matplotlib's log formatter: $\mathdefault{10^{-3}}$, $\mathdefault{2\times10^{1}}$
 _POWER_LABEL = re.compile(r"\$\\mathdefault\{(?:([0-9.]+)\\times)?10\^\{(-?\d+)\}\}\$")

@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from adavar._figures import (
+    DEFAULT_FIGURE_FORMATS,
     PNG_COMPRESS_LEVEL,
     cell_edges,
     colour_limits,
@@ -548,7 +549,7 @@ def _event_span(event: Any) -> tuple[float, float | None]:
 def save_figure(
     fig: Figure,
     path_without_suffix: str | os.PathLike[str],
-    formats: Sequence[str] = ("png", "svg"),
+    formats: Sequence[str] = DEFAULT_FIGURE_FORMATS,
     *,
     dpi: int = 150,
 ) -> list[Path]:

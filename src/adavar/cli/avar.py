@@ -96,10 +96,11 @@ def _cmd_avar(args: argparse.Namespace) -> int:
                     status(f"writing {args.out}: {run['name']}")
                     prefix = f"{safe_name(run['name'])}_" if several else ""
                     write_deviation_csv(tmp / f"{prefix}deviation.csv", run["result"])
-                    fig = deviation_figure(run["result"], run["fit"], title=run["title"])
-                    save_figure(fig, tmp / f"{prefix}deviation")
-                    written += [f"{prefix}deviation.csv", f"{prefix}deviation.png",
-                                f"{prefix}deviation.svg"]  # fmt: skip
+                    written.append(f"{prefix}deviation.csv")
+                    if args.figures:
+                        fig = deviation_figure(run["result"], run["fit"], title=run["title"])
+                        save_figure(fig, tmp / f"{prefix}deviation", args.figures)
+                        written += [f"{prefix}deviation.{ext}" for ext in args.figures]
                 (tmp / "result.json").write_text(text + "\n", encoding="utf-8")
                 written.append("result.json")
         except OSError as exc:
@@ -366,8 +367,8 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
     avar.add_argument("--json", action="store_true", help="print one JSON object")
     add_output_arguments(
         avar,
-        "also write deviation.csv, result.json and the figure deviation.png/.svg to "
-        "this new folder",
+        "also write deviation.csv, result.json and the figure deviation (.png/.svg, see "
+        "--figures) to this new folder",
     )
     avar.set_defaults(handler=_cmd_avar)
     return avar

@@ -532,7 +532,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
         finally:
             bar.close()
     kurt = None
-    if args.out is not None:
+    if args.out is not None and args.figures:  # the study is drawn, not tabulated
         status("kurtosis study")
         windows = tuple(w for w in PAPER_FIG6_WINDOWS if w <= comp.data.size)
         kurt = kurtosis_study(data, rate=comp.rate, windows=windows,
@@ -541,8 +541,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
     descriptions: dict[str, str] = {}
     tables = compare_tables(comp, study, thr, descriptions)
-    figures = compare_figures(comp, kurt, thr) if args.out is not None else {}
-    written = [*tables, *(f"{stem}.{ext}" for stem in figures for ext in ("png", "svg")),
+    figures = compare_figures(comp, kurt, thr) if args.out is not None and args.figures else {}
+    written = [*tables, *(f"{stem}.{ext}" for stem in figures for ext in args.figures),
                "result.json"] if args.out is not None else []  # fmt: skip
     payload = {
         "adavar_version": __version__,
@@ -568,7 +568,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
                 for stem, (draw, fig_args, fig_kwargs) in figures.items():
                     status(f"drawing {stem}")
                     fig = draw(*fig_args, **fig_kwargs)
-                    save_figure(fig, tmp / stem)
+                    save_figure(fig, tmp / stem, args.figures)
                     fig.clear()  # its artists' arrays go now, not at the next collection
                     del fig
                     release_free_memory()  # and their pages, before the next figure's
@@ -683,7 +683,7 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
     add_output_arguments(
         cmp_,
         "also write the tables (CSV), result.json and the figures (the paper's Figs. 6, "
-        "7, 8, 10, 11, 12 as .png/.svg) to this new folder",
+        "7, 8, 10, 11, 12 as .png/.svg, see --figures) to this new folder",
     )
     cmp_.set_defaults(handler=_cmd_compare)
     return cmp_

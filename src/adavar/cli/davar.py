@@ -476,7 +476,7 @@ def _davar_channel(
             figure_stems.append("controller")
         if fit is not None:
             figure_stems.append(TERM_FILES[_coefficient_term(fit)])
-        written += [f"{stem}.{ext}" for stem in figure_stems for ext in ("png", "svg")]
+        written += [f"{stem}.{ext}" for stem in figure_stems for ext in args.figures]
         written.append("result.json")
 
     n_time, n_tau = np.shape(result.avar)
@@ -609,20 +609,14 @@ def _event_lines(events: list[Any], fit: NoiseFit) -> list[str]:
             text_table(head, rows, "  ")]  # fmt: skip
 
 
-def _write_davar_channel(
-    args: argparse.Namespace, run: dict[str, Any], dest: Path, fmt: str, status: Status
-) -> None:
-    """The surface, coefficients, figures and result.json of one channel into ``dest``."""
-    from adavar.plots import (
-        coefficient_figure,
-        davar_heatmap_figure,
-        davar_surface_figure,
-        save_figure,
-    )
+def _channel_figures(args: argparse.Namespace, run: dict[str, Any]) -> dict[str, Any]:
+    """The figures of one channel by file stem (none without --figures formats)."""
+    if not args.figures:
+        return {}
+    from adavar.plots import coefficient_figure, davar_heatmap_figure, davar_surface_figure
 
     adaptive = args.command == "adaptive"
     result, fit, meta = run["result"], run["fit"], run["meta"]
-    status(f"{run['tag']}drawing the figures")
     title = f"{Path(meta['path']).name}, column {meta['column']}"
     figures = {
         "davar_surface": davar_surface_figure(result),
@@ -641,6 +635,19 @@ def _write_davar_channel(
         figures[TERM_FILES[term]] = coefficient_figure(
             fit, term=term, title=f"{title}: {what}", events=run.get("events") or ()
         )
+    return figures
+
+
+def _write_davar_channel(
+    args: argparse.Namespace, run: dict[str, Any], dest: Path, fmt: str, status: Status
+) -> None:
+    """The surface, coefficients, figures and result.json of one channel into ``dest``."""
+    from adavar.plots import save_figure
+
+    result, fit = run["result"], run["fit"]
+    if args.figures:
+        status(f"{run['tag']}drawing the figures")
+    figures = _channel_figures(args, run)
     status(f"{run['tag']}writing the surface and the figures")
     write_surface(dest / run["written"][0], result, fmt=fmt)
     if fit is not None:
@@ -648,7 +655,7 @@ def _write_davar_channel(
     if run.get("events") is not None:
         _write_events(dest / "events.csv", run["events"], fit)
     for stem, fig in figures.items():
-        save_figure(fig, dest / stem)
+        save_figure(fig, dest / stem, args.figures)
     (dest / "result.json").write_text(run["text"] + "\n", encoding="utf-8")
 
 
@@ -683,7 +690,7 @@ def add_davar_parser(sub: Any) -> argparse.ArgumentParser:
         dav,
         "also write surface.nc (or .parquet), coefficients.csv, result.json and the "
         "figures davar_surface, davar_heatmap and arw (N(t); of the first term when N is "
-        "not fitted: q, bi, rrw or rr) as .png/.svg to this new folder",
+        "not fitted: q, bi, rrw or rr) as .png/.svg (see --figures) to this new folder",
     )
     dav.set_defaults(handler=_cmd_davar)
     return dav
@@ -724,7 +731,7 @@ def add_adaptive_parser(sub: Any) -> argparse.ArgumentParser:
         ada,
         "also write surface.nc (or .parquet), coefficients.csv, result.json and the "
         "figures davar_surface, davar_heatmap, arw and controller (kurtosis, S, flags and "
-        "window length over time) as .png/.svg to this new folder",
+        "window length over time) as .png/.svg (see --figures) to this new folder",
     )
     ada.set_defaults(handler=_cmd_davar, window=None)
     return ada

@@ -9,6 +9,7 @@ import sys
 from collections.abc import Callable
 from typing import NoReturn
 
+from adavar._figures import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
 from adavar.durations import parse_duration
 from adavar.errors import AdavarInputError
 from adavar.preprocess import MAX_DETREND_ORDER, parse_steps
@@ -70,6 +71,20 @@ def positive_float(what: str) -> Callable[[str], float]:
         return value
 
     return parse
+
+
+def figure_formats(text: str) -> tuple[str, ...]:
+    """``--figures``: comma-separated formats (each once, in order), or ``none`` for ()."""
+    items = [item.strip().lower() for item in text.split(",") if item.strip()]
+    if items == ["none"]:
+        return ()
+    unknown = [item for item in items if item not in FIGURE_FORMATS]
+    if not items or unknown:
+        raise argparse.ArgumentTypeError(
+            f"must be comma-separated formats among {', '.join(FIGURE_FORMATS)}, or none; "
+            f"got {text!r}"
+        )
+    return tuple(dict.fromkeys(items))
 
 
 def positive_int(text: str) -> int:
@@ -429,8 +444,14 @@ def add_input_arguments(
 
 
 def add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
-    """--out DIR, --force and the hidden --debug of an analysis command."""
+    """--out DIR, --figures, --force and the hidden --debug of an analysis command."""
     cmd.add_argument("--out", metavar="DIR", help=out_help)
+    cmd.add_argument(
+        "--figures", type=figure_formats, default=DEFAULT_FIGURE_FORMATS, metavar="FORMATS",
+        help="formats of the figures written into --out: comma-separated among "
+        f"{', '.join(FIGURE_FORMATS)}, or none (tables and result.json only, and no time "
+        f"spent drawing; default: {','.join(DEFAULT_FIGURE_FORMATS)})",
+    )  # fmt: skip
     cmd.add_argument("--force", action="store_true",
                      help="replace an existing --out folder that adavar wrote")  # fmt: skip
     cmd.add_argument(
