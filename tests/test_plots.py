@@ -145,6 +145,26 @@ def test_save_figure_lays_out_once(gyro, tmp_path, autolayout):
     assert _svg_geometry(tmp_path / "both.svg") == _svg_geometry(tmp_path / "plain.svg")
 
 
+def test_save_figure_draws_the_pixels_of_savefig(gyro, tmp_path):
+    """The layout solved ahead of savefig (at the PNG's resolution) places every pixel
+    where savefig's own layout pass does, for a one-panel and a six-panel figure."""
+    from matplotlib.image import imread
+
+    from adavar.plots import controller_figure
+
+    schedule = adavar.adaptive_schedule(simulate.white(3000, seed=4), rate=10.0, lmax=300,
+                                        lmin=100, l=30)  # fmt: skip
+    draws = {
+        "deviation": lambda: deviation_figure(*gyro),
+        "controller": lambda: controller_figure(schedule, np.arange(3000) / 10.0),
+    }
+    for name, draw in draws.items():
+        save_figure(draw(), tmp_path / name, formats=("png",))
+        draw().savefig(tmp_path / f"{name}_plain.png", dpi=150)
+        ours, plain = imread(tmp_path / f"{name}.png"), imread(tmp_path / f"{name}_plain.png")
+        assert ours.shape == plain.shape and np.array_equal(ours, plain), name
+
+
 def test_save_figure_failure_leaves_no_temporary(tmp_path):
     fig = deviation_figure(adavar.deviation(simulate.white(500, seed=3)))
     with pytest.raises(ValueError):

@@ -579,18 +579,26 @@ def save_figure(
     folder = base.parent
     written = []
     engine = fig.get_layout_engine()
-    try:
-        for k, fmt in enumerate(formats):
-            if k == 1 and engine is not None:
-                # the layout is in inches, the same for every format: solve it once. None,
-                # not "none" (a placeholder engine): savefig then skips the draw it makes
-                # to run the layout, a third of the second format's cost (the rc settings
-                # would otherwise choose an engine for None)
-                import matplotlib
+    # the layout is in inches, the same for every format: solve it once, at the raster
+    # resolution as savefig would. savefig then finds no engine and skips the draw with
+    # rendering disabled that it makes to run one: a third of the first format's time,
+    # all of the layout of the others. None, not "none" (a placeholder engine). The rc
+    # settings would choose an engine for None, here and where savefig puts None back
+    # after each format: not while saving
+    import matplotlib
 
-                with matplotlib.rc_context(_NO_AUTO_LAYOUT):
-                    fig.set_layout_engine(None)
-            written.append(_save_one(fig, base, folder, fmt, dpi))
+    try:
+        with matplotlib.rc_context(_NO_AUTO_LAYOUT):
+            if engine is not None and formats:
+                shown = fig.dpi
+                fig.set_dpi(dpi)
+                try:
+                    engine.execute(fig)
+                finally:
+                    fig.set_dpi(shown)
+                fig.set_layout_engine(None)
+            for fmt in formats:
+                written.append(_save_one(fig, base, folder, fmt, dpi))
     finally:
         if engine is not None:
             fig.set_layout_engine(engine)
