@@ -579,12 +579,9 @@ def save_figure(
     folder = base.parent
     written = []
     engine = fig.get_layout_engine()
-    # the layout is in inches, the same for every format: solve it once, at the raster
-    # resolution as savefig would. savefig then finds no engine and skips the draw with
-    # rendering disabled that it makes to run one: a third of the first format's time,
-    # all of the layout of the others. None, not "none" (a placeholder engine). The rc
-    # settings would choose an engine for None, here and where savefig puts None back
-    # after each format: not while saving
+    # one layout (in inches: every format's), at the raster dpi as savefig would; with no
+    # engine (None, not the placeholder "none"; the rc settings held off, else savefig
+    # puts one back) savefig skips its draw with rendering disabled: 1/3 of its time
     import matplotlib
 
     try:
