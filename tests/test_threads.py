@@ -229,6 +229,29 @@ def test_ctrl_c_in_the_calling_thread_stops_the_other_threads(force):
     assert set(np.unique(out)) <= {0.0, 1.0}
 
 
+def test_a_larger_pool_replaces_the_smaller_one_whose_threads_end(monkeypatch):
+    import threading
+    import time
+
+    monkeypatch.setattr(_jit, "_POOL", {})
+
+    def kernel_threads():
+        return [t for t in threading.enumerate() if t.name.startswith("adavar-kernel")]
+
+    before = set(kernel_threads())
+    small = _jit._pool(1)
+    small.submit(time.sleep, 0.01).result()  # its thread has started
+    large = _jit._pool(3)
+    assert large is not small and _jit._pool(2) is large  # large enough: kept
+    for _ in range(3):
+        large.submit(time.sleep, 0.05)
+    deadline = time.monotonic() + 5
+    while len(set(kernel_threads()) - before) > 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert len(set(kernel_threads()) - before) <= 3  # the small pool's thread has ended
+    large.shutdown(wait=True)
+
+
 @pytest.mark.parametrize("least", [1, 16])
 def test_grouped_items_cover_every_unit_once(least):
     for units in range(1, 300):

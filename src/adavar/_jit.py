@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 from collections.abc import Iterator
 
 # before the OpenMP runtime starts (it reads the policy once, when Numba loads it)
@@ -183,18 +184,32 @@ class _Parts:
 
 
 _POOL: dict = {}  # "pool", "size", "pid": the threads that run parts of kernels
+_POOL_LOCK = threading.Lock()
+
+
+def _new_pool_lock() -> None:
+    global _POOL_LOCK
+    _POOL_LOCK = threading.Lock()  # a child forked while another thread held it
+
+
+os.register_at_fork(after_in_child=_new_pool_lock)
 
 
 def _pool(size: int):
     """The process's thread pool for kernel parts, of at least ``size`` threads."""
     from concurrent.futures import ThreadPoolExecutor
 
-    pool = _POOL.get("pool")
-    # a forked child inherits the pool object but not its threads: a new one there
-    if pool is None or _POOL["size"] < size or _POOL["pid"] != os.getpid():
+    with _POOL_LOCK:  # callers on several threads at once share one pool
+        pool = _POOL.get("pool")
+        if pool is not None and _POOL["pid"] == os.getpid() and _POOL["size"] >= size:
+            return pool
+        # a forked child inherits the pool object but not its threads: a new one there;
+        # a pool too small (more threads set since) lets its threads end once idle
+        if pool is not None and _POOL["pid"] == os.getpid():
+            pool.shutdown(wait=False)
         pool = ThreadPoolExecutor(max_workers=size, thread_name_prefix="adavar-kernel")
         _POOL.update(pool=pool, size=size, pid=os.getpid())
-    return pool
+        return pool
 
 
 class ThreadedKernel:
