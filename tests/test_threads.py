@@ -33,6 +33,24 @@ def test_kernels_compile_at_o2_unless_the_environment_says_otherwise():
     assert done.stdout.split() == ["3"]
 
 
+def test_kernels_compile_without_the_c_abi_wrapper():
+    # that wrapper only serves kernels passed as first-class function values: none are
+    from adavar import _nnls, kurtosis
+    from adavar._jit import jit
+
+    for dispatcher in (_nnls._fit_curve, kurtosis._sliding.kernel):
+        assert dispatcher.targetoptions["no_cfunc_wrapper"] is True
+
+    @jit(cache=False)
+    def twice(x):  # pragma: no cover - compiled
+        return 2.0 * x
+
+    assert twice(1.5) == 3.0  # still called from Python (the CPython wrapper stays)
+    (result,) = twice.overloads.values()
+    name = result.fndesc.llvm_cfunc_wrapper_name
+    assert name not in result.library.get_llvm_str()
+
+
 def test_a_bad_thread_setting_is_a_one_line_error_on_the_command_line(tmp_path):
     path = tmp_path / "x.csv"
     path.write_text("x\n" + "".join(f"{(k * 7919) % 101 / 100}\n" for k in range(200)))

@@ -101,9 +101,13 @@ def jit(*args, **kwargs):
     """``numba.njit`` with ``cache=True`` so compiled kernels persist between runs.
 
     Calls from other kernels compile for plain argument types only
-    (:func:`_one_signature_per_type`).
+    (:func:`_one_signature_per_type`). ``no_cfunc_wrapper=True`` by default: no kernel is
+    passed as a first-class function value, the only use of that wrapper.
     """
     kwargs.setdefault("cache", True)
+    # the C-ABI wrapper serves only first-class function values (none here): 4-5 % of a
+    # first run's compilation
+    kwargs.setdefault("no_cfunc_wrapper", True)
     if args and callable(args[0]):
         return _one_signature_per_type(numba.njit(**kwargs)(args[0]))
     decorate = numba.njit(*args, **kwargs)
