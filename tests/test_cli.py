@@ -17,7 +17,7 @@ import adavar
 from adavar import simulate
 from adavar.cli import main
 from adavar.io import read_text
-from adavar.writers import OUTPUT_MARKER
+from adavar.writers import DEMO_MARKER, OUTPUT_MARKER
 
 from .cli_helpers import assert_one_line_error, patch_cli, run
 
@@ -136,21 +136,22 @@ def test_avar_out_writes_files_atomically(capsys, white_csv, tmp_path):
 def test_existing_out_dir_is_refused_and_untouched(capsys, white_csv, tmp_path):
     out_dir = tmp_path / "result"
     out_dir.mkdir()
+    to_out = ["--out", str(out_dir), "--figures", "none"]
     (out_dir / "keep.txt").write_text("precious")
-    code, out, err = run(capsys, avar_args(white_csv, "--out", str(out_dir)))
+    code, out, err = run(capsys, avar_args(white_csv, *to_out))
     assert_one_line_error(code, out, err, "exists already", "--force")
     assert [p.name for p in out_dir.iterdir()] == ["keep.txt"]
     assert (out_dir / "keep.txt").read_text() == "precious"
     assert [p.name for p in tmp_path.iterdir()] == ["result"]
 
     # --force replaces only a folder adavar wrote (tests/test_output_safety.py)
-    code, out, err = run(capsys, avar_args(white_csv, "--out", str(out_dir), "--force"))
+    code, out, err = run(capsys, avar_args(white_csv, *to_out, "--force"))
     assert_one_line_error(code, out, err, "not written by adavar", "remove it yourself")
     assert [p.name for p in out_dir.iterdir()] == ["keep.txt"]
     (out_dir / "keep.txt").unlink()
-    code, out, err = run(capsys, avar_args(white_csv, "--out", str(out_dir), "--force"))
+    code, out, err = run(capsys, avar_args(white_csv, *to_out, "--force"))
     assert code == 0, err  # an empty folder
-    code, out, err = run(capsys, avar_args(white_csv, "--out", str(out_dir), "--force"))
+    code, out, err = run(capsys, avar_args(white_csv, *to_out, "--force"))
     assert code == 0, err  # adavar's
     assert (out_dir / "result.json").is_file()
     assert [p.name for p in tmp_path.iterdir()] == ["result"]
@@ -377,7 +378,9 @@ def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path, monkeypatch
 
     monkeypatch.setattr("adavar.demo.PAPER_SEEDS", 2)
     # one process (the worker's path is the first run's, and tests/test_demo.py's)
-    argv = ["demo", "--out", str(out_dir), "--json", "--seed", "5", "--workers", "1"]
+    # no figures: the first run's are gone with its folder, and none is drawn
+    argv = ["demo", "--out", str(out_dir), "--json", "--seed", "5", "--workers", "1",
+            "--figures", "none"]  # fmt: skip
     try:  # as the console script runs it: the process ends next, the collector stays off
         code = main(argv, process_exits=True)
         assert not gc.isenabled()
@@ -400,7 +403,10 @@ def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path, monkeypatch
     assert paper["seeds"]["n_seeds"] == 2 and paper["seeds"]["seeds"] == [5, 6]
     assert paper["comparison"]["scenario"] == 1
     assert paper["comparison"]["methods"]["a-davar"]["nodes"][0]["change"] == 3000.0
-    assert set(PAPER_DEMO_FILES) <= set(payload["out"]["files"])
+    tables = [name for name in PAPER_DEMO_FILES if name.endswith(".csv")]
+    assert sorted(payload["out"]["files"]) == sorted(["demo.json", *tables, "report.html"])
+    names = {p.name for p in out_dir.iterdir()}
+    assert names == {"demo.json", *tables, "report.html", DEMO_MARKER, OUTPUT_MARKER}
     assert [p.name for p in tmp_path.iterdir()] == ["demo"]
 
 

@@ -222,7 +222,8 @@ def test_failure_in_a_later_channel_leaves_no_folder(capsys, imu_csv, tmp_path, 
 
     patch_cli(monkeypatch, "write_surface", flaky)
     out = tmp_path / "out"
-    code, stdout, err = run(capsys, davar_argv(imu_csv, "gx,gy", "--out", str(out)))
+    code, stdout, err = run(capsys, davar_argv(imu_csv, "gx,gy", "--out", str(out), "--figures",
+                                               "none"))  # fmt: skip
     assert_one_line_error(code, stdout, err, "No space left on device")
     assert len(calls) == 2 and list(tmp_path.iterdir()) == []
 

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
+from functools import partial
 
 import numpy as np
 import pytest
@@ -130,7 +132,8 @@ def test_demo_figures_longest_first_and_drawn_either_side(tmp_path, monkeypatch)
     recipes = cli_demo._figure_recipes(result)
     assert list(recipes) == list(cli_demo.FIGURE_ORDER)
     stem = "fig08_thresholds"
-    assert cli_demo._draw_figure(str(tmp_path), stem, *recipes[stem]) == stem
+    formats = ("png", "svg")
+    assert cli_demo._draw_figure(str(tmp_path), stem, formats, *recipes[stem]) == stem
     assert sorted(p.name for p in tmp_path.iterdir()) == [f"{stem}.png", f"{stem}.svg"]
 
 
@@ -138,6 +141,25 @@ def test_demo_workers_must_be_positive(capsys, tmp_path):
     code, out, err = run(capsys, ["demo", "--out", str(tmp_path / "d"), "--workers", "0"])
     assert_one_line_error(code, out, err, "--workers")
     assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.parametrize("value", ["gif", "png,,jpg", "", "none,png"])
+def test_demo_bad_figure_formats_are_refused_before_any_work(capsys, tmp_path, value):
+    code, out, err = run(capsys, ["demo", "--out", str(tmp_path / "d"), "--figures", value])
+    assert_one_line_error(code, out, err, "--figures")
+    assert not (tmp_path / "d").exists()
+
+
+def test_demo_figures_in_the_formats_asked(capsys, tmp_path, monkeypatch):
+    monkeypatch.setattr(demo, "run_demo", partial(demo.run_demo, paper=False))
+    out_dir = tmp_path / "d"
+    argv = ["demo", "--out", str(out_dir), "--workers", "1", "--figures", "pdf", "--json"]
+    code, out, err = run(capsys, argv)
+    assert code == 0, err
+    files = json.loads(out)["out"]["files"]
+    assert files == ["gyro_oadev.pdf", "demo.json", "report.html"]
+    assert (out_dir / "gyro_oadev.pdf").read_bytes().startswith(b"%PDF")
+    assert not list(out_dir.glob("*.png")) and not list(out_dir.glob("*.svg"))
 
 
 def test_compilations_records_compiles_not_cache_loads():

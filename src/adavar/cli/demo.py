@@ -10,8 +10,9 @@ from pathlib import Path
 from typing import Any
 
 from adavar import __version__
+from adavar._figures import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
 from adavar.cli.compare import compare_report, compare_tables, crossings_json
-from adavar.cli.options import EXIT_OK, parse_seed, positive_int
+from adavar.cli.options import EXIT_OK, figure_formats, parse_seed, positive_int
 from adavar.cli.output import (
     Status,
     deviation_table,
@@ -148,11 +149,13 @@ def _figure_recipes(demo: Any) -> dict[str, Any]:
     return dict(sorted(recipes.items(), key=lambda item: order.get(item[0], len(order))))
 
 
-def _draw_figure(folder: str, stem: str, draw: Any, args: tuple, kwargs: dict) -> str:
+def _draw_figure(
+    folder: str, stem: str, formats: tuple[str, ...], draw: Any, args: tuple, kwargs: dict
+) -> str:
     """Draw one figure and write it into ``folder`` (in either process); returns the stem."""
     from adavar.plots import save_figure
 
-    save_figure(draw(*args, **kwargs), Path(folder) / stem)
+    save_figure(draw(*args, **kwargs), Path(folder) / stem, formats)
     return stem
 
 
@@ -170,9 +173,10 @@ def _demo_outputs(
     paper = demo.paper
     try:
         with atomic_directory(args.out, replace=True) as tmp:
-            recipes = _figure_recipes(demo)
+            formats = tuple(args.figures)
+            recipes = _figure_recipes(demo) if formats else {}
             figures = SharedJobs(pool, _draw_figure, [
-                (str(tmp), stem, *recipe) for stem, recipe in recipes.items()
+                (str(tmp), stem, formats, *recipe) for stem, recipe in recipes.items()
             ])  # fmt: skip
             status("building the HTML report")
             tables: dict[str, Any] = {}
@@ -189,13 +193,15 @@ def _demo_outputs(
                 write_pieces(tmp / name, pieces)
             (tmp / "report.html").write_text(_demo_report(demo), encoding="utf-8")
             drawn = sorted(stem for stem in recipes if stem != "gyro_oadev")
-            files = ["gyro_oadev.png", "gyro_oadev.svg", "demo.json", *tables,
-                     *(f"{stem}.{ext}" for stem in drawn for ext in ("png", "svg")),
+            gyro_files = [f"gyro_oadev.{ext}" for ext in formats]
+            files = [*gyro_files, "demo.json", *tables,
+                     *(f"{stem}.{ext}" for stem in drawn for ext in formats),
                      "report.html"]  # fmt: skip
             text = dumps(_demo_json(demo, str(args.out), files, descriptions))
             (tmp / "demo.json").write_text(text + "\n", encoding="utf-8")
-            status("drawing the figures")
-            figures.results()
+            if recipes:
+                status("drawing the figures")
+                figures.results()
             status(f"writing {args.out}")
             (tmp / DEMO_MARKER).write_text(
                 "written by adavar demo; the next run replaces this folder\n", encoding="utf-8"
@@ -290,6 +296,12 @@ def add_demo_parser(sub: Any) -> argparse.ArgumentParser:
         "demo's folder)",
     )  # fmt: skip
     demo.add_argument("--json", action="store_true", help="print one JSON object")
+    demo.add_argument(
+        "--figures", type=figure_formats, default=DEFAULT_FIGURE_FORMATS, metavar="FORMATS",
+        help="formats of the figures: comma-separated among "
+        f"{', '.join(FIGURE_FORMATS)}, or none (the tables, report and JSON only, and no "
+        f"time spent drawing; default: {','.join(DEFAULT_FIGURE_FORMATS)})",
+    )  # fmt: skip
     demo.add_argument(
         "--seed", type=parse_seed, default=2018, metavar="N", help="seed of the simulated gyro"
     )
