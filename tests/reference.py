@@ -188,24 +188,26 @@ def pearson_kurtosis(values):
     """Pearson kurtosis (biased moments) in two passes with ``math.fsum``; NaN if constant.
 
     The mean is the correctly rounded sum over ``n``; the deviations from it are squared
-    and summed with ``math.fsum``, so there is no cancellation whatever the offset.
+    and summed with ``math.fsum``, so there is no cancellation whatever the offset. The
+    element-wise steps (a difference, a product) are NumPy's on float64: each rounds once,
+    exactly as the same operation on Python floats.
     """
-    vals = [float(v) for v in values]
-    n = len(vals)
-    if n == 0 or all(v == vals[0] for v in vals):
+    vals = np.asarray(values, dtype=np.float64).ravel()
+    n = vals.size
+    if n == 0 or np.all(vals == vals[0]):
         return math.nan
-    mean = math.fsum(vals) / n
-    dev = [v - mean for v in vals]
+    mean = math.fsum(vals.tolist()) / n
+    dev = vals - mean
     # the rounded mean is off by at most half an ulp: centre once more on the exact residual
-    shift = math.fsum(dev) / n
-    dev = [d - shift for d in dev]
+    shift = math.fsum(dev.tolist()) / n
+    dev = dev - shift
     # an exact power-of-two rescaling keeps the fourth powers of any scale representable
-    big = max(abs(d) for d in dev)
+    big = float(np.max(np.abs(dev)))
     if big > 0:
-        f = math.ldexp(1.0, -math.frexp(big)[1])
-        dev = [d * f for d in dev]
-    m2 = math.fsum(d * d for d in dev) / n
-    m4 = math.fsum((d * d) * (d * d) for d in dev) / n
+        dev = dev * math.ldexp(1.0, -math.frexp(big)[1])
+    squares = dev * dev
+    m2 = math.fsum(squares.tolist()) / n
+    m4 = math.fsum((squares * squares).tolist()) / n
     return m4 / (m2 * m2)
 
 

@@ -211,9 +211,11 @@ def test_adaptive_davar_options():
 
 def test_calibrated_thresholds_hit_the_false_alarm_rate():
     th = calibrated_thresholds(400, 600, 100, false_alarm=0.02)
-    k = stats.kurtosis(
-        np.random.default_rng(4).standard_normal((20_000, 600)), axis=1, fisher=False
-    )
+    # Pearson kurtosis of each row (scipy.stats.kurtosis gives the same, in 60x the time)
+    d = np.random.default_rng(4).standard_normal((20_000, 600))
+    d -= d.mean(axis=1, keepdims=True)
+    d *= d
+    k = (d * d).mean(axis=1) / d.mean(axis=1) ** 2
     below = np.mean(k < th.k1[600])
     above = np.mean(k > th.k2[600])
     assert below == pytest.approx(0.01, abs=0.003)
