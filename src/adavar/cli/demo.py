@@ -10,9 +10,8 @@ from pathlib import Path
 from typing import Any
 
 from adavar import __version__
-from adavar._figures import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
 from adavar.cli.compare import compare_report, compare_tables, crossings_json
-from adavar.cli.options import EXIT_OK, figure_formats, parse_seed, positive_int
+from adavar.cli.options import EXIT_OK, add_figures_argument, parse_seed, positive_int
 from adavar.cli.output import (
     Status,
     deviation_table,
@@ -296,12 +295,7 @@ def add_demo_parser(sub: Any) -> argparse.ArgumentParser:
         "demo's folder)",
     )  # fmt: skip
     demo.add_argument("--json", action="store_true", help="print one JSON object")
-    demo.add_argument(
-        "--figures", type=figure_formats, default=DEFAULT_FIGURE_FORMATS, metavar="FORMATS",
-        help="formats of the figures: comma-separated among "
-        f"{', '.join(FIGURE_FORMATS)}, or none (the tables, report and JSON only, and no "
-        f"time spent drawing; default: {','.join(DEFAULT_FIGURE_FORMATS)})",
-    )  # fmt: skip
+    add_figures_argument(demo, "", "the tables, report and JSON")
     demo.add_argument(
         "--seed", type=parse_seed, default=2018, metavar="N", help="seed of the simulated gyro"
     )

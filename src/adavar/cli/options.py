@@ -443,15 +443,20 @@ def add_input_arguments(
     )  # fmt: skip
 
 
+def add_figures_argument(cmd: argparse.ArgumentParser, where: str, without: str) -> None:
+    """``--figures FORMATS``: the figures written ``where``; ``none`` writes ``without``."""
+    cmd.add_argument(
+        "--figures", type=figure_formats, default=DEFAULT_FIGURE_FORMATS, metavar="FORMATS",
+        help=f"formats of the figures{where}: comma-separated among "
+        f"{', '.join(FIGURE_FORMATS)}, or none ({without} only, and no time spent drawing; "
+        f"default: {','.join(DEFAULT_FIGURE_FORMATS)})",
+    )  # fmt: skip
+
+
 def add_output_arguments(cmd: argparse.ArgumentParser, out_help: str) -> None:
     """--out DIR, --figures, --force and the hidden --debug of an analysis command."""
     cmd.add_argument("--out", metavar="DIR", help=out_help)
-    cmd.add_argument(
-        "--figures", type=figure_formats, default=DEFAULT_FIGURE_FORMATS, metavar="FORMATS",
-        help="formats of the figures written into --out: comma-separated among "
-        f"{', '.join(FIGURE_FORMATS)}, or none (tables and result.json only, and no time "
-        f"spent drawing; default: {','.join(DEFAULT_FIGURE_FORMATS)})",
-    )  # fmt: skip
+    add_figures_argument(cmd, " written into --out", "tables and result.json")
     cmd.add_argument("--force", action="store_true",
                      help="replace an existing --out folder that adavar wrote")  # fmt: skip
     cmd.add_argument(
