@@ -46,6 +46,30 @@ def test_detrend_removes_exact_cubic(n, offset):
     assert np.max(np.abs(v.T @ clean)) / n < 1e-12
 
 
+@pytest.mark.parametrize("order", [0, 1, 3, 10])
+@pytest.mark.parametrize("n", [11, 999, 1000, 1001, 2501])
+def test_detrend_in_blocks_is_the_least_squares_fit(monkeypatch, n, order):
+    """Blocks of 1000 samples (the library's are 2**20): the basis of every block is
+    legvander's bit for bit, and the residual is the one-shot least-squares residual."""
+    import adavar.preprocess as pre
+
+    if n <= order:
+        pytest.skip("fewer samples than coefficients")
+    monkeypatch.setattr(pre, "_CHUNK", 1000)
+    rng = np.random.default_rng(n + order)
+    t = np.arange(n) * (2.0 / (n - 1)) - 1.0
+    blocks = pre._LegendreBlocks(n, order)
+    for start in blocks.starts():
+        ref = np.polynomial.legendre.legvander(t[start : start + 1000], order)
+        got = blocks.basis(start)
+        assert np.array_equal(got, ref) and got.strides == ref.strides
+    # noise on a large offset and drift: the residual of the full-matrix solution
+    x = np.c_[rng.standard_normal(n) + 1e6 + 3e3 * t, rng.standard_normal(n).astype(np.float32)]
+    v = np.polynomial.legendre.legvander(t, order)
+    ref = x - v @ np.linalg.lstsq(v, x, rcond=None)[0]
+    np.testing.assert_allclose(detrend(x, order), ref, rtol=0, atol=1e-8)
+
+
 def test_detrend_orders_and_channels():
     rng = np.random.default_rng(1)
     n = 500

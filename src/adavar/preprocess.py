@@ -42,7 +42,6 @@ from typing import Any
 
 import numpy as np
 from numpy.polynomial import Legendre, Polynomial
-from numpy.polynomial import legendre as _leg
 
 from adavar.errors import AdavarInputError
 
@@ -158,40 +157,53 @@ def _as_time(value: Any, what: str) -> float | None:
 # --------------------------------------------------------------------------------------
 
 
-def _scaled_time(start: int, stop: int, n: int) -> np.ndarray:
-    """Sample indices ``start..stop-1`` of ``n`` mapped onto [-1, 1]."""
-    i = np.arange(start, stop, dtype=np.float64)
-    if n == 1:
-        return np.zeros_like(i)
-    return i * (2.0 / (n - 1)) - 1.0
+class _LegendreBlocks:
+    """The Legendre basis ``P_0..P_order`` on the scaled sample grid, one block at a time.
 
-
-def _gram(n: int, order: int) -> np.ndarray:
-    """``V.T @ V`` of the Legendre basis on the scaled sample grid."""
-    gram = np.zeros((order + 1, order + 1))
-    for start in range(0, n, _CHUNK):
-        v = _leg.legvander(_scaled_time(start, min(n, start + _CHUNK), n), order)
-        gram += v.T @ v
-    return gram
-
-
-def _solve(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    coef, *_ = np.linalg.lstsq(gram, rhs, rcond=None)
-    return coef
-
-
-def _fit_and_subtract(x: np.ndarray, out: np.ndarray, order: int, gram: np.ndarray) -> np.ndarray:
-    """``out = x - p(t)`` with the least-squares Legendre fit ``p``; returns its coefficients.
-
-    One streaming pass: every block's basis is built once and discarded (no n x (order+1)
-    matrix is held, so 1e8 samples cost only the output array).
+    Each block is built into buffers reused from block to block (fresh 30 MB arrays cost
+    more in page faults than the arithmetic), with :func:`numpy.polynomial.legendre.legvander`'s
+    recurrence operation for operation, so every value is legvander's bit for bit. A record
+    of one block builds it once for all the passes.
     """
-    n = x.shape[0]
-    rhs = np.zeros((order + 1, x.shape[1]))
-    for start in range(0, n, _CHUNK):
-        stop = min(n, start + _CHUNK)
-        v = _leg.legvander(_scaled_time(start, stop, n), order)
-        rhs += v.T @ x[start:stop]
+
+    def __init__(self, n: int, order: int) -> None:
+        self.n, self.order = n, order
+        size = min(n, _CHUNK)
+        self._flat = np.empty((order + 1) * size)
+        self._scratch = np.empty(size)
+        self._index = np.arange(size, dtype=np.float64)
+        self._start: int | None = None
+
+    def starts(self) -> range:
+        return range(0, self.n, _CHUNK)
+
+    def basis(self, start: int) -> np.ndarray:
+        """The ``(samples, order + 1)`` basis of the block from sample ``start``."""
+        m = min(self.n, start + _CHUNK) - start
+        # contiguous rows of m values, as legvander's array: the same matrix products
+        rows = self._flat[: (self.order + 1) * m].reshape(self.order + 1, m)
+        if self._start != start:
+            t = rows[1] if self.order > 0 else self._scratch[:m]
+            # sample indices start..stop-1 mapped onto [-1, 1] (exact integers first)
+            np.add(self._index[:m], start, out=t)
+            if self.n == 1:
+                t[:] = 0.0
+            else:
+                np.multiply(t, 2.0 / (self.n - 1), out=t)
+                np.subtract(t, 1.0, out=t)
+            rows[0] = 1.0
+            tmp = self._scratch[:m]
+            for i in range(2, self.order + 1):
+                np.multiply(rows[i - 1], t, out=rows[i])
+                np.multiply(rows[i], 2 * i - 1, out=rows[i])
+                np.multiply(rows[i - 2], i - 1, out=tmp)
+                np.subtract(rows[i], tmp, out=rows[i])
+                np.divide(rows[i], i, out=rows[i])
+            self._start = start
+        return rows.T
+
+
+def _check_finite(rhs: np.ndarray, x: np.ndarray) -> None:
     if not np.all(np.isfinite(rhs)):
         bad = np.flatnonzero(~np.all(np.isfinite(x), axis=1))
         first = int(bad[0]) if bad.size else -1
@@ -199,29 +211,51 @@ def _fit_and_subtract(x: np.ndarray, out: np.ndarray, order: int, gram: np.ndarr
             f"the record holds NaN or Inf (first at sample {first}): "
             "drop or interpolate those samples before preprocessing"
         )
-    coef = _solve(gram, rhs)
-    for start in range(0, n, _CHUNK):
-        stop = min(n, start + _CHUNK)
-        v = _leg.legvander(_scaled_time(start, stop, n), order)
-        np.subtract(x[start:stop], v @ coef, out=out[start:stop])
+
+
+def _solve(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
+    coef, *_ = np.linalg.lstsq(gram, rhs, rcond=None)
     return coef
 
 
 def _detrend_2d(x: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Detrend the columns of ``x`` (n, c); returns (residual, Legendre coefficients)."""
+    """Detrend the columns of ``x`` (n, c); returns (residual, Legendre coefficients).
+
+    Three streaming passes over blocks (no n x (order+1) matrix is held, so 1e8 samples
+    cost only the output array): the Gram matrix and the first right-hand side; the
+    first residual and, from it, the second right-hand side; the second residual. The
+    second fit sees only the noise-sized residual (iterative refinement), so the rounding
+    of the first, relative to a large offset or trend, is removed as well.
+    """
     n = x.shape[0]
     if n <= order:
         raise _fail(
             f"a polynomial detrend of order {order} needs at least {order + 1} samples, "
             f"the record has {n}: use a lower order or a longer record"
         )
-    gram = _gram(n, order)
+    blocks = _LegendreBlocks(n, order)
+    gram = np.zeros((order + 1, order + 1))
+    rhs = np.zeros((order + 1, x.shape[1]))
+    for start in blocks.starts():
+        v = blocks.basis(start)
+        gram += v.T @ v
+        rhs += v.T @ x[start : start + v.shape[0]]
+    _check_finite(rhs, x)
+    coef = _solve(gram, rhs)
     out = np.empty(x.shape, dtype=np.float64)
-    coef = _fit_and_subtract(x, out, order, gram)
-    # iterative refinement: the second fit sees only the noise-sized residual, so the
-    # rounding of the first pass (relative to a large offset or trend) is removed as well
-    coef = coef + _fit_and_subtract(out, out, order, gram)
-    return out, coef
+    rhs = np.zeros((order + 1, x.shape[1]))
+    for start in blocks.starts():
+        v = blocks.basis(start)
+        part = out[start : start + v.shape[0]]
+        np.subtract(x[start : start + v.shape[0]], v @ coef, out=part)
+        rhs += v.T @ part
+    _check_finite(rhs, out)
+    second = _solve(gram, rhs)
+    for start in blocks.starts():
+        v = blocks.basis(start)
+        part = out[start : start + v.shape[0]]
+        np.subtract(part, v @ second, out=part)
+    return out, coef + second
 
 
 def _as_order(order: Any) -> int:
