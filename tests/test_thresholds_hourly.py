@@ -118,3 +118,28 @@ def test_the_result_records_and_rebuilds_its_thresholds():
     assert np.array_equal(rebuilt.k2, th.k2, equal_nan=True)
     paper = adavar.adaptive_davar(x, rate=100.0, lmax=2000, lmin=1400, l=300, taus=[0.01])
     assert paper.parameters["thresholds_used"]["k2"] == [3.3, 3.3]
+
+
+@pytest.mark.filterwarnings("ignore:Precision loss occurred:RuntimeWarning")  # scipy, constant rows
+@pytest.mark.parametrize("rows", ["gaussian", "offset", "constant", "tiny", "float32"])
+def test_row_kurtosis_is_scipys_bit_for_bit(rows):
+    """The calibration's kurtosis of every row is scipy.stats.kurtosis's, to the last bit
+    (so calibrated thresholds do not move), on whole rows and on leading column slices."""
+    from scipy.stats import kurtosis
+
+    from adavar.thresholds import _row_kurtosis
+
+    x = np.random.default_rng(3).standard_normal((257, 301))
+    if rows == "offset":
+        x = x + 1e6
+    elif rows == "constant":
+        x[::3] = 7.25
+    elif rows == "tiny":
+        x = x * 1e-300
+    elif rows == "float32":
+        x = x.astype(np.float32).astype(np.float64)
+    for part in (x, x[:, :250], x[:, :2]):
+        ref = kurtosis(part, axis=1, fisher=False)
+        got = _row_kurtosis(part)
+        assert np.array_equal(np.isnan(ref), np.isnan(got))
+        assert np.array_equal(ref[~np.isnan(ref)], got[~np.isnan(got)])

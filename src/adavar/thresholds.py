@@ -93,9 +93,13 @@ def _row_kurtosis(x: np.ndarray) -> np.ndarray:
     numbers), without importing scipy.stats (about a second).
     """
     mean = x.mean(axis=1, keepdims=True)
-    d2 = (x - mean) ** 2
-    m2 = d2.mean(axis=1)
-    m4 = (d2**2).mean(axis=1)
+    # one temporary squared in place twice (``** 2`` of a float array is ``np.square``):
+    # the same numbers without two more arrays of the batch's size to fault in
+    d = np.subtract(x, mean)
+    np.square(d, out=d)
+    m2 = d.mean(axis=1)
+    np.square(d, out=d)
+    m4 = d.mean(axis=1)
     with np.errstate(all="ignore"):
         zero = m2 <= (np.finfo(np.float64).eps * mean[:, 0]) ** 2
         return np.where(zero, np.nan, m4 / m2**2.0)
