@@ -276,6 +276,39 @@ def test_csv_pieces_cut_anywhere_join_to_the_text(monkeypatch):
     assert [int(r[1]) for r in rows] == columns[1].tolist()
 
 
+@pytest.mark.parametrize("per_piece", [1, 3, 64, 1 << 14])
+def test_numeric_columns_take_the_text_and_pieces_of_the_row_path(monkeypatch, per_piece):
+    """block_rows of numeric columns is written a column at a time: the same text and the
+    same pieces as the row-by-row path (csv_cell of every cell), for every numeric dtype
+    and odd value; other columns (text, 2-D, unequal lengths) take the row path."""
+    from adavar import csv_tables
+
+    monkeypatch.setattr(csv_tables, "CSV_PIECE_ROWS", per_piece)
+    rng = np.random.default_rng(8)
+    n = 200
+    x = rng.standard_normal(n) * 10.0 ** rng.integers(-300, 300, n)
+    x[::7], x[::11], x[::13], x[::17], x[::19] = np.inf, -0.0, np.nan, -np.inf, 1e16
+    columns = [x, rng.standard_normal(n).astype(np.float32), np.arange(n, dtype=np.int32) - 7,
+               np.arange(n, dtype=np.uint64) * 2**60, rng.random(n) < 0.5,
+               np.round(rng.standard_normal(n), 3)]  # fmt: skip
+    names = [f"c{k}" for k in range(len(columns))]
+    for cols in (columns, columns[:2], [c[:0] for c in columns], [c[:per_piece] for c in columns]):
+        rows = csv_tables.block_rows(cols, block=5)
+        assert rows.numeric()
+        fast = list(csv_tables.csv_pieces(names[: len(cols)], rows))
+        slow = list(csv_tables.csv_pieces(names[: len(cols)], iter(list(
+            csv_tables.block_rows(cols, block=5)))))  # fmt: skip
+        assert fast == slow
+    assert not csv_tables.block_rows([x, x[:-1]]).numeric()
+    with pytest.raises(ValueError):
+        list(csv_tables.csv_pieces(["a", "b"], csv_tables.block_rows([x, x[:-1]])))
+    text = np.array(["=1+1", "a"])
+    assert not csv_tables.block_rows([text, x[:2]]).numeric()
+    assert "".join(csv_tables.csv_pieces(["t", "x"], csv_tables.block_rows([text, x[:2]]))) == (
+        f"t,x\n'=1+1,{float(x[0])!r}\na,{float(x[1])!r}\n"
+    )
+
+
 _CELLS = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True),
     st.integers(-(10**20), 10**20),

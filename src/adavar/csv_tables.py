@@ -112,11 +112,54 @@ def csv_text(
 
 def block_rows(columns: Sequence[np.ndarray], block: int = 1 << 16) -> Iterator[tuple]:
     """The rows of columns of one length as Python numbers, ``block`` rows converted at a
-    time (a list of every row's numbers holds tens of times the arrays)."""
-    size = int(np.size(columns[0])) if len(columns) else 0
-    for start in range(0, size, block):
-        yield from zip(*(np.asarray(c)[start : start + block].tolist() for c in columns),
-                       strict=True)  # fmt: skip
+    time (a list of every row's numbers holds tens of times the arrays).
+
+    :func:`csv_pieces` writes the rows of numeric columns a column at a time (the same
+    text, about twice as fast).
+    """
+    return _ColumnRows([np.asarray(c) for c in columns], block)
+
+
+class _ColumnRows:
+    """:func:`block_rows`: an iterator of row tuples that keeps its columns."""
+
+    def __init__(self, columns: list[np.ndarray], block: int) -> None:
+        self.columns, self.block = columns, block
+        self._rows: Iterator[tuple] | None = None
+
+    def _generate(self) -> Iterator[tuple]:
+        columns = self.columns
+        size = int(np.size(columns[0])) if len(columns) else 0
+        for start in range(0, size, self.block):
+            yield from zip(*(c[start : start + self.block].tolist() for c in columns),
+                           strict=True)  # fmt: skip
+
+    def __iter__(self) -> Iterator[tuple]:
+        return self
+
+    def __next__(self) -> tuple:
+        if self._rows is None:
+            self._rows = self._generate()
+        return next(self._rows)
+
+    def numeric(self) -> bool:
+        """Whether the rows are numbers only (1-D columns of one length), none read yet."""
+        cols = self.columns
+        return (
+            self._rows is None
+            and len(cols) > 0
+            and all(c.ndim == 1 and c.dtype.kind in "biuf" for c in cols)
+            and len({c.size for c in cols}) == 1
+        )
+
+
+def _column_cells(values: np.ndarray) -> list[str]:
+    """:func:`csv_cell` of every value of a numeric column (the same text)."""
+    if values.dtype.kind == "b":
+        return np.where(values, "true", "false").tolist()
+    if values.dtype.kind == "f":
+        return list(map(float.__repr__, values.tolist()))
+    return list(map(int.__repr__, values.tolist()))
 
 
 def write_pieces(path: str | os.PathLike[str], pieces: Iterable[str]) -> None:
@@ -163,6 +206,17 @@ def csv_pieces(
         buffer.write(line.getvalue()[:-2] + "\n")
 
     put([spreadsheet_safe(str(c)) for c in columns])
+    if isinstance(rows, _ColumnRows) and rows.numeric() and len(rows.columns) > 1:
+        # numbers are never quoted: each line is its cells joined, made a column at a time
+        # (the same pieces as below: every CSV_PIECE_ROWS rows, then the rest)
+        head, arrays = buffer.getvalue(), rows.columns
+        size = arrays[0].size
+        for start in range(0, size - size % CSV_PIECE_ROWS + 1, CSV_PIECE_ROWS):
+            cells = [_column_cells(a[start : start + CSV_PIECE_ROWS]) for a in arrays]
+            lines = "\n".join(map(",".join, zip(*cells, strict=True)))
+            yield head + lines + ("\n" if lines else "")
+            head = ""
+        return
     count = 0
     for row in rows:
         put([csv_cell(c) for c in row])
