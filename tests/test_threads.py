@@ -51,6 +51,36 @@ def test_kernels_compile_without_the_c_abi_wrapper():
     assert name not in result.library.get_llvm_str()
 
 
+def test_cached_kernels_load_without_setting_the_compiler_up():
+    """A process whose kernels all come from the cache never imports Numba's compiler
+    implementations (half a second); the numbers are the same as with Numba's own
+    loading (ADAVAR_NUMBA_FULL_REFRESH=1), and a kernel missing from the cache compiles."""
+    code = (
+        "import sys, numpy as np, adavar\n"
+        "x = np.random.default_rng(0).standard_normal(5000)\n"
+        "r = adavar.deviation(x, rate=10.0, taus='all', stat=sys.argv[1])\n"
+        "print('numba.np.arraymath' in sys.modules, r.dev.tobytes().hex())\n"
+    )
+
+    def run(stat: str, **env: str) -> list[str]:
+        done = subprocess.run([sys.executable, "-c", code, stat], capture_output=True,
+                              text=True, env={**os.environ, **env}, check=False)  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        return done.stdout.split()
+
+    _, first = run("mdev")  # compiles what the cache lacks (a fresh checkout)
+    assert run("mdev") == ["False", first]
+    assert run("mdev", ADAVAR_NUMBA_FULL_REFRESH="1") == ["True", first]
+    # a kernel compiled in this very process (its own dispatcher, no cache) still works
+    from adavar._jit import jit
+
+    @jit(cache=False)
+    def plus(x):  # pragma: no cover - compiled
+        return x + 1.0
+
+    assert plus(np.ones(2)).tolist() == [2.0, 2.0]
+
+
 def test_a_bad_thread_setting_is_a_one_line_error_on_the_command_line(tmp_path):
     path = tmp_path / "x.csv"
     path.write_text("x\n" + "".join(f"{(k * 7919) % 101 / 100}\n" for k in range(200)))

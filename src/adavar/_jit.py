@@ -19,6 +19,10 @@ at -O2 rather than Numba's -O3: the kernels compile about 18 % faster on a first
 ran as fast in every benchmark measured (``docs/benchmarks.md``, ninth pass). Numba reads
 the setting at each compilation, so it applies to other Numba code of the same process
 too; ``NUMBA_OPT=3`` in the environment restores Numba's default.
+
+Loading. A kernel found in the cache loads without setting Numba's compiler up (about 0.5
+s a process; :func:`_lazy_cache_loads`); ``ADAVAR_NUMBA_FULL_REFRESH=1`` restores Numba's
+own loading.
 """
 
 from __future__ import annotations
@@ -97,21 +101,62 @@ def _one_signature_per_type(dispatcher):
     return dispatcher
 
 
+def _load_overload_lazily(self, sig, target_context):
+    """``numba.core.caching.Cache.load_overload`` without Numba's compiler set-up.
+
+    Numba's own version first ``refresh``-es the target context: it imports and registers
+    every typing and lowering implementation of the compiler (about 0.5 s, once per
+    process), which only compiling needs. Loading machine code from the cache needs the
+    runtime (NRT) initialised and nothing else; a kernel not in the cache is compiled,
+    and the compiler then refreshes the context itself.
+    """
+    from numba.core.runtime import rtsys
+
+    rtsys.initialize(target_context)
+    with self._guard_against_spurious_io_errors():
+        return self._load_overload(sig, target_context)
+    return None  # an I/O error the guard swallowed: compiled instead
+
+
+def _lazy_cache_loads(dispatcher):
+    """Have ``dispatcher`` load its cached versions with :func:`_load_overload_lazily`.
+
+    ``ADAVAR_NUMBA_FULL_REFRESH=1`` keeps Numba's own loading (which sets the whole
+    compiler up first), as does a Numba whose cache lacks the methods used.
+    """
+    cache = getattr(dispatcher, "_cache", None)
+    if (
+        os.environ.get("ADAVAR_NUMBA_FULL_REFRESH", "") != "1"
+        and all(hasattr(cache, name) for name in _CACHE_METHODS)
+    ):
+        cache.load_overload = _load_overload_lazily.__get__(cache)
+    return dispatcher
+
+
+#: what :func:`_load_overload_lazily` uses of a Numba function cache
+_CACHE_METHODS = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
+
+
 def jit(*args, **kwargs):
     """``numba.njit`` with ``cache=True`` so compiled kernels persist between runs.
 
     Calls from other kernels compile for plain argument types only
     (:func:`_one_signature_per_type`). ``no_cfunc_wrapper=True`` by default: no kernel is
-    passed as a first-class function value, the only use of that wrapper.
+    passed as a first-class function value, the only use of that wrapper. A cached
+    kernel loads without setting Numba's compiler up (:func:`_lazy_cache_loads`).
     """
     kwargs.setdefault("cache", True)
     # the C-ABI wrapper serves only first-class function values (none here): 4-5 % of a
     # first run's compilation
     kwargs.setdefault("no_cfunc_wrapper", True)
+
+    def finish(dispatcher):
+        return _lazy_cache_loads(_one_signature_per_type(dispatcher))
+
     if args and callable(args[0]):
-        return _one_signature_per_type(numba.njit(**kwargs)(args[0]))
+        return finish(numba.njit(**kwargs)(args[0]))
     decorate = numba.njit(*args, **kwargs)
-    return lambda func: _one_signature_per_type(decorate(func))
+    return lambda func: finish(decorate(func))
 
 
 def read_only(values, dtype=None):
