@@ -125,9 +125,8 @@ def _lazy_cache_loads(dispatcher):
     compiler up first), as does a Numba whose cache lacks the methods used.
     """
     cache = getattr(dispatcher, "_cache", None)
-    if (
-        os.environ.get("ADAVAR_NUMBA_FULL_REFRESH", "") != "1"
-        and all(hasattr(cache, name) for name in _CACHE_METHODS)
+    if os.environ.get("ADAVAR_NUMBA_FULL_REFRESH", "") != "1" and all(
+        hasattr(cache, name) for name in _CACHE_METHODS
     ):
         cache.load_overload = _load_overload_lazily.__get__(cache)
     return dispatcher
