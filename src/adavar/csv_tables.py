@@ -115,7 +115,7 @@ def block_rows(columns: Sequence[np.ndarray], block: int = 1 << 16) -> Iterator[
     time (a list of every row's numbers holds tens of times the arrays).
 
     :func:`csv_pieces` writes the rows of numeric columns a column at a time (the same
-    text, about twice as fast).
+    text, 1.3-1.5x faster).
     """
     return _ColumnRows([np.asarray(c) for c in columns], block)
 
