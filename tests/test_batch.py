@@ -18,6 +18,7 @@ import socket
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numba
@@ -294,8 +295,17 @@ def test_batch_on_a_local_cluster_equals_each_file_alone(records, single_runs, t
     # one test, so that the cluster starts once even when xdist splits the module
     out = tmp_path / "out"
     folder = records["g1"].parent
-    code, text, err = _cli(["batch", folder / "*.csv", folder / "sub" / "*.csv", records["g2"],
-                            *ANALYSIS, "--out", out, "--workers", 2, "--json"])  # fmt: skip
+    # with dask's default HTTP port taken (another batch, a dashboard), no warning: the
+    # local scheduler's HTTP server listens on a free port of this machine's loopback
+    with socket.socket() as busy, warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with contextlib.suppress(OSError):  # taken already: the same situation
+            busy.bind(("", 8787))
+            busy.listen()
+        code, text, err = _cli(["batch", folder / "*.csv", folder / "sub" / "*.csv",
+                                records["g2"], *ANALYSIS, "--out", out, "--workers", 2,
+                                "--json"])  # fmt: skip
+    assert not [w for w in caught if "already in use" in str(w.message)]
     assert code == 2, err  # the broken file is a user error
     payload = json.loads(text)
     assert payload["counts"] == {"files": 4, "ok": 3, "done": 0, "error": 1, "input_errors": 1,

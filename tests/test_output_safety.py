@@ -328,6 +328,7 @@ def test_a_cluster_without_workers_times_out_with_the_rows_done(gyros, tmp_path,
     killer = []
     with LocalCluster(n_workers=1, threads_per_worker=4, processes=False, protocol="tcp://",
                       host="127.0.0.1", scheduler_port=0, dashboard_address=None,
+                      scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
                       silence_logs=logging.CRITICAL) as cluster:  # fmt: skip
 
         def kill_workers(done, total, row):

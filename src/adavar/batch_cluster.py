@@ -67,9 +67,13 @@ def connect(
     if workers is not None:
         if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
             raise AdavarInputError(f"workers must be a positive integer, got {workers!r}")
-        # one single-threaded process per core: the numba kernels must not oversubscribe
+        # one single-threaded process per core: the numba kernels must not oversubscribe.
+        # No dashboard; the scheduler's HTTP server (health, metrics) on a free local port:
+        # by default it takes port 8787 on every interface, and a second batch running
+        # meanwhile printed a warning that the port was in use
         with LocalCluster(
             n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
             silence_logs=logging.ERROR, env={"NUMBA_NUM_THREADS": "1"},
         ) as cluster, Client(cluster, set_as_default=False) as client:  # fmt: skip
             yield (
