@@ -153,15 +153,6 @@ class _ColumnRows:
         )
 
 
-def _column_cells(values: np.ndarray) -> list[str]:
-    """:func:`csv_cell` of every value of a numeric column (the same text)."""
-    if values.dtype.kind == "b":
-        return np.where(values, "true", "false").tolist()
-    if values.dtype.kind == "f":
-        return list(map(float.__repr__, values.tolist()))
-    return list(map(int.__repr__, values.tolist()))
-
-
 def write_pieces(path: str | os.PathLike[str], pieces: Iterable[str]) -> None:
     """Write text made in pieces (:func:`csv_pieces`) to ``path`` (UTF-8) as they come."""
     with open(path, "w", encoding="utf-8") as file:
@@ -212,7 +203,10 @@ def csv_pieces(
         head, arrays = buffer.getvalue(), rows.columns
         size = arrays[0].size
         for start in range(0, size - size % CSV_PIECE_ROWS + 1, CSV_PIECE_ROWS):
-            cells = [_column_cells(a[start : start + CSV_PIECE_ROWS]) for a in arrays]
+            # csv_cell of each number (one rule for a cell's text), a column at a time
+            cells = [
+                list(map(csv_cell, a[start : start + CSV_PIECE_ROWS].tolist())) for a in arrays
+            ]
             lines = "\n".join(map(",".join, zip(*cells, strict=True)))
             yield head + lines + ("\n" if lines else "")
             head = ""
