@@ -406,7 +406,9 @@ def run_demo(
         paper_part = _paper(int(seed), shared, not compiled, keep) if paper else None
     finally:
         if own and pool is not None:
-            pool.shutdown(wait=False, cancel_futures=True)
+            # the worker's exit is waited for here rather than by the interpreter's exit
+            # handler, which on Python 3.11 races with the pool's own closing
+            pool.shutdown(wait=True, cancel_futures=True)
     return DemoResult(
         nist=nist,
         nist_results=nist_results,

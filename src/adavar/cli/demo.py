@@ -230,7 +230,10 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         files, text = _demo_outputs(args, status, demo, pool)
     finally:
         if pool is not None:
-            pool.shutdown(wait=False, cancel_futures=True)
+            # waits for the worker to exit (about 0.06 s; the interpreter's exit would wait
+            # as long): Python 3.11's exit handler otherwise races with the pool closing
+            # its wake-up pipe and may print "OSError: [Errno 9] Bad file descriptor"
+            pool.shutdown(wait=True, cancel_futures=True)
         if collecting and not getattr(args, "process_exits", False):
             gc.enable()
     status.close()
