@@ -167,10 +167,19 @@ def test_report_one_section_per_channel(capsys, imu_csv, tmp_path):
     assert "column 'gx' (deg/s):" in stdout and "column 'gy' (deg/s):" in stdout
     assert stdout.count("Noise fit") == 2
 
-    # the browser draws the nine plots (the single-channel report renders in test_report)
-    dom = render_in_chromium(doc, tmp_path / "browser", 9)
+    # the browser draws the nine plots. Without WebGL: the 3-D surface's WebGL scene is
+    # test_report's (a single-channel report); here each channel's surface gets as far as
+    # asking for a WebGL context, and the three scenes would cost 4 s of software rendering
+    dom = render_in_chromium(doc, tmp_path / "browser", 9, webgl=False)
     assert dom.count("main-svg") >= 9
     assert "img" not in [tag for tag, _ in parse(dom).tags]
+    for k in (1, 2, 3):
+        for plot in ("deviation", "surface", "coefficients"):
+            start = dom.index(f'id="plot-{k}-{plot}"')
+            ends = [dom.find(end, start + 1) for end in ('id="plot-', "</section>")]
+            chunk = dom[start : min(end for end in ends if end > 0)]
+            assert "main-svg" in chunk, (k, plot)
+            assert ("WebGL is not supported" in chunk) == (plot == "surface"), (k, plot)
 
 
 def test_report_escapes_channel_names(capsys, tmp_path):

@@ -55,7 +55,7 @@ def blocks(monkeypatch):
     return set_up
 
 
-def _rows(n=2500, seed=0):
+def _rows(n=1250, seed=0):
     rng = np.random.default_rng(seed)
     x = rng.standard_normal((n, 3))
     return [f"{k / 100:.2f},{a:.9g},{b:.9g},{c:.9g}" for k, (a, b, c) in enumerate(x)]
@@ -66,21 +66,21 @@ def _files():
     rows = _rows()
     files = {"plain.csv": "t,a,b,c\n" + "\n".join(rows) + "\n"}
     messy = list(rows)
-    for k in (2200, 1500, 900, 300):
-        messy.insert(k, "# re-synchronised" if k % 600 else "")
-    messy[1234] = "12.34,NA,,nan"
-    messy[1800] = messy[1800] + ","  # one trailing separator: dropped
-    messy[1000] = messy[1000].replace(",", ", ")  # blanks after the separators
+    for k in (1100, 750, 450, 150):
+        messy.insert(k, "# re-synchronised" if k % 300 else "")
+    messy[617] = "6.17,NA,,nan"
+    messy[900] = messy[900] + ","  # one trailing separator: dropped
+    messy[500] = messy[500].replace(",", ", ")  # blanks after the separators
     files["messy.csv"] = "t,a,b,c\r\n" + "\r\n".join(messy) + "\r\n"
     late = list(rows)
-    late[2100] = "21.00,abc,1,2"  # a text cell in a later block: column a is not numeric
+    late[1050] = "10.50,abc,1,2"  # a text cell in a later block: column a is not numeric
     files["late_text.csv"] = "t,a,b,c\n" + "\n".join(late) + "\n"
-    ints = [f"{k},{k},{k},{k if k < 1700 else k + 0.5}" for k in range(2500)]
+    ints = [f"{k},{k},{k},{k if k < 850 else k + 0.5}" for k in range(1250)]
     files["int_then_float.csv"] = "t,a,b,c\n" + "\n".join(ints) + "\n"
     base = np.datetime64("2024-05-01T00:00:00", "ms")
-    iso = [f"{base + np.timedelta64(10 * k, 'ms')}Z,{k % 7},{-k},OK" for k in range(2500)]
+    iso = [f"{base + np.timedelta64(10 * k, 'ms')}Z,{k % 7},{-k},OK" for k in range(1250)]
     files["iso.csv"] = "stamp,a,b,status\n" + "\n".join(iso) + "\n"
-    commas = [f"{k / 100:.2f}\t{k % 5}.5\t{k}".replace(".", ",") for k in range(2500)]
+    commas = [f"{k / 100:.2f}\t{k % 5}.5\t{k}".replace(".", ",") for k in range(1250)]
     files["tabs.tsv"] = "t\ta\tb\n" + "\n".join(commas)  # no line end at the end
     return files
 
@@ -105,7 +105,7 @@ def test_parts_of_a_block_are_read_on_threads(tmp_path, blocks, monkeypatch):
     in_step = textscan._in_step
     monkeypatch.setattr(textscan, "_in_step", lambda p, t: seen.append(in_step(p, t)) or seen[-1])
     rec = read_record(path)
-    assert rec.n_samples == 2500 and rec.rate == 100.0
+    assert rec.n_samples == 1250 and rec.rate == 100.0
     assert len(seen) > 5 and all(seen)
 
 
