@@ -38,7 +38,7 @@ def test_kernels_compile_without_the_c_abi_wrapper():
     from adavar import _nnls, kurtosis
     from adavar._jit import jit
 
-    for dispatcher in (_nnls._fit_curve, kurtosis._sliding.kernel):
+    for dispatcher in (_nnls._solve_subset, kurtosis._sliding.kernel):
         assert dispatcher.targetoptions["no_cfunc_wrapper"] is True
 
     @jit(cache=False)

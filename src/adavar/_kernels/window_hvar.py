@@ -198,80 +198,6 @@ def _one_window(u, a, L, ms, kind, scale, work, tmp, row):  # pragma: no cover -
         row[t] = max(_own_span(work, kind, m, 0, n), 0.0) * (_norm_of(kind, m, scale) / n)
 
 
-@jit
-def _window_chunk(
-    u, ms, centres, lengths, offset, c0, c1, kind, scale, out, work, tmp
-):  # fmt: skip  # pragma: no cover - compiled
-    """Windows ``c0 .. c1 - 1`` at every factor; returns the (possibly grown) scratch."""
-    size = c1 - c0
-    lens = lengths[c0:c1]
-    starts = np.empty(size, dtype=np.int64)
-    lo = centres[c0] - (lens[0] - 1) // 2 + offset
-    hi = lo
-    covered = 0
-    longest = 0
-    for k in range(size):
-        starts[k] = centres[c0 + k] - (lens[k] - 1) // 2 + offset
-        lo = min(lo, starts[k])
-        hi = max(hi, starts[k] + lens[k])
-        covered += lens[k]
-        longest = max(longest, lens[k])
-    spread = hi - lo > 2 * covered  # far apart: each window over its own span
-    need = (longest if spread else hi - lo) + 1
-    if need > work.shape[1]:
-        work = np.empty((_ROWS, need))
-    if spread:
-        for k in range(size):
-            _one_window(u, starts[k], lens[k], ms, kind, scale, work, tmp, out[c0 + k])
-        return work
-    q = work[5:]
-    _local_prefix(u, lo, hi, sample_median(u, lo, hi, tmp), work[0], work[1])
-    aloc = np.empty(size, dtype=np.int64)
-    runs = np.empty(size + 1, dtype=np.int64)
-    n_runs = 0
-    for k in range(size):
-        aloc[k] = starts[k] - lo
-        # runs of one length with consecutive starts take the contiguous fast path
-        if k == 0 or lens[k] != lens[k - 1] or aloc[k] != aloc[k - 1] + 1:
-            runs[n_runs] = k
-            n_runs += 1
-    runs[n_runs] = size
-    res = np.empty(size)
-    for t in range(ms.size):
-        m = ms[t]
-        norm = _norm_of(kind, m, scale)
-        # span of this m's terms, and whether one prefix over it pays (the windows overlap)
-        span = 0
-        total = 0
-        for k in range(size):
-            if 3 * m <= lens[k]:
-                n = _terms_of(kind, lens[k], m)
-                span = max(span, aloc[k] + n)
-                total += n
-        if total > 0 and span <= 2 * total:
-            _fill_terms(work, kind, m, 0, span)
-            big = _prefix_squares(work[4], span, q, False)
-            _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res)
-            # as in window_avar: a cell below big * norm / 8 may have lost bits to q[1]
-            floor = big * norm / 8.0
-            for k in range(size):
-                if res[k] < floor:
-                    _prefix_squares(work[4], span, q, True)
-                    _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res)
-                    break
-        else:
-            for k in range(size):
-                L = lens[k]
-                if 3 * m > L:
-                    res[k] = np.nan
-                    continue
-                n = _terms_of(kind, L, m)
-                res[k] = max(_own_span(work, kind, m, aloc[k], n), 0.0) * (norm / n)
-        for k in range(size):
-            out[c0 + k, t] = res[k]
-    return work
-
-
 @threaded_jit
 def window_hvar_kernel(
     u, ms, centres, lengths, offset, chunk, workers, kind, scale, out, w_lo, w_hi
@@ -283,18 +209,85 @@ def window_hvar_kernel(
     ``a = centres[c] - (lengths[c] - 1) // 2 + offset``; chunks of ``chunk`` consecutive
     centres are dealt round-robin to ``workers`` work items, of which this call runs
     ``w_lo .. w_hi - 1``. Cells with ``3m > L`` are NaN.
+
+    The chunk's code is written out in the loop rather than called: a separate compiled
+    function took about 0.4 s more to compile on a first run (Numba optimises and
+    compiles a callee's code again inside its caller), for the same speed.
     """
     nc = centres.size
     nch = (nc + chunk - 1) // chunk
-    for w in range(w_lo, w_hi):
+    for item in range(w_lo, w_hi):
         work = np.empty((_ROWS, 1))
         tmp = np.empty(MEDIAN_SAMPLES)
-        for ch in range(w, nch, workers):
+        for ch in range(item, nch, workers):
             c0 = ch * chunk
-            work = _window_chunk(
-                u, ms, centres, lengths, offset, c0, min(c0 + chunk, nc), kind, scale, out,
-                work, tmp,
-            )  # fmt: skip
+            c1 = min(c0 + chunk, nc)
+            size = c1 - c0
+            lens = lengths[c0:c1]
+            starts = np.empty(size, dtype=np.int64)
+            lo = centres[c0] - (lens[0] - 1) // 2 + offset
+            hi = lo
+            covered = 0
+            longest = 0
+            for k in range(size):
+                starts[k] = centres[c0 + k] - (lens[k] - 1) // 2 + offset
+                lo = min(lo, starts[k])
+                hi = max(hi, starts[k] + lens[k])
+                covered += lens[k]
+                longest = max(longest, lens[k])
+            spread = hi - lo > 2 * covered  # far apart: each window over its own span
+            need = (longest if spread else hi - lo) + 1
+            if need > work.shape[1]:
+                work = np.empty((_ROWS, need))
+            if spread:
+                for k in range(size):
+                    _one_window(u, starts[k], lens[k], ms, kind, scale, work, tmp, out[c0 + k])
+                continue
+            q = work[5:]
+            _local_prefix(u, lo, hi, sample_median(u, lo, hi, tmp), work[0], work[1])
+            aloc = np.empty(size, dtype=np.int64)
+            runs = np.empty(size + 1, dtype=np.int64)
+            n_runs = 0
+            for k in range(size):
+                aloc[k] = starts[k] - lo
+                # runs of one length with consecutive starts take the contiguous fast path
+                if k == 0 or lens[k] != lens[k - 1] or aloc[k] != aloc[k - 1] + 1:
+                    runs[n_runs] = k
+                    n_runs += 1
+            runs[n_runs] = size
+            res = np.empty(size)
+            for t in range(ms.size):
+                m = ms[t]
+                norm = _norm_of(kind, m, scale)
+                # span of this m's terms, and whether one prefix over it pays (the windows overlap)
+                span = 0
+                total = 0
+                for k in range(size):
+                    if 3 * m <= lens[k]:
+                        n = _terms_of(kind, lens[k], m)
+                        span = max(span, aloc[k] + n)
+                        total += n
+                if total > 0 and span <= 2 * total:
+                    _fill_terms(work, kind, m, 0, span)
+                    big = _prefix_squares(work[4], span, q, False)
+                    _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res)
+                    # as in window_avar: a cell below big * norm / 8 may have lost bits to q[1]
+                    floor = big * norm / 8.0
+                    for k in range(size):
+                        if res[k] < floor:
+                            _prefix_squares(work[4], span, q, True)
+                            _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res)
+                            break
+                else:
+                    for k in range(size):
+                        L = lens[k]
+                        if 3 * m > L:
+                            res[k] = np.nan
+                            continue
+                        n = _terms_of(kind, L, m)
+                        res[k] = max(_own_span(work, kind, m, aloc[k], n), 0.0) * (norm / n)
+                for k in range(size):
+                    out[c0 + k, t] = res[k]
 
 
 def window_hvar(
