@@ -222,6 +222,27 @@ def _one_window(u, a, L, ms, scale, work, tmp, row):  # pragma: no cover - compi
         row[t] = max(q[0, n] + q[1, n], 0.0) * (scale / (2.0 * m * m) / n)
 
 
+@jit
+def chunk_layout(centres, lengths, offset, c0, c1, starts):  # pragma: no cover - compiled
+    """Where windows ``c0 .. c1 - 1`` lie: their first samples into ``starts``, and
+    ``(lo, hi, spread, need)``: the span ``[lo, hi)`` of their union, whether they lie far
+    apart (each is then computed over its own span) and the scratch columns needed."""
+    lo = centres[c0] - (lengths[c0] - 1) // 2 + offset
+    hi = lo
+    covered = 0
+    longest = 0
+    for k in range(c1 - c0):
+        length = lengths[c0 + k]
+        starts[k] = centres[c0 + k] - (length - 1) // 2 + offset
+        lo = min(lo, starts[k])
+        hi = max(hi, starts[k] + length)
+        covered += length
+        longest = max(longest, length)
+    spread = hi - lo > 2 * covered  # far apart: each window over its own span
+    need = (longest if spread else hi - lo) + 1
+    return lo, hi, spread, need
+
+
 @threaded_jit
 def window_avar_kernel(
     u, ms, centres, lengths, offset, chunk, workers, scale, out, w_lo, w_hi
@@ -252,19 +273,7 @@ def window_avar_kernel(
             size = c1 - c0
             lens = lengths[c0:c1]
             starts = np.empty(size, dtype=np.int64)
-            lo = centres[c0] - (lens[0] - 1) // 2 + offset
-            hi = lo
-            covered = 0
-            for k in range(size):
-                starts[k] = centres[c0 + k] - (lens[k] - 1) // 2 + offset
-                lo = min(lo, starts[k])
-                hi = max(hi, starts[k] + lens[k])
-                covered += lens[k]
-            longest = 0
-            for k in range(size):
-                longest = max(longest, lens[k])
-            spread = hi - lo > 2 * covered  # far apart: each window over its own span
-            need = (longest if spread else hi - lo) + 1
+            lo, hi, spread, need = chunk_layout(centres, lengths, offset, c0, c1, starts)
             if need > work.shape[1]:
                 work = np.empty((_ROWS, need))
             if spread:

@@ -39,6 +39,7 @@ from adavar._kernels.window_avar import (
     _local_prefix,
     _prefix_squares,
     _window_sum,
+    chunk_layout,
     prepare_windows,
     sample_median,
 )
@@ -225,18 +226,7 @@ def window_hvar_kernel(
             size = c1 - c0
             lens = lengths[c0:c1]
             starts = np.empty(size, dtype=np.int64)
-            lo = centres[c0] - (lens[0] - 1) // 2 + offset
-            hi = lo
-            covered = 0
-            longest = 0
-            for k in range(size):
-                starts[k] = centres[c0 + k] - (lens[k] - 1) // 2 + offset
-                lo = min(lo, starts[k])
-                hi = max(hi, starts[k] + lens[k])
-                covered += lens[k]
-                longest = max(longest, lens[k])
-            spread = hi - lo > 2 * covered  # far apart: each window over its own span
-            need = (longest if spread else hi - lo) + 1
+            lo, hi, spread, need = chunk_layout(centres, lengths, offset, c0, c1, starts)
             if need > work.shape[1]:
                 work = np.empty((_ROWS, need))
             if spread:
