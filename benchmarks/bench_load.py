@@ -14,10 +14,15 @@
   simulated MEMS gyro at 200 Hz (50 Hz bandwidth, quantised), in the same four settings;
   and (``--only first-large``) the same calls on 20,000 samples and then on the hour, with
   an empty Numba cache: the first run of a user whose record is large (it compiles the
-  kernels' paths for small and for large inputs).
+  kernels' paths for small and for large inputs);
+* first commands (``--only first-commands``): ``adavar davar`` and ``adavar adaptive`` on
+  30 minutes of a simulated MEMS gyro at 200 Hz (50 Hz bandwidth, quantised), each with an
+  empty Numba cache, with the first-run helper process (``adavar._compile_ahead``) and
+  without it (``ADAVAR_COMPILE_AHEAD=0``, the peer), alternated, quiet and with another
+  process busy on one core.
 
 Run: ``python benchmarks/bench_load.py [--max-n 10000000] [--skip-demo]
-[--only memory|threaded|first-large]``.
+[--only memory|threaded|first-large|first-commands]``.
 """
 
 from __future__ import annotations
@@ -312,6 +317,54 @@ def first_run_large() -> list[str]:
             f"{compiling:.1f} s |"]  # fmt: skip
 
 
+def _cold_seconds(cmd: list[str], ahead: str) -> float:
+    with tempfile.TemporaryDirectory() as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache, "ADAVAR_COMPILE_AHEAD": ahead}
+        start = time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True, env=env)
+        return time.perf_counter() - start
+
+
+def first_commands(repeats: int = 3) -> list[str]:
+    """``davar`` and ``adaptive`` with an empty cache, with and without the helper."""
+    lines = []
+    with tempfile.TemporaryDirectory() as folder:
+        csv = f"{folder}/gyro.csv"
+        subprocess.run([sys.executable, "-m", "adavar.cli", "simulate", "-o", csv, "--n",
+                        "360000", "--rate", "200", "--arw", "0.003", "--bias-instability",
+                        "0.0005", "--rrw", "0.0001", "--bandwidth", "50", "--lsb", "0.0001",
+                        "--units", "deg/s", "--seed", "3"],
+                       check=True, capture_output=True)  # fmt: skip
+        commands = {
+            "adavar davar --window 60s": ["davar", csv, "--units", "deg/s", "--window", "60s"],
+            "adavar adaptive": ["adaptive", csv, "--units", "deg/s"],
+        }
+        for busy in (False, True):
+            stop = mp.Event()
+            spinner = mp.Process(target=_spin, args=(stop,)) if busy else None
+            if spinner is not None:
+                spinner.start()
+            try:
+                for name, argv in commands.items():
+                    times: dict[str, list[float]] = {"1": [], "0": []}
+                    for _ in range(repeats):
+                        for ahead in ("1", "0"):
+                            cmd = [sys.executable, "-m", "adavar.cli", *argv, "--out",
+                                   f"{folder}/out", "--force"]  # fmt: skip
+                            times[ahead].append(_cold_seconds(cmd, ahead))
+                    with_, without = np.median(times["1"]), np.median(times["0"])
+                    where = "one core busy" if busy else "quiet"
+                    lines.append(f"| {name}, empty cache, {where} | {with_:.1f} s "
+                                 f"({', '.join(f'{t:.1f}' for t in times['1'])}) | "
+                                 f"{without:.1f} s ({', '.join(f'{t:.1f}' for t in times['0'])})"
+                                 f" | {without / with_:.2f} |")  # fmt: skip
+            finally:
+                if spinner is not None:
+                    stop.set()
+                    spinner.join()
+    return lines
+
+
 def threaded() -> list[str]:
     """The threaded kernels quiet and with one core busy, default threads and one."""
     times = _in_four_settings("_threaded_times()")
@@ -328,7 +381,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-n", type=int, default=10**7)
     parser.add_argument("--skip-demo", action="store_true")
-    parser.add_argument("--only", choices=("memory", "threaded", "first-large"),
+    parser.add_argument("--only", choices=("memory", "threaded", "first-large", "first-commands"),
                         help="run one section")  # fmt: skip
     args = parser.parse_args()
     print(f"machine: {describe()}")
@@ -340,6 +393,12 @@ def main() -> None:
     if args.only == "first-large":
         print("| what | time |\n|---|---|")
         for line in first_run_large():
+            print(line, flush=True)
+        return
+    if args.only == "first-commands":
+        print("| command | with the helper (median; runs) | without (peer) | ratio |")
+        print("|---|---|---|---|")
+        for line in first_commands():
             print(line, flush=True)
         return
     if args.only == "threaded":

@@ -30,7 +30,8 @@ from __future__ import annotations
 import contextlib
 import os
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 # before the OpenMP runtime starts (it reads the policy once, when Numba loads it)
 os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
@@ -114,8 +115,17 @@ def _load_overload_lazily(self, sig, target_context):
 
     rtsys.initialize(target_context)
     with self._guard_against_spurious_io_errors():
-        return self._load_overload(sig, target_context)
+        found = self._load_overload(sig, target_context)
+        if found is None and BEFORE_COMPILING is not None and BEFORE_COMPILING(self._py_func):
+            found = self._load_overload(sig, target_context)  # compiled by the helper
+        return found
     return None  # an I/O error the guard swallowed: compiled instead
+
+
+#: set by :mod:`adavar._compile_ahead` while its helper process runs: called with a
+#: kernel's Python function when it is about to be compiled, it waits while the helper
+#: compiles that kernel and returns True when the cache may now hold it
+BEFORE_COMPILING: Callable[[Any], bool] | None = None
 
 
 def _lazy_cache_loads(dispatcher):

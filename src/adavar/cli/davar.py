@@ -290,7 +290,6 @@ def threshold_line(p: dict[str, Any]) -> str:
 
 
 def _cmd_davar(args: argparse.Namespace) -> int:
-    from adavar.analysis import load_input, resolve_lengths, resolve_resolution
     from adavar.cli.options import check_arguments
 
     check_arguments(args)
@@ -311,6 +310,31 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     adaptive = args.command == "adaptive"
     if adaptive and args.method == "oracle" and not args.change_times:
         raise UsageError("--method oracle needs --change-times T,... (seconds)")
+    helper = _compile_ahead(args, adaptive)
+    try:
+        return _run_davar(args, adaptive, fmt)
+    finally:
+        from adavar._compile_ahead import stop
+
+        stop(helper)
+
+
+def _compile_ahead(args: argparse.Namespace, adaptive: bool) -> Any:
+    """On a first run, a second process compiles the stages this command reaches last."""
+    from adavar._compile_ahead import ahead_of, start
+
+    fits = args.confidence is not None and getattr(args, "stat", "oavar") == "oavar"
+    plain = getattr(args, "stat", "oavar") == "oavar" and getattr(args, "gaps", None) != "omit"
+    if adaptive:  # the controller first (the schedule), the fit of the windows last
+        order = ["controller", "deviation", "surface"] + ["fit"] * fits
+    else:  # the events' controller (after the fit) last
+        order = ["deviation"] + ["surface"] * plain + ["fit", "controller"] * fits
+    return start(ahead_of(order))
+
+
+def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
+    from adavar.analysis import load_input, resolve_lengths, resolve_resolution
+
     status = Status()
     status(f"reading {args.file}")
     # several channels only when --column names them: a surface of every numeric column

@@ -1,0 +1,223 @@
+"""A first run's compilation in two processes: a helper compiles the kernels needed last.
+
+On an empty Numba cache a command compiles its kernels one after another as it reaches
+them (``adavar davar`` on a 30-minute, 200 Hz record: 18 s of its 29 s). Most of them do
+not depend on each other, so a second process started with the command compiles the
+stages the command reaches last (the adaptive controller, the noise fit, the surface
+kernel), in reverse order, while this one compiles those it reaches first. Each kernel
+the helper finishes goes to the on-disk cache, and this process loads it from there when
+it gets to it (Numba looks in the cache before it compiles a signature it has not met).
+Where the two meet, a kernel may be compiled by both: never slower than one process.
+
+The helper is started only when it can help: the cache holds none of the stages'
+kernels, two cores are free to this process, and neither ``ADAVAR_THREADS=1`` nor
+``ADAVAR_COMPILE_AHEAD=0`` is set. It is a daemon process: it ends with the command,
+and a kernel it was compiling then is simply not cached (Numba writes cache files
+under temporary names).
+
+Each stage is compiled by calling public functions on a few thousand samples of white
+noise, the same code path as a real call, so the kernels get the same signatures
+(``tests/test_compile_ahead.py`` checks that a command then needs none it lacks).
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = ["STAGES", "ahead_of", "compile_stages", "stage_cached", "start", "stop"]
+
+
+def _controller() -> None:
+    from adavar.adaptive import adaptive_schedule
+
+    x = np.random.default_rng(0).standard_normal(3000)
+    adaptive_schedule(x, rate=1.0, lmax=300, lmin=200, l=50)
+
+
+def _fit() -> None:
+    from adavar.noise_model import fit_noise
+    from adavar.results import DavarResult
+
+    # a surface built directly: fitting one computed by davar would compile the surface
+    # kernels here as well, which the command compiles meanwhile
+    m = 2 ** np.arange(7)
+    tau = m.astype(float)
+    rows = 40
+    avar = np.tile(1e-2 / tau + 1e-5 + 1e-7 * tau, (rows, 1))
+    edf = np.maximum(1.0, 300.0 / m)[None, :]
+    surface = DavarResult(
+        time=np.arange(rows, dtype=float), tau=tau, avar=avar, window=np.full(rows, 300),
+        centre=np.arange(rows), m=m, alpha=np.zeros(m.size, dtype=np.int64), tau0=1.0,
+        data_type="rate", edges="mirror", step=1, confidence=0.683, n_samples=rows,
+        edf_table=edf, window_class=np.zeros(rows, dtype=np.int64),
+        bound_table=np.stack([0.5 * np.ones_like(edf), 2.0 * np.ones_like(edf)]),
+    )  # fmt: skip
+    fit_noise(surface, cells=False)
+
+
+def _surface() -> None:
+    from adavar.davar import davar
+
+    x = np.random.default_rng(1).standard_normal(3000)
+    davar(x, rate=1.0, window=300, confidence=None)
+
+
+def _deviation() -> None:
+    from adavar.statistics import deviation
+
+    x = np.random.default_rng(2).standard_normal(3000)
+    deviation(x, rate=1.0)
+
+
+#: stage -> (how to compile its kernels, the kernels it compiles as (module, name); the
+#: first one's cache entry says that the stage is compiled)
+STAGES: dict[str, tuple[Callable[[], None], tuple[tuple[str, str], ...]]] = {
+    "controller": (_controller, (("adavar.controller", "_speculate"),
+                                 ("adavar.controller", "_segment_bounds"),
+                                 ("adavar.controller", "_reconcile"))),
+    "fit": (_fit, (("adavar._nnls", "nnls_blocks"),)),
+    "surface": (_surface, (("adavar._kernels.window_avar", "window_avar_kernel"),
+                           ("adavar._kernels.window_avar", "_window_extent"))),
+    "deviation": (_deviation, (("adavar.noise_id", "_rate_noise_kernel"),
+                               ("adavar.differences", "_anchored_prefix"),
+                               ("adavar.differences", "overlapping_sums_kernel"),
+                               ("adavar.differences", "cluster_differences"))),
+}  # fmt: skip
+
+#: a stage's state in the array the two processes share
+PENDING, HELPER, DONE, HERE = 0, 1, 2, 3
+
+
+def stage_cached(stage: str) -> bool:
+    """Whether the on-disk cache holds the kernel that marks ``stage`` as compiled.
+
+    True also when that cannot be told (a Numba without the cache internals used), so
+    that nothing is started then.
+    """
+    import importlib
+
+    module, name = STAGES[stage][1][0]
+    try:
+        kernel = getattr(importlib.import_module(module), name)
+        dispatcher = getattr(kernel, "kernel", kernel)  # a ThreadedKernel's own dispatcher
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:  # any doubt: treat it as cached, start nothing
+        return True
+
+
+def _claim(states: Any, index: int, who: int) -> bool:
+    """Take stage ``index`` for ``who`` if nobody has; False when it is taken."""
+    with states.get_lock():
+        if states[index] != PENDING:
+            return False
+        states[index] = who
+        return True
+
+
+def compile_stages(stages: Sequence[str], states: Any = None) -> None:
+    """Compile ``stages`` in this order (the helper's work), each unless it is cached or
+    the command has taken it (``states``: one entry per stage, shared)."""
+    for k, stage in enumerate(stages):
+        if states is not None and not _claim(states, k, HELPER):
+            continue
+        try:
+            if not stage_cached(stage):
+                STAGES[stage][0]()
+        finally:
+            if states is not None:
+                states[k] = DONE
+
+
+def _helper_main(stages: Sequence[str], states: Any) -> None:
+    """The helper process: silent, deaf to Ctrl-C (the command ends it), then
+    :func:`compile_stages`."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    quiet = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(quiet, 1)
+    os.dup2(quiet, 2)
+    compile_stages(stages, states)
+
+
+def _wanted() -> bool:
+    if os.environ.get("ADAVAR_COMPILE_AHEAD", "").strip() == "0":
+        return False
+    if os.environ.get("ADAVAR_THREADS", "").strip() == "1":
+        return False
+    affinity = getattr(os, "sched_getaffinity", None)
+    cores = len(affinity(0)) if affinity is not None else os.cpu_count() or 1
+    return cores >= 2
+
+
+class _Helper:
+    """This process's side: before compiling a kernel of a stage the helper is on, wait."""
+
+    def __init__(self, process: Any, stages: Sequence[str], states: Any) -> None:
+        self.process, self.states = process, states
+        self.stage_of = {kernel: k for k, stage in enumerate(stages) for kernel in STAGES[stage][1]}
+
+    def before_compiling(self, py_func: Any) -> bool:
+        """Called by :mod:`adavar._jit` when ``py_func`` is not in the cache."""
+        k = self.stage_of.get(
+            (getattr(py_func, "__module__", ""), getattr(py_func, "__name__", ""))
+        )
+        if k is None:
+            return False
+        if _claim(self.states, k, HERE):  # not started there: compiled here, skipped there
+            return False
+        if self.states[k] == HELPER:
+            while self.states[k] == HELPER and self.process.is_alive():
+                self.process.join(0.02)
+        return self.states[k] == DONE
+
+
+def ahead_of(order: Sequence[str]) -> list[str]:
+    """The helper's stages for a command that reaches ``order`` in this order: all but the
+    first (the command starts on it at once), the last first."""
+    return list(reversed(order[1:]))
+
+
+def start(stages: Sequence[str]) -> Any:
+    """Start the helper on those of ``stages`` (last needed first) not in the cache.
+
+    Returns a handle for :func:`stop`, or None when nothing is to be compiled, the helper
+    is not wanted (module notes) or a process cannot start. While it runs, a kernel of
+    a stage the helper is compiling is waited for rather than compiled here too.
+    """
+    from adavar import _jit
+
+    if not _wanted() or _jit.BEFORE_COMPILING is not None:
+        return None
+    cold = [stage for stage in stages if not stage_cached(stage)]
+    if not cold:
+        return None
+    try:
+        context = mp.get_context("spawn")
+        states = context.Array("b", len(cold))
+        process = context.Process(target=_helper_main, args=(cold, states),
+                                  name="adavar-compile-ahead", daemon=True)  # fmt: skip
+        process.start()
+    except (OSError, ImportError, NotImplementedError, RuntimeError):
+        return None
+    helper = _Helper(process, cold, states)
+    _jit.BEFORE_COMPILING = helper.before_compiling
+    return helper
+
+
+def stop(helper: Any) -> None:
+    """End the helper if it is still compiling (the command needs nothing more of it)."""
+    from adavar import _jit
+
+    if helper is None:
+        return
+    if _jit.BEFORE_COMPILING == helper.before_compiling:
+        _jit.BEFORE_COMPILING = None
+    if helper.process.is_alive():
+        helper.process.terminate()
+        helper.process.join(timeout=5)

@@ -1,0 +1,218 @@
+"""A first run's helper process that compiles the stages a command needs last (issue 15)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from adavar import _compile_ahead as ahead
+from adavar import _jit
+
+# In a fresh interpreter on the (warm) cache: every stage's recipe, then the command in
+# this process. A kernel of a stage that the command needs in a signature the recipes did
+# not produce would be loaded or compiled anew: its signature count would grow.
+_SAME_SIGNATURES = r"""
+import importlib, json, sys
+import numpy as np
+from adavar import _compile_ahead as ahead, simulate
+from adavar.cli import main
+
+def signatures():
+    out = {}
+    for stage, (_recipe, kernels) in ahead.STAGES.items():
+        for module, name in kernels:
+            kernel = getattr(importlib.import_module(module), name)
+            out[f"{module}.{name}"] = len(getattr(kernel, "kernel", kernel).signatures)
+    return out
+
+for recipe, _kernels in ahead.STAGES.values():
+    recipe()
+before = signatures()
+# what users have: a bandwidth-limited, quantised gyro at 200 Hz, two minutes
+x = simulate.sensor(24000, rate=200.0, bandwidth=50.0, lsb=1e-4, seed=3,
+                    angle_random_walk=3e-3, bias_instability=5e-4, rate_random_walk=1e-4)
+path = sys.argv[1] + "/gyro.csv"
+np.savetxt(path, np.column_stack([np.arange(x.size) / 200.0, x]), delimiter=",",
+           header="time,x", comments="")
+codes = [main(["davar", path, "--units", "deg/s", "--window", "10s", "--json"]),
+         main(["adaptive", path, "--units", "deg/s", "--lmax", "2000", "--lmin", "1000",
+               "--json"])]
+print(json.dumps({"codes": codes, "before": before, "after": signatures()}), file=sys.stderr)
+"""
+
+
+def test_the_recipes_compile_the_signatures_the_commands_use(tmp_path):
+    env = {**os.environ, "ADAVAR_COMPILE_AHEAD": "0"}
+    done = subprocess.run([sys.executable, "-c", _SAME_SIGNATURES, str(tmp_path)],
+                          capture_output=True, text=True, env=env, check=False)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    report = json.loads(done.stderr.strip().splitlines()[-1])
+    assert report["codes"] == [0, 0]
+    assert all(count >= 1 for count in report["before"].values()), report["before"]
+    assert report["after"] == report["before"]
+
+
+class _Process:
+    """A stand-in for the helper process: alive until ``alive`` is cleared."""
+
+    def __init__(self) -> None:
+        self.alive = True
+
+    def is_alive(self) -> bool:
+        return self.alive
+
+    def join(self, timeout: float | None = None) -> None:
+        time.sleep(timeout or 0)
+
+
+def _states(*values: int):
+    import multiprocessing as mp
+
+    array = mp.get_context("spawn").Array("b", len(values))
+    array[:] = list(values)
+    return array
+
+
+def _func(module: str, name: str):
+    def f():
+        return None
+
+    f.__module__, f.__name__ = module, name
+    return f
+
+
+def test_a_kernel_the_helper_has_not_started_is_compiled_here_and_skipped_there():
+    states = _states(ahead.PENDING, ahead.PENDING)
+    helper = ahead._Helper(_Process(), ["fit", "controller"], states)
+    assert not helper.before_compiling(_func("adavar.controller", "_reconcile"))
+    assert list(states) == [ahead.PENDING, ahead.HERE]
+    # a function of no stage, and one of the same name in another module: not waited for
+    assert not helper.before_compiling(_func("adavar.statistics", "deviation"))
+    assert not helper.before_compiling(_func("adavar.window_hvar", "nnls_blocks"))
+    assert list(states) == [ahead.PENDING, ahead.HERE]
+
+
+def test_a_kernel_the_helper_is_compiling_is_waited_for():
+    states = _states(ahead.HELPER)
+    process = _Process()
+    helper = ahead._Helper(process, ["fit"], states)
+    threading.Timer(0.2, lambda: states.__setitem__(0, ahead.DONE)).start()
+    t = time.perf_counter()
+    assert helper.before_compiling(_func("adavar._nnls", "nnls_blocks"))  # load it now
+    assert time.perf_counter() - t >= 0.15
+    # a helper that dies meanwhile is not waited for: the kernel compiles here
+    states[0] = ahead.HELPER
+    process.alive = False
+    assert not helper.before_compiling(_func("adavar._nnls", "nnls_blocks"))
+
+
+def test_the_helper_skips_the_stages_taken_here_and_marks_its_own_done(monkeypatch):
+    ran = []
+    stages = {name: (lambda name=name: ran.append(name), kernels)
+              for name, (_recipe, kernels) in ahead.STAGES.items()}  # fmt: skip
+    monkeypatch.setattr(ahead, "STAGES", stages)
+    monkeypatch.setattr(ahead, "stage_cached", lambda stage: stage == "deviation")
+    states = _states(ahead.PENDING, ahead.HERE, ahead.PENDING, ahead.PENDING)
+    ahead.compile_stages(["controller", "fit", "deviation", "surface"], states)
+    assert ran == ["controller", "surface"]  # fit taken here, deviation cached
+    assert list(states) == [ahead.DONE, ahead.HERE, ahead.DONE, ahead.DONE]
+
+
+@pytest.mark.parametrize("env", [{"ADAVAR_COMPILE_AHEAD": "0"}, {"ADAVAR_THREADS": "1"}])
+def test_no_helper_when_switched_off_or_on_one_thread(monkeypatch, env):
+    monkeypatch.setattr(ahead, "stage_cached", lambda stage: False)
+    monkeypatch.delenv("ADAVAR_COMPILE_AHEAD", raising=False)
+    for key, value in env.items():
+        monkeypatch.setenv(key, value)
+    assert ahead.start(["fit"]) is None
+    assert _jit.BEFORE_COMPILING is None
+
+
+def test_no_helper_when_every_stage_is_cached(monkeypatch):
+    monkeypatch.setenv("ADAVAR_COMPILE_AHEAD", "1")
+    monkeypatch.setattr(ahead, "stage_cached", lambda stage: True)
+    assert ahead.start(["controller", "fit", "surface"]) is None
+    assert _jit.BEFORE_COMPILING is None
+
+
+def test_the_helper_starts_and_stops_with_the_command(monkeypatch):
+    monkeypatch.setenv("ADAVAR_COMPILE_AHEAD", "1")
+    monkeypatch.setattr(ahead, "_wanted", lambda: True)
+    monkeypatch.setattr(ahead, "stage_cached", lambda stage: False)
+    helper = ahead.start(["fit"])
+    assert helper is not None and helper.process.is_alive()
+    try:
+        assert _jit.BEFORE_COMPILING == helper.before_compiling
+        assert ahead.start(["fit"]) is None  # one helper at a time
+    finally:
+        ahead.stop(helper)
+    assert not helper.process.is_alive() and _jit.BEFORE_COMPILING is None
+
+
+@pytest.fixture(scope="module")
+def gyro_csv(tmp_path_factory):
+    import numpy as np
+
+    from adavar import simulate
+
+    x = simulate.sensor(6000, rate=100.0, bandwidth=20.0, lsb=1e-4, seed=5,
+                        angle_random_walk=3e-3, bias_instability=5e-4)  # fmt: skip
+    path = tmp_path_factory.mktemp("ahead") / "gyro.csv"
+    np.savetxt(path, np.column_stack([np.arange(x.size) / 100.0, x]), delimiter=",",
+               header="time,x", comments="")  # fmt: skip
+    return path
+
+
+@pytest.mark.parametrize(("argv", "stages"), [
+    (["davar", "--window", "10s"], ["controller", "fit", "surface"]),
+    (["davar", "--window", "10s", "--confidence", "none"], ["surface"]),
+    (["davar", "--window", "10s", "--stat", "mvar"], []),
+    (["adaptive", "--lmax", "1000", "--lmin", "500"], ["fit", "surface", "deviation"]),
+    (["davar", "--window", "1000s"], ["controller", "fit", "surface"]),  # a user error
+    (["report", "--window", "10s"], ["controller", "fit", "surface"]),
+    (["report", "--adaptive", "--lmax", "1000", "--lmin", "500"],
+     ["fit", "surface", "controller"]),
+    (["report"], None),  # the whole record only: no helper
+])  # fmt: skip
+def test_the_commands_ask_for_the_stages_they_reach_last_and_stop_the_helper(
+    monkeypatch, capsys, tmp_path, gyro_csv, argv, stages
+):
+    from adavar.cli import main
+
+    asked, stopped = [], []
+    monkeypatch.setattr(ahead, "start", lambda wanted: asked.append(list(wanted)) or "helper")
+    monkeypatch.setattr(ahead, "stop", stopped.append)
+    out = ["-o", str(tmp_path / "r.html")] if argv[0] == "report" else ["--json"]
+    code = main([argv[0], str(gyro_csv), "--units", "deg/s", *argv[1:], *out])
+    assert code == (2 if "1000s" in argv else 0), capsys.readouterr().err
+    # stopped after an error too
+    assert asked == ([] if stages is None else [stages])
+    assert stopped == [None if stages is None else "helper"]
+
+
+_DEAF = r"""
+import sys, time
+from adavar import _compile_ahead as ahead
+ahead.STAGES = {"x": (lambda: (print("noise", file=sys.stderr), time.sleep(1.5)), ())}
+ahead.stage_cached = lambda stage: False
+print("ready", flush=True)
+ahead._helper_main(["x"], None)
+"""
+
+
+def test_the_helper_says_nothing_and_leaves_ctrl_c_to_the_command():
+    import signal
+
+    process = subprocess.Popen([sys.executable, "-c", _DEAF], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True)  # fmt: skip
+    assert process.stdout.readline().strip() == "ready"
+    time.sleep(0.5)
+    process.send_signal(signal.SIGINT)  # what a terminal's Ctrl-C sends the whole group
+    out, err = process.communicate(timeout=30)
+    assert process.returncode == 0 and out == "" and err == ""
