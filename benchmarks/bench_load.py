@@ -16,10 +16,11 @@
   an empty Numba cache: the first run of a user whose record is large (it compiles the
   kernels' paths for small and for large inputs);
 * first commands (``--only first-commands``): ``adavar davar`` and ``adavar adaptive`` on
-  30 minutes of a simulated MEMS gyro at 200 Hz (50 Hz bandwidth, quantised), each with an
-  empty Numba cache, with the first-run helper process (``adavar._compile_ahead``) and
-  without it (``ADAVAR_COMPILE_AHEAD=0``, the peer), alternated, quiet and with another
-  process busy on one core.
+  30 minutes of a simulated MEMS gyro at 200 Hz (50 Hz bandwidth, quantised), and ``adavar
+  compare --scenario 1`` (the paper's four methods), each with an empty Numba cache,
+  with the first-run helper process (``adavar._compile_ahead``) and without it
+  (``ADAVAR_COMPILE_AHEAD=0``, the peer), alternated, quiet and with another process busy
+  on one core.
 
 Run: ``python benchmarks/bench_load.py [--max-n 10000000] [--skip-demo]
 [--only memory|threaded|first-large|first-commands]``.
@@ -338,6 +339,7 @@ def first_commands(repeats: int = 3) -> list[str]:
         commands = {
             "adavar davar --window 60s": ["davar", csv, "--units", "deg/s", "--window", "60s"],
             "adavar adaptive": ["adaptive", csv, "--units", "deg/s"],
+            "adavar compare --scenario 1": ["compare", "--scenario", "1"],
         }
         for busy in (False, True):
             stop = mp.Event()

@@ -42,7 +42,8 @@ np.savetxt(path, np.column_stack([np.arange(x.size) / 200.0, x]), delimiter=",",
            header="time,x", comments="")
 codes = [main(["davar", path, "--units", "deg/s", "--window", "10s", "--json"]),
          main(["adaptive", path, "--units", "deg/s", "--lmax", "2000", "--lmin", "1000",
-               "--json"])]
+               "--json"]),
+         main(["compare", "--scenario", "1", "--json"])]
 print(json.dumps({"codes": codes, "before": before, "after": signatures()}), file=sys.stderr)
 """
 
@@ -53,7 +54,7 @@ def test_the_recipes_compile_the_signatures_the_commands_use(tmp_path):
                           capture_output=True, text=True, env=env, check=False)  # fmt: skip
     assert done.returncode == 0, done.stderr
     report = json.loads(done.stderr.strip().splitlines()[-1])
-    assert report["codes"] == [0, 0]
+    assert report["codes"] == [0, 0, 0]
     assert all(count >= 1 for count in report["before"].values()), report["before"]
     assert report["after"] == report["before"]
 
@@ -179,6 +180,7 @@ def gyro_csv(tmp_path_factory):
     (["report", "--adaptive", "--lmax", "1000", "--lmin", "500"],
      ["fit", "surface", "controller"]),
     (["report"], None),  # the whole record only: no helper
+    (["compare", "--change-times", "30"], ["kurtosis", "controller", "fit", "surface"]),
 ])  # fmt: skip
 def test_the_commands_ask_for_the_stages_they_reach_last_and_stop_the_helper(
     monkeypatch, capsys, tmp_path, gyro_csv, argv, stages
@@ -189,6 +191,8 @@ def test_the_commands_ask_for_the_stages_they_reach_last_and_stop_the_helper(
     monkeypatch.setattr(ahead, "start", lambda wanted: asked.append(list(wanted)) or "helper")
     monkeypatch.setattr(ahead, "stop", stopped.append)
     out = ["-o", str(tmp_path / "r.html")] if argv[0] == "report" else ["--json"]
+    if argv[0] == "compare":
+        out += ["--lmax", "1000", "--lmin", "500", "--l", "100", "--taus", "octave"]
     code = main([argv[0], str(gyro_csv), "--units", "deg/s", *argv[1:], *out])
     assert code == (2 if "1000s" in argv else 0), capsys.readouterr().err
     # stopped after an error too

@@ -67,6 +67,15 @@ def _surface() -> None:
     davar(x, rate=1.0, window=300, confidence=None)
 
 
+def _kurtosis() -> None:
+    from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
+
+    x = np.random.default_rng(3).standard_normal(3000)
+    sliding_kurtosis(x, window=300)
+    kurtosis_contribution(x, window=300, segment=50)
+    kurtosis_contribution(x, window=300, reference="record")
+
+
 def _deviation() -> None:
     from adavar.statistics import deviation
 
@@ -83,6 +92,10 @@ STAGES: dict[str, tuple[Callable[[], None], tuple[tuple[str, str], ...]]] = {
     "fit": (_fit, (("adavar._nnls", "nnls_blocks"),)),
     "surface": (_surface, (("adavar._kernels.window_avar", "window_avar_kernel"),
                            ("adavar._kernels.window_avar", "_window_extent"))),
+    "kurtosis": (_kurtosis, (("adavar.kurtosis", "_sliding"),
+                             ("adavar.kurtosis", "_grid_blocks"),
+                             ("adavar.kurtosis", "_grid_chain"),
+                             ("adavar.kurtosis", "_record"))),
     "deviation": (_deviation, (("adavar.noise_id", "_rate_noise_kernel"),
                                ("adavar.differences", "_anchored_prefix"),
                                ("adavar.differences", "overlapping_sums_kernel"),
