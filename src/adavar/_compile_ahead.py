@@ -7,13 +7,16 @@ stages the command reaches last (the adaptive controller, the noise fit, the sur
 kernel), in reverse order, while this one compiles those it reaches first. Each kernel
 the helper finishes goes to the on-disk cache, and this process loads it from there when
 it gets to it (Numba looks in the cache before it compiles a signature it has not met).
-Where the two meet, a kernel may be compiled by both: never slower than one process.
+Where the two meet, nothing is compiled twice: a kernel of a stage the helper is
+compiling is waited for (:data:`adavar._jit.BEFORE_COMPILING`, asked before each
+compilation), and a stage it has not started is compiled here and skipped there.
 
-The helper is started only when it can help: the cache holds none of the stages'
-kernels, two cores are free to this process, and neither ``ADAVAR_THREADS=1`` nor
-``ADAVAR_COMPILE_AHEAD=0`` is set. It is a daemon process: it ends with the command,
-and a kernel it was compiling then is simply not cached (Numba writes cache files
-under temporary names).
+The helper is started only when it can help: the cache lacks the kernels of at least
+one stage it would take, two cores are free to this process, and neither
+``ADAVAR_THREADS=1`` nor ``ADAVAR_COMPILE_AHEAD=0`` is set. It prints nothing, ignores
+Ctrl-C (the command ends it) and is a daemon process: it ends with the command, and a
+kernel it was compiling then is simply not cached (Numba writes cache files under
+temporary names).
 
 Each stage is compiled by calling public functions on a few thousand samples of white
 noise, the same code path as a real call, so the kernels get the same signatures
