@@ -60,24 +60,13 @@ def test_the_recipes_compile_the_signatures_the_commands_use(tmp_path):
 
 
 class _Process:
-    """A stand-in for the helper process: alive until ``alive`` is cleared."""
+    """A stand-in for the helper process: running until ``alive`` is cleared."""
 
     def __init__(self) -> None:
         self.alive = True
 
-    def is_alive(self) -> bool:
-        return self.alive
-
-    def join(self, timeout: float | None = None) -> None:
-        time.sleep(timeout or 0)
-
-
-def _states(*values: int):
-    import multiprocessing as mp
-
-    array = mp.get_context("spawn").Array("b", len(values))
-    array[:] = list(values)
-    return array
+    def poll(self) -> int | None:
+        return None if self.alive else 0
 
 
 def _func(module: str, name: str):
@@ -88,41 +77,52 @@ def _func(module: str, name: str):
     return f
 
 
-def test_a_kernel_the_helper_has_not_started_is_compiled_here_and_skipped_there():
-    states = _states(ahead.PENDING, ahead.PENDING)
-    helper = ahead._Helper(_Process(), ["fit", "controller"], states)
+def test_a_kernel_the_helper_has_not_started_is_compiled_here_and_skipped_there(tmp_path):
+    helper = ahead._Helper(_Process(), ["fit", "controller"], str(tmp_path))
     assert not helper.before_compiling(_func("adavar.controller", "_reconcile"))
-    assert list(states) == [ahead.PENDING, ahead.HERE]
-    # a function of no stage, and one of the same name in another module: not waited for
+    # another kernel of the same stage: still this process's, not waited for
+    assert not helper.before_compiling(_func("adavar.controller", "_speculate"))
+    # a function of no stage, and one of a stage's name in another module: not claimed
     assert not helper.before_compiling(_func("adavar.statistics", "deviation"))
     assert not helper.before_compiling(_func("adavar.window_hvar", "nnls_blocks"))
-    assert list(states) == [ahead.PENDING, ahead.HERE]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["1.claim"]
+    # the helper then skips the stage this process took, and takes the other
+    ran = []
+    stages = {name: (lambda name=name: ran.append(name), kernels)
+              for name, (_recipe, kernels) in ahead.STAGES.items()}  # fmt: skip
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(ahead, "STAGES", stages)
+        mp.setattr(ahead, "stage_cached", lambda stage: False)
+        ahead.compile_stages(["fit", "controller"], str(tmp_path))
+    assert ran == ["fit"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["0.claim", "0.done", "1.claim"]
 
 
-def test_a_kernel_the_helper_is_compiling_is_waited_for():
-    states = _states(ahead.HELPER)
+def test_a_kernel_the_helper_is_compiling_is_waited_for(tmp_path):
     process = _Process()
-    helper = ahead._Helper(process, ["fit"], states)
-    threading.Timer(0.2, lambda: states.__setitem__(0, ahead.DONE)).start()
+    helper = ahead._Helper(process, ["fit"], str(tmp_path))
+    assert ahead._Claims(str(tmp_path)).claim(0)  # the helper's
+    threading.Timer(0.2, ahead._Claims(str(tmp_path)).finish, (0,)).start()
     t = time.perf_counter()
     assert helper.before_compiling(_func("adavar._nnls", "nnls_blocks"))  # load it now
     assert time.perf_counter() - t >= 0.15
-    # a helper that dies meanwhile is not waited for: the kernel compiles here
-    states[0] = ahead.HELPER
+    # a helper that dies before it is through is not waited for: compiled here
+    helper = ahead._Helper(process, ["controller"], str(tmp_path / "x"))
+    (tmp_path / "x").mkdir()
+    assert ahead._Claims(str(tmp_path / "x")).claim(0)
     process.alive = False
-    assert not helper.before_compiling(_func("adavar._nnls", "nnls_blocks"))
+    assert not helper.before_compiling(_func("adavar.controller", "_speculate"))
 
 
-def test_the_helper_skips_the_stages_taken_here_and_marks_its_own_done(monkeypatch):
+def test_the_helper_skips_cached_stages_and_marks_every_stage_done(monkeypatch, tmp_path):
     ran = []
     stages = {name: (lambda name=name: ran.append(name), kernels)
               for name, (_recipe, kernels) in ahead.STAGES.items()}  # fmt: skip
     monkeypatch.setattr(ahead, "STAGES", stages)
     monkeypatch.setattr(ahead, "stage_cached", lambda stage: stage == "deviation")
-    states = _states(ahead.PENDING, ahead.HERE, ahead.PENDING, ahead.PENDING)
-    ahead.compile_stages(["controller", "fit", "deviation", "surface"], states)
-    assert ran == ["controller", "surface"]  # fit taken here, deviation cached
-    assert list(states) == [ahead.DONE, ahead.HERE, ahead.DONE, ahead.DONE]
+    ahead.compile_stages(["controller", "deviation", "surface"], str(tmp_path))
+    assert ran == ["controller", "surface"]
+    assert all((tmp_path / f"{k}.done").exists() for k in range(3))
 
 
 @pytest.mark.parametrize("env", [{"ADAVAR_COMPILE_AHEAD": "0"}, {"ADAVAR_THREADS": "1"}])
@@ -147,13 +147,38 @@ def test_the_helper_starts_and_stops_with_the_command(monkeypatch):
     monkeypatch.setattr(ahead, "_wanted", lambda: True)
     monkeypatch.setattr(ahead, "stage_cached", lambda stage: False)
     helper = ahead.start(["fit"])
-    assert helper is not None and helper.process.is_alive()
+    assert helper is not None and helper.process.poll() is None
     try:
         assert _jit.BEFORE_COMPILING == helper.before_compiling
         assert ahead.start(["fit"]) is None  # one helper at a time
     finally:
         ahead.stop(helper)
-    assert not helper.process.is_alive() and _jit.BEFORE_COMPILING is None
+    assert helper.process.poll() is not None and _jit.BEFORE_COMPILING is None
+    assert not os.path.exists(helper.folder)
+
+
+_NO_GUARD = r"""
+import sys
+from adavar import _compile_ahead as ahead
+with open(sys.argv[1], "a") as log:  # a script without a __main__ guard
+    log.write("ran\n")
+ahead.stage_cached = lambda stage: False
+helper = ahead.start(["fit"])
+helper.process.wait(timeout=120)
+print("helper exit", helper.process.returncode, flush=True)
+ahead.stop(helper)
+"""
+
+
+def test_the_helper_does_not_run_the_callers_script_again_and_says_nothing(tmp_path):
+    script, log = tmp_path / "no_guard.py", tmp_path / "log.txt"
+    script.write_text(_NO_GUARD)
+    env = {**os.environ, "ADAVAR_COMPILE_AHEAD": "1"}
+    done = subprocess.run([sys.executable, str(script), str(log)], capture_output=True,
+                          text=True, env=env, check=False, timeout=180)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert done.stdout == "helper exit 0\n" and done.stderr == ""
+    assert log.read_text() == "ran\n"
 
 
 @pytest.fixture(scope="module")
@@ -203,14 +228,14 @@ def test_the_commands_ask_for_the_stages_they_reach_last_and_stop_the_helper(
 _DEAF = r"""
 import sys, time
 from adavar import _compile_ahead as ahead
-ahead.STAGES = {"x": (lambda: (print("noise", file=sys.stderr), time.sleep(1.5)), ())}
+ahead.STAGES = {"x": (lambda: time.sleep(1.5), ())}
 ahead.stage_cached = lambda stage: False
 print("ready", flush=True)
-ahead._helper_main(["x"], None)
+ahead._helper_main(None, ["x"])
 """
 
 
-def test_the_helper_says_nothing_and_leaves_ctrl_c_to_the_command():
+def test_the_helper_leaves_ctrl_c_to_the_command():
     import signal
 
     process = subprocess.Popen([sys.executable, "-c", _DEAF], stdout=subprocess.PIPE,

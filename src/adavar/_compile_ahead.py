@@ -14,9 +14,8 @@ compilation), and a stage it has not started is compiled here and skipped there.
 The helper is started only when it can help: the cache lacks the kernels of at least
 one stage it would take, two cores are free to this process, and neither
 ``ADAVAR_THREADS=1`` nor ``ADAVAR_COMPILE_AHEAD=0`` is set. It prints nothing, ignores
-Ctrl-C (the command ends it) and is a daemon process: it ends with the command, and a
-kernel it was compiling then is simply not cached (Numba writes cache files under
-temporary names).
+Ctrl-C (the command ends it) and ends with the command: a kernel it was compiling then
+is simply not cached (Numba writes cache files under temporary names).
 
 Each stage is compiled by calling public functions on a few thousand samples of white
 noise, the same code path as a real call, so the kernels get the same signatures
@@ -25,8 +24,11 @@ noise, the same code path as a real call, so the kernels get the same signatures
 
 from __future__ import annotations
 
-import multiprocessing as mp
+import contextlib
 import os
+import shutil
+import subprocess
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -105,9 +107,6 @@ STAGES: dict[str, tuple[Callable[[], None], tuple[tuple[str, str], ...]]] = {
                                ("adavar.differences", "cluster_differences"))),
 }  # fmt: skip
 
-#: a stage's state in the array the two processes share
-PENDING, HELPER, DONE, HERE = 0, 1, 2, 3
-
 
 def stage_cached(stage: str) -> bool:
     """Whether the on-disk cache holds the kernel that marks ``stage`` as compiled.
@@ -126,39 +125,57 @@ def stage_cached(stage: str) -> bool:
         return True
 
 
-def _claim(states: Any, index: int, who: int) -> bool:
-    """Take stage ``index`` for ``who`` if nobody has; False when it is taken."""
-    with states.get_lock():
-        if states[index] != PENDING:
+class _Claims:
+    """Who compiles which stage, in a folder both processes see.
+
+    The first to create ``K.claim`` (``O_EXCL``: one of them only) compiles stage ``K``;
+    the helper creates ``K.done`` when it is through with a stage of its own.
+    """
+
+    def __init__(self, folder: str) -> None:
+        self.folder = folder
+
+    def claim(self, k: int) -> bool:
+        """Take stage ``k``; False when the other process has."""
+        try:
+            os.close(os.open(os.path.join(self.folder, f"{k}.claim"),
+                             os.O_CREAT | os.O_EXCL | os.O_WRONLY))  # fmt: skip
+        except FileExistsError:
             return False
-        states[index] = who
         return True
 
+    def finish(self, k: int) -> None:
+        """Mark stage ``k`` done (its kernels cached, or failed: compiled there then)."""
+        with open(os.path.join(self.folder, f"{k}.done"), "w"):
+            pass
 
-def compile_stages(stages: Sequence[str], states: Any = None) -> None:
+    def done(self, k: int) -> bool:
+        """Whether the helper is through with stage ``k``."""
+        return os.path.exists(os.path.join(self.folder, f"{k}.done"))
+
+
+def compile_stages(stages: Sequence[str], folder: str | None = None) -> None:
     """Compile ``stages`` in this order (the helper's work), each unless it is cached or
-    the command has taken it (``states``: one entry per stage, shared)."""
+    the command has taken it (``folder``: the two processes' :class:`_Claims`)."""
+    claims = _Claims(folder) if folder is not None else None
     for k, stage in enumerate(stages):
-        if states is not None and not _claim(states, k, HELPER):
+        if claims is not None and not claims.claim(k):
             continue
         try:
             if not stage_cached(stage):
                 STAGES[stage][0]()
         finally:
-            if states is not None:
-                states[k] = DONE
+            if claims is not None:
+                claims.finish(k)
 
 
-def _helper_main(stages: Sequence[str], states: Any) -> None:
-    """The helper process: silent, deaf to Ctrl-C (the command ends it), then
-    :func:`compile_stages`."""
+def _helper_main(folder: str, stages: Sequence[str]) -> None:
+    """The helper process (started with its output sent nowhere): deaf to Ctrl-C, which
+    reaches it with the command's (the command ends it), then :func:`compile_stages`."""
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    quiet = os.open(os.devnull, os.O_WRONLY)
-    os.dup2(quiet, 1)
-    os.dup2(quiet, 2)
-    compile_stages(stages, states)
+    compile_stages(stages, folder)
 
 
 def _wanted() -> bool:
@@ -174,23 +191,26 @@ def _wanted() -> bool:
 class _Helper:
     """This process's side: before compiling a kernel of a stage the helper is on, wait."""
 
-    def __init__(self, process: Any, stages: Sequence[str], states: Any) -> None:
-        self.process, self.states = process, states
+    def __init__(self, process: Any, stages: Sequence[str], folder: str) -> None:
+        self.process, self.folder = process, folder
+        self.claims = _Claims(folder)
+        self.mine: set[int] = set()
         self.stage_of = {kernel: k for k, stage in enumerate(stages) for kernel in STAGES[stage][1]}
 
     def before_compiling(self, py_func: Any) -> bool:
-        """Called by :mod:`adavar._jit` when ``py_func`` is not in the cache."""
+        """Called by :mod:`adavar._jit` when ``py_func`` is not in the cache: True when
+        the helper has compiled it meanwhile (to be loaded now)."""
         k = self.stage_of.get(
             (getattr(py_func, "__module__", ""), getattr(py_func, "__name__", ""))
         )
-        if k is None:
+        if k is None or k in self.mine:
             return False
-        if _claim(self.states, k, HERE):  # not started there: compiled here, skipped there
+        if self.claims.claim(k):  # not started there: compiled here, skipped there
+            self.mine.add(k)
             return False
-        if self.states[k] == HELPER:
-            while self.states[k] == HELPER and self.process.is_alive():
-                self.process.join(0.02)
-        return self.states[k] == DONE
+        while not self.claims.done(k) and self.process.poll() is None:
+            time.sleep(0.02)
+        return self.claims.done(k)
 
 
 def ahead_of(order: Sequence[str]) -> list[str]:
@@ -205,7 +225,14 @@ def start(stages: Sequence[str]) -> Any:
     Returns a handle for :func:`stop`, or None when nothing is to be compiled, the helper
     is not wanted (module notes) or a process cannot start. While it runs, a kernel of
     a stage the helper is compiling is waited for rather than compiled here too.
+
+    The helper is a new interpreter (``python -c``), not a ``multiprocessing`` child: that
+    would import the caller's main script again, which a script that calls
+    :func:`adavar.cli.main` without a ``__main__`` guard would run a second time.
     """
+    import sys
+    import tempfile
+
     from adavar import _jit
 
     if not _wanted() or _jit.BEFORE_COMPILING is not None:
@@ -213,15 +240,22 @@ def start(stages: Sequence[str]) -> Any:
     cold = [stage for stage in stages if not stage_cached(stage)]
     if not cold:
         return None
+    folder = tempfile.mkdtemp(prefix="adavar-compile-ahead-")
+    # the package this process runs, first on the helper's path
+    package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    path = os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH")) if p)
+    code = ("import sys; from adavar._compile_ahead import _helper_main; "
+            "_helper_main(sys.argv[1], sys.argv[2:])")  # fmt: skip
     try:
-        context = mp.get_context("spawn")
-        states = context.Array("b", len(cold))
-        process = context.Process(target=_helper_main, args=(cold, states),
-                                  name="adavar-compile-ahead", daemon=True)  # fmt: skip
-        process.start()
-    except (OSError, ImportError, NotImplementedError, RuntimeError):
+        process = subprocess.Popen(
+            [sys.executable, "-c", code, folder, *cold], stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            env={**os.environ, "PYTHONPATH": path},
+        )  # fmt: skip
+    except OSError:
+        shutil.rmtree(folder, ignore_errors=True)
         return None
-    helper = _Helper(process, cold, states)
+    helper = _Helper(process, cold, folder)
     _jit.BEFORE_COMPILING = helper.before_compiling
     return helper
 
@@ -234,6 +268,8 @@ def stop(helper: Any) -> None:
         return
     if _jit.BEFORE_COMPILING == helper.before_compiling:
         _jit.BEFORE_COMPILING = None
-    if helper.process.is_alive():
+    if helper.process.poll() is None:
         helper.process.terminate()
-        helper.process.join(timeout=5)
+        with contextlib.suppress(subprocess.TimeoutExpired):  # one that will not end: left
+            helper.process.wait(timeout=5)
+    shutil.rmtree(helper.folder, ignore_errors=True)

@@ -310,7 +310,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     adaptive = args.command == "adaptive"
     if adaptive and args.method == "oracle" and not args.change_times:
         raise UsageError("--method oracle needs --change-times T,... (seconds)")
-    helper = _compile_ahead(args, adaptive)
+    helper = _start_compile_helper(args, adaptive)
     try:
         return _run_davar(args, adaptive, fmt)
     finally:
@@ -319,7 +319,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
         stop(helper)
 
 
-def _compile_ahead(args: argparse.Namespace, adaptive: bool) -> Any:
+def _start_compile_helper(args: argparse.Namespace, adaptive: bool) -> Any:
     """On a first run, a second process compiles the stages this command reaches last."""
     from adavar._compile_ahead import ahead_of, start
 

@@ -28,7 +28,7 @@ from adavar.writers import dumps, fit_json
 def _cmd_report(args: argparse.Namespace) -> int:
     check_arguments(args)
     output = check_output_file(args.output, args.force, (".html", ".htm"))
-    helper = _compile_ahead(args)
+    helper = _start_compile_helper(args)
     try:
         return _run_report(args, output)
     finally:
@@ -37,7 +37,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
         stop(helper)
 
 
-def _compile_ahead(args: argparse.Namespace) -> Any:
+def _start_compile_helper(args: argparse.Namespace) -> Any:
     """On a first run, a second process compiles the stages this command reaches last."""
     from adavar._compile_ahead import ahead_of, start
 
