@@ -106,12 +106,17 @@ def test_a_kernel_the_helper_is_compiling_is_waited_for(tmp_path):
     t = time.perf_counter()
     assert helper.before_compiling(_func("adavar._nnls", "nnls_blocks"))  # load it now
     assert time.perf_counter() - t >= 0.15
-    # a helper that dies before it is through is not waited for: compiled here
+    # a helper that has ended is not waited for (a load is tried, then it compiles here)
     helper = ahead._Helper(process, ["controller"], str(tmp_path / "x"))
     (tmp_path / "x").mkdir()
     assert ahead._Claims(str(tmp_path / "x")).claim(0)
     process.alive = False
-    assert not helper.before_compiling(_func("adavar.controller", "_speculate"))
+    t = time.perf_counter()
+    assert helper.before_compiling(_func("adavar.controller", "_speculate"))
+    assert time.perf_counter() - t < 0.1
+    # once the helper has removed its folder as it ended, every stage is this process's
+    helper = ahead._Helper(process, ["fit"], str(tmp_path / "gone"))
+    assert not helper.before_compiling(_func("adavar._nnls", "nnls_blocks"))
 
 
 def test_the_helper_skips_cached_stages_and_marks_every_stage_done(monkeypatch, tmp_path):
@@ -245,3 +250,37 @@ def test_the_helper_leaves_ctrl_c_to_the_command():
     process.send_signal(signal.SIGINT)  # what a terminal's Ctrl-C sends the whole group
     out, err = process.communicate(timeout=30)
     assert process.returncode == 0 and out == "" and err == ""
+
+
+_KILLED = r"""
+import os, signal, sys, time
+from adavar import _compile_ahead as ahead
+helper = ahead.start(["controller", "fit"])  # an empty cache: seconds of work each
+while not os.path.exists(os.path.join(helper.folder, "0.claim")):
+    time.sleep(0.01)
+print(helper.process.pid, helper.folder, flush=True)
+os.kill(os.getpid(), signal.SIGKILL)  # no finally, no stop()
+"""
+
+
+def _ended(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            return stat.read().rsplit(")", 1)[1].split()[0] in ("Z", "X")
+    except FileNotFoundError:
+        return True
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG: Linux")
+def test_a_killed_command_takes_its_helper_and_folder_with_it(tmp_path):
+    env = {**os.environ, "ADAVAR_COMPILE_AHEAD": "1", "NUMBA_CACHE_DIR": str(tmp_path)}
+    done = subprocess.run([sys.executable, "-c", _KILLED], capture_output=True, text=True,
+                          env=env, check=False, timeout=120)  # fmt: skip
+    assert done.returncode == -9, done.stderr
+    pid, folder = done.stdout.split()
+    deadline = time.perf_counter() + 3.0  # its two stages take several seconds more
+    while not _ended(int(pid)) and time.perf_counter() < deadline:
+        time.sleep(0.02)
+    assert _ended(int(pid))
+    time.sleep(0.2)
+    assert not os.path.exists(folder)

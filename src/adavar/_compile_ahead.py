@@ -28,6 +28,7 @@ import contextlib
 import os
 import shutil
 import subprocess
+import sys
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -136,17 +137,23 @@ class _Claims:
         self.folder = folder
 
     def claim(self, k: int) -> bool:
-        """Take stage ``k``; False when the other process has."""
+        """Take stage ``k``; False when the other process has. True when the folder is
+        gone: the helper removes it as it ends, and then has nothing more to give."""
         try:
             os.close(os.open(os.path.join(self.folder, f"{k}.claim"),
                              os.O_CREAT | os.O_EXCL | os.O_WRONLY))  # fmt: skip
         except FileExistsError:
             return False
+        except FileNotFoundError:
+            return True
         return True
 
     def finish(self, k: int) -> None:
         """Mark stage ``k`` done (its kernels cached, or failed: compiled there then)."""
-        with open(os.path.join(self.folder, f"{k}.done"), "w"):
+        with (
+            contextlib.suppress(FileNotFoundError),
+            open(os.path.join(self.folder, f"{k}.done"), "w"),
+        ):
             pass
 
     def done(self, k: int) -> bool:
@@ -154,11 +161,16 @@ class _Claims:
         return os.path.exists(os.path.join(self.folder, f"{k}.done"))
 
 
-def compile_stages(stages: Sequence[str], folder: str | None = None) -> None:
+def compile_stages(
+    stages: Sequence[str], folder: str | None = None, parent: int | None = None
+) -> None:
     """Compile ``stages`` in this order (the helper's work), each unless it is cached or
-    the command has taken it (``folder``: the two processes' :class:`_Claims`)."""
+    the command has taken it (``folder``: the two processes' :class:`_Claims`), while
+    the process ``parent`` (the command) is this one's parent."""
     claims = _Claims(folder) if folder is not None else None
     for k, stage in enumerate(stages):
+        if parent is not None and os.getppid() != parent:
+            return  # the command is gone (killed): nobody needs the rest
         if claims is not None and not claims.claim(k):
             continue
         try:
@@ -169,13 +181,29 @@ def compile_stages(stages: Sequence[str], folder: str | None = None) -> None:
                 claims.finish(k)
 
 
-def _helper_main(folder: str, stages: Sequence[str]) -> None:
+def _helper_main(folder: str | None, stages: Sequence[str], parent: int | None = None) -> None:
     """The helper process (started with its output sent nowhere): deaf to Ctrl-C, which
-    reaches it with the command's (the command ends it), then :func:`compile_stages`."""
+    reaches it with the command's (the command ends it), then :func:`compile_stages`.
+
+    It ends with the command even when the command is killed: on Linux the kernel sends
+    it SIGTERM then (``PR_SET_PDEATHSIG``); elsewhere it stops before its next stage.
+    As it ends, it removes the claims' folder (the command, killed, could not).
+    """
     import signal
 
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    compile_stages(stages, folder)
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))  # through the finally below
+    if parent is not None and sys.platform.startswith("linux"):
+        with contextlib.suppress(Exception):
+            import ctypes
+
+            ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM)  # PR_SET_PDEATHSIG
+    try:
+        if parent is None or os.getppid() == parent:
+            compile_stages(stages, folder, parent)
+    finally:
+        if folder is not None:
+            shutil.rmtree(folder, ignore_errors=True)
 
 
 def _wanted() -> bool:
@@ -199,7 +227,7 @@ class _Helper:
 
     def before_compiling(self, py_func: Any) -> bool:
         """Called by :mod:`adavar._jit` when ``py_func`` is not in the cache: True when
-        the helper has compiled it meanwhile (to be loaded now)."""
+        the helper may have compiled it meanwhile (to be loaded again now)."""
         k = self.stage_of.get(
             (getattr(py_func, "__module__", ""), getattr(py_func, "__name__", ""))
         )
@@ -210,7 +238,7 @@ class _Helper:
             return False
         while not self.claims.done(k) and self.process.poll() is None:
             time.sleep(0.02)
-        return self.claims.done(k)
+        return True  # load again: compiled there, unless the helper failed or ended
 
 
 def ahead_of(order: Sequence[str]) -> list[str]:
@@ -230,7 +258,6 @@ def start(stages: Sequence[str]) -> Any:
     would import the caller's main script again, which a script that calls
     :func:`adavar.cli.main` without a ``__main__`` guard would run a second time.
     """
-    import sys
     import tempfile
 
     from adavar import _jit
@@ -245,10 +272,11 @@ def start(stages: Sequence[str]) -> Any:
     package_root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     path = os.pathsep.join(p for p in (package_root, os.environ.get("PYTHONPATH")) if p)
     code = ("import sys; from adavar._compile_ahead import _helper_main; "
-            "_helper_main(sys.argv[1], sys.argv[2:])")  # fmt: skip
+            "_helper_main(sys.argv[1], sys.argv[3:], int(sys.argv[2]))")  # fmt: skip
     try:
         process = subprocess.Popen(
-            [sys.executable, "-c", code, folder, *cold], stdin=subprocess.DEVNULL,
+            [sys.executable, "-c", code, folder, str(os.getpid()), *cold],
+            stdin=subprocess.DEVNULL,
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
             env={**os.environ, "PYTHONPATH": path},
         )  # fmt: skip
