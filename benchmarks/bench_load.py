@@ -37,7 +37,7 @@ import tempfile
 import time
 
 import numpy as np
-from _machine import describe
+from _machine import describe, speed_probe
 
 
 def _best(cmd: list[str], repeats: int = 5, env: dict | None = None) -> float:
@@ -387,6 +387,14 @@ def main() -> None:
                         help="run one section")  # fmt: skip
     args = parser.parse_args()
     print(f"machine: {describe()}")
+    print(f"at the start, {speed_probe()}", flush=True)
+    try:
+        _sections(args)
+    finally:
+        print(f"at the end, {speed_probe()}")
+
+
+def _sections(args: argparse.Namespace) -> None:
     if args.only == "memory":
         print("| command | memory | sizes |\n|---|---|---|")
         for line in memory():
