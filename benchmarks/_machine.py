@@ -38,8 +38,9 @@ def describe() -> str:
 def speed_probe() -> str:
     """One line: how fast this machine runs right now, on work that is not adavar's.
 
-    Shared virtual machines change speed by up to 1.6x within an hour; a figure compared
-    with another session's is only meaningful next to these two. Best of 3 each: a
+    A shared virtual machine ran the same code 1.3x slower within an hour and 1.6x slower
+    from one session to another; a figure compared with another session's is only
+    meaningful next to these two. Best of 3 each: a
     pure-Python loop (5e6 additions: the interpreter) and a NumPy pass over 1e7 float64
     (``cumsum`` then ``diff``: memory bandwidth).
     """
