@@ -16,13 +16,28 @@ robust ``mad``; tracking: the mean ``|N - N_true| / N_true`` within ``Lmax`` of 
   or x1.5 from 20 to 40 min (tracking error). N is fitted with N, B and K above ``2 /
   bandwidth`` at octave taus, every ``STEP``-th centre.
 
-Run: ``python benchmarks/bench_ici.py [--seeds 40] [--real-seeds 5]``.
+* **independent data** (issue 39, ``--part independent``): records of
+  ``tests/independent_noise.py`` (no ``adavar.simulate``), the ICI of this version
+  (``ici_kurtosis``, ``ici_episodes``, ``ici_long_tau``) against the previous one (all three
+  off) in the same run: a ramp of the white level x1 -> x3 over 15 min (1 Hz, 2 h: tracking
+  error of ``N(t)`` against the truth over the ramp and ``Lmax`` either side, against
+  DAVAR-Lmin and DAVAR-Lmax; events), the same at 100 Hz (1 h; events per ramp, with
+  ``Lmax`` a tenth of the record and 1 min), a 20 s x5 burst at 3000 s (1 Hz, 6000 s: one
+  event with both ends within ``Lmin / 2``), a x10 stretch of rate random walk and a x5
+  stretch of flicker (the middle third of 4 h at 1 Hz and 2 h at 100 Hz: found, errors of
+  the ends), and false events per stationary hour on Gaussian and Student-t (5 degrees of
+  freedom) white noise.
+
+Run: ``python benchmarks/bench_ici.py [--seeds 40] [--real-seeds 5] [--part all]``
+(``--part independent --independent-seeds 20``: the issue-39 part alone, about 10 min).
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 from _machine import describe
@@ -33,6 +48,9 @@ from adavar.adaptive import record_windows
 from adavar.compare import EdfCache, run_comparison, tracking_metrics
 from adavar.paper.scenarios import paper_scenario
 from adavar.settings import CONTROLLER
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/ (the generator)
+from tests import independent_noise as inn
 
 METHODS = ("davar-400", "davar-600", "a-davar", "davar-k", "ici", "ici-centred")
 #: centres kept on the 200 Hz records (every half second)
@@ -147,6 +165,203 @@ def realistic(rate: float, seeds: int) -> tuple[dict, dict, dict]:
             {k: np.median(np.asarray(v), axis=0) for k, v in track.items()}, events)  # fmt: skip
 
 
+# ---------------------------------------------------------------------------------------
+# issue 39: independent data, this version against the previous one
+
+#: the previous version's ICI (the options that restore it)
+OLD = dict(ici_kurtosis=False, ici_episodes=False, ici_long_tau=False)
+N_ONLY = ("angle_random_walk",)
+
+
+def _ici_run(x, rate, lmax, lmin, step, old=False):
+    """(result, N(t), events) of the ICI window, new or old."""
+    r = adavar.adaptive_davar(x, rate=rate, method="ici", lmax=lmax, lmin=lmin, taus="octave",
+                              step=step, noise_type=0, **(OLD if old else {}))  # fmt: skip
+    fit = adavar.fit_noise(r, terms=N_ONLY)
+    return r, np.asarray(fit.angle_random_walk.value, float), r.events_with(fit)
+
+
+def _fixed_n(x, rate, window, step):
+    r = adavar.davar(x, rate=rate, window=window, taus="octave", step=step, noise_type=0)
+    fit = adavar.fit_noise(r, terms=N_ONLY)
+    return np.asarray(r.time, float), np.asarray(fit.angle_random_walk.value, float)
+
+
+def _track_error(t, n, truth_n, lo, hi):
+    """Mean |N / N_true - 1| over the centres in [lo, hi] (s)."""
+    sel = (t >= lo) & (t <= hi)
+    return float(np.mean(np.abs(n[sel] / truth_n(t[sel]) - 1.0)))
+
+
+def ramp_study(seeds: int) -> None:
+    """Ramp x1 -> x3 over 15 min: tracking at 1 Hz, events at 1 and 100 Hz."""
+    print("\n### Ramp of the white level x1 -> x3 over 15 min (independent_noise.changing)\n")
+    rows = {k: [] for k in ("Lmin", "Lmax", "ICI old", "ICI new")}
+    ev = {"old": [], "new": [], "ramp": [], "start": [], "end": []}
+    rate, secs = 1.0, 7200.0
+    for seed in range(seeds):
+        x, ch = inn.changing("ramp", secs, rate, 1000 + seed)
+        lmax, lmin, _ = record_windows(x.size)
+        a = ch.changes[0][0]
+        b = a + 900.0
+
+        def truth(t, level=ch.level, big=ch.truth.N):
+            return big * level[np.clip(np.round(t * rate).astype(int), 0, level.size - 1)]
+
+        lo, hi = a - lmax / rate, b + lmax / rate
+        for label, w in (("Lmin", lmin), ("Lmax", lmax)):
+            rows[label].append(_track_error(*_fixed_n(x, rate, w, 1), truth, lo, hi))
+        for label, old in (("ICI old", True), ("ICI new", False)):
+            r, n, events = _ici_run(x, rate, lmax, lmin, 1, old)
+            rows[label].append(_track_error(np.asarray(r.time, float), n, truth, lo, hi))
+            ev["old" if old else "new"].append(len(events))
+            if not old:
+                ramps = [e for e in events if e.ramp]
+                ev["ramp"].append(len(events) == 1 and len(ramps) == 1)
+                if ramps:
+                    ev["start"].append(ramps[0].start_s - a)
+                    ev["end"].append(ramps[0].end_s - b)
+    print(
+        f"1 Hz, 2 h, Lmax {lmax}, Lmin {lmin}, {seeds} seeds: mean tracking error over the "
+        "ramp and Lmax either side (median over seeds, worst seed)\n"
+    )
+    print("| window | median | worst | seeds where ICI new <= better fixed |")
+    print("|---|---|---|---|")
+    better = np.minimum(rows["Lmin"], rows["Lmax"])
+    for label, v in rows.items():
+        wins = (f"{int(np.sum(np.asarray(v) <= better))}/{seeds}"
+                if label.startswith("ICI") else "")  # fmt: skip
+        print(f"| {label} | {100 * np.median(v):.2f} % | {100 * np.max(v):.2f} % | {wins} |")
+    print(
+        f"\nevents per record: old {np.mean(ev['old']):.2f}, new {np.mean(ev['new']):.2f}; "
+        f"one event with ramp=True: {int(np.sum(ev['ramp']))}/{seeds}; ramp start - truth "
+        f"median {np.median(ev['start']):+.0f} s (|.| max {np.max(np.abs(ev['start'])):.0f}),"
+        f" end {np.median(ev['end']):+.0f} s (|.| max {np.max(np.abs(ev['end'])):.0f})"
+    )
+    rate, secs = 100.0, 3600.0
+    for lmax_s in (None, 60.0):
+        counts = {"old": [], "new": [], "ramp": []}
+        for seed in range(max(2, seeds // 4)):
+            x, ch = inn.changing("ramp", secs, rate, 2000 + seed)
+            lmax, lmin, _ = record_windows(x.size, None if lmax_s is None else int(lmax_s * rate))
+            for old in (True, False):
+                _, _, events = _ici_run(x, rate, lmax, lmin, 100, old)
+                counts["old" if old else "new"].append(len(events))
+                if not old:
+                    counts["ramp"].append(sum(e.ramp for e in events) == 1 == len(events))
+        print(
+            f"100 Hz, 1 h, Lmax {lmax / rate:g} s, {len(counts['new'])} seeds: events per "
+            f"ramp old {np.mean(counts['old']):.2f}, new {np.mean(counts['new']):.2f} "
+            f"(one ramp event: {int(np.sum(counts['ramp']))}/{len(counts['ramp'])})"
+        )
+
+
+def burst_study(seeds: int) -> None:
+    print("\n### A 20 s x5 burst at 3000 s, 1 Hz, 6000 s\n")
+    rate = 1.0
+    ok = {"old": 0, "new": 0}
+    counts = {"old": [], "new": []}
+    err = []
+    for seed in range(seeds):
+        x, _ = inn.changing("burst", 6000.0, rate, 3000 + seed, at=3000.0)
+        lmax, lmin, _ = record_windows(x.size)
+        for old in (True, False):
+            _, _, events = _ici_run(x, rate, lmax, lmin, 1, old)
+            key = "old" if old else "new"
+            counts[key].append(len(events))
+            if len(events) == 1 and events[0].end_s is not None:
+                e = events[0]
+                good = abs(e.start_s - 3000) <= lmin / 2 and abs(e.end_s - 3020) <= lmin / 2
+                ok[key] += good
+                if not old:
+                    err.append(max(abs(e.start_s - 3000), abs(e.end_s - 3020)))
+    print(
+        f"Lmax {lmax}, Lmin {lmin}, {seeds} seeds: one event with both ends within Lmin/2 = "
+        f"{lmin / 2:g} s: old {ok['old']}/{seeds}, new {ok['new']}/{seeds} (target >= 90 %); "
+        f"events per record old {np.mean(counts['old']):.2f}, new "
+        f"{np.mean(counts['new']):.2f}; new: median of the larger end error "
+        f"{np.median(err) if err else np.nan:.0f} s, max {np.max(err) if err else np.nan:.0f} s"
+    )
+
+
+def long_tau_study(seeds: int) -> None:
+    print("\n### Long-tau terms: a x10 rate random walk and a x5 flicker stretch (middle third)\n")
+    print(
+        "| kind | record | seeds | found (old) | found (new) | start error median / max |"
+        " end error median / max | found at a long tau (median tau_s) |"
+    )
+    print("|---|---|---|---|---|---|---|---|")
+    for kind in ("rrw", "flicker"):
+        for rate, secs, step in ((1.0, 4 * 3600.0, 4), (100.0, 2 * 3600.0, 400)):
+            n_seeds = seeds if rate == 1 else max(3, seeds // 3)
+            found = {"old": 0, "new": 0}
+            es, ee, taus = [], [], []
+            for seed in range(n_seeds):
+                x, ch = inn.changing(kind, secs, rate, 4000 + seed)
+                a, b = ch.changes[0]
+                lmax, lmin, _ = record_windows(x.size)
+                for old in (True, False):
+                    _, _, events = _ici_run(x, rate, lmax, lmin, step, old)
+                    hits = [e for e in events if e.end_s is not None
+                            and abs(e.start_s - a) <= TOLERANCE * (b - a)
+                            and abs(e.end_s - b) <= TOLERANCE * (b - a)]  # fmt: skip
+                    found["old" if old else "new"] += bool(hits)
+                    if hits and not old:
+                        es.append(abs(hits[0].start_s - a))
+                        ee.append(abs(hits[0].end_s - b))
+                        taus.append(hits[0].tau_s)
+            print(
+                f"| {kind} | {secs / 3600:g} h at {rate:g} Hz | {n_seeds} | {found['old']} | "
+                f"{found['new']} | {np.median(es):.0f} / {np.max(es):.0f} s | "
+                f"{np.median(ee):.0f} / {np.max(ee):.0f} s | "
+                f"{sum(v is not None for v in taus)}/{len(taus)} "
+                f"({np.median([v for v in taus if v]) if any(taus) else np.nan:g} s) |"
+            )
+    print(
+        f"\n(found: an event with both ends within {100 * TOLERANCE:g} % of the stretch "
+        "length of the truth)"
+    )
+
+
+#: a long-tau stretch is found when both its ends are within this fraction of its length
+TOLERANCE = 0.15
+
+
+def false_study(hours: int) -> None:
+    print("\n### False events on stationary white noise (Gaussian, Student-t 5 dof)\n")
+    print("| noise | record | Lmax | hours | old per hour | new per hour |")
+    print("|---|---|---|---|---|---|")
+    for dof in (None, 5.0):
+        for rate, secs, lmax_s, step in ((100.0, 3600.0, 60.0, 100), (100.0, 3600.0, None, 100),
+                                         (1.0, 7200.0, None, 1)):  # fmt: skip
+            count = {"old": 0, "new": 0}
+            records = max(1, round(hours * 3600.0 / secs))
+            for seed in range(records):
+                x = inn.white(int(secs * rate), 1e-3, rate, 5000 + seed, dof=dof)
+                lmax, lmin, _ = record_windows(
+                    x.size, None if lmax_s is None else int(lmax_s * rate)
+                )
+                for old in (True, False):
+                    _, _, events = _ici_run(x, rate, lmax, lmin, step, old)
+                    count["old" if old else "new"] += len(events)
+            h = records * secs / 3600.0
+            label = "Gaussian" if dof is None else f"Student-t {dof:g}"
+            print(
+                f"| {label} | {secs / 3600:g} h at {rate:g} Hz | {lmax / rate:g} s | {h:g} | "
+                f"{count['old'] / h:.2f} | {count['new'] / h:.2f} |"
+            )
+    print("\n(target: <= 0.1 false events per stationary hour)")
+
+
+def independent(seeds: int, hours: int) -> None:
+    start = time.perf_counter()
+    ramp_study(seeds)
+    burst_study(seeds)
+    long_tau_study(seeds)
+    false_study(hours)
+    print(f"\n(issue-39 part: {time.perf_counter() - start:.0f} s)")
+
+
 def _verdict(ok: bool) -> str:
     return "met" if ok else "NOT met"
 
@@ -156,8 +371,14 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=40)
     parser.add_argument("--real-seeds", type=int, default=5)
     parser.add_argument("--rate", type=float, default=200.0)
+    parser.add_argument("--part", choices=("all", "paper", "independent"), default="all")
+    parser.add_argument("--independent-seeds", type=int, default=20)
+    parser.add_argument("--false-hours", type=int, default=20)
     args = parser.parse_args()
     print(f"machine: {describe()}")
+    if args.part == "independent":
+        independent(args.independent_seeds, args.false_hours)
+        return
     start = time.perf_counter()
     s1 = scenario_one(args.seeds)
     print(f"\nScenario 1, {args.seeds} seeds, N-only fit, medians over seeds "
@@ -207,6 +428,8 @@ def main() -> None:
         print(f"x{factor:g}: {int(found.sum())}/{err.size} changes found within Lmax, median "
               f"|error| {np.median(np.abs(err[found])) if found.any() else np.nan:.2f} s, "
               f"{int(np.sum(events[f'x{factor:g} others']))} others")  # fmt: skip
+    if args.part == "all":
+        independent(args.independent_seeds, args.false_hours)
 
 
 if __name__ == "__main__":

@@ -37,7 +37,9 @@ RATE = 200.0
 PUSHES = (1, 10, 100, 1000, 10_000, 100_000)
 ICI_PUSHES = (100, 1000, 10_000, 100_000)
 #: the ICI pass's EDF head, online and offline alike
-ICI = dict(method="ici", ici_edf_samples=1 << 16)
+#: the figures' controller: the paper's (the defaults follow the record since 0.2)
+PAPER = dict(lmax=600, thresholds="paper")
+ICI = dict(method="ici", lmax=600, ici_edf_samples=1 << 16)
 
 
 def busy(stop) -> None:  # pragma: no cover - another process
@@ -55,7 +57,7 @@ def the_record(n: int) -> np.ndarray:
 
 def online(x: np.ndarray, push: int, total: int, **options) -> tuple[float, OnlineAdaptive]:
     """Samples per second of pushing the first ``total`` samples ``push`` at a time."""
-    live = OnlineAdaptive(rate=RATE, **options)
+    live = OnlineAdaptive(rate=RATE, **PAPER | options)
     start = time.perf_counter()
     for i in range(0, total, push):
         live.push(x[i : i + push])
@@ -113,12 +115,12 @@ def main() -> None:
     if args.ici_only:
         ici_part(x, n)
         return
-    OnlineAdaptive(rate=RATE).push(x[:5000])  # compile
-    adavar.adaptive_schedule(x[:5000], rate=RATE)
+    OnlineAdaptive(rate=RATE, **PAPER).push(x[:5000])  # compile
+    adavar.adaptive_schedule(x[:5000], rate=RATE, **PAPER)
 
     # offline, the same record, the same thread
     start = time.perf_counter()
-    sched = adavar.adaptive_schedule(x, rate=RATE)
+    sched = adavar.adaptive_schedule(x, rate=RATE, **PAPER)
     t_sched = time.perf_counter() - start
     print(f"\noffline adaptive_schedule: {n / t_sched / 1e6:.2f} M samples/s")
 
@@ -136,7 +138,8 @@ def main() -> None:
     print("|---|---|---|---|---|---|")
     for step in (1, 10):
         start = time.perf_counter()
-        result = adavar.adaptive_davar(x, rate=RATE, taus="octave", noise_type=0, step=step)
+        result = adavar.adaptive_davar(x, rate=RATE, taus="octave", noise_type=0, step=step,
+                                       **PAPER)  # fmt: skip
         arw = adavar.fit_noise(result, terms=("angle_random_walk",)).angle_random_walk.value
         t_off = time.perf_counter() - start
         for push, batch in ((1000, 1), (1000, 10_000), (100_000, 1)):
@@ -161,7 +164,7 @@ def main() -> None:
         for line in schedule_rows(x, n):
             print(line)
         start = time.perf_counter()
-        adavar.adaptive_schedule(x, rate=RATE)
+        adavar.adaptive_schedule(x, rate=RATE, **PAPER)
         print(f"\noffline adaptive_schedule (busy): {n / (time.perf_counter() - start) / 1e6:.2f}"
               " M samples/s")  # fmt: skip
     finally:

@@ -18,7 +18,10 @@ from adavar.adaptive import (
 )
 from adavar.errors import AdavarInputError
 
-SMALL = dict(lmax=200, lmin=120, l=30)  # l: the paper's name of the segment
+# the controller of docs/method.md with the paper's thresholds (the default is per hour)
+SMALL = dict(lmax=200, lmin=120, l=30, thresholds="paper")  # l: the paper's segment name
+#: the paper's controller, one argument each away from the defaults
+PAPER = dict(lmax=600, lmin=400, l=100, thresholds="paper")
 
 
 def pearson_kurtosis(w):
@@ -31,9 +34,11 @@ def pearson_kurtosis(w):
 
 def literal_controller(
     x, *, lmax=600, lmin=400, k1=2.5, k2=3.3, s1=0.0, s2=0.07, l=100,  # noqa: E741
-    dl0=2, dl1=2, s_test="upper", combine="or", kurtosis_only=False,
+    dl0=2, dl1=2, s_test="upper", combine="or", kurtosis_only=False, thresholds="paper",
 ):  # fmt: skip
-    """METHOD.md section 5, one step at a time, with a two-pass kurtosis (scipy's)."""
+    """METHOD.md section 5, one step at a time, with a two-pass kurtosis (scipy's), and
+    the thresholds as given (``thresholds="paper"``)."""
+    assert thresholds == "paper"
     n = x.size
     pad = lmax // 2 + 1
     ext = np.pad(np.asarray(x, dtype=float), pad, mode="symmetric")
@@ -147,7 +152,7 @@ def test_paper_scenario_one_nodes_of_one_realisation():
     edge meets the change (about 3000 - 300 s) and is back at Lmax after 4000 + 300 s."""
     x = np.random.default_rng(2018).standard_normal(6000)
     x[3000:4000] *= 3.0
-    sched = adaptive_schedule(x)
+    sched = adaptive_schedule(x, **PAPER)
     w = sched.window
     assert 2650 <= 2400 + np.argmax(w[2400:] < 600) <= 2720
     assert w[3300:3700].min() == 400
@@ -227,8 +232,9 @@ def test_calibrated_thresholds_hit_the_false_alarm_rate():
 
 
 def test_false_alarm_rates_paper_vs_calibrated():
-    paper = false_alarm_rate(n=60_000, seeds=(0,))
-    calibrated = false_alarm_rate(n=60_000, seeds=(0,), thresholds="calibrated")
+    paper = false_alarm_rate(n=60_000, seeds=(0,), **PAPER)
+    calibrated = false_alarm_rate(n=60_000, seeds=(0,), **{**PAPER, "thresholds": "calibrated"},
+                                  false_alarm=0.01)  # fmt: skip
     assert calibrated["f1"] < paper["f1"]
     assert calibrated["f1"] == pytest.approx(0.01, abs=0.01)
     assert calibrated["shrunk"] < paper["shrunk"]

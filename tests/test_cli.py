@@ -88,7 +88,7 @@ def test_avar_fit_recovers_white_noise_n(capsys, white_csv):
     assert "NaN" not in out and "Infinity" not in out
     fit = json.loads(out)["fit"]
     for name in adavar.noise_model.TERM_NAMES:
-        assert set(fit[name]) == {"value", "uncertainty", "unit"}
+        assert set(fit[name]) == {"value", "uncertainty", "upper", "unit"}
     arw = fit["angle_random_walk"]
     assert arw["unit"] == "deg/sqrt(s)"
     assert arw["value"] == pytest.approx(TRUE_N, rel=0.05)

@@ -166,7 +166,8 @@ def test_every_keyword_has_a_flag():
                and "monitor" in a.choices)  # fmt: skip
     flags = {o for a in sub.choices["monitor"]._actions for o in a.option_strings}
     not_flags = {"fit_options": "--bandwidth", "keep": "the command keeps recent rows",
-                 "l": "--l", "thresholds": "--thresholds"}  # fmt: skip
+                 "l": "--l", "thresholds": "--thresholds",
+                 "pairing": "the command pairs by level (the default)"}  # fmt: skip
     for name in inspect.signature(OnlineAdaptive).parameters:
         flag = "--" + name.replace("_", "-")
         assert flag in flags or name in not_flags, name
@@ -198,7 +199,7 @@ def test_ctrl_c_finishes_the_pass(stream, tmp_path):
     import signal
 
     x, text, _ = stream
-    live = OnlineAdaptive(rate=RATE, lmax=240)  # the paper's thresholds: events at once
+    live = OnlineAdaptive(rate=RATE, lmax=240, thresholds="paper")  # events at once
     live.push(x)
     live.finish()
     expected = [e.as_dict() for e in live.events]
@@ -227,7 +228,7 @@ def test_events_as_confirmed(stream, capsys, monkeypatch):
     import io
 
     x, text, _ = stream
-    live = OnlineAdaptive(rate=RATE, lmax=240)
+    live = OnlineAdaptive(rate=RATE, lmax=240, thresholds="paper")
     live.push(x)
     live.finish()
     monkeypatch.setattr(sys, "stdin", io.StringIO(text))

@@ -237,14 +237,14 @@ def test_deviation_gets_every_avar_flag(capsys, monkeypatch, record):
                                 "--chunk-size", "64", "--noise-id", "stable32", "--totdev-edf",
                                 "legacy", "--totdev-bias", "--no-bias-correction",
                                 "--theo-ratio-terms", "9", "--gaps", "omit",
-                                "--total-edf", "stable32"])  # fmt: skip
+                                "--total-edf", "stable32", "--no-stationarity-check"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.deviation, {
         "stat": "mdev", "data_type": "phase", "taus": "decade", "confidence": 0.9,
         "points_per_decade": 7, "units": rate_unit("deg", "phase"), "chunk_size": 64,
         "noise_id": "stable32", "totdev_edf": "legacy", "totdev_bias": True,
         "bias_correction": False, "theo_ratio_terms": 9, "gaps": "omit",
-        "total_edf": "stable32",
+        "total_edf": "stable32", "stationarity_check": False,
     })  # fmt: skip
     assert sample_interval(seen) == pytest.approx(0.25)
     seen.clear()
@@ -284,12 +284,14 @@ def test_fit_noise_gets_the_fit_flags(capsys, monkeypatch, record, tmp_path, com
                                 "--spacing", "independent", "--fit-method", "wls",
                                 "--select", "none", "--significance", "3", "--exclude",
                                 "none", "--rolloff", "none", "--tau-range", "1:", "--bandwidth",
-                                "1.5", *extra])  # fmt: skip
+                                "1.5", "--markov", "none", "--bound-level", "0.9",
+                                *extra])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.fit_noise, {
         "terms": ("angle_random_walk", "rate_random_walk"), "n_reweight": 1,
         "spacing": "independent", "method": "wls", "select": "none", "significance": 3.0,
         "exclude": "none", "rolloff": "none", "tau_range": (1.0, None), "bandwidth": 1.5,
+        "markov": "none", "bound_level": 0.9,
         "units": None,  # --units reaches the fit through the result it fits
     })  # fmt: skip
     assert seen["result"].units == "deg/s"
@@ -346,15 +348,21 @@ def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
                                 "--chunk-size", "64", "--edge-edf", "interior",
                                 "--ici-gamma", "2", "--ici-lengths", "30,60,90,120",
                                 "--ici-taus", "1,2", "--ici-sides", "centred", "--ici-edf",
-                                "engine", "--ici-edf-samples", "5000"])  # fmt: skip
+                                "engine", "--ici-edf-samples", "5000", "--dependence",
+                                "1.5,1.25", "--no-ici-kurtosis", "--no-ici-episodes",
+                                "--no-ici-long-tau", "--kurtosis-reference",
+                                "gaussian"])  # fmt: skip
     assert code == 1 and "Stop" in err
     expected = {
-        "method": "oracle", "change_times": [50.0], **CONTROLLER, "taus": "decade",
+        "method": "oracle", "change_times": [50.0], **CONTROLLER, "dependence": (1.5, 1.25),
+        "kurtosis_reference": "gaussian",
+        "taus": "decade",
         "edges": "valid", "step": 2, "confidence": 0.9, "t0": 1.0, "points_per_decade": 7,
         "noise_type": 0, "data_type": "rate", "units": "deg/s", "chunk_size": 64,
         "edge_edf": "interior", "ici_gamma": 2.0, "ici_lengths": [30, 60, 90, 120],
         "ici_taus": [1, 2], "ici_sides": "centred", "ici_edf": "engine",
-        "ici_edf_samples": 5000,
+        "ici_edf_samples": 5000, "ici_kurtosis": False, "ici_episodes": False,
+        "ici_long_tau": False,
     }  # fmt: skip
     check(seen, adavar.adaptive_davar, expected)
     seen.clear()

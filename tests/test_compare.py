@@ -28,6 +28,7 @@ from adavar.compare import (
 )
 from adavar.errors import AdavarInputError
 from adavar.kurtosis import sliding_kurtosis
+from adavar.settings import PAPER
 from adavar.simulate import paper_scenario
 
 LMAX, LMIN = 600, 400
@@ -222,10 +223,12 @@ def test_compare_structure(scenario, comparison):
         assert run.fit.angle_random_walk.value.shape == (6000,)
         assert (run.schedule is None) == (name in ("davar-400", "davar-600"))
     np.testing.assert_array_equal(c.methods["davar-400"].window, 400)
+    paper = PAPER.keywords()  # compare keeps the paper's controller, not the defaults
     np.testing.assert_array_equal(c.methods["a-davar"].window,
-                                  adaptive_schedule(scenario.data).window)  # fmt: skip
+                                  adaptive_schedule(scenario.data, **paper).window)  # fmt: skip
     np.testing.assert_array_equal(
-        c.methods["davar-k"].window, adaptive_schedule(scenario.data, method="kurtosis").window
+        c.methods["davar-k"].window,
+        adaptive_schedule(scenario.data, method="kurtosis", **paper).window,
     )
     # N(t) is the fit of the DAVAR surface on the schedule
     res = adavar.davar(scenario.data, window=c.methods["a-davar"].window, taus="octave")

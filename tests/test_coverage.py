@@ -16,6 +16,8 @@ import pytest
 import adavar
 from adavar import simulate as sim
 
+from . import independent_noise as ind
+
 RECORDS = 400
 WPM = lambda m: 3.0 / m**2  # noqa: E731 - overlapping AVAR of unit-variance white phase
 BAND = (0.60, 0.77)
@@ -50,6 +52,11 @@ def _cover(make, stat, dtype, truth, n_taus):
         ("wfm-b1", lambda s: sim.white(1024, seed=s), "oadev", "rate", lambda m: 1.0 / m, [64]),
         # TOTDEV of white FM at m = 1 (coverage 48-50 %)
         ("wfm-totdev", lambda s: sim.white(1024, seed=s), "totdev", "rate", lambda m: 1.0 / m, [1]),
+        # TOTDEV of white PM at m = N/8: the reflected ends' EDF matched the variance of the
+        # estimate, not its skewed distribution (coverage 80 %; issue 39)
+        ("wpm-totdev-ends", lambda s: ind.power_law(2, 4097, s), "totdev", "phase",
+         lambda m: np.array([ind.expected_variance("totdev", 2, 4097, int(k)) for k in m]),
+         [256, 512]),  # m = 512 alone (8 clusters) would not be identified
     ],
 )  # fmt: skip
 def test_deviation_intervals_cover(case, make, stat, dtype, truth, taus):

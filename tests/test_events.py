@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from adavar import simulate
+from adavar.adaptive import oracle_schedule
 from adavar.events import change_times, find_events
 
 from .cli_helpers import run
@@ -27,24 +28,29 @@ def test_change_times_are_the_leading_edge_before_each_shrink():
 
 
 def test_find_events_pairs_changes_and_summarises_each_side():
+    # the ideal windows (the oracle's) for changes at 24.9 s and 64.9 s, every 10th centre:
+    # the leading edge pinned on the change while the window shrinks, the trailing edge
+    # while it regrows
     centre = np.arange(0, 10_000, 10)
     time = centre * 0.01
-    window = np.full(centre.size, 1000)
-    window[200:260] = 700  # the change at (1990 + 500) * 0.01 = 24.9 s
-    window[600:660] = 700  # the change at 64.9 s
+    window = oracle_schedule(10_000, [2490, 6490], lmax=1000, lmin=700)[centre]
     n = np.where((time > 24.9) & (time < 64.9), 3.0, 1.0)
     (event,) = find_events(window, centre, time, 1000, 0.01, {"angle_random_walk": n},
                            duration=100.0)  # fmt: skip
-    assert (event.start_s, event.end_s) == pytest.approx((24.9, 64.9))
+    # up: the lead (the leading edge before the shrink); down: the trail (the trailing
+    # edge where the regrowth starts), to a row (0.1 s)
+    assert event.start_s == pytest.approx(24.9) and event.end_s == pytest.approx(64.9, abs=0.1)
     assert event.before["angle_random_walk"]["median"] == 1.0
     assert event.during["angle_random_walk"]["median"] == 3.0
     assert event.after["angle_random_walk"]["median"] == 1.0
     # the windows within Lmax/2 = 5 s of a change are in no side
-    assert event.during["angle_random_walk"]["windows"] == np.sum((time > 29.9) & (time < 59.9))
-    # an unpaired change opens a stretch to the end of the record
-    window[600:660] = 1000
-    (open_end,) = find_events(window, centre, time, 1000, 0.01, {"x": n}, duration=100.0)
-    assert open_end.end_s is None and open_end.after["x"]["windows"] == 0
+    inside = (time > event.start_s + 5) & (time < event.end_s - 5)
+    assert event.during["angle_random_walk"]["windows"] == np.sum(inside)
+    # a change with no return opens a stretch to the end of the record
+    window = oracle_schedule(10_000, [2490], lmax=1000, lmin=700)[centre]
+    (open_end,) = find_events(window, centre, time, 1000, 0.01, {"angle_random_walk": n},
+                              duration=100.0)  # fmt: skip
+    assert open_end.end_s is None and open_end.after["angle_random_walk"]["windows"] == 0
 
 
 def test_cli_adaptive_reports_the_disturbance(capsys, tmp_path):
@@ -133,12 +139,13 @@ def test_find_events_reads_ranges_as_the_masks_did(seed):
     want = _events_by_masks(window, centre, time, lmax, tau0, values, 5.0, duration)
     assert want  # every record has a change
     for given in (values, {k: _Slices(v) for k, v in values.items()}):
-        got = find_events(window, centre, time, lmax, tau0, given, t0=5.0, duration=duration)
+        got = find_events(window, centre, time, lmax, tau0, given, t0=5.0, duration=duration,
+                          pairing="parity")  # fmt: skip
         assert [[e.before, e.during, e.after] for e in got] == want
     shuffled = rng.permutation(n)  # not in time order: every window is looked at
     got = find_events(window, centre, time[shuffled], lmax, tau0,
                       {k: v[shuffled] for k, v in values.items()}, t0=5.0,
-                      duration=duration)  # fmt: skip
+                      duration=duration, pairing="parity")  # fmt: skip
     want = _events_by_masks(window, centre, time[shuffled], lmax, tau0,
                             {k: v[shuffled] for k, v in values.items()}, 5.0, duration)  # fmt: skip
     assert [[e.before, e.during, e.after] for e in got] == want

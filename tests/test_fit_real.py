@@ -263,9 +263,17 @@ def test_pinned_or_dropped_terms_keep_an_upper_bound():
 def test_fit_reports_inadequacy_of_a_model_that_cannot_describe_the_data():
     # a Gauss-Markov hump in the middle of the curve is nothing the five terms describe
     w = simulate.sensor(400_000, rate=10.0, angle_random_walk=1e-3, markov=(0.05, 30.0), seed=2)
-    fit = adavar.fit_noise(adavar.deviation(w, rate=10.0))
+    r = adavar.deviation(w, rate=10.0)
+    fit = adavar.fit_noise(r, markov="none")
     assert not bool(fit.adequate) and fit.p_value < 1e-3
     assert any("does not describe" in w for w in fit.warnings)
+    # by default the fit adds the Gauss-Markov term, names it and describes the curve
+    named = adavar.fit_noise(r)
+    assert named.markov is not None and bool(named.adequate)
+    assert named.markov.sigma == pytest.approx(0.05, rel=0.25)
+    lo, hi = named.markov.tau_c_range
+    assert lo <= 30.0 * 1.3 and hi >= 30.0 / 1.3
+    assert any("Gauss-Markov" in w for w in named.warnings)
 
 
 def test_stacks_and_raw_arrays_keep_the_diagonal_fit():
@@ -286,7 +294,9 @@ def test_stacks_and_raw_arrays_keep_the_diagonal_fit():
     ("kwargs", "match"),
     [
         (dict(method="median"), "unknown method"),
-        (dict(select="aic"), "unknown select"),
+        (dict(select="forward"), "unknown select"),
+        (dict(markov="yes"), "unknown markov"),
+        (dict(bound_level=1.2), "bound_level"),
         (dict(exclude="all"), "unknown exclude"),
         (dict(rolloff="free"), "unknown rolloff"),
         (dict(significance=0), "significance"),
@@ -372,9 +382,11 @@ def test_window_fits_take_the_sensor_rolloff_from_the_whole_record():
     whole = adavar.fit_noise(adavar.deviation(w, rate=200.0))
     surface = adavar.davar(w, rate=200.0, window="2min", step="10s", taus="octave")
     fixed = adavar.fit_noise(surface, reference=whole)
-    plain = adavar.fit_noise(surface)
+    plain = adavar.fit_noise(surface, reference=None)
+    auto = adavar.fit_noise(surface)  # the surface carries its record's curve
     n_true = MEMS["angle_random_walk"]
     assert np.median(fixed.angle_random_walk.value) == pytest.approx(n_true, rel=0.03)
+    assert np.median(auto.angle_random_walk.value) == pytest.approx(n_true, rel=0.03)
     assert np.median(plain.angle_random_walk.value) < 0.8 * n_true
     with pytest.raises(ValueError, match="whole-record curve"):
         adavar.fit_noise(surface, reference=fixed)

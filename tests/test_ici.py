@@ -32,6 +32,7 @@ from adavar.ici import (
     ici_schedule,
     side_shift,
 )
+from adavar.ici_episodes import kurtosis_edf
 from adavar.paper.scenarios import paper_scenario
 
 from .cli_helpers import assert_one_line_error, run
@@ -92,7 +93,9 @@ def ref_adapted(x, sched, p, side):
     for j, L in enumerate(int(v) for v in cand):
         h = L // 2
         if side == CENTRED and h >= 3 * ms[-1]:
-            nu_h = correlation_edf(x, np.array([h]), ms)[0]
+            # the Gaussian EDF scaled by the record's excess kurtosis (ici_kurtosis)
+            nu_h = kurtosis_edf(correlation_edf(x, np.array([h]), ms), np.array([h]), ms,
+                                sched.parameters["ici_excess_kurtosis"])[0]  # fmt: skip
             chain += [(None, intervals(p - h + 1, h, nu_h)), (None, intervals(p + 1, h, nu_h))]
         chain.append((j, intervals(p + side_shift(side, L) - (L - 1) // 2, L, sched.edf[j])))
     k, margin = ref_adapt([c for _, c in chain])

@@ -1,7 +1,7 @@
 """Peak memory (issue 15): the fits of a surface and ``compare`` hold what they return.
 
 tracemalloc sees NumPy's allocations. The fits run in blocks of curves
-(``noise_model.BLOCK_VALUES``, ``KERNEL_VALUES``); they are made small here so that the
+(``stack_fit.BLOCK_VALUES``, ``KERNEL_VALUES``); they are made small here so that the
 bounds below, in surfaces (8 bytes a cell), hold on a record that takes a second.
 """
 
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import adavar
-import adavar.noise_model as noise_model
+import adavar.stack_fit as stack_fit
 from adavar import simulate
 from adavar.compare import FIGURE_WINDOWS, compare
 
@@ -26,8 +26,8 @@ davar_module = importlib.import_module("adavar.davar")  # the package's `davar` 
 
 @pytest.fixture
 def small_blocks(monkeypatch):
-    monkeypatch.setattr(noise_model, "BLOCK_VALUES", 1 << 14)
-    monkeypatch.setattr(noise_model, "KERNEL_VALUES", 1 << 16)
+    monkeypatch.setattr(stack_fit, "BLOCK_VALUES", 1 << 14)
+    monkeypatch.setattr(stack_fit, "KERNEL_VALUES", 1 << 16)
     monkeypatch.setattr(davar_module, "BLOCK_VALUES", 1 << 15)
 
 
@@ -103,8 +103,8 @@ def test_surface_fit_in_blocks_is_the_fit_at_once(small_blocks, monkeypatch):
     assert lean.residuals is None and lean.used is None
     full, peak = _peak(lambda: adavar.fit_noise(surface, reference=whole))
     assert peak < 1.8 * surface.avar.nbytes, peak / surface.avar.nbytes  # with residuals
-    monkeypatch.setattr(noise_model, "BLOCK_VALUES", 1 << 30)
-    monkeypatch.setattr(noise_model, "KERNEL_VALUES", 1 << 30)
+    monkeypatch.setattr(stack_fit, "BLOCK_VALUES", 1 << 30)
+    monkeypatch.setattr(stack_fit, "KERNEL_VALUES", 1 << 30)
     once = adavar.fit_noise(surface, reference=whole)
     for field in ("coefficients", "coefficient_uncertainty", "chi2", "dof", "n_points"):
         np.testing.assert_array_equal(getattr(lean, field), getattr(once, field))

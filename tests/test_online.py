@@ -18,6 +18,8 @@ from adavar.simulate import sensor
 
 RATE = 200.0
 N_TERM = "angle_random_walk"
+#: the windows of these records (a stream's default, 3 minutes, is longer than most of them)
+WINDOWS = dict(lmax=600)
 
 
 @functools.cache
@@ -32,7 +34,7 @@ def record(n: int = 24_000, seed: int = 1) -> np.ndarray:
 
 def pushed(x: np.ndarray, sizes, **options) -> OnlineAdaptive:
     """``x`` pushed in pieces of the given sizes (cycled), then finished."""
-    live = OnlineAdaptive(rate=RATE, **options)
+    live = OnlineAdaptive(rate=RATE, **WINDOWS | options)
     i = k = 0
     while i < x.size:
         size = int(sizes[k % len(sizes)])
@@ -46,8 +48,9 @@ def pushed(x: np.ndarray, sizes, **options) -> OnlineAdaptive:
 def offline(x: np.ndarray, step: int = 1, **controller):
     """The offline result, its N(t) and events as ``adavar adaptive`` reports them."""
     result = adavar.adaptive_davar(x, rate=RATE, taus="octave", noise_type=0, step=step,
-                                   **controller)  # fmt: skip
-    arw = adavar.fit_noise(result, terms=(N_TERM,)).angle_random_walk.value
+                                   **WINDOWS | controller)  # fmt: skip
+    # a stream has no whole record: the live fit goes without its roll-off reference
+    arw = adavar.fit_noise(result, terms=(N_TERM,), reference=None).angle_random_walk.value
     lmax = int(result.parameters["lmax"])
     events = find_events(result.window, result.centre, result.time, lmax, 1 / RATE,
                          {N_TERM: arw}, duration=x.size / RATE)  # fmt: skip
@@ -66,9 +69,13 @@ def assert_same(live: OnlineAdaptive, x: np.ndarray, step: int = 1, **controller
 
 
 SETTINGS = [
-    pytest.param(dict(method="adaptive"), id="adaptive-paper"),
-    pytest.param(dict(method="kurtosis"), id="kurtosis-paper"),
-    pytest.param(dict(method="adaptive", thresholds="calibrated"), id="adaptive-calibrated"),
+    pytest.param(dict(), id="defaults"),
+    pytest.param(dict(method="adaptive", thresholds="paper"), id="adaptive-paper"),
+    pytest.param(dict(method="kurtosis", thresholds="paper"), id="kurtosis-paper"),
+    pytest.param(
+        dict(method="adaptive", thresholds="calibrated", false_alarm=0.01),
+        id="adaptive-calibrated",
+    ),
     pytest.param(
         dict(method="kurtosis", thresholds="calibrated", false_alarm_per_hour=0.1),
         id="kurtosis-hourly",
@@ -113,17 +120,25 @@ def test_scale_and_given_dependence():
     controller = dict(lmax=240, lmin=160, l=40)
     assert_same(pushed(x, [100, 5000], **controller), x, **controller)
     hourly = dict(thresholds="calibrated", false_alarm_per_hour=0.1)
-    measured = pushed(x, [12_000], **hourly).parameters["dependence"]
-    live = OnlineAdaptive(rate=RATE, dependence=tuple(measured), **hourly)
+    first = pushed(x, [12_000], **hourly).parameters
+    measured, fit = first["dependence"], first["kurtosis_reference_fit"]
+    # the correlation and the kurtosis reference given: no wait for the head
+    given_both = dict(dependence=tuple(measured), kurtosis_reference=fit)
+    live = OnlineAdaptive(rate=RATE, **given_both, **WINDOWS, **hourly)
     live.push(x[:2000])
     assert live.window.size == 2000 - live.latency  # no wait for the head
     live.push(x[2000:])
     live.finish()
-    assert np.array_equal(live.window, offline(x, **hourly)[0].window)
+    given = offline(x, **given_both, **hourly)[0]
+    assert np.array_equal(live.window, given.window)
+    assert given.parameters["dependence"] == list(measured)
+    assert given.parameters["kurtosis_reference_fit"] == fit
 
 
-def test_hourly_waits_for_the_head():
-    """Past DEPENDENCE_SAMPLES the thresholds are those of the record's head."""
+def test_hourly_thresholds_start_early_and_are_refined():
+    """The hourly thresholds' correlation is estimated on the first 8192 samples (41 s at
+    200 Hz; the old pass waited for 2**20, 87 minutes) and refined at every doubling up to
+    DEPENDENCE_SAMPLES: no emitted row changes, and the windows are the offline ones."""
     from adavar.thresholds import DEPENDENCE_SAMPLES
 
     n = DEPENDENCE_SAMPLES + 60_000
@@ -132,19 +147,29 @@ def test_hourly_waits_for_the_head():
     controller = dict(thresholds="calibrated", false_alarm_per_hour=0.1, lmax=2000,
                       lmin=1334, l=333)  # fmt: skip
     live = OnlineAdaptive(rate=RATE, step=50, terms=None, **controller)
-    live.push(x[: DEPENDENCE_SAMPLES - 1])
-    assert live.window.size == 0 and live.waiting == 1  # waiting for the head
-    live.push(x[DEPENDENCE_SAMPLES - 1 :])
-    assert live.window.size > 0
+    live.push(x[:8191])
+    assert live.window.size == 0 and live.waiting == 1  # waiting for the first head
+    live.push(x[8191:8192])
+    assert live.window.size == -(-(8192 - live.latency) // 50)  # every row due so far
+    early = []
+    for piece in np.array_split(x[8192:], 97):
+        live.push(piece)
+        early.append(live.window.copy())
     live.finish()
+    for rows in early:  # a refined estimate never revised an emitted row
+        assert np.array_equal(live.window[: rows.size], rows)
     sched = adavar.adaptive_schedule(x, rate=RATE, step=50, **controller)
     assert np.array_equal(live.window, sched.window)
-    assert live.parameters["dependence"] == sched.parameters["dependence"]
+    stages = live.parameters["dependence_stages"]
+    assert stages == sched.parameters["dependence_stages"]
+    assert [h for _, h, _, _ in stages] == [8192 << k for k in range(8)]  # to 2**20
+    assert live.parameters["dependence"] == sched.parameters["dependence"] == stages[-1][2:]
+    assert stages[0][2] > 1.5  # the filtered sensor's correlation, seen on the first head
 
 
 def test_latency_and_mirror():
     x = record(12_000)
-    live = OnlineAdaptive(rate=RATE, lmax=240, lmin=160, l=40)
+    live = OnlineAdaptive(rate=RATE, lmax=240, lmin=160, l=40, thresholds="paper")
     assert live.latency == 120
     for i in range(0, 3000, 250):
         live.push(x[i : i + 250])
@@ -206,7 +231,12 @@ def test_fit_batch_and_no_terms():
     bare = pushed(x, [3000], terms=None, **controller)
     assert np.array_equal(bare.window, batched.window)
     assert bare.coefficients == {}
-    assert [e.start_s for e in bare.events] == [e.start_s for e in batched.events]
+    # no N to tell a change of level from a spike: each episode is an event of its own,
+    # as find_events gives them without coefficients
+    alone = find_events(bare.window, bare.centre, bare.time, 240, 1 / RATE, {},
+                        duration=x.size / RATE)  # fmt: skip
+    assert [(e.start_s, e.end_s) for e in bare.events] == [(e.start_s, e.end_s) for e in alone]
+    assert len(bare.events) >= len(batched.events) and bare.events
     assert all(e.before == {} for e in bare.events)
     with pytest.raises(AdavarInputError, match="angle_random_walk"):
         _ = bare.arw
@@ -235,7 +265,8 @@ def ici_offline(x_key: str, step: int = 1, rate: float = RATE, **options):
     x = ici_record() if x_key == "sensor" else scenario_record()
     result = adavar.adaptive_davar(x, rate=rate, taus="octave", noise_type=0, step=step,
                                    **ICI | options)  # fmt: skip
-    arw = adavar.fit_noise(result, terms=(N_TERM,)).angle_random_walk.value
+    # a stream has no whole record: the live fit goes without its roll-off reference
+    arw = adavar.fit_noise(result, terms=(N_TERM,), reference=None).angle_random_walk.value
     lmax = int(result.parameters["lmax"])
     changes = [0.0 + c * (1 / rate) for c in result.parameters["ici_changes"]]  # as the CLI
     events = find_events(result.window, result.centre, result.time, lmax, 1 / rate,
@@ -291,7 +322,9 @@ def test_ici_step_recent_latency_and_refusals():
     assert_same_ici(live, "sensor", step=7)
     assert live.first_row > 0  # only the recent rows are held
     live = OnlineAdaptive(rate=RATE, **ICI)
-    assert live.latency == 600 + 1200 - 2  # an engine unit (lmax / 2 centres) and lmax
+    # an engine unit (lmax / 2 centres) and lmax, and 1.75 lmax a ramp of an episode may
+    # reach (its region: lmax + lmax / 4 before its first split centre; the ramp: lmax / 2)
+    assert live.latency == 600 + 1200 - 2 + 1200 + 300 + 600
     assert live.waiting == 8000  # the EDF's head
     live.push(x[:7999])
     assert live.window.size == 0

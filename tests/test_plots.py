@@ -110,6 +110,46 @@ def test_no_pyplot_state(gyro):
     assert matplotlib.get_backend() == backend
 
 
+def test_plot_then_pyplot_savefig_writes_the_plot(tmp_path):
+    """``r.plot(); plt.savefig(path)`` writes the figure (it wrote a blank page: the figure
+    was not pyplot's), and ``ax=`` draws on the caller's axes."""
+    import matplotlib.pyplot as plt
+    from matplotlib.image import imread
+
+    x = simulate.white(20_000, seed=3)
+    surface = adavar.davar(x, rate=100.0, window=2000, step=2000, units="deg/s")
+    curve = adavar.deviation(x, rate=100.0, units="deg/s")
+    plt.close("all")
+    try:
+        for k, result in enumerate((surface, curve, adavar.fit_noise(surface))):
+            ax = result.plot()
+            assert ax.figure is plt.gcf()
+            path = tmp_path / f"plot{k}.png"
+            plt.savefig(path)
+            assert imread(path)[..., :3].std() > 0.05  # a blank page has none
+            _, axes = plt.subplots(1, 2)
+            assert result.plot(ax=axes[1]) is axes[1]
+            assert axes[1].has_data() and not axes[0].has_data()
+    finally:
+        plt.close("all")
+
+
+def test_plot_without_pyplot_leaves_pyplot_alone():
+    """A script that does not use pyplot gets a plain figure: pyplot is not imported."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, numpy as np, adavar; "
+        "ax = adavar.deviation(np.random.default_rng(0).standard_normal(4000)).plot(); "
+        "assert ax.figure.canvas is not None; print('matplotlib.pyplot' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)  # fmt: skip
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "False"
+
+
 def test_save_figure_both_formats_atomically(gyro, tmp_path):
     result, fit = gyro
     fig = deviation_figure(result, fit)
@@ -278,7 +318,7 @@ def test_flag_panels_are_every_points_pixels(n):
     """A flag panel drawn from its runs' ends has the pixels of the panel drawn with every
     point, runs narrower than a pixel included (a snapped path of few vertices lost
     them)."""
-    from adavar.plots import _step_panel
+    from adavar.paper_figures import _step_panel
 
     rng = np.random.default_rng(5)
     t = np.arange(n) / 200.0

@@ -122,16 +122,38 @@ def _rn_reference(u: np.ndarray, m: int) -> float | None:
 def _reference_noise_types(u, ms, dmax, noise_id):
     """The rule of :func:`record_noise_types` for rate data, one tau at a time, written out.
 
-    Lag-1 on the materialised cluster means (:func:`adavar.noise_id.identify_noise_lag1`),
-    else B1 with R(n) from the materialised phase, else the nearest identified tau.
+    ``"sp1065"``: lag-1 first on the materialised decimated phase (quadratic detrend; white
+    PM there checked by R(n)), then, as ``"input"`` and ``"stable32"`` do from the start,
+    on the materialised cluster means (:func:`adavar.noise_id.identify_noise_lag1`, one
+    difference fewer after the phase, FM types at the averaged rate's boundaries for
+    m >= 2); else B1 with R(n) from the materialised phase, else the nearest identified
+    tau.
     """
     strict = noise_id == "stable32"
+    on_phase = noise_id == "sp1065"
     alpha = []
     for m in ms.tolist():
         z = _cluster_sums(u, m) / m
         a = math.nan
         try:
-            if z.size >= nid.MIN_POINTS_LAG1:
+            if z.size >= nid.MIN_POINTS_LAG1 and on_phase:
+                x = nid._detrend(np.concatenate([[0.0], np.cumsum(z)]), 2)
+                c = x - x.mean()
+                den = float(np.dot(c, c))
+                r1 = float(np.dot(c[:-1], c[1:])) / den if den > 0 else math.nan
+                scale = float(np.max(np.abs(np.cumsum(z * m))))
+                got = nid.phase_order0(r1, den, z.size + 1, scale * 1.0)
+                if got == got:
+                    a = nid.clamp_alpha(got, dmax)
+                    rn = _rn_reference(u, m)
+                    if a == 2 and m >= 4 and rn is not None:
+                        white, flicker = nid.rn_theory_pm(m)
+                        a = 1 if rn > math.sqrt(white * flicker) else 2
+                else:
+                    a = nid.identify_noise_lag1(
+                        z, data_type="rate", dmax=dmax - 1, averaged=m >= 2
+                    )[0]
+            elif z.size >= nid.MIN_POINTS_LAG1:
                 a = nid.identify_noise_lag1(z, data_type="rate", dmax=dmax)[0]
             elif z.size >= nid.MIN_POINTS_B1:
                 a = nid.identify_noise_b1(z, data_type="rate", dmax=dmax)
@@ -159,7 +181,7 @@ def _reference_noise_types(u, ms, dmax, noise_id):
     kind=st.sampled_from(KINDS),
     taus=st.sampled_from(["octave", "all", "decade", "log"]),
     dmax=st.sampled_from([2, 3]),
-    noise_id=st.sampled_from(["sp1065", "stable32"]),
+    noise_id=st.sampled_from(["sp1065", "stable32", "input"]),
 )
 def test_record_noise_types_match_the_plain_rule(n, seed, kind, taus, dmax, noise_id):
     u, _ = stats.scaled(_series(kind, n, seed))  # as deviation() does

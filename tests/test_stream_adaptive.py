@@ -20,7 +20,8 @@ from adavar.simulate import paper_scenario
 from adavar.windows import window_schedule
 from tests.test_adaptive import literal_controller
 
-SMALL = dict(lmax=200, lmin=120, l=30)
+SMALL = dict(lmax=200, lmin=120, l=30, thresholds="paper")  # the adapting controller
+PAPER = dict(lmax=600, lmin=400, l=100, thresholds="paper")
 FIELDS = ("window", "kurtosis", "s", "f1", "f2", "f", "centre")
 #: not multiples of REANCHOR (512), tiny ones, and one large enough for parallel segments
 CHUNKS = (1, 100, 513, 4133, 70_001)
@@ -139,13 +140,14 @@ def test_paper_scenario_with_paper_parameters():
     sc = paper_scenario(1, seed=0)
     x = np.tile(sc.data, 12)  # 72 000 s: several pieces, with the paper's disturbance
     for edges in ("mirror", "valid"):
-        want = adaptive_schedule(x, edges=edges)
+        want = adaptive_schedule(x, edges=edges, **PAPER)
         assert want.window.min() == 400
         for chunk in (1, 2048, 10_000):
-            assert_same(adaptive_schedule(x, edges=edges, chunk_size=chunk), want)
+            assert_same(adaptive_schedule(x, edges=edges, chunk_size=chunk, **PAPER), want)
     changes = list(sc.change_times)
-    want = adaptive_schedule(sc.data, method="oracle", change_times=changes)
-    got = adaptive_schedule(sc.data, method="oracle", change_times=changes, chunk_size=700)
+    want = adaptive_schedule(sc.data, method="oracle", change_times=changes, **PAPER)
+    got = adaptive_schedule(sc.data, method="oracle", change_times=changes, chunk_size=700,
+                            **PAPER)  # fmt: skip
     assert_same(got, want)
 
 
@@ -298,9 +300,10 @@ def test_adaptive_davar_memmap_calibrated_oracle(tmp_path):
     path = tmp_path / "x.npy"
     np.save(path, x)
     for opts in (
-        dict(thresholds="calibrated", taus="octave"),
+        dict(thresholds="calibrated", false_alarm=0.01, taus="octave"),
+        dict(thresholds="calibrated", taus="octave"),  # per hour (the default)
         dict(method="oracle", change_times=[20_000.0], taus=[1.0, 10.0], edges="valid"),
     ):
-        want = adaptive_davar(x, **SMALL, step=250, **opts)
-        got = adaptive_davar(np.load(path, mmap_mode="r"), **SMALL, step=250, **opts)
+        want = adaptive_davar(x, **SMALL | opts, step=250)
+        got = adaptive_davar(np.load(path, mmap_mode="r"), **SMALL | opts, step=250)
         _assert_same_result(got, want)

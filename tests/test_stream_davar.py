@@ -33,6 +33,9 @@ def assert_same(got, want, rtol=RTOL):
         if f.name == "_cache":
             continue
         a, b = getattr(got, f.name), getattr(want, f.name)
+        if f.name == "record_curve":  # only a record in memory carries its whole curve
+            assert a is None or b is None, f.name
+            continue
         if f.name == "avar":
             assert a.shape == b.shape
             np.testing.assert_allclose(a, b, rtol=rtol, atol=0.0, equal_nan=True)

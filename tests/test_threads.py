@@ -158,7 +158,8 @@ def test_threaded_adaptive_controller_is_bit_identical(force):
 
     x = _record(60_000, seed=5)
     x[30_000:32_000] += 3.0 * np.random.default_rng(1).standard_normal(2000)  # a disturbance
-    a, b = _both(force, lambda: adaptive_schedule(x, rate=1.0).window)
+    paper = dict(lmax=600, lmin=400, l=100, thresholds="paper")  # the paper's controller
+    a, b = _both(force, lambda: adaptive_schedule(x, rate=1.0, **paper).window)
     np.testing.assert_array_equal(a, b)
     assert a.min() < 600  # the controller did shorten the window
 
@@ -175,7 +176,8 @@ def test_the_controller_survives_a_huge_burst(force, where):
     else:
         x += 1e9
         x[30_000:32_000] *= 3.0
-    a, b = _both(force, lambda: adaptive_schedule(x, rate=1.0).window)
+    paper = dict(lmax=600, lmin=400, l=100, thresholds="paper")  # the paper's controller
+    a, b = _both(force, lambda: adaptive_schedule(x, rate=1.0, **paper).window)
     np.testing.assert_array_equal(a, b)
     assert 400 <= a.min() and a.max() <= 600
 

@@ -116,8 +116,12 @@ def test_the_result_records_and_rebuilds_its_thresholds():
     assert p["thresholds_used"]["k1"] == [th.k1[2000], th.k1[1400]]
     rebuilt = thresholds_for(p)
     assert np.array_equal(rebuilt.k2, th.k2, equal_nan=True)
-    paper = adavar.adaptive_davar(x, rate=100.0, lmax=2000, lmin=1400, l=300, taus=[0.01])
+    paper = adavar.adaptive_davar(x, rate=100.0, lmax=2000, lmin=1400, l=300, taus=[0.01],
+                                  thresholds="paper")  # fmt: skip
     assert paper.parameters["thresholds_used"]["k2"] == [3.3, 3.3]
+    # the default (since 0.2) is the per-hour calibration, as on the command line
+    default = adavar.adaptive_davar(x, rate=100.0, lmax=2000, lmin=1400, l=300, taus=[0.01])
+    assert default.parameters["thresholds_used"] == p["thresholds_used"]
 
 
 @pytest.mark.filterwarnings("ignore:Precision loss occurred:RuntimeWarning")  # scipy, constant rows

@@ -47,6 +47,8 @@ _LAZY = {
     "AdavarInputError": "adavar.errors",
     "kurtosis_contribution": "adavar.kurtosis",
     "sliding_kurtosis": "adavar.kurtosis",
+    "LongTauChanges": "adavar.long_tau",
+    "long_tau_changes": "adavar.long_tau",
     "NoiseFit": "adavar.noise_model",
     "NoiseTerm": "adavar.noise_model",
     "fit_avar": "adavar.noise_model",
@@ -58,6 +60,8 @@ _LAZY = {
     "DavarResult": "adavar.results",
     "DeviationResult": "adavar.results",
     "deviation": "adavar.statistics",
+    "StationarityResult": "adavar.stationarity",
+    "stationarity": "adavar.stationarity",
 }
 _SUBMODULES = ("simulate",)
 
@@ -70,11 +74,13 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from adavar.durations import Duration, seconds
     from adavar.errors import AdavarInputError
     from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
+    from adavar.long_tau import LongTauChanges, long_tau_changes
     from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
     from adavar.online import OnlineAdaptive
     from adavar.paper.studies import compare_seeds
     from adavar.power_law import PowerLawFit, fit_power_law
     from adavar.results import DavarResult, DeviationResult
+    from adavar.stationarity import StationarityResult, stationarity
     from adavar.statistics import deviation
 
 
@@ -94,8 +100,9 @@ def __dir__() -> list[str]:
 
 
 class _Package(types.ModuleType):
-    """``adavar.compare`` and ``adavar.davar`` are functions, as they always were, though
-    modules of those names exist: importing the module must not rebind the name."""
+    """``adavar.compare``, ``adavar.davar`` and ``adavar.stationarity`` are functions (the
+    first two as they always were), though modules of those names exist: importing the
+    module must not rebind the name."""
 
     def __setattr__(self, name: str, value: Any) -> None:
         if name in _LAZY and isinstance(value, types.ModuleType):
@@ -114,10 +121,12 @@ __all__ = [
     "DavarResult",
     "DeviationResult",
     "Duration",
+    "LongTauChanges",
     "NoiseFit",
     "NoiseTerm",
     "OnlineAdaptive",
     "PowerLawFit",
+    "StationarityResult",
     "adaptive_davar",
     "adaptive_schedule",
     "compare",
@@ -130,9 +139,11 @@ __all__ = [
     "fit_power_law",
     "gcodev",
     "kurtosis_contribution",
+    "long_tau_changes",
     "seconds",
     "simulate",
     "sliding_kurtosis",
+    "stationarity",
 ]
 
 __version__ = "0.1.0"

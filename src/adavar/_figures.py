@@ -6,8 +6,12 @@ Matplotlib is imported inside the functions, on the first figure (fast CLI start
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import re
+import sys
+from collections.abc import Iterator
 from functools import cache
 from typing import TYPE_CHECKING, Any
 
@@ -31,16 +35,50 @@ _SUPERSCRIPT = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
 _POWER_LABEL = re.compile(r"\$\\mathdefault\{(?:([0-9.]+)\\times)?10\^\{(-?\d+)\}\}\$")
 
 
+#: True inside :func:`pyplot_figures`: new figures are pyplot's when the caller uses it
+_PYPLOT_FIGURES = contextvars.ContextVar("adavar_pyplot_figures", default=False)
+
+
+@contextlib.contextmanager
+def pyplot_figures() -> Iterator[None]:
+    """New figures made within are pyplot figures when :mod:`matplotlib.pyplot` has been
+    imported (the results' ``.plot()``: ``plt.savefig`` and ``plt.show`` then see them)."""
+    token = _PYPLOT_FIGURES.set(True)
+    try:
+        yield
+    finally:
+        _PYPLOT_FIGURES.reset(token)
+
+
 def new_figure(
     figsize: tuple[float, float] = (7.5, 5.5), layout: str | None = "constrained"
 ) -> Figure:
-    """A figure with an Agg canvas attached (no pyplot state)."""
+    """A figure with an Agg canvas attached (no pyplot state).
+
+    Within :func:`pyplot_figures`, and when the caller has imported
+    :mod:`matplotlib.pyplot` (adavar never imports it), ``plt.figure()`` instead: the new
+    current figure of pyplot, on its backend.
+    """
+    plt = sys.modules.get("matplotlib.pyplot") if _PYPLOT_FIGURES.get() else None
+    if plt is not None:
+        return plt.figure(figsize=figsize, layout=layout)
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=figsize, layout=layout)
     FigureCanvasAgg(fig)
     return fig
+
+
+def figure_axes(
+    ax: Any, figsize: tuple[float, float], layout: str | None = "constrained"
+) -> tuple[Any, Any]:
+    """``(figure, axes)`` to draw on: ``ax`` and its figure when given, else a
+    :func:`new_figure` and its one axes."""
+    if ax is not None:
+        return ax.figure, ax
+    fig = new_figure(figsize, layout)
+    return fig, fig.add_subplot()
 
 
 def power_label(label: str) -> str:

@@ -43,9 +43,11 @@ from adavar.controller import REANCHOR, check_whole, controller_outputs, make_co
 from adavar.davar import davar, davar_blocks
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
+from adavar.events import Event
 from adavar.ici import ici_schedule
+from adavar.long_tau import LONG_TAU_SAMPLES, long_tau_changes
 from adavar.results import DavarResult
-from adavar.settings import CONTROLLER, ICI_GAMMA
+from adavar.settings import CONTROLLER, HOURLY_FALSE_ALARMS, ICI_GAMMA, THRESHOLDS, threshold_mode
 from adavar.statistics import (
     DATA_TYPE_ALIASES,
     as_samples,
@@ -56,6 +58,14 @@ from adavar.statistics import (
 )
 from adavar.stream import ChunkedSource
 from adavar.thresholds import Thresholds, calibrated_thresholds, threshold_summary
+from adavar.window_defaults import (
+    dependence_stages,
+    record_windows,
+    resolve_windows,
+    stage_parameters,
+    staged_controllers,
+    surface_resolution,
+)
 from adavar.windows import centre_range
 
 __all__ = [
@@ -66,9 +76,12 @@ __all__ = [
     "adaptive_davar",
     "adaptive_schedule",
     "calibrated_thresholds",
+    "dependence_stages",
     "false_alarm_rate",
     "oracle_schedule",
     "record_windows",
+    "resolve_windows",
+    "surface_resolution",
     "window_lengths",
 ]
 
@@ -170,30 +183,6 @@ def _oracle_lengths(
     return out
 
 
-def record_windows(n_samples: int, lmax: int | None = None) -> tuple[int, int, int]:
-    """Lmax, Lmin and l in the paper's proportions (600, 400, 100 of a 6000-sample record).
-
-    ``Lmax`` is a tenth of the record (even; at least 12 samples), ``Lmin = Lmax - 2
-    round(Lmax / 6)`` (two thirds of it, of the same parity) and ``l = round(Lmax / 6)``.
-    Given ``lmax``, only Lmin and l are derived from it.
-
-    Parameters
-    ----------
-    n_samples : int
-        Length of the record (samples).
-    lmax : int, optional
-        The longest window, if chosen.
-
-    Returns
-    -------
-    lmax, lmin, l : int
-    """
-    if lmax is None:
-        lmax = max(12, 2 * round(int(n_samples) / 20))
-    sixth = max(1, round(lmax / 6))
-    return int(lmax), int(lmax - 2 * sixth), int(sixth)
-
-
 def window_lengths(
     dt: float,
     *,
@@ -216,36 +205,49 @@ def window_lengths(
     return big, small, seg, every
 
 
+def _record_size(data: Any, chunked: bool) -> int:
+    """Samples of the record (before it is checked: 0 for what is not a 1-D record)."""
+    if chunked:
+        return int(stream.as_source(data).size)
+    shape = np.shape(data)
+    return int(shape[0]) if len(shape) == 1 else 0
+
+
 def adaptive_schedule(
     data: Sequence[float] | np.ndarray | ChunkedSource,
     *,
     method: str = "adaptive",
-    lmax: Length = CONTROLLER.lmax,
-    lmin: Length = CONTROLLER.lmin,
+    lmax: Length | None = None,
+    lmin: Length | None = None,
     k1: float = CONTROLLER.k1,
     k2: float = CONTROLLER.k2,
     s1: float = CONTROLLER.s1,
     s2: float = CONTROLLER.s2,
-    l: Length = CONTROLLER.l,  # noqa: E741 - the paper's name
+    l: Length | None = None,  # noqa: E741 - the paper's name
     dl0: int = CONTROLLER.dl0,
     dl1: int = CONTROLLER.dl1,
     s_test: str = CONTROLLER.s_test,
     combine: str = CONTROLLER.combine,
     edges: str = "mirror",
     change_times: Sequence[float] | None = None,
-    thresholds: str = CONTROLLER.thresholds,
-    false_alarm: float = CONTROLLER.false_alarm,
+    thresholds: str = THRESHOLDS,
+    false_alarm: float | None = None,
     rate: float = 1.0,
     tau0: float | None = None,
     step: Length = 1,
     chunk_size: int | None = None,
-    false_alarm_per_hour: float | None = None,
+    false_alarm_per_hour: float | None = HOURLY_FALSE_ALARMS,
     ici_gamma: float = ICI_GAMMA,
     ici_lengths: Sequence[int] | None = None,
     ici_taus: Sequence[int] = (1,),
     ici_sides: str = "both",
     ici_edf: str = "correlation",
     ici_edf_samples: int | None = None,
+    ici_kurtosis: bool = True,
+    ici_episodes: bool = True,
+    ici_long_tau: bool = True,
+    dependence: Sequence[float] | None = None,
+    kurtosis_reference: str | dict = "record",
 ) -> Schedule:
     """The window schedule of A-DAVAR, DAVAR-K, the oracle or a fixed window.
 
@@ -273,9 +275,12 @@ def adaptive_schedule(
         per-centre outputs (about 40 bytes per centre of the piece) plus the ``N / step``
         kept rows. ``method="ici"`` runs in memory only: a chunked input without
         ``chunk_size`` is read into memory, an explicit ``chunk_size`` is an error.
-    ici_gamma, ici_lengths, ici_taus, ici_sides, ici_edf, ici_edf_samples
+    ici_gamma, ici_lengths, ici_taus, ici_sides, ici_edf, ici_edf_samples, ici_kurtosis
+    ici_episodes, ici_long_tau
         The options of ``method="ici"`` (:func:`adavar.ici.ici_schedule`), see
         :func:`adaptive_davar`.
+    dependence, kurtosis_reference
+        See :func:`adaptive_davar`.
 
     Returns
     -------
@@ -287,8 +292,13 @@ def adaptive_schedule(
     if edges not in ("mirror", "valid"):
         raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
     dt = resolve_tau0(rate, tau0)
-    lmax, lmin, seg, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)
     chunked = chunk_size is not None or stream.is_chunked(data)
+    if lmax is None or lmin is None or l is None:
+        lmax, lmin, l = resolve_windows(_record_size(data, chunked), dt, lmax, lmin, l)  # noqa: E741
+    lmax, lmin, seg, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)
+    thresholds, false_alarm, false_alarm_per_hour = threshold_mode(
+        thresholds, false_alarm, false_alarm_per_hour
+    )
     if method == "ici":  # not a kurtosis controller: its own module, in memory
         if chunk_size is None and stream.is_chunked(data):  # a memory map, a lazy channel
             source = stream.as_source(data)
@@ -299,9 +309,10 @@ def adaptive_schedule(
                 "record as an array (numpy.asarray), or use method='adaptive' out of core"
             )
         ici = dict(gamma=ici_gamma, lengths=ici_lengths, taus=ici_taus, sides=ici_sides,
-                   edf=ici_edf, edf_samples=ici_edf_samples)  # fmt: skip
+                   edf=ici_edf, edf_samples=ici_edf_samples, kurtosis=ici_kurtosis,
+                   episodes=ici_episodes)  # fmt: skip
         return _ici(data, lmax=lmax, lmin=lmin, seg=seg, edges=edges, step=step, dt=dt,
-                    options=ici)  # fmt: skip
+                    options=ici, long_tau=ici_long_tau)  # fmt: skip
     chunk = stream.DEFAULT_CHUNK
     if chunk_size is not None:
         chunk = stream.check_chunk_size(chunk_size)
@@ -309,6 +320,7 @@ def adaptive_schedule(
         method=method, lmax=lmax, lmin=lmin, seg=seg, dl0=dl0, dl1=dl1, k1=k1, k2=k2, s1=s1,
         s2=s2, s_test=s_test, combine=combine, thresholds=thresholds, false_alarm=false_alarm,
         false_alarm_per_hour=false_alarm_per_hour, rate=1.0 / dt,
+        kurtosis_reference=kurtosis_reference,
     )  # fmt: skip
     # the settings checked before the record is read (the calibration waits for it)
     quick = settings | {"thresholds": "paper"} if thresholds == "calibrated" else settings
@@ -332,9 +344,10 @@ def adaptive_schedule(
         def head(k: int) -> np.ndarray:
             return x[:k]
 
-    ctl = make_controller(**settings, head=head)
+    stages = staged_controllers(settings, head, n, lmax, dependence)
+    ctl = stages[-1][1]  # the controller of the bulk of the record, for the parameters
     th = ctl.thresholds
-    dependence = ctl.dependence
+    measured = ctl.dependence
     changes = None
     if method == "oracle":
         if change_times is None or len(change_times) == 0:
@@ -361,7 +374,20 @@ def adaptive_schedule(
         return np.zeros(1, dtype=np.int64)
 
     def run(ext: np.ndarray, offset: int, q0: int, q1: int, start_length: int) -> tuple:
-        return ctl.run(ext, offset, q1 - q0, start_length, given(q0, q1))
+        """Centres q0 .. q1 - 1 (centre q0 at ext[offset]), each stage by its controller."""
+        cuts = [c for c, _ in stages[1:] if q0 < c < q1]
+        if not cuts:
+            stage = len(stages) - 1
+            while stages[stage][0] > q0:
+                stage -= 1
+            return stages[stage][1].run(ext, offset, q1 - q0, start_length, given(q0, q1))
+        out = controller_outputs(q1 - q0)
+        length = start_length
+        for a, b in zip([q0, *cuts], [*cuts, q1], strict=True):
+            part, length = run(ext, offset + a - q0, a, b, length)
+            for dst, src in zip(out, part, strict=True):
+                dst[a - q0 : b - q0] = src
+        return out, length
 
     # kept rows: the centres that are multiples of step
     c0 = -(-first // step) * step
@@ -402,11 +428,15 @@ def adaptive_schedule(
         method=method, lmax=lmax, lmin=lmin, k1=float(k1), k2=float(k2), s1=float(s1),
         s2=float(s2), l=seg, dl0=dl0, dl1=dl1, s_test=s_test, combine=combine, edges=edges,
         thresholds=thresholds, false_alarm=float(false_alarm) if thresholds == "calibrated"
-        and dependence is None else None,
-        false_alarm_per_hour=None if dependence is None else float(false_alarm_per_hour),
-        dependence=None if dependence is None else list(dependence), sample_rate=1.0 / dt,
+        and measured is None else None,
+        false_alarm_per_hour=None if measured is None else float(false_alarm_per_hour),
+        dependence=None if measured is None else list(measured), sample_rate=1.0 / dt,
+        dependence_stages=stage_parameters(stages, dependence, n, lmax),
         thresholds_used=threshold_summary(th, lmin, lmax),
         change_times=None if change_times is None else list(map(float, change_times)),
+        kurtosis_reference=None if thresholds != "calibrated" else kurtosis_reference
+        if isinstance(kurtosis_reference, str) else "given",
+        kurtosis_reference_fit=None if ctl.reference is None else ctl.reference.as_dict(),
     )  # fmt: skip
     return Schedule(
         window=window, kurtosis=kurt, s=scoef, f1=f1, f2=f2, f=f, centre=centres,
@@ -416,11 +446,12 @@ def adaptive_schedule(
 
 def _ici(
     data: Any, *, lmax: int, lmin: int, seg: int, edges: str, step: int, dt: float,
-    options: dict,
+    options: dict, long_tau: bool = False,
 ) -> Schedule:  # fmt: skip
     """:func:`adavar.ici.ici_schedule` as a :class:`Schedule` (kurtosis fields NaN/False;
     ``f``: the centred ``lmax`` window was not kept; ``parameters["ici_changes"]``: the
-    detected changes, samples)."""
+    detected steps, samples; ``"ici_ramps"``: the ramps; ``"ici_long_tau"``: the changes
+    of :func:`adavar.long_tau.long_tau_changes`, with ``long_tau``)."""
     if lmin > lmax:
         raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
     refuse_masked(data)
@@ -431,7 +462,10 @@ def _ici(
     # no kurtosis test runs: its thresholds are recorded as NaN, never as numbers
     parameters = dict(ici.parameters, sample_rate=1.0 / dt, thresholds="none", k1=math.nan,
                       k2=math.nan, s1=math.nan, s2=math.nan, l=seg,
-                      ici_changes=ici.changes.tolist())  # fmt: skip
+                      ici_changes=ici.changes.tolist(), ici_long_tau=None)  # fmt: skip
+    if long_tau and x.size >= LONG_TAU_SAMPLES:  # the long-tau terms' changes (events)
+        found = long_tau_changes(x, tau0=dt, gamma=ici.gamma)
+        parameters["ici_long_tau"] = [c.as_dict() for c in found.changes]
     return Schedule(
         window=ici.window, kurtosis=np.full(size, np.nan), s=np.full(size, np.nan),
         f1=np.zeros(size, dtype=bool), f2=np.zeros(size, dtype=bool),
@@ -459,9 +493,11 @@ class AdaptiveResult(DavarResult):
     f1, f2, f : ndarray of bool
         The controller's flags (see :class:`Schedule`).
     method : str
-        ``"adaptive"``, ``"kurtosis"``, ``"oracle"`` or ``"fixed"``.
+        ``"adaptive"``, ``"kurtosis"``, ``"oracle"``, ``"fixed"`` or ``"ici"``.
     parameters : dict
         Every controller setting used.
+    events : list of Event
+        The non-stationary stretches ``adavar adaptive`` reports (see :attr:`events`).
     """
 
     kurtosis: np.ndarray | None = None
@@ -472,29 +508,79 @@ class AdaptiveResult(DavarResult):
     method: str = "adaptive"
     parameters: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def events(self) -> list[Event]:
+        """The non-stationary stretches of the record, as ``adavar adaptive`` reports them.
+
+        The change times are those of :func:`adavar.events.find_events` on this schedule
+        (for ``method="ici"``: its steps, ramps and long-tau changes,
+        :func:`adavar.ici_events.ici_events`), the same as the command's on the same record
+        and settings. Each stretch's ``before``, ``during`` and ``after`` summaries
+        need every window's noise coefficients: on first access the noise model is fitted
+        to every window (``fit_noise(self, cells=False)``, all five terms; about 1 s per
+        100 000 windows), then kept. The command's summaries use the same fit with the
+        whole record's full-covariance fit as the reference of a sensor's roll-off: on data
+        with a roll-off they can differ slightly; :meth:`events_with` takes any fit (e.g.
+        ``fit_noise(result, terms=("angle_random_walk",))``, faster). A surface without
+        confidence bounds (``confidence=None``, ``bounds=False``) cannot be fitted: its
+        events have empty summaries.
+        """
+        found = self._cache.get("events")
+        if found is None:
+            found = self._cache["events"] = self.events_with(None)
+        return list(found)
+
+    def events_with(self, fit: Any = None) -> list[Event]:
+        """:attr:`events` with the summaries of ``fit`` (a fit of this result's windows,
+        :func:`adavar.fit_noise`), or of the default fit when None."""
+        from adavar.events import find_events
+        from adavar.noise_model import fit_noise
+
+        if fit is None and self.edf_table is not None:
+            fit = fit_noise(self, cells=False)
+        terms = {} if fit is None else {name: fit.term(name).value for name in fit.terms}
+        time = np.asarray(self.time, dtype=float)
+        t0 = float(time[0] - self.centre[0] * self.tau0) if time.size else 0.0
+        if self.method == "ici":  # its own steps, ramps and long-tau changes
+            from adavar.ici_events import ici_events
+
+            return ici_events(
+                self.window, self.centre, time, int(self.parameters["lmax"]), self.tau0,
+                terms, t0=t0, duration=t0 + self.n_samples * self.tau0,
+                parameters=self.parameters,
+            )  # fmt: skip
+        changes = None
+        # the episodes are classified by N; with nothing fitted, by each window's
+        # shortest-tau Allan deviation (the same ratios for white noise)
+        level = "angle_random_walk" if "angle_random_walk" in terms else np.sqrt(self.avar[:, 0])
+        return find_events(
+            self.window, self.centre, time, int(self.parameters["lmax"]), self.tau0, terms,
+            t0=t0, duration=t0 + self.n_samples * self.tau0, changes=changes, level=level,
+        )  # fmt: skip
+
 
 def adaptive_davar(
     data: Sequence[float] | np.ndarray | ChunkedSource,
     *,
     rate: float = 1.0,
     method: str = "adaptive",
-    lmax: Length = CONTROLLER.lmax,
-    lmin: Length = CONTROLLER.lmin,
+    lmax: Length | None = None,
+    lmin: Length | None = None,
     k1: float = CONTROLLER.k1,
     k2: float = CONTROLLER.k2,
     s1: float = CONTROLLER.s1,
     s2: float = CONTROLLER.s2,
-    l: Length = CONTROLLER.l,  # noqa: E741 - the paper's name
+    l: Length | None = None,  # noqa: E741 - the paper's name
     dl0: int = CONTROLLER.dl0,
     dl1: int = CONTROLLER.dl1,
     s_test: str = CONTROLLER.s_test,
     combine: str = CONTROLLER.combine,
-    taus: str | Sequence[float] | np.ndarray = "all",
+    taus: str | Sequence[float] | np.ndarray | None = None,
     edges: str = "mirror",
     change_times: Sequence[float] | None = None,
-    thresholds: str = CONTROLLER.thresholds,
-    false_alarm: float = CONTROLLER.false_alarm,
-    step: Length = 1,
+    thresholds: str = THRESHOLDS,
+    false_alarm: float | None = None,
+    step: Length | None = None,
     confidence: float | None = 0.683,
     data_type: str = "rate",
     tau0: float | None = None,
@@ -504,14 +590,19 @@ def adaptive_davar(
     units: str | None = None,
     chunk_size: int | None = None,
     edge_edf: str = "distinct",
-    false_alarm_per_hour: float | None = None,
+    false_alarm_per_hour: float | None = HOURLY_FALSE_ALARMS,
     ici_gamma: float = ICI_GAMMA,
     ici_lengths: Sequence[int] | None = None,
     ici_taus: Sequence[int] = (1,),
     ici_sides: str = "both",
     ici_edf: str = "correlation",
     ici_edf_samples: int | None = None,
+    ici_kurtosis: bool = True,
+    ici_episodes: bool = True,
+    ici_long_tau: bool = True,
     bounds: bool = True,
+    dependence: Sequence[float] | None = None,
+    kurtosis_reference: str | dict = "record",
 ) -> AdaptiveResult:
     """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
 
@@ -533,16 +624,21 @@ def adaptive_davar(
         False, ``f`` the centres whose window is not the centred ``lmax`` one, ``shift``
         the one-sided windows, ``parameters["ici_changes"]`` the detected changes
         (samples).
-    lmax, lmin : int, str, Duration or timedelta
+    lmax, lmin : int, str, Duration or timedelta, optional
         Longest (start) and shortest window: samples (paper: 600, 400), or durations
         (``"10min"``, :func:`adavar.seconds`), rounded to whole samples of this record (a
-        duration ``lmin`` to the nearest length of ``lmax``'s parity).
+        duration ``lmin`` to the nearest length of ``lmax``'s parity). Default, as
+        ``adavar adaptive``: Lmax a tenth of the record and Lmin two thirds of Lmax
+        (:func:`record_windows`: the paper's 600 and 400 of its 6000-sample record); given
+        ``lmax`` alone, Lmin (and ``l``) follow it. Before 0.2 the default was the
+        paper's 600 and 400 samples on any record: give ``lmax=600, lmin=400, l=100``.
     k1, k2 : float
         Kurtosis band of a stationary window (Eq. 16; paper: 2.5, 3.3).
     s1, s2 : float
         S thresholds (Eq. 17; paper: 0, 0.07); ``s1`` is used by ``s_test="band"`` only.
-    l : int, str, Duration or timedelta
-        Leading segment of the S test: samples (paper: 100) or a duration.
+    l : int, str, Duration or timedelta, optional
+        Leading segment of the S test: samples (paper: 100) or a duration; default a sixth
+        of Lmax.
     dl0, dl1 : int
         Regrow and shrink steps (paper: 2, 2); even, so the parity of ``L`` is kept.
     s_test : {"upper", "band", "abs"}
@@ -553,21 +649,31 @@ def adaptive_davar(
         ``f = f1 or f2`` (default, reproduces the paper's nodes) or ``f1 and f2``.
     taus, edges, step, confidence, data_type, tau0, t0, points_per_decade, noise_type, units
         As in :func:`adavar.davar`. With ``edges="valid"`` the controller runs on the
-        centres whose ``lmax`` window fits in the record.
+        centres whose ``lmax`` window fits in the record. ``taus`` and ``step`` not given
+        are chosen as ``adavar adaptive`` chooses them (:func:`surface_resolution`):
+        ``"all"`` up to 200 taus, else ``"log"``; every centre while the surface fits the
+        default ``--max-memory`` (200 MB at 32 bytes a cell), else every ``step``-th
+        (before 0.2: ``taus="all"``, ``step=1``).
     change_times : sequence of float, optional
         Known change times (seconds from the first sample) for ``method="oracle"``.
-    thresholds : {"paper", "calibrated"}
-        ``"paper"``: ``k1, k2, s2`` as given; ``"calibrated"``: per-length thresholds from the
-        sampling distribution of the kurtosis for a per-step false-alarm rate
-        ``false_alarm`` on stationary Gaussian noise (:func:`calibrated_thresholds`).
-    false_alarm : float
-        Target of ``thresholds="calibrated"``: false alarms per step.
-    false_alarm_per_hour : float, optional
-        With ``thresholds="calibrated"``: calibrate for this many false events per hour of
-        stationary data instead (:func:`adavar.thresholds.hourly_thresholds`, taking the
-        record's short-range correlation into account; ``adavar adaptive`` uses 0.1 by
-        default). ``parameters["thresholds_used"]`` records ``K1``, ``K2``, ``S2`` at
-        ``Lmax`` and ``Lmin``.
+    thresholds : {"calibrated", "paper"}
+        ``"calibrated"`` (default, as every command but ``compare``): per-length thresholds
+        for ``false_alarm_per_hour`` false events per hour of stationary data, or (given
+        ``false_alarm``) for a per-step false-alarm rate on stationary Gaussian noise
+        (:func:`calibrated_thresholds`); ``"paper"``: ``k1, k2, s2`` as given (the default
+        before 0.2; with the paper's 600-sample window they flag white noise every few
+        seconds at 100 Hz).
+    false_alarm : float, optional
+        A per-step false-alarm rate for ``thresholds="calibrated"`` instead of the per-hour
+        one (:func:`adavar.settings.threshold_mode`; ``thresholds="calibrated"`` alone meant
+        0.01 per step before 0.2).
+    false_alarm_per_hour : float or None
+        With ``thresholds="calibrated"``: false events per hour of stationary data
+        (default 0.1, :data:`adavar.settings.HOURLY_FALSE_ALARMS`;
+        :func:`adavar.thresholds.hourly_thresholds`, taking the record's short-range
+        correlation into account: see ``dependence``); None: per step.
+        ``parameters["thresholds_used"]`` records ``K1``, ``K2``, ``S2`` at ``Lmax`` and
+        ``Lmin``.
     chunk_size : int, optional
         Process the record out of core, about ``chunk_size`` samples at a time (default
         :data:`adavar.stream.DEFAULT_CHUNK` for a chunked input; give it to stream an
@@ -598,14 +704,55 @@ def adaptive_davar(
         ``ici_edf_samples`` samples only (what :class:`adavar.OnlineAdaptive` knows when it
         starts; its default is :data:`adavar.online_ici.ICI_EDF_SAMPLES`); default None:
         the whole record.
+    ici_kurtosis : bool
+        ``method="ici"``: scale the EDF of the intervals by the record's robust excess
+        kurtosis (default; :mod:`adavar.ici_episodes`). False: the Gaussian EDF, as before
+        0.3 (heavy-tailed noise then gives false changes: 4.8 an hour on Student-t noise of
+        5 degrees of freedom at 100 Hz with 1-minute windows).
+    ici_episodes : bool
+        ``method="ici"``: locate each change by segmenting the episode of disagreeing
+        ``lmax`` windows around it, report a gradual change as one ramp
+        (``parameters["ici_ramps"]``, events with ``ramp=True``) and give the centres a ramp
+        reaches the window of least error under the fitted ramp (default). False: the
+        largest contrast of the ``lmax`` windows within ``lmax / 2`` and the ICI's windows
+        everywhere, as before 0.3 (a staircase of changes on a ramp, a burst reported up to
+        ``lmax`` away).
+    ici_long_tau : bool
+        ``method="ici"``: also look for changes of the long-tau terms (rate random walk,
+        bias instability) with :func:`adavar.long_tau.long_tau_changes` on records of at
+        least :data:`adavar.long_tau.LONG_TAU_SAMPLES` samples
+        (``parameters["ici_long_tau"]``; :attr:`AdaptiveResult.events` with ``tau_s``);
+        default True (about 0.5 s for 2 hours at 100 Hz).
     bounds : bool
         As in :func:`adavar.davar` (False: no per-cell confidence bounds, for a surface
         whose bounds nothing reads).
+    dependence : (float, float), optional
+        The record's ``(c2, c4)`` for the hourly thresholds
+        (:func:`adavar.thresholds.noise_dependence`), as ``OnlineAdaptive(dependence=)``.
+        Default: measured on the record's head, in stages (:func:`dependence_stages`: the
+        first 8192 samples or half Lmax, refined at every doubling up to 2**20 samples, each
+        estimate governing the centres whose windows end after it), so that the live pass
+        repeats this one; ``parameters["dependence_stages"]`` lists them and
+        ``parameters["dependence"]`` is the last.
+    kurtosis_reference : {"record", "gaussian"} or dict
+        What the calibrated thresholds compare each window with. ``"record"`` (default):
+        the record's own stationary noise. Its distribution is fitted on the same head as
+        ``dependence`` (a family from uniform through Gaussian to heavy tails, on the median
+        kurtosis of blocks of the record, so changes and spikes do not move it) and the
+        record is made Gaussian by ``Phi^-1(F(x))`` before the tests
+        (:mod:`adavar.kurtosis_reference`): stationary noise that is not Gaussian
+        (platykurtic, Student-t, Laplace, uniform, quantised) then gives the target rate of
+        false events, where the Gaussian band shortened every window; a Gaussian record is
+        left as it is. ``kurtosis``, ``s`` and the flags are those of the transformed record;
+        ``parameters["kurtosis_reference_fit"]`` gives the fit (which, given here as a dict,
+        is used as it is, as ``dependence``). ``"gaussian"``: Gaussian noise (the behaviour
+        before 0.2). Not used with ``thresholds="paper"``.
 
     Returns
     -------
     AdaptiveResult
-        The DAVAR surface on the schedule, plus ``kurtosis``, ``s``, ``f1``, ``f2``, ``f``.
+        The DAVAR surface on the schedule, plus ``kurtosis``, ``s``, ``f1``, ``f2``, ``f``,
+        and :attr:`AdaptiveResult.events`.
 
     Notes
     -----
@@ -621,8 +768,9 @@ def adaptive_davar(
         points_per_decade=points_per_decade, noise_type=noise_type, units=units,
         chunk_size=chunk_size, edge_edf=edge_edf, false_alarm_per_hour=false_alarm_per_hour,
         ici_gamma=ici_gamma, ici_lengths=ici_lengths, ici_taus=ici_taus, ici_sides=ici_sides,
-        ici_edf=ici_edf, ici_edf_samples=ici_edf_samples, bounds=bounds, in_blocks=False,
-        block_values=None,
+        ici_edf=ici_edf, ici_edf_samples=ici_edf_samples, ici_kurtosis=ici_kurtosis,
+        ici_episodes=ici_episodes, ici_long_tau=ici_long_tau, bounds=bounds, in_blocks=False,
+        block_values=None, dependence=dependence, kurtosis_reference=kurtosis_reference,
     ))  # fmt: skip
 
 
@@ -668,31 +816,42 @@ def adaptive_blocks(
 
 
 def _adaptive_surfaces(
-    data: Any, *, method: str, lmax: Length, lmin: Length, k1: float, k2: float, s1: float,
-    s2: float, l: Length, dl0: int, dl1: int, s_test: str, combine: str,  # noqa: E741
-    taus: Any, edges: str, change_times: Any, thresholds: str, false_alarm: float,
-    step: Length, confidence: float | None, data_type: str, rate: float, tau0: float | None,
+    data: Any, *, method: str, lmax: Length | None, lmin: Length | None, k1: float, k2: float,
+    s1: float, s2: float, l: Length | None, dl0: int, dl1: int, s_test: str,  # noqa: E741
+    combine: str, taus: Any, edges: str, change_times: Any, thresholds: str,
+    false_alarm: float | None, step: Length | None, confidence: float | None,
+    data_type: str, rate: float, tau0: float | None,
     t0: float, points_per_decade: int, noise_type: Any, units: str | None,
     chunk_size: int | None, edge_edf: str, false_alarm_per_hour: float | None,
     ici_gamma: float, ici_lengths: Any, ici_taus: Any, ici_sides: str, ici_edf: str,
-    ici_edf_samples: int | None, bounds: bool, in_blocks: bool, block_values: int | None,
+    ici_edf_samples: int | None, ici_kurtosis: bool, ici_episodes: bool, ici_long_tau: bool,
+    bounds: bool, in_blocks: bool, block_values: int | None,
+    dependence: Sequence[float] | None, kurtosis_reference: str | dict,
 ) -> Iterator[AdaptiveResult]:  # fmt: skip
     """The body of :func:`adaptive_davar`: one result, or (``in_blocks``) blocks of rows."""
     dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
     refuse_masked(data)
+    dt = resolve_tau0(rate, tau0)
+    if None in (lmax, lmin, l, taus, step):  # the defaults follow the record
+        # the record's length, as the command line counts it (phase: its samples)
+        size = _record_size(data, chunk_size is not None or stream.is_chunked(data))
+        lmax, lmin, l = resolve_windows(size, dt, lmax, lmin, l)  # noqa: E741
+        taus, step, _ = surface_resolution(
+            check_whole("lmax", to_samples(lmax, dt, "lmax"), 5), size, dt, taus=taus,
+            step=step, points_per_decade=points_per_decade,
+        )  # fmt: skip
     # durations (``"10min"``) become samples once, with this record's sample interval
-    lmax, lmin, l, step = window_lengths(  # noqa: E741 - the paper's name
-        resolve_tau0(rate, tau0), lmax=lmax, lmin=lmin, l=l, step=step
-    )
+    lmax, lmin, l, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)  # noqa: E741
     controller = dict(
         method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l, dl0=dl0,
         dl1=dl1, s_test=s_test, combine=combine, edges=edges, change_times=change_times,
         thresholds=thresholds, false_alarm=false_alarm, rate=rate, tau0=tau0,
         false_alarm_per_hour=false_alarm_per_hour, ici_gamma=ici_gamma, ici_lengths=ici_lengths,
         ici_taus=ici_taus, ici_sides=ici_sides, ici_edf=ici_edf,
-        ici_edf_samples=ici_edf_samples,
+        ici_edf_samples=ici_edf_samples, ici_kurtosis=ici_kurtosis, ici_episodes=ici_episodes,
+        ici_long_tau=ici_long_tau, dependence=dependence, kurtosis_reference=kurtosis_reference,
     )  # fmt: skip
     surface_options = dict(
         rate=rate, data_type=dtype, taus=taus, edges=edges, confidence=confidence, tau0=tau0,
@@ -805,10 +964,10 @@ def false_alarm_rate(
     """
     totals = {"f1": 0.0, "f2": 0.0, "f": 0.0, "shrunk": 0.0}
     count = 0
-    lmax = int(controller.get("lmax", 600))
     for seed in seeds:
         x = np.random.default_rng(seed).standard_normal(n)
         sched = adaptive_schedule(x, **controller)
+        lmax = int(sched.parameters["lmax"])
         inner = slice(lmax, n - lmax)
         totals["f1"] += float(sched.f1[inner].sum())
         totals["f2"] += float(sched.f2[inner].sum())

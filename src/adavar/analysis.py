@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import math
 import os
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -30,12 +29,17 @@ from typing import Any
 import numpy as np
 
 from adavar import stream
-from adavar.adaptive import adaptive_davar, record_windows, window_lengths
+from adavar.adaptive import (
+    adaptive_davar,
+    record_windows,
+    surface_resolution,
+    window_lengths,
+)
 from adavar.davar import davar
 from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, fit_noise
-from adavar.settings import MAX_ALL_TAUS, ControllerSettings
+from adavar.settings import ControllerSettings, FitSettings
 from adavar.statistics import deviation
 
 __all__ = [
@@ -198,34 +202,22 @@ def resolve_lengths(args: Any, tau0: float, n_samples: int | None = None) -> Non
         args.step = to_samples(args.step, tau0, "--step")
 
 
-#: Bytes per surface cell a command holds: the variance, its two bounds and the fit's arrays.
-CELL_BYTES = 8 * 4
-
-
 def resolve_resolution(args: Any, tau0: float, n_samples: int, channels: int = 1) -> str | None:
     """Taus and centres of a surface the user left to adavar (``taus`` / ``step`` None).
 
-    ``taus``: ``"all"`` (the paper's) while that is at most :data:`MAX_ALL_TAUS` averaging
-    times, else ``"log"`` (10 per decade). ``step``: every centre while the surfaces of the
-    ``channels`` channels fit ``args.max_memory`` MB together at :data:`CELL_BYTES` a cell,
-    else every ``step``-th. Returns a sentence saying what was chosen and why (None when
-    nothing was).
+    The rule of :func:`adavar.adaptive.surface_resolution` (the library's default too):
+    ``taus`` ``"all"`` while that is at most :data:`~adavar.settings.MAX_ALL_TAUS` taus, else
+    ``"log"`` (10 per decade); ``step`` every centre while the surfaces of the ``channels``
+    channels fit ``args.max_memory`` MB together at
+    :data:`adavar.window_defaults.CELL_BYTES` a cell, else every ``step``-th. Returns a
+    sentence saying what was chosen and why (None when nothing was).
     """
-    from adavar.taus import averaging_factors
-
     longest = args.lmax if getattr(args, "command", None) == "adaptive" else args.window
-    why = []
-    if args.taus is None:
-        args.taus = "all" if int(longest) // 3 <= MAX_ALL_TAUS else "log"
-        if args.taus == "log":
-            why.append(f"taus log (10 per decade) instead of all {int(longest) // 3}")
-    if args.step is None:
-        ms, _ = averaging_factors(args.taus, max(1, int(longest) // 3), tau0,
-                                  points_per_decade=args.points_per_decade)  # fmt: skip
-        budget = float(args.max_memory) * 2**20 / max(1, int(channels))
-        args.step = max(1, math.ceil(n_samples * ms.size * CELL_BYTES / budget))
-        if args.step > 1:
-            why.append(f"one centre in {args.step} ({math.ceil(n_samples / args.step)} windows)")
+    args.taus, args.step, why = surface_resolution(
+        int(longest), n_samples, tau0, taus=args.taus, step=args.step,
+        points_per_decade=args.points_per_decade, max_memory=args.max_memory,
+        channels=channels,
+    )  # fmt: skip
     if not why:
         return None
     shared = f" ({channels} channels' surfaces together)" if channels > 1 else ""
@@ -349,7 +341,9 @@ def fit_keywords(args: Any) -> dict[str, Any]:
     return dict(terms=args.terms or TERM_NAMES, n_reweight=args.n_reweight,
                 spacing=args.spacing, method=args.fit_method, select=args.select,
                 significance=args.significance, exclude=args.exclude, rolloff=args.rolloff,
-                tau_range=args.tau_range, bandwidth=args.bandwidth)  # fmt: skip
+                tau_range=args.tau_range, bandwidth=args.bandwidth,
+                markov=getattr(args, "markov", "auto"),
+                bound_level=getattr(args, "bound_level", FitSettings.bound_level))  # fmt: skip
 
 
 def window_fit_keywords(args: Any, whole: Any) -> dict[str, Any]:
@@ -568,12 +562,21 @@ class ReportAnalysis:
                     "leading_edge_s": float(time_s[a] + self._seconds(lmax // 2)),
                     "min_window": int(window[a : b + 1].min()),
                 })  # fmt: skip
-            found = find_events(window, centre, time_s, lmax, self.tau0, terms, t0=t0,
-                                duration=duration)  # fmt: skip
+            rule = ("changes at the leading edge of the last full window before each run of "
+                    f"windows shorter than Lmax = {lmax}, paired into stretches")  # fmt: skip
+            if self.adaptive.method == "ici":  # its own steps, ramps and long-tau changes
+                from adavar.ici_events import ici_events
+
+                found = ici_events(window, centre, time_s, lmax, self.tau0, terms, t0=t0,
+                                   duration=duration,
+                                   parameters=self.adaptive.parameters)  # fmt: skip
+                rule = "the ICI window's steps (paired into stretches), ramps and long-tau changes"
+            else:
+                found = find_events(window, centre, time_s, lmax, self.tau0, terms, t0=t0,
+                                    duration=duration)  # fmt: skip
             return {
                 "method": self.adaptive.method,
-                "rule": "changes at the leading edge of the last full window before each "
-                f"run of windows shorter than Lmax = {lmax}, paired into stretches",
+                "rule": rule,
                 "count": len(found), "items": [e.as_dict() for e in found], "runs": runs,
                 "note": None,
             }  # fmt: skip

@@ -31,6 +31,11 @@ import numpy as np
 from adavar._jit import jit, read_only, threaded_jit, work_items
 from adavar._kernels.double_double import two_sum
 from adavar.errors import AdavarInputError
+from adavar.kurtosis_reference import (
+    KurtosisReference,
+    check_kurtosis_reference,
+    record_reference,
+)
 from adavar.thresholds import (
     DEPENDENCE_SAMPLES,
     Thresholds,
@@ -38,6 +43,7 @@ from adavar.thresholds import (
     fixed_thresholds,
     hourly_thresholds,
     noise_dependence,
+    shifted,
 )
 
 __all__ = [
@@ -50,6 +56,7 @@ __all__ = [
     "check_whole",
     "controller_outputs",
     "make_controller",
+    "needs_head",
 ]
 
 #: methods the kurtosis controller runs (adapting, or recording along a given schedule)
@@ -369,6 +376,9 @@ class Controller:
         The f2 test and how f1 and f2 make f.
     dependence : tuple of float or None
         The record's short-range correlation used by hourly thresholds.
+    reference : KurtosisReference or None
+        ``kurtosis_reference="record"``: the transform the record goes through before the
+        tests (:mod:`adavar.kurtosis_reference`); None: the record as it is.
     """
 
     method: str
@@ -382,6 +392,7 @@ class Controller:
     s_test: str
     combine: str
     dependence: tuple[float, ...] | None = None
+    reference: KurtosisReference | None = None
 
     @property
     def adapts(self) -> bool:
@@ -428,6 +439,8 @@ class Controller:
         out = controller_outputs(m)
         if given is None:
             given = np.zeros(1, dtype=np.int64)
+        if self.reference is not None:  # the tests see the record's noise made Gaussian
+            ext = self.reference.apply(ext)  # (itself for a Gaussian record)
         th = self.thresholds
         n_segments = _segments(m) if segments is None else int(segments)
         bounds = _segment_bounds(m, n_segments)
@@ -471,6 +484,8 @@ def make_controller(
     false_alarm_per_hour: float | None,
     rate: float,
     head: Callable[[int], np.ndarray] | None = None,
+    kurtosis_reference: str | dict | KurtosisReference = "gaussian",
+    dependence: tuple[float, float] | None = None,
 ) -> Controller:
     """Check the controller's settings and set its thresholds (docs/method.md section 8).
 
@@ -484,7 +499,20 @@ def make_controller(
         Sample rate, Hz (hourly thresholds count hours of it).
     head : callable, optional
         ``head(k)`` returns the first ``k`` samples of the record at unit scale (at most as
-        many as it has): hourly thresholds measure its short-range correlation there.
+        many as it has): hourly thresholds measure its short-range correlation there, and
+        ``kurtosis_reference="record"`` fits the record's stationary noise there
+        (:func:`adavar.kurtosis_reference.record_reference`). The one place both are
+        estimated: the offline pass and :class:`adavar.OnlineAdaptive` call this on the
+        same heads.
+    kurtosis_reference : {"gaussian", "record"} or dict
+        With calibrated thresholds: the tests compare the windows with Gaussian noise, or
+        with the record's own stationary noise (:mod:`adavar.kurtosis_reference`; the
+        default of :func:`adavar.adaptive_davar`), or with the one of a fit given
+        (``parameters["kurtosis_reference_fit"]`` of a run: no head needed). Not used by
+        the paper's thresholds.
+    dependence : (float, float), optional
+        The record's ``(c2, c4)`` for hourly thresholds, given instead of measured on the
+        head.
 
     Returns
     -------
@@ -528,22 +556,38 @@ def make_controller(
     if float(k1) > float(k2):
         raise AdavarInputError(f"k1 ({k1}) must not exceed k2 ({k2})")
 
-    dependence = None
-    if thresholds == "calibrated" and false_alarm_per_hour is not None:
+    mode = check_kurtosis_reference(kurtosis_reference)
+    hourly = thresholds == "calibrated" and false_alarm_per_hour is not None
+    if dependence is not None:
+        dependence = tuple(float(c) for c in dependence)
+        if len(dependence) != 2 or not all(np.isfinite(c) and c >= 1.0 for c in dependence):
+            raise AdavarInputError(
+                f"dependence must be (c2, c4), two numbers >= 1, got {dependence!r}"
+            )
+    reference = mode if isinstance(mode, KurtosisReference) and thresholds == "calibrated" else None
+    if needs_head(thresholds, false_alarm_per_hour, mode, dependence):
         if head is None:
             raise AdavarInputError(
-                "hourly thresholds need the head of the record: give the record, or a "
-                "per-step false_alarm"
+                "calibrated thresholds need the head of the record (its correlation, its "
+                "kurtosis): give the record, or thresholds='paper'"
             )
-        dependence = tuple(round(c, 3) for c in noise_dependence(head(DEPENDENCE_SAMPLES)))
+        x = head(DEPENDENCE_SAMPLES)
+        measured = tuple(round(c, 3) for c in noise_dependence(x))
+        if hourly and dependence is None:
+            dependence = measured
+        if mode == "record":
+            reference = record_reference(x, lmin=lmin, dependence=dependence or measured)
+    if hourly:
         th = hourly_thresholds(
             lmin, lmax, seg, rate=float(rate), per_hour=float(false_alarm_per_hour),
-            dependence=dependence, s_test=s_test,
+            dependence=dependence or (1.0, 1.0), s_test=s_test,
         )  # fmt: skip
     elif thresholds == "calibrated":
         th = calibrated_thresholds(lmin, lmax, seg, false_alarm=float(false_alarm))
     else:
         th = fixed_thresholds(lmax, k1, k2, s2)
+    if reference is not None:  # what the transform leaves, and how well it is known
+        th = shifted(th, reference.offset, reference.margin)
     if s_test == "band" and not float(s1) < float(np.nanmin(th.s2)):
         raise AdavarInputError(
             f"s_test='band' flags S outside [s1, s2], but s1 {float(s1):g} is not below s2 "
@@ -551,5 +595,22 @@ def make_controller(
         )
     return Controller(
         method=method, lmax=lmax, lmin=lmin, seg=seg, dl0=dl0, dl1=dl1, thresholds=th,
-        s1=float(s1), s_test=s_test, combine=combine, dependence=dependence,
+        s1=float(s1), s_test=s_test, combine=combine,
+        dependence=dependence if hourly else None, reference=reference,
     )  # fmt: skip
+
+
+def needs_head(
+    thresholds: str,
+    false_alarm_per_hour: float | None,
+    kurtosis_reference: object,
+    dependence: object = None,
+) -> bool:
+    """True when :func:`make_controller` reads the head of the record: hourly thresholds
+    without a given ``dependence``, or calibrated ones with ``kurtosis_reference="record"``
+    (not a fit given)."""
+    if thresholds != "calibrated":
+        return False
+    hourly = false_alarm_per_hour is not None
+    record = isinstance(kurtosis_reference, str) and kurtosis_reference == "record"
+    return (hourly and dependence is None) or record

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
+import itertools
 import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -51,6 +52,7 @@ from adavar.statistics import (
     DATA_TYPE_ALIASES,
     as_samples,
     check_confidence,
+    deviation,
     record_noise_types,
     refuse_masked,
     resolve_tau0,
@@ -706,13 +708,33 @@ def davar(
     for the noise identification, once for the windows: only their spans, so a sparse
     ``step`` reads little) and the cost is that of the in-memory path plus the reads.
     """
-    return next(_surfaces(
+    result = next(_surfaces(
         data, window=window, stat=stat, rate=rate, data_type=data_type, taus=taus,
         edges=edges, step=step, confidence=confidence, tau0=tau0, t0=t0,
         points_per_decade=points_per_decade, noise_type=noise_type, units=units,
         chunk_size=chunk_size, lazy=lazy, edge_edf=edge_edf, gaps=gaps, shift=shift,
         bounds=bounds, rows=rows, block_values=None,
     ))  # fmt: skip
+    return with_record_curve(result, data, chunk_size=chunk_size, lazy=lazy, gaps=gaps)
+
+
+def with_record_curve(
+    result: DavarResult, data: Any, *, chunk_size: int | None = None,
+    lazy: bool | None = None, gaps: str = "error",
+) -> DavarResult:  # fmt: skip
+    """``result`` with the whole record's octave OADEV (:attr:`DavarResult.record_curve`),
+    the reference of its windows' fit; unchanged out of core or lazily, where the curve
+    would read the whole file once more (``adavar davar`` gives ``reference=`` there)."""
+    elsewhere = chunk_size is not None or stream.is_chunked(data) or stream.is_dask(data)
+    if getattr(result, "stat", "oadev") != "oadev" or result.n_samples < 8 or lazy or elsewhere:
+        return result
+    try:
+        curve = deviation(data, tau0=result.tau0, data_type=result.data_type, taus="octave",
+                          units=result.units, gaps="error" if gaps == "error" else "omit",
+                          stationarity_check=False)  # fmt: skip
+    except (ValueError, AdavarInputError):  # too short for a curve: the windows go without
+        return result
+    return dataclasses.replace(result, record_curve=curve)
 
 
 def davar_blocks(
@@ -748,7 +770,15 @@ def davar_blocks(
     values = BLOCK_VALUES if block_values is None else int(block_values)
     if values < 1:
         raise AdavarInputError(f"block_values must be a positive number, got {block_values!r}")
-    return _surfaces(**arguments.arguments, block_values=values)
+    return _blocks_with_curve(_surfaces(**arguments.arguments, block_values=values), data)
+
+
+def _blocks_with_curve(blocks: Iterator[DavarResult], data: Any) -> Iterator[DavarResult]:
+    """The blocks, each with the whole record's curve (computed once, with the first)."""
+    first = next(blocks, None)
+    curve = None if first is None else with_record_curve(first, data).record_curve
+    for block in itertools.chain(() if first is None else (first,), blocks):
+        yield dataclasses.replace(block, record_curve=curve)
 
 
 #: surface values per block of :func:`davar_blocks` (8 MiB of float64; a block and its

@@ -579,9 +579,13 @@ def _greenhall_lengths(
 TOTDEV_EDF_METHODS: Final[tuple[str, ...]] = ("sp1065", "stable32", "legacy")
 
 #: White PM TOTVAR: ``1/edf = 1/edf_oadev + C (m / (N_phase - 1))^2``. The reflected phase
-#: ``2 x[0] - x[j]`` repeats the end samples' noise in ~m terms at each end; C was fitted to
-#: Monte Carlo EDFs (N = 1024 and 4096, 800-1500 records, m/N from 1/64 to 1/4: 0.5-0.8).
-TOTVAR_WPM_END_FACTOR: Final[float] = 0.6
+#: ``2 x[0] - x[j]`` repeats the end samples' noise in ~m terms at each end. C is fitted to
+#: the coverage of the 68.3 % interval, not to the variance of the estimate: the two end
+#: samples' squares make TOTVAR's distribution skewed, and the chi-square of matched
+#: variance (C 0.6-0.86) is too wide for its central part (coverage 77-80 % at m = N/8).
+#: Coverage-matched C, 3000 records of N = 1025, 4097, 16385, m = N/128 .. N/8: 0.41-0.61
+#: (0.41-0.45 at N/8); 0.6 before issue 39.
+TOTVAR_WPM_END_FACTOR: Final[float] = 0.45
 
 
 def _edf_simple_avar(alpha: int, m: int, n_phase: int) -> float:
@@ -636,7 +640,7 @@ def edf(stat: str, alpha: int, m: int, n_phase: int, *, totdev_edf: str = "sp106
       Monte Carlo scatter). White PM takes the OADEV EDF reduced for the reflected ends,
       ``1/edf = 1/edf_oadev + C (m / (n_phase - 1))^2`` with
       C = :data:`TOTVAR_WPM_END_FACTOR`: the extension ``2 x[0] - x[j]`` repeats the two end
-      samples' noise in about m terms each, so at m = N/8 TOTVAR has ~90 degrees of freedom
+      samples' noise in about m terms each, so at m = N/8 TOTVAR has ~130 degrees of freedom
       where OADEV has ~1700.
     * totdev, ``"stable32"``: what Stable32 prints (and allantools' ``edf_totdev``):
       Table 7 with ``T/tau = n_phase / m`` at every m, and for PM noise the simple AVAR

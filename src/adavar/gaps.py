@@ -101,12 +101,14 @@ from adavar.noise_id import (
     alpha_from_lag1,
     alpha_from_phase_lag1,
     avar_of_sum,
+    averaged_rule,
     b1_with_rn,
     clamp_alpha,
     fill_unidentified,
     mvar_of_sum,
     pm_with_rn,
     rn_ratio,
+    starts_on_phase,
 )
 from adavar.results import DeviationResult
 
@@ -386,7 +388,7 @@ def gap_noise_types(
     Returns ``(alpha, notes)`` as :func:`adavar.noise_id.fill_unidentified`.
     """
     strict = noise_id == "stable32"
-    on_phase = data_type == "phase" and not strict
+    on_phase = starts_on_phase(data_type, noise_id)
     alpha = np.full(ms.size, np.nan)
     for k, m in enumerate(ms):
         m = int(m)
@@ -409,12 +411,15 @@ def gap_noise_types(
                         alpha[k] = pm_with_rn(got, m, rn)
                         continue
                 stats = gap_rate_lag1(z, ok, dmax - 1 if on_phase else dmax)
+                averaged = averaged_rule(noise_id, m)
                 if on_phase:
-                    alpha[k] = alpha_from_phase_lag1(pstats, stats, dmax=dmax)
+                    alpha[k] = alpha_from_phase_lag1(pstats, stats, dmax=dmax, averaged=averaged)
                 else:
                     r1, den, sizes, scale = stats
                     alpha[k] = clamp_alpha(
-                        alpha_from_lag1(r1, den, sizes, scale, data_type="rate", dmax=dmax)[0],
+                        alpha_from_lag1(
+                            r1, den, sizes, scale, data_type="rate", dmax=dmax, averaged=averaged
+                        )[0],
                         dmax,
                     )
             else:

@@ -1,4 +1,4 @@
-"""The noise-model fit of one whole-record curve: full covariance, tau range, term selection.
+"""The noise-model fit of one whole-record curve: full covariance, model selection, adequacy.
 
 This is the default fit of :func:`adavar.fit_noise` for a single Allan-variance curve (see
 ``method="gls"`` there). Compared with the diagonally weighted fit of stacks of curves, it
@@ -6,23 +6,54 @@ adds what real sensor logs need:
 
 * **Generalised least squares with the estimators' covariance.** The AVAR estimates at
   different taus are correlated; their full covariance for the current model comes from
-  :mod:`adavar.avar_covariance` (exact for Gaussian Q, N, B, K noise). The fit minimises
-  ``(a - Phi C)^T Cov^-1 (a - Phi C)`` over ``C >= 0``, with ``Cov`` evaluated at the model
-  of the previous pass (``n_iter`` passes, started from a diagonal fit), which avoids the
-  low bias of data-based weights (Peelle's puzzle). The coefficient covariance is the
-  inverse Fisher matrix ``(Phi^T Cov^-1 Phi)^-1`` of the selected terms, scaled by
+  :mod:`adavar.avar_covariance` (exact for Gaussian Q, N, B, K and Gauss-Markov noise). The
+  fit minimises ``(a - Phi C)^T Cov^-1 (a - Phi C)`` over ``C >= 0``, with ``Cov`` evaluated
+  at the model of the previous pass (``n_iter`` passes, started from a diagonal fit), which
+  avoids the low bias of data-based weights (Peelle's puzzle). The coefficient covariance is
+  the inverse Fisher matrix ``(Phi^T Cov^-1 Phi)^-1`` of the selected terms, scaled by
   ``max(1, chi2/dof)``.
-* **Terms only where the data support them.** Backward elimination: the least significant
-  term (smallest ``C / sigma_C``) is removed while its significance is below
-  ``significance`` (default 2, a one-sided 2.3 % false-inclusion rate), and the fit is
-  repeated. A removed term keeps a 1-sigma upper bound.
+* **Model selection by comparing likelihoods.** Every subset of the candidate terms is
+  fitted and judged by its own likelihood: each estimate follows its chi-square law under
+  that model (a Gamma marginal with ``nu = 2 model^2 / Var`` degrees of freedom) and the
+  estimates are tied by a Gaussian copula with the model's correlation
+  (:func:`neg2_log_likelihood`). Both the scale and the correlation are the model's own,
+  so a model that overshoots the long taus (where the variance of the estimates grows
+  with the model) pays for it as one that undershoots does; a chi-square under the
+  covariance of one model would not see it. The subset of the least ``-2 ln L + penalty
+  * k`` is kept (``k`` its parameters; penalty 2 for ``select="aic"``, ``ln(n)`` for
+  ``"bic"``; a rate ramp, whose estimates have almost no variance, counts
+  :data:`RAMP_PARAMS`). Dropping a term therefore always pays its price in likelihood;
+  the earlier backward elimination by ``C / sigma_C`` (a Wald z computed after the
+  uncertainties were inflated by a poor fit) is ``select="significance"``.
+* **Bounds of the terms left out.** A term the selection leaves out (or pins at 0) gets a
+  one-sided upper bound from its profile likelihood: the largest coefficient whose best
+  fit of the other terms (each under its own covariance) costs at most ``z^2`` more than
+  the best, which includes the estimate itself, not only its spread.
+* **Adequacy judged on the data's own scale.** Each estimate's chi-square law under the
+  model turns it into a normal score (:func:`normal_scores`), exact whatever the few
+  degrees of freedom of the long taus; the scores, decorrelated with the model's
+  correlation matrix, sum to a chi-square with ``n - k`` degrees of freedom
+  (``NoiseFit.gof_chi2``). Unlike the GLS residuals, whose scale is the model's own
+  variance, a model far above the data is as visible as one far below it.
+* **A Gauss-Markov hump.** A first-order Gauss-Markov process (stationary sd ``sigma``,
+  correlation time ``T``) rises like a rate random walk below ``T`` and falls like white
+  noise beyond; without it, the fit turns the hump into bias instability and a rate random
+  walk far above the long taus. Its Allan variance is linear in ``sigma^2`` for a given
+  ``T``: after the tau range is settled with the IEEE terms, correlation times on a grid
+  of four per octave are screened, the best few judged by their likelihood (with the
+  covariance of the process, :mod:`adavar.avar_covariance`), and the term enters only when
+  it beats the best model without it by :data:`MARKOV_MARGIN` (it counts as two
+  parameters).
 * **Taus the model cannot describe.** The sensor's anti-aliasing filter and correlated
   short-tau noise make the Allan deviation roll off below the ``N / sqrt(tau)`` line; the
   five-term model cannot follow it and, with the huge weights of the short taus, would
   sacrifice the rest of the curve. With ``exclude="auto"`` the shortest tau is removed while
-  the standardised residual of one of the three shortest fitted taus exceeds ``EXCLUDE_Z``
-  (and it lies below a third of the curve's minimum), and the fit is repeated; every
-  removal is reported with its reason.
+  it lies below the model's noise terms and the model either misses one of the three
+  shortest fitted taus by more than ``EXCLUDE_Z`` or, fitted without it, passes more than
+  ``EXCLUDE_Z`` above it (and it lies below a third of the curve's minimum); an exclusion
+  is undone when it does not make the model describe the remaining points better (a bump
+  of a process the model lacks, such as a vibration, is not a roll-off). Every removal is
+  reported with its reason.
 * **A filter's roll-off, modelled.** For any short-correlated noise the Allan variance at
   ``tau`` well beyond its correlation time is ``A / tau + C / tau^2`` (a Taylor expansion of
   ``Var`` of the cluster sums: ``A = sum_k R(k)``, ``C = -1.5 tau0^2 sum_k |k| R(k)``).
@@ -40,32 +71,74 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adavar import avar_covariance
-from adavar import edf as edf_mod
+from adavar.gls_core import (
+    MARKOV,
+    MAX_TAUS,
+    Problem,
+    below_noise_terms,
+    chi2_sf,
+    decorrelated_chi2,
+    fit_terms,
+    inverse_fisher,
+    normal_scores,
+    thin,
+    wald_sigma,
+    whitened,
+)
+from adavar.gls_select import choose, markov_range, profile_bound
+from adavar.results import ADEQUATE_P
+from adavar.settings import FitSettings
 
 __all__ = [
-    "DIAG_FLOOR",
+    "BOUND_Z",
+    "DEFAULT_SELECT",
     "EXCLUDE_Z",
-    "MAX_TAUS",
+    "SELECTIONS",
     "SIGNIFICANCE",
     "GlsOutcome",
-    "bounded_lsq",
+    "MarkovFit",
     "fit_curve",
-    "inverse_fisher",
-    "nnls_gls",
-    "thin",
-    "whiten",
 ]
 
-#: Default significance (C / sigma_C) a term needs to stay in the model.
+#: How :func:`fit_curve` chooses the terms by default.
+DEFAULT_SELECT = FitSettings.select
+#: Default significance (C / sigma_C) a term needs to stay with ``select="significance"``.
 SIGNIFICANCE = 2.0
+#: Ways to choose the terms: information criteria, the old Wald elimination, or none.
+SELECTIONS = ("aic", "bic", "significance", "none")
 #: Standardised residual beyond which the shortest tau is excluded (``exclude="auto"``).
 EXCLUDE_Z = 3.0
+#: One-sided normal quantile of the ``uncertainty`` bound of a term left out (84.1 %).
+BOUND_Z = 1.0
 #: The automatic exclusion only reaches taus below this fraction of the curve's minimum.
 _EXCLUDE_REACH = 1.0 / 3.0
 _EXCLUDE_LOOK = 3  # the shortest fitted taus whose residuals decide an exclusion
-MAX_TAUS = 64  # denser grids are thinned for the covariance (4 per octave)
-DIAG_FLOOR = 0.25  # Cov_jj >= this * 2 model^2 / edf (a deterministic ramp has no variance)
+_EXCLUDE_OCTAVES = 4  # ... or those this close to it, when the model misses the curve
+_ROLLOFF_Z = 1.0  # an excluded point lies this far below the model's noise terms
+_FAIR_P = 0.01  # an exclusion is kept when the fit of the rest reaches this p-value...
+
+
+@dataclass(frozen=True)
+class MarkovFit:
+    """A first-order Gauss-Markov term found by the fit.
+
+    Attributes
+    ----------
+    variance : float
+        ``sigma^2``, the process's stationary variance (rate unit squared).
+    variance_uncertainty : float
+        1-sigma uncertainty of ``variance`` at the chosen correlation time.
+    tau_c : float
+        Correlation time (s).
+    tau_c_range : tuple of float
+        Correlation times whose best fit costs at most 1 in chi-square (a 68 % profile
+        interval, limited to the fitted tau range).
+    """
+
+    variance: float
+    variance_uncertainty: float
+    tau_c: float
+    tau_c_range: tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -82,132 +155,10 @@ class GlsOutcome:
     reasons: tuple[str, ...]
     residuals: np.ndarray
     dropped: tuple[int, ...]
-
-
-def _weights_from_edf(model: np.ndarray, edf: np.ndarray) -> np.ndarray:
-    return 2.0 * model**2 / edf
-
-
-class _Problem:
-    """The fixed parts of one curve's fit: design, data, covariance basis and its scaling."""
-
-    def __init__(self, tau, avar, edf, ms, n_points, tau0, stat, alpha, powers):
-        self.tau, self.avar, self.edf = tau, avar, edf
-        self.phi = tau[:, None] ** powers[None, :]  # (M, 5)
-        self.basis = avar_covariance.covariance_basis(ms, n_points, tau0)
-        # adev/totdev: the oadev correlation with the statistic's own variance
-        if stat == "oadev":
-            self.scale = np.ones(tau.size)
-        else:
-            ratio = [
-                edf_mod.edf("oadev", int(a), int(m), n_points) / e
-                for a, m, e in zip(alpha, ms, edf, strict=True)
-            ]
-            self.scale = np.sqrt(np.asarray(ratio, dtype=float))
-
-    def cov(self, coef: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        basis = self.basis[np.ix_(idx, idx)]
-        c = avar_covariance.covariance(basis, coef)
-        c *= np.outer(self.scale[idx], self.scale[idx])
-        model = self.phi[idx] @ coef
-        floor = DIAG_FLOOR * _weights_from_edf(model, self.edf[idx])
-        d = np.diag(c)
-        c[np.diag_indices_from(c)] = np.maximum(d, floor)
-        return c
-
-
-def whiten(cov: np.ndarray, scale: np.ndarray):
-    """Cholesky factor of the covariance in relative units (``cov / (scale scale^T)``)."""
-    rel = cov / np.outer(scale, scale)
-    rel[np.diag_indices_from(rel)] *= 1.0 + 1e-10
-    try:
-        return np.linalg.cholesky(rel)
-    except np.linalg.LinAlgError:
-        w, v = np.linalg.eigh(rel)
-        w = np.maximum(w, 1e-12 * w.max())
-        return np.linalg.cholesky((v * w) @ v.T)
-
-
-def bounded_lsq(a: np.ndarray, b: np.ndarray, free: np.ndarray) -> np.ndarray:
-    """``min ||a x - b||`` with ``x >= 0`` except where ``free`` (columns scaled first)."""
-    from scipy.optimize import lsq_linear, nnls
-
-    norms = np.linalg.norm(a, axis=0)
-    norms[norms == 0] = 1.0
-    if not free.any():
-        xs, _ = nnls(a / norms, b, maxiter=50 * a.shape[1])
-    else:
-        lower = np.where(free, -np.inf, 0.0)
-        xs = lsq_linear(a / norms, b, bounds=(lower, np.inf), method="bvls").x
-    return xs / norms
-
-
-def nnls_gls(a, phi, chol, scale, free):
-    """``min ||L^-1 (a - phi x) / scale||`` (x >= 0 but ``free``); x, chi2, whitened phi."""
-    # a general solve: OpenBLAS's threaded triangular solve spins for milliseconds on a
-    # 20 x 20 system when the other core is busy
-    both = np.linalg.solve(chol, np.column_stack([phi / scale[:, None], a / scale]))
-    aw, bw = both[:, :-1], both[:, -1]
-    x = bounded_lsq(aw, bw, free)
-    chi2 = float(np.sum((aw @ x - bw) ** 2))
-    return x, chi2, aw
-
-
-def inverse_fisher(aw: np.ndarray) -> np.ndarray:
-    """``(A^T A)^-1`` of the whitened design ``aw``, with its columns equilibrated first.
-
-    The columns of a wide tau range differ in scale by many decades (``tau^-2`` against
-    ``tau^2``); a plain pseudo-inverse then drops the small singular values of the
-    unscaled normal matrix as rank deficiency and reports near-zero uncertainties.
-    """
-    norms = np.linalg.norm(aw, axis=0)
-    norms = np.where(norms > 0, norms, 1.0)
-    scaled = aw / norms
-    return np.linalg.pinv(scaled.T @ scaled) / np.outer(norms, norms)
-
-
-def _fit_terms(prob: _Problem, idx: np.ndarray, cols: np.ndarray, n_iter: int, signed: bool):
-    """IRLS GLS-NNLS of the terms ``cols`` on the taus ``idx``; (coef5, chi2, aw, cov)."""
-    a = prob.avar[idx]
-    phi = prob.phi[np.ix_(idx, cols)]
-    free = (cols == 0) & signed
-    # start: diagonal weights from the measured variance, then from the model
-    coef = np.zeros(5)
-    ref = a.copy()
-    for _ in range(3):
-        w = np.sqrt(prob.edf[idx] / 2.0) / ref
-        x = bounded_lsq(phi * w[:, None], a * w, free)
-        coef[:] = 0.0
-        coef[cols] = x
-        model = phi @ x
-        ref = np.where(model > 0, model, a)
-    if not np.any(coef[1:4] > 0):  # only a ramp: give the covariance something to work with
-        coef[1] = np.median(a * prob.tau[idx])
-    chi2, aw, cov = math.nan, None, None
-    for _ in range(n_iter + 1):
-        model = prob.phi[idx] @ coef
-        scale = np.where(model > 0, model, a)
-        cov = prob.cov(coef, idx)
-        chol = whiten(cov, scale)
-        x, chi2, aw = nnls_gls(a, phi, chol, scale, free)
-        new = np.zeros(5)
-        new[cols] = x
-        if not np.any(new[1:4] > 0):
-            break
-        coef = new
-    return coef, chi2, aw, cov
-
-
-def thin(tau: np.ndarray, usable: np.ndarray) -> np.ndarray:
-    """At most 4 taus per octave: a dense grid adds no information, only cost."""
-    keep = usable.copy()
-    last = -np.inf
-    for j in np.flatnonzero(usable):
-        if math.log2(tau[j]) - last < 0.25 - 1e-9:
-            keep[j] = False
-        else:
-            last = math.log2(tau[j])
-    return keep
+    upper: np.ndarray
+    gof_chi2: float
+    markov: MarkovFit | None
+    correlation: np.ndarray
 
 
 def fit_curve(
@@ -224,10 +175,13 @@ def fit_curve(
     usable: np.ndarray,
     reasons: list[str],
     n_iter: int = 3,
-    select: str = "significance",
+    select: str = DEFAULT_SELECT,
     significance: float = SIGNIFICANCE,
     exclude: str = "auto",
     rolloff: str = "model",
+    markov: str = "auto",
+    bound_z: float = 2.3263478740408408,
+    excess: float = 0.0,
 ) -> GlsOutcome:
     """Fit one curve (see the module docstring).
 
@@ -249,14 +203,26 @@ def fit_curve(
         Why each unusable point is out ("" where usable); updated with the exclusions.
     n_iter : int
         GLS passes after the first, each with the covariance of the previous model.
-    select : {"significance", "none"}
-        Backward elimination of insignificant terms, or every candidate term (NNLS).
+    select : {"aic", "bic", "significance", "none"}
+        ``"aic"``/``"bic"``: the subset of ``terms`` (and Gauss-Markov term) of the least
+        ``chi2 + penalty * parameters`` under one covariance (penalty 2 or ``ln(n)``);
+        ``"significance"``: backward elimination while ``C / sigma_C < significance``;
+        ``"none"``: every candidate term (NNLS).
     significance : float
-        ``C / sigma_C`` a term needs to stay.
+        ``C / sigma_C`` a term needs to stay with ``select="significance"``.
     exclude : {"auto", "none"}
         Automatic exclusion of short taus the model cannot describe.
     rolloff : {"model", "none"}
         ``"model"``: the ``tau^-2`` coefficient may be negative (see the module docstring).
+    markov : {"auto", "none"}
+        ``"auto"``: the selection may add a first-order Gauss-Markov term (``"aic"`` and
+        ``"bic"`` only).
+    bound_z : float
+        One-sided normal quantile of :attr:`GlsOutcome.upper` (2.326: 99 %).
+    excess : float
+        Excess kurtosis of the white rate noise's samples (0 for Gaussian noise): its
+        fourth cumulant enters the estimates' covariance
+        (:func:`adavar.avar_covariance.fourth_cumulant_basis`).
 
     Returns
     -------
@@ -268,80 +234,182 @@ def fit_curve(
     for j in np.flatnonzero(usable & ~thinned):
         reasons[j] = "thinned: a denser tau grid than 4 per octave adds no information"
     used = thinned.copy()
-    prob = _Problem(tau, avar, edf, ms, n_points, tau0, stat, alpha, powers)
+    prob = Problem(tau, avar, edf, ms, n_points, tau0, stat, alpha, powers, excess)
     dev = np.sqrt(np.where(usable, avar, np.nan))
     tau_min_dev = tau[np.nanargmin(dev)] if np.any(usable) else np.inf
     n_cand = len(terms)
+    signed = rolloff == "model"
+    all_cols = np.array(terms, dtype=np.int64)
 
-    while True:
-        idx = np.flatnonzero(used)
-        cols = np.array(terms, dtype=np.int64)
-        dropped: list[int] = []
-        while True:
-            coef, chi2, aw, cov = _fit_terms(prob, idx, cols, n_iter, rolloff == "model")
-            dof = idx.size - cols.size
-            factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
-            fisher = inverse_fisher(aw) * factor
-            sig = np.sqrt(np.maximum(np.diag(fisher), 0.0))
-            # a negative tau^-2 (roll-off) term is as significant as its magnitude
-            z = np.where(sig > 0, np.abs(coef[cols]) / np.where(sig > 0, sig, 1.0), 0.0)
-            if select != "significance" or cols.size <= 1:
-                break
-            worst = int(np.argmin(z))
-            if z[worst] >= significance:
-                break
-            dropped.append(int(cols[worst]))
-            cols = np.delete(cols, worst)
-        model = prob.phi @ coef
+    def evaluate(idx: np.ndarray, cols: np.ndarray) -> _State:
+        coef, chi2, aw, _ = fit_terms(prob, idx, cols, n_iter, signed)
+        # a Gauss-Markov term has a correlation time besides its column
+        n_params = cols.size + (1 if prob.markov_tau is not None else 0)
+        dof = idx.size - n_params
+        factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
+        fisher = inverse_fisher(aw) * factor
         good = np.flatnonzero(usable)
         full_cov = prob.cov(coef, good)
         resid = np.full(tau.size, np.nan)
-        resid[good] = (avar[good] - model[good]) / np.sqrt(np.diag(full_cov))
+        resid[good] = normal_scores(avar[good], prob.model(coef)[good], np.diag(full_cov))
+        # adequacy: the normal scores of the fitted points, decorrelated
+        cov_used = prob.cov(coef, idx)
+        d = np.sqrt(np.diag(cov_used))
+        gof = decorrelated_chi2(resid[idx], cov_used / np.outer(d, d))
+        return _State(coef, chi2, n_params, factor, fisher, resid, gof)
+
+    # the tau range first, with the IEEE terms: a Gauss-Markov hump could otherwise
+    # imitate a filter's roll-off
+    last = None
+    while True:
+        idx = np.flatnonzero(used)
+        forced = _rolloff_forced(signed, reasons, usable)
+        cols, dropped = choose(prob, idx, all_cols, n_iter, signed, select, significance,
+                                False, forced)  # fmt: skip
+        state = evaluate(idx, cols)
+        if last is not None and not _improves(state, idx.size, *last[3:]):
+            # leaving the point out did not make the model describe the rest better: the
+            # misfit is not a roll-off (a bump the model lacks); keep it
+            j_back, reason_back, (idx, cols, dropped, state) = last[0], last[1], last[2]
+            used[j_back] = True
+            reasons[j_back] = reason_back
+            break
         j0 = int(idx[0])
-        # the fit bends to the shortest point, so judge its neighbours too (not the
-        # long taus, whose few-dof estimates are far from Gaussian)
-        short = idx[:_EXCLUDE_LOOK]
-        short = short[tau[short] < _EXCLUDE_REACH * tau_min_dev]
-        worst = float(np.max(np.abs(resid[short]))) if short.size else 0.0
         if (
             exclude == "auto"
             and idx.size > n_cand + 2
             and tau[j0] < _EXCLUDE_REACH * tau_min_dev
-            and worst > EXCLUDE_Z
+            and below_noise_terms(prob, state.coef, j0) > _ROLLOFF_Z
         ):
-            used[j0] = False
-            reasons[j0] = (
-                f"short-tau roll-off: the model misses the short taus by up to {worst:.1f} "
-                "sigma (a sensor filter or correlated noise the model cannot describe)"
-            )
-            continue
+            # the shortest point lies below the model's noise terms (a roll-off, not a
+            # bump of something the model lacks): is it one the model cannot follow? The
+            # fit bends to it, so its neighbours are judged too: the next two, or, when
+            # the model does not describe the curve, every tau up to _EXCLUDE_OCTAVES above
+            near = np.arange(idx.size) < _EXCLUDE_LOOK
+            dof = idx.size - state.n_params
+            if dof > 0 and chi2_sf(dof, state.gof) < ADEQUATE_P:
+                near |= tau[idx] <= tau[j0] * 2.0**_EXCLUDE_OCTAVES
+            short = idx[near & (tau[idx] < _EXCLUDE_REACH * tau_min_dev)]
+            worst = float(np.max(np.abs(state.resid[short])))
+            if worst > EXCLUDE_Z:
+                last = (j0, reasons[j0], (idx, cols, dropped, state), state.gof,
+                        idx.size - state.n_params)  # fmt: skip
+                used[j0] = False
+                reasons[j0] = (
+                    f"short-tau roll-off: the model misses the short taus by up to "
+                    f"{worst:.1f} sigma (a sensor filter or correlated noise the model "
+                    "cannot describe)"
+                )
+                continue
         break
+    # then a Gauss-Markov term, on that tau range
+    if markov == "auto" and select in ("aic", "bic"):
+        with_markov, dropped_m = choose(prob, idx, all_cols, n_iter, signed, select,
+                                         significance, True, forced)  # fmt: skip
+        if prob.markov_tau is not None:
+            trial = evaluate(idx, with_markov)
+            dof = idx.size - trial.n_params
+            # a hump that still leaves the curve undescribed is not named a Gauss-Markov
+            # process (a vibration's bump is sharper, a roll-off deeper)
+            if dof > 0 and chi2_sf(dof, trial.gof) >= ADEQUATE_P:
+                cols, dropped, state = with_markov, dropped_m, trial
+            else:
+                prob.set_markov(None)
+    coef, chi2, factor, fisher, resid = (state.coef, state.chi2, state.factor, state.fisher,
+                                         state.resid)  # fmt: skip
+    sig = np.sqrt(np.maximum(np.diag(fisher), 0.0))
+    n_params, gof = state.n_params, state.gof
 
-    unc = np.full(5, np.nan)
-    covariance = np.full((5, 5), np.nan)
-    covariance[np.ix_(cols, cols)] = fisher
-    unc[cols] = sig
-    # a removed or pinned term: 1-sigma upper bound from the fit with it free
-    for k in terms:
-        if k in cols and coef[k] > 0:
-            continue
-        trial = np.array(sorted(set(cols.tolist()) | {k}), dtype=np.int64)
-        scale = np.where(model[idx] > 0, model[idx], avar[idx])
-        _, _, aw_k = nnls_gls(
-            avar[idx], prob.phi[np.ix_(idx, trial)], whiten(cov, scale), scale,
-            (trial == 0) & (rolloff == "model"),
+    # the bounds of the terms left out, and the Gauss-Markov term's spread, under the
+    # final model's covariance
+    w = whitened(prob, idx, coef)
+    col_list = [int(c) for c in cols]
+    markov_fit = None
+    if prob.markov_tau is not None:
+        markov_fit = MarkovFit(
+            variance=float(coef[MARKOV]),
+            variance_uncertainty=float(sig[col_list.index(MARKOV)]),
+            tau_c=float(prob.markov_tau),
+            tau_c_range=markov_range(w, prob, idx, [c for c in col_list if c != MARKOV],
+                                      signed, float(prob.markov_tau)),
         )  # fmt: skip
-        f_k = inverse_fisher(aw_k) * factor
-        unc[k] = math.sqrt(max(f_k[list(trial).index(k), list(trial).index(k)], 0.0))
+    unc = np.full(5, np.nan)
+    upper = np.full(5, np.nan)
+    covariance = np.full((5, 5), np.nan)
+    ieee = [j for j, c in enumerate(col_list) if c < 5]
+    covariance[np.ix_(cols[ieee], cols[ieee])] = fisher[np.ix_(ieee, ieee)]
+    unc[cols[ieee]] = sig[ieee]
+    for k in terms:
+        if k in col_list and coef[k] > 0:
+            continue
+        rest = [c for c in col_list if c != k]
+        sigma_k = wald_sigma(np.column_stack([w.aw[:, rest], w.aw[:, k]])) * math.sqrt(factor)
+        z1, z2 = BOUND_Z * math.sqrt(factor), bound_z * math.sqrt(factor)
+        base = coef.copy()
+        base[k] = 0.0
+        unc[k] = profile_bound(prob, idx, rest, k, base, signed, z1, sigma_k)
+        upper[k] = profile_bound(prob, idx, rest, k, base, signed, z2, sigma_k)
     return GlsOutcome(
-        coefficients=coef,
+        coefficients=coef[:5].copy(),
         coefficient_uncertainty=unc,
         coefficient_covariance=covariance,
         chi2=chi2,
-        dof=max(idx.size - cols.size, 0),
+        dof=max(idx.size - n_params, 0),
         n_points=int(idx.size),
         used=used,
         reasons=tuple(reasons),
         residuals=resid,
         dropped=tuple(sorted(dropped)),
+        upper=upper,
+        gof_chi2=gof,
+        markov=markov_fit,
+        correlation=_correlation(fisher, cols),
     )
+
+
+@dataclass(frozen=True)
+class _State:
+    """One fitted model on one tau range."""
+
+    coef: np.ndarray
+    chi2: float
+    n_params: int
+    factor: float
+    fisher: np.ndarray
+    resid: np.ndarray
+    gof: float
+
+
+def _rolloff_forced(signed: bool, reasons: list[str], usable: np.ndarray) -> tuple[int, ...]:
+    """``(0,)`` (the signed ``tau^-2`` term stays in every model compared) when the short
+    taus show a filter: some were left out for a roll-off or below ``2 / bandwidth``.
+    Its deficit then decays over the next octaves, and a selection that drops the term in
+    a third of such records (its evidence is a few percent of the variance there) biases
+    N by up to 2 % and doubles N's scatter beyond its uncertainty."""
+    if not signed:
+        return ()
+    hints = ("short-tau roll-off", "below ")
+    return (0,) if any(r.startswith(hints) for r in reasons) else ()
+
+
+def _improves(state: _State, n_points: int, gof_before: float, dof_before: int) -> bool:
+    """Whether a fit after an exclusion describes its points better than before it: its
+    adequacy p-value is fair, or its adequacy chi-square per degree of freedom fell by a
+    tenth."""
+    dof = n_points - state.n_params
+    if dof <= 0 or dof_before <= 0:
+        return True
+    if chi2_sf(dof, state.gof) >= _FAIR_P:
+        return True
+    return state.gof / dof < 0.9 * gof_before / dof_before
+
+
+def _correlation(fisher: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """Correlation matrix (5 x 5, NaN off the model) of the IEEE coefficients."""
+    out = np.full((5, 5), np.nan)
+    ieee = [k for k, c in enumerate(cols) if c < 5]
+    sub = fisher[np.ix_(ieee, ieee)]
+    d = np.sqrt(np.maximum(np.diag(sub), 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out[np.ix_(cols[ieee], cols[ieee])] = sub / np.outer(d, d)
+    return out

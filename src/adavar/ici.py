@@ -23,8 +23,13 @@ there (``right``), and keeps the side with the longest adapted window (ties: the
 one). Where the left and right windows tie but disagree (their intervals do not meet), the
 change lies between them: the side facing away from it is kept, the change located at the
 largest standardised contrast of the two within that run of centres. The chosen window is
-handed to :func:`adavar.davar` as a centred window at a shifted centre (``shift``). Changes
-are reported where the left and right ``lmax`` windows disagree most (a moving two-sample
+handed to :func:`adavar.davar` as a centred window at a shifted centre (``shift``).
+
+Changes (``episodes``, default). Where the left and right ``lmax`` windows disagree the
+level changed within ``lmax``; each run of such centres is an episode whose region is
+segmented into steps and ramps, and the centres a ramp reaches get the window of least
+error under the fitted ramp (:mod:`adavar.ici_episodes`). Without ``episodes`` (the rule
+before 0.3) a change is reported where the two windows disagree most (a moving two-sample
 contrast, its largest value within ``lmax / 2``).
 
 EDF. ``edf="correlation"`` (default) takes the record's short-range correlation into
@@ -35,10 +40,14 @@ of freedom; ``rho`` is measured on the whole record (lags up to ``2m + 64``; on 
 noise at ``m = 1`` that is ``nu = 2n/3`` (267 for ``L = 400`` in simulation, where the
 Greenhall EDF of the engine gives 312); on a sensor's band-limited noise it is smaller
 still. ``edf="engine"`` uses :func:`adavar.davar.edf_table` with the record's noise type.
+With ``kurtosis`` (default) either is scaled by the record's robust excess kurtosis ``e``,
+``nu = 2n / (2n / nu_G + e)`` (:mod:`adavar.ici_episodes`): heavy tails widen the intervals.
 
 Cost: one call of the DAVAR engine per (side, candidate length) and per centred half, O(N)
 each: O(N J) in all (7 candidates, 1.44e6 samples: 7.7 s on 2 cores, 3x the kurtosis
-controller), and O(N M) memory. The engine works in units of :func:`ici_block` centres
+controller), and O(N M) memory; with ``episodes`` and ``step > 1`` the ``lmax`` windows of
+every centre once more (the episodes are those of every centre, as live), and O(n log n) per
+episode region. The engine works in units of :func:`ici_block` centres
 aligned on centre 0, which makes every value independent of how much of the record is
 known: :class:`adavar.OnlineAdaptive` (``method="ici"``, :mod:`adavar.online_ici`)
 repeats the schedule bit for bit.
@@ -56,6 +65,7 @@ from scipy.special import ndtr
 
 from adavar import differences as diff
 from adavar import edf as edf_mod
+from adavar import ici_episodes as episodes_mod
 from adavar.davar import edf_table
 from adavar.errors import AdavarInputError
 from adavar.settings import ICI_EDF, ICI_GAMMA, ICI_SIDES
@@ -67,6 +77,7 @@ __all__ = [
     "ICI_PROBES",
     "ICI_SIDES",
     "ICI_STEPS",
+    "IciNoise",
     "IciOptions",
     "IciSchedule",
     "IciStats",
@@ -77,12 +88,16 @@ __all__ = [
     "ici_centre_stats",
     "ici_contrast",
     "ici_edf",
+    "ici_noise",
     "ici_options",
     "ici_schedule",
     "ici_side_parts",
+    "ici_split",
+    "region_changes",
     "settle_ties",
     "side_shift",
     "side_windows",
+    "track_ramps",
 ]
 
 #: default number of probe lengths below lmin (each half the next)
@@ -171,9 +186,12 @@ class IciSchedule:
     conflict : ndarray of bool, shape (T,)
         The left and right adapted windows disagree (their intervals do not meet).
     changes : ndarray of int64
-        Sample index of each detected change: a centre where the left and right ``lmax``
-        windows disagree (intervals apart) and their standardised contrast is the largest
-        within ``lmax / 2`` samples either side (``sides="both"`` only; empty otherwise).
+        Sample index of each detected step of the level (``sides="both"`` only; empty
+        otherwise): with ``episodes`` (default) located by segmenting each episode of
+        disagreeing ``lmax`` windows (:mod:`adavar.ici_episodes`; ramps are in ``ramps``);
+        without, a centre where the left and right ``lmax`` windows disagree (intervals
+        apart) and their standardised contrast is the largest within ``lmax / 2`` samples
+        either side.
     centre : ndarray of int64, shape (T,)
         Sample index of each centre.
     lengths : ndarray of int64
@@ -184,6 +202,10 @@ class IciSchedule:
         Degrees of freedom of each candidate's estimate.
     gamma : float
     parameters : dict
+    ramps : ndarray of int64, shape (K, 2)
+        First and last sample of each gradual change (``episodes`` only; module notes).
+    episodes : tuple of adavar.ici_episodes.Episode
+        The located steps and ramps (``episodes`` only).
     """
 
     window: np.ndarray
@@ -198,6 +220,8 @@ class IciSchedule:
     edf: np.ndarray
     gamma: float
     parameters: dict[str, Any] = field(default_factory=dict)
+    ramps: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    episodes: tuple = ()
 
 
 def _check_options(
@@ -256,13 +280,28 @@ def _second_differences(x: np.ndarray, m: int) -> np.ndarray:
     return c[m:] - c[:-m]
 
 
+def _difference_rho(x: np.ndarray, m: int) -> np.ndarray:
+    """Autocorrelation of ``d_m`` at lags 1 .. ``2m + 64`` (mean removed; lags beyond
+    ``2m - 1`` within 3 standard errors of 0 set to 0)."""
+    d = _second_differences(x, m)
+    d = d - d.mean()
+    var = float(np.dot(d, d))
+    lags = min(2 * m + _EXTRA_LAGS, d.size - 1)
+    if not var > 0.0 or lags < 1:
+        return np.zeros(0)
+    rho = np.array([np.dot(d[:-k], d[k:]) / var for k in range(1, lags + 1)])
+    rho *= d.size / (d.size - np.arange(1, lags + 1))
+    k = np.arange(1, lags + 1)
+    return np.where((k < 2 * m) | (np.abs(rho) > 3.0 / math.sqrt(d.size)), rho, 0.0)
+
+
 def correlation_edf(x: np.ndarray, lengths: np.ndarray, ms: np.ndarray) -> np.ndarray:
     """EDF of the window AVAR from the record's correlation of its second differences.
 
     ``nu(L, m) = n / sum_{|k| < n} (1 - |k| / n) rho_k**2``, ``n = L - 2m + 1``, with
     ``rho_k`` the autocorrelation of ``d_m`` on the whole record (mean removed; lags up to
     ``2m + 64``, lags beyond ``2m - 1`` whose correlation is within 3 standard errors of 0
-    counted as 0).
+    counted as 0). Gaussian noise: :func:`ici_noise` scales it by the record's kurtosis.
 
     Parameters
     ----------
@@ -277,22 +316,16 @@ def correlation_edf(x: np.ndarray, lengths: np.ndarray, ms: np.ndarray) -> np.nd
     -------
     ndarray, shape (J, M)
     """
+    return _edf_of_rho([_difference_rho(x, int(m)) for m in ms], lengths, ms)
+
+
+def _edf_of_rho(rhos: list, lengths: np.ndarray, ms: np.ndarray) -> np.ndarray:
+    """:func:`correlation_edf` from the autocorrelation of ``d_m`` of each ``m``."""
     out = np.empty((lengths.size, ms.size))
     for t, m in enumerate(ms):
-        m = int(m)
-        d = _second_differences(x, m)
-        d = d - d.mean()
-        var = float(np.dot(d, d))
-        lags = min(2 * m + _EXTRA_LAGS, d.size - 1)
-        if not var > 0.0 or lags < 1:
-            rho = np.zeros(0)
-        else:
-            rho = np.array([np.dot(d[:-k], d[k:]) / var for k in range(1, lags + 1)])
-            rho *= d.size / (d.size - np.arange(1, lags + 1))
-            k = np.arange(1, lags + 1)
-            rho = np.where((k < 2 * m) | (np.abs(rho) > 3.0 / math.sqrt(d.size)), rho, 0.0)
+        rho = rhos[t]
         for j, L in enumerate(lengths):
-            n = int(L) - 2 * m + 1
+            n = int(L) - 2 * int(m) + 1
             k = np.arange(1, min(rho.size, n - 1) + 1)
             c = 1.0 + 2.0 * float(np.sum((1.0 - k / n) * rho[: k.size] ** 2))
             out[j, t] = n / c
@@ -372,6 +405,8 @@ class IciOptions:
     sides: str
     edf: str
     edf_samples: int | None
+    kurtosis: bool = True
+    episodes: bool = True
 
     @property
     def halves(self) -> np.ndarray:
@@ -389,6 +424,8 @@ def ici_options(
     sides: str = "both",
     edf: str = "correlation",
     edf_samples: int | None = None,
+    kurtosis: bool = True,
+    episodes: bool = True,
 ) -> IciOptions:
     """The options of :func:`ici_schedule` checked, candidates resolved.
 
@@ -411,10 +448,14 @@ def ici_options(
             f"ici_edf_samples must be a whole number of samples >= 2 (or None: the whole "
             f"record), got {edf_samples!r}"
         )
+    for name, value in (("ici_kurtosis", kurtosis), ("ici_episodes", episodes)):
+        if not isinstance(value, (bool, np.bool_)):
+            raise AdavarInputError(f"{name} must be True or False, got {value!r}")
     cand, ms, g = _check_options(lmin, lmax, lengths, taus, gamma, sides, edf)
     return IciOptions(
         lmax=int(lmax), lmin=int(lmin), lengths=cand, ms=ms, gamma=g, sides=sides, edf=edf,
         edf_samples=None if edf_samples is None else int(edf_samples),
+        kurtosis=bool(kurtosis), episodes=bool(episodes),
     )  # fmt: skip
 
 
@@ -516,21 +557,70 @@ def ici_centre_stats(
     )  # fmt: skip
 
 
-def ici_edf(x: np.ndarray, options: IciOptions) -> tuple[np.ndarray, np.ndarray]:
-    """EDF of each candidate and of its half, ``(nu, nu_half)``, shapes (J, M).
+@dataclass(frozen=True)
+class IciNoise:
+    """What the ICI rule measures on the record (or its first ``edf_samples``) once.
+
+    Attributes
+    ----------
+    nu, nu_half : ndarray, shape (J, M)
+        EDF of each candidate's estimate and of its half (with ``kurtosis``: scaled by the
+        record's excess kurtosis, :func:`adavar.ici_episodes.kurtosis_edf`).
+    excess : float
+        The record's robust excess kurtosis (0 without ``kurtosis``).
+    dispersion : float
+        Long-run variance of the squared first differences over their squared mean,
+        ``lambda_G + excess`` (3 on white Gaussian noise): the ramps' likelihood.
+    clipped : float
+        The same of the clipped squares: the segmentation's CUSUM.
+    """
+
+    nu: np.ndarray
+    nu_half: np.ndarray
+    excess: float
+    dispersion: float
+    clipped: float
+
+
+def ici_noise(x: np.ndarray, options: IciOptions) -> IciNoise:
+    """The EDF and dispersions of the ICI rule on ``x`` (its first ``edf_samples``).
 
     ``edf="correlation"``: :func:`correlation_edf` on the first ``edf_samples`` samples
     of ``x`` (all of them when None); ``"engine"``: the Greenhall EDF for the noise type
-    identified on the whole of ``x``.
+    identified on the whole of ``x``. With ``kurtosis`` both are scaled by the excess
+    kurtosis of the same samples (:mod:`adavar.ici_episodes`: heavy tails widen the
+    intervals).
     """
     cand, ms = options.lengths, options.ms
+    head = x if options.edf_samples is None else x[: options.edf_samples]
+    wanted = {1, *ms.tolist()} if options.edf == "correlation" else {1}
+    rhos = {int(m): _difference_rho(head, int(m)) for m in sorted(wanted)}  # each once
     if options.edf == "correlation":
-        head = x if options.edf_samples is None else x[: options.edf_samples]
-        return correlation_edf(head, cand, ms), correlation_edf(head, options.halves, ms)
-    phase = diff.anchored_phase(x, cluster_stats=True)
-    alpha, _ = record_noise_types(phase, ms, 2, data_type="rate")
-    alpha = np.asarray(alpha, dtype=np.int64)
-    return edf_table(cand, ms, alpha), edf_table(options.halves, ms, alpha)
+        per_m = [rhos[int(m)] for m in ms]
+        nu, nu_half = _edf_of_rho(per_m, cand, ms), _edf_of_rho(per_m, options.halves, ms)
+    else:
+        phase = diff.anchored_phase(x, cluster_stats=True)
+        alpha, _ = record_noise_types(phase, ms, 2, data_type="rate")
+        alpha = np.asarray(alpha, dtype=np.int64)
+        nu, nu_half = edf_table(cand, ms, alpha), edf_table(options.halves, ms, alpha)
+    excess = episodes_mod.excess_kurtosis(head) if options.kurtosis else 0.0
+    if excess > 0.0:
+        nu = episodes_mod.kurtosis_edf(nu, cand, ms, excess)
+        nu_half = episodes_mod.kurtosis_edf(nu_half, options.halves, ms, excess)
+    rho = rhos[1]
+    gaussian = 2.0 * (1.0 + 2.0 * float(np.sum(rho**2)))
+    clipped = episodes_mod.clipped_dispersion(head, rho)
+    if not options.kurtosis:  # the Gaussian dispersion of the squares, clipped or not
+        clipped = gaussian
+    return IciNoise(nu=nu, nu_half=nu_half, excess=float(excess),
+                    dispersion=gaussian + float(excess), clipped=float(clipped))  # fmt: skip
+
+
+def ici_edf(x: np.ndarray, options: IciOptions) -> tuple[np.ndarray, np.ndarray]:
+    """EDF of each candidate and of its half, ``(nu, nu_half)``, shapes (J, M)
+    (:func:`ici_noise`)."""
+    noise = ici_noise(x, options)
+    return noise.nu, noise.nu_half
 
 
 def ici_schedule(
@@ -546,6 +636,8 @@ def ici_schedule(
     edges: str = "mirror",
     step: int = 1,
     edf_samples: int | None = None,
+    kurtosis: bool = True,
+    episodes: bool = True,
 ) -> IciSchedule:
     """The ICI adaptive window of every centre (module notes).
 
@@ -581,6 +673,17 @@ def ici_schedule(
         ``edf="correlation"``: measure the correlation on the first ``edf_samples``
         samples only (what a live pass knows, :class:`adavar.OnlineAdaptive`); default
         None: the whole record.
+    kurtosis : bool
+        Scale the EDF by the record's robust excess kurtosis (default; heavy-tailed noise
+        gets wider intervals, :mod:`adavar.ici_episodes`). False: the Gaussian EDF (the
+        behaviour before 0.3, 4.8 false changes an hour on Student-t noise at 100 Hz).
+    episodes : bool
+        Locate the changes by segmenting each episode of disagreeing ``lmax`` windows,
+        report gradual changes as ramps and give the centres a ramp reaches the window of
+        least error under the fitted ramp (default; :mod:`adavar.ici_episodes`). False: a
+        change at the largest contrast of the ``lmax`` windows within ``lmax / 2`` (the
+        behaviour before 0.3: a staircase of changes on a ramp, changes up to ``lmax``
+        away from a short burst).
 
     Returns
     -------
@@ -596,7 +699,8 @@ def ici_schedule(
     if edges not in ("mirror", "valid"):
         raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
     opts = ici_options(lmax=lmax, lmin=lmin, lengths=lengths, taus=taus, gamma=gamma,
-                       sides=sides, edf=edf, edf_samples=edf_samples)  # fmt: skip
+                       sides=sides, edf=edf, edf_samples=edf_samples, kurtosis=kurtosis,
+                       episodes=episodes)  # fmt: skip
     cand, ms, g = opts.lengths, opts.ms, opts.gamma
     x = np.ascontiguousarray(as_samples(x, min_length=lmax), dtype=np.float64)
     n = x.size
@@ -604,7 +708,8 @@ def ici_schedule(
     n_c = n - lmax + 1 if edges == "valid" else n
     c0 = -(-first // step) * step
     centres = np.arange(c0, first + n_c, step, dtype=np.int64)
-    nu, nu_half = ici_edf(x, opts)
+    noise = ici_noise(x, opts)
+    nu, nu_half = noise.nu, noise.nu_half
     pad = lmax
     ext = np.pad(x, pad, mode="symmetric")
     stats = ici_centre_stats(ext, pad, centres, opts, nu, nu_half,
@@ -613,7 +718,17 @@ def ici_schedule(
     side = np.zeros(centres.size, dtype=np.int8)
     conflict = np.zeros(centres.size, dtype=bool)
     changes = np.zeros(0, dtype=np.int64)
-    if sides == "both":
+    found: list = []
+    if sides == "both" and opts.episodes:
+        side, conflict = _choose_sides(adapted, stats.lo, stats.hi)
+        split, _ = ici_contrast(*stats.last[LEFT], *stats.last[RIGHT])
+        every = centres
+        if step > 1:  # the episodes from every centre's flag, as the live pass sees them
+            every = np.arange(first, first + n_c, dtype=np.int64)
+            split, _ = ici_split(ext, pad, every, opts, nu)
+        found = region_changes(x, every, split, opts, noise)
+        changes = np.array([e.start for e in found if not e.ramp], dtype=np.int64)
+    elif sides == "both":
         side, conflict = _choose_sides(adapted, stats.lo, stats.hi)
         # a change: where the left and right lmax windows disagree most (the two-sample
         # moving-window contrast peaks at a change), the largest within lmax / 2 either side
@@ -626,16 +741,77 @@ def ici_schedule(
         peak[1:] &= ~peak[:-1]  # a flat top counts once
         changes = centres[peak]
     window, shift = side_windows(adapted, side, lmin)
+    ramps = [e for e in found if e.ramp]
+    models = [m for m in (episodes_mod.ramp_model(e, lmax, lmin // 2) for e in ramps) if m]
+    if models:
+        track_ramps(centres, window, shift, side, models, opts, nu)
     parameters = dict(
         method="ici", lmax=int(lmax), lmin=int(lmin), ici_lengths=cand.tolist(),
         ici_taus=ms.tolist(), ici_gamma=g, ici_sides=sides, ici_edf=edf, edges=edges,
-        ici_edf_samples=opts.edf_samples,
+        ici_edf_samples=opts.edf_samples, ici_kurtosis=opts.kurtosis,
+        ici_episodes=opts.episodes, ici_excess_kurtosis=noise.excess,
+        ici_ramps=[[e.start, e.end] for e in ramps],
+        ici_rises=[bool(e.rise) for e in found if not e.ramp] if opts.episodes else None,
     )  # fmt: skip
     return IciSchedule(
         window=window, shift=shift, side=side, adapted=adapted, conflict=conflict,
         changes=changes, centre=centres, lengths=cand, ms=ms, edf=nu, gamma=g,
         parameters=parameters,
+        ramps=np.array([[e.start, e.end] for e in ramps], dtype=np.int64).reshape(-1, 2),
+        episodes=tuple(found),
     )  # fmt: skip
+
+
+def region_changes(
+    x: np.ndarray, centres: np.ndarray, split: np.ndarray, options: IciOptions, noise: IciNoise
+) -> list:
+    """The episodes (:class:`adavar.ici_episodes.Episode`) of the split centres of a whole
+    record: each region segmented, grown while it ends in a ramp, the next starting where
+    it ended (:mod:`adavar.ici_episodes`)."""
+    n, lmax = x.size, options.lmax
+    keywords = dict(dispersion=noise.dispersion, clipped=noise.clipped, gamma=options.gamma)
+    found: list = []
+    end = 0
+    for _, _, a, b in episodes_mod.episode_regions(split, centres, lmax, n):
+        a = max(a, end)
+        if a >= b:
+            continue
+        here = episodes_mod.find_episodes(x[a:b], a, **keywords)
+        while (grown := episodes_mod.grown_end(here, b, lmax, n)) is not None:
+            b = grown
+            here = episodes_mod.find_episodes(x[a:b], a, **keywords)
+        found += here
+        end = b
+    return found
+
+
+def ici_split(
+    ext: np.ndarray, offset: int, centres: np.ndarray, options: IciOptions, nu: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`ici_contrast` of the ``lmax`` windows ending and starting at each centre (are
+    they apart, their standardised contrast), as :func:`ici_centre_stats` finds them (bit
+    for bit: the same engine units when ``centres`` starts where that pass's do)."""
+    j, length = options.lengths.size - 1, options.lmax
+    off = interval_offsets(nu, options.gamma)
+    entries = []
+    for s in (LEFT, RIGHT):
+        v = diff.window_avar(ext, options.ms, centres + side_shift(s, length),
+                             np.full(centres.size, length, dtype=np.int64), offset=offset,
+                             chunk=ici_block(options.lmax))  # fmt: skip
+        entries.append(_intervals(v, (off[0][j][None, :], off[1][j][None, :])))
+    return ici_contrast(*entries[0], *entries[1])
+
+
+def track_ramps(
+    centres: np.ndarray, window: np.ndarray, shift: np.ndarray, side: np.ndarray,
+    models: list, options: IciOptions, nu: np.ndarray,
+) -> None:  # fmt: skip
+    """In place: the windows of least error of the centres the ramps reach
+    (:func:`adavar.ici_episodes.ramp_windows` of the :func:`~adavar.ici_episodes.ramp_model`
+    of each ramp; candidates of at least ``lmin``)."""
+    keep = options.lengths >= options.lmin
+    episodes_mod.ramp_windows(centres, window, shift, side, models, options.lengths[keep],
+                              nu[keep, 0], options.lmax, side_shift)  # fmt: skip
 
 
 def change_reach(lmax: int, step: int = 1) -> int:

@@ -6,7 +6,10 @@ Split out of :mod:`adavar.edf`, which re-exports every public name, so
 The policy, per averaging factor ``m`` with ``n = floor((N_phase - 1) / m)`` clusters:
 
 * ``n >= MIN_POINTS_LAG1`` (30): the lag-1 autocorrelation method (Riley & Greenhall 2004).
-  For phase data it starts, as SP 1065 prescribes, on the decimated phase ``x[::m]``
+  It starts, as SP 1065 prescribes for phase data, on the decimated phase ``x[::m]`` --
+  for rate data too, integrated to their phase (``noise_id="input"`` starts rate data on
+  the m-averaged rate, as adavar did before 0.2; a noise then got another type and EDF
+  as rate data than as phase data) --
   (quadratically detrended): white PM stops there at ``d = 0`` with ``alpha ~ 2``. Only if
   that phase is too red (``delta >= 0.25``) does it go on to differences, which are the
   (linearly detrended) m-cluster sums, i.e. the rate path with one difference fewer.
@@ -38,6 +41,8 @@ from adavar.differences import (
 )
 
 __all__ = [
+    "AVERAGED_FM_BOUNDS",
+    "AVERAGED_FM_DELTAS",
     "MIN_POINTS_B1",
     "MIN_POINTS_LAG1",
     "NOISE_ID_RULES",
@@ -46,6 +51,7 @@ __all__ = [
     "alpha_from_lag1",
     "alpha_from_phase_lag1",
     "avar_of_sum",
+    "averaged_rule",
     "b1_rn_alpha",
     "b1_with_rn",
     "clamp_alpha",
@@ -63,6 +69,7 @@ __all__ = [
     "rn_theory_pm",
     "rn_value",
     "rn_wanted",
+    "starts_on_phase",
 ]
 
 #: Default minimum series length for the lag-1 ACF method (Riley & Greenhall 2004: "about 30").
@@ -75,6 +82,21 @@ MIN_POINTS_B1: Final[int] = 10
 
 #: Expected R(n) = MVAR / AVAR of white FM for m >> 1 (SP 1065 5.5.5: 0.50).
 RN_WHITE_FM: Final[float] = 0.5
+
+#: Expected lag-1 ``delta = r1 / (1 + r1)`` of the rate averaged over ``m >> 1`` samples and
+#: differenced once: white FM -1 (r1 = -1/2), flicker FM -0.277 (r1 = (9 ln 3 - 16 ln 2) /
+#: (8 ln 2)), random-walk FM 0.2 (r1 = 1/4), from the second differences of the phase at
+#: spacing m. Averaging makes the redder two whiter than the fractional-difference values
+#: (-1/2, 0) that R&G's rounding of ``2 delta`` assumes: flicker FM then lies next to the
+#: boundary -0.25 and read as random-walk FM in 30-40 % of the records at m = 8-64 (intervals
+#: covering 74-77 %). Within 0.06 of these from m = 4 on (m = 2: -0.33, 0.14).
+_R1_FLICKER_FM: Final = (9.0 * math.log(3.0) - 16.0 * math.log(2.0)) / (8.0 * math.log(2.0))
+AVERAGED_FM_DELTAS: Final = (-1.0, _R1_FLICKER_FM / (1.0 + _R1_FLICKER_FM), 0.2)
+#: the boundaries used (``averaged=True``): the midpoints of :data:`AVERAGED_FM_DELTAS`
+AVERAGED_FM_BOUNDS: Final = (
+    0.5 * (AVERAGED_FM_DELTAS[0] + AVERAGED_FM_DELTAS[1]),
+    0.5 * (AVERAGED_FM_DELTAS[1] + AVERAGED_FM_DELTAS[2]),
+)
 
 #: a lag-1 residual whose RMS is below this times the raw series' largest magnitude is
 #: rounding, not noise (``alpha_from_lag1``)
@@ -140,6 +162,7 @@ def identify_noise_lag1(
     dmin: int = 0,
     dmax: int = 2,
     min_points: int = MIN_POINTS_LAG1,
+    averaged: bool = False,
 ) -> tuple[int, float]:
     """Power-law noise type from the lag-1 autocorrelation (Riley & Greenhall 2004).
 
@@ -157,6 +180,10 @@ def identify_noise_lag1(
         (Hadamard); on rate data one difference fewer suffices for the same alpha.
     min_points : int
         Shortest series accepted (the method is reliable from about 30 points).
+    averaged : bool
+        Rate data averaged over ``m >= 2`` samples: once differenced, white, flicker and
+        random-walk FM are told apart at :data:`AVERAGED_FM_BOUNDS` (default False:
+        Riley & Greenhall's rounding).
 
     Returns
     -------
@@ -201,7 +228,9 @@ def identify_noise_lag1(
         if den[d] > 0:
             r1[d] = float(np.dot(c[:-1], c[1:])) / den[d]
         x = np.diff(x)
-    return alpha_from_lag1(r1, den, sizes, scale, data_type=kind, dmin=dmin, dmax=dmax)
+    return alpha_from_lag1(
+        r1, den, sizes, scale, data_type=kind, dmin=dmin, dmax=dmax, averaged=averaged
+    )
 
 
 def alpha_from_lag1(
@@ -213,6 +242,7 @@ def alpha_from_lag1(
     data_type: str,
     dmin: int = 0,
     dmax: int = 2,
+    averaged: bool = False,
 ) -> tuple[int, float]:
     """Riley & Greenhall's decision rule, given the lag-1 autocorrelations per difference order.
 
@@ -226,6 +256,10 @@ def alpha_from_lag1(
         polynomial trend) is not noise and would give a random ``r1``.
     data_type, dmin, dmax
         As in :func:`identify_noise_lag1`.
+    averaged : bool
+        The series is rate averaged over ``m >= 2`` samples: once differenced, white,
+        flicker and random-walk FM are told apart at :data:`AVERAGED_FM_BOUNDS`
+        (:func:`lag1_decision`; :func:`averaged_rule` says when).
 
     Returns
     -------
@@ -234,7 +268,9 @@ def alpha_from_lag1(
     """
     kind = _data_type(data_type)
     offset = 2 if kind == "phase" else 0  # alpha = beta + 2 for phase data
-    status, alpha_int, alpha = lag1_decision(r1, den, sizes, scale, offset, int(dmin), int(dmax))
+    status, alpha_int, alpha = lag1_decision(
+        r1, den, sizes, scale, offset, int(dmin), int(dmax), bool(averaged)
+    )
     if status == _NO_NOISE:
         raise NoiseIdError("no noise left after removing the trend: cannot identify it")
     if status == _ALTERNATING:
@@ -247,12 +283,15 @@ _NO_NOISE: Final = 1
 _ALTERNATING: Final = 2
 
 
-def lag1_decision(r1, den, sizes, scale, offset, dmin, dmax):
+def lag1_decision(r1, den, sizes, scale, offset, dmin, dmax, averaged=False):
     """Riley & Greenhall's rule on indexable inputs: ``(status, alpha_int, alpha)``.
 
     The one implementation of :func:`alpha_from_lag1` (which raises where ``status`` is
     not 0: 1, no noise left after the trend; 2, ``r1 = -1``), written so that Numba
     compiles it too (:func:`_lag1_decision_compiled`, for :func:`rate_noise_types`).
+    ``averaged``: the series are rate averaged over ``m >= 2`` samples (cluster means);
+    once differenced, white, flicker and random-walk FM are then told apart at
+    :data:`AVERAGED_FM_BOUNDS` instead of R&G's rounding of ``2 delta``.
     """
     floor = (_RESIDUAL_FLOOR * scale) ** 2
     for d in range(dmax + 1):
@@ -263,8 +302,15 @@ def lag1_decision(r1, den, sizes, scale, offset, dmin, dmax):
         delta = r1[d] / (1.0 + r1[d])
         if d >= dmin and (delta < 0.25 or d >= dmax):
             alpha = -2.0 * (delta + d) + offset
-            alpha_int = offset - 2 * d - round(2.0 * delta)  # round() as np.rint: half to even
-            return 0, alpha_int, float(alpha)
+            step = round(2.0 * delta)  # round() as np.rint: half to even
+            if averaged and offset == 0 and d == 1 and delta < 0.25:
+                if delta >= AVERAGED_FM_BOUNDS[1]:
+                    step = 0  # random-walk FM
+                elif delta >= AVERAGED_FM_BOUNDS[0]:
+                    step = -1  # flicker FM
+                else:
+                    step = min(step, -2)  # white FM, or bluer
+            return 0, offset - 2 * d - step, float(alpha)
     raise AssertionError("unreachable: d reaches dmax")  # pragma: no cover
 
 
@@ -644,11 +690,27 @@ def decimated_phase_lag1(z: np.ndarray) -> tuple[float, float, int, float]:
     return r1, den, count + 1, scale
 
 
+def phase_order0(r1: float, den: float, size: int, scale: float) -> float:
+    """Order 0 of the lag-1 rule on the decimated phase: alpha (unclamped), NaN if undecided.
+
+    Decided when the phase is noise (``den`` above the rounding floor), not alternating,
+    and ``delta = r1 / (1 + r1) < 0.25`` (white or flicker PM); written so that Numba
+    compiles it too (:func:`_rate_noise_kernel`).
+    """
+    floor = (_RESIDUAL_FLOOR * scale) ** 2
+    if den > floor * size and r1 > -1.0:
+        delta = r1 / (1.0 + r1)
+        if delta < 0.25:
+            return 2.0 - np.rint(2.0 * delta)
+    return math.nan
+
+
 def alpha_from_phase_lag1(
     phase_stats: tuple[float, float, int, float],
     rate_stats: tuple[np.ndarray, np.ndarray, np.ndarray, float] | None,
     *,
     dmax: int = 2,
+    averaged: bool = False,
 ) -> int | None:
     """SP 1065 lag-1 rule for phase data: order 0 on the decimated phase, then the rate.
 
@@ -662,6 +724,8 @@ def alpha_from_phase_lag1(
         whether order 0 decides (the return value is then ``None`` if it does not).
     dmax : int
         2 (Allan) or 3 (Hadamard).
+    averaged : bool
+        As in :func:`alpha_from_lag1`, for the rate orders.
 
     Returns
     -------
@@ -673,16 +737,15 @@ def alpha_from_phase_lag1(
     NoiseIdError
         A degenerate series.
     """
-    r1, den, size, scale = phase_stats
-    floor = (_RESIDUAL_FLOOR * scale) ** 2
-    if den > floor * size and r1 > -1.0:
-        delta = r1 / (1.0 + r1)
-        if delta < 0.25:
-            return clamp_alpha(2 - np.rint(2.0 * delta), dmax)
+    got = phase_order0(*phase_stats)
+    if not math.isnan(got):
+        return clamp_alpha(got, dmax)
     if rate_stats is None:
         return None
     r1s, dens, sizes, rscale = rate_stats
-    alpha = alpha_from_lag1(r1s, dens, sizes, rscale, data_type="rate", dmax=r1s.size - 1)[0]
+    alpha = alpha_from_lag1(
+        r1s, dens, sizes, rscale, data_type="rate", dmax=r1s.size - 1, averaged=averaged
+    )[0]
     return clamp_alpha(alpha, dmax)
 
 
@@ -691,7 +754,7 @@ def alpha_from_phase_lag1(
 # ---------------------------------------------------------------------------------------------
 
 #: noise identification rules of :func:`adavar.deviation` (``noise_id=``)
-NOISE_ID_RULES = ("sp1065", "stable32")
+NOISE_ID_RULES = ("sp1065", "stable32", "input")
 
 
 def avar_of_sum(total: float, m: int, terms: int) -> float:
@@ -767,21 +830,46 @@ def b1_rn_alpha(alpha: int, m: int, dmax: int, ratio: float | None, *, strict: b
 
 _lag1_decision_compiled = jit(lag1_decision)
 _clamp_alpha_compiled = jit(clamp_alpha)
+_phase_order0_compiled = jit(phase_order0)
+_quadratic_fit_compiled = jit(quadratic_fit)
+_phase_lag1_result_compiled = jit(phase_lag1_result)
 
 
 @jit
-def _rate_noise_kernel(r, hh, hl, fused, ms, dmax):  # pragma: no cover - compiled
-    """Lag-1 alpha per ``m`` of rate data (NaN: not identified); see :func:`rate_noise_types`."""
+def _decimated_phase_alpha(r, hh, hl, m, count, dmax):  # pragma: no cover - compiled
+    """:func:`phase_order0` of the decimated phase ``x[::m]`` (:func:`decimated_phase_lag1`)."""
+    z = cluster_differences(r, hh, hl, m, count)
+    pm = np.zeros(5)
+    phase_moments(z, count, 0, count, pm)
+    ps = np.zeros(6)
+    phase_residual_lag(z, count, 0, count, _quadratic_fit_compiled(count, pm), ps)
+    r1, den, scale = _phase_lag1_result_compiled(count, pm, ps)
+    return _phase_order0_compiled(r1, den, count + 1, scale)
+
+
+@jit
+def _rate_noise_kernel(r, hh, hl, fused, ms, dmax, on_phase, averaged):  # pragma: no cover
+    """Lag-1 alpha per ``m`` (NaN: not identified) and whether the decimated phase decided
+    it; see :func:`rate_noise_types`."""
     n_increments = r.size - 1
     out = np.empty(ms.size)
+    on_decimated = np.zeros(ms.size, np.bool_)
     r1 = np.empty(dmax + 1)
     den = np.empty(dmax + 1)
     sizes = np.empty(dmax + 1, np.int64)
+    # phase first: the rate orders stop one short (the phase's orders 1 .. dmax)
+    rate_orders = dmax - 1 if on_phase else dmax
     for t in range(ms.size):
         m = ms[t]
         count = n_increments // m
         out[t] = math.nan
         if count >= MIN_POINTS_LAG1:
+            if on_phase:
+                got = _decimated_phase_alpha(r, hh, hl, m, count, dmax)
+                if not math.isnan(got):
+                    out[t] = _clamp_alpha_compiled(got, dmax)
+                    on_decimated[t] = True
+                    continue
             # order 0 first (most taus stop there: delta < 0.25), from the moments gathered
             # while integrating where m is a usable fused level, else one pass over the data
             level = 0
@@ -794,16 +882,18 @@ def _rate_noise_kernel(r, hh, hl, fused, ms, dmax):  # pragma: no cover - compil
                 r1[0], den[0] = r1_0[0], den_0[0]
             orders = 0
             if not (r1[0] == -1.0 or r1[0] / (1.0 + r1[0]) < 0.25):  # r1 = -1 stops too
-                r1_all, den_all, scale = cluster_lag1_sums(r, hh, hl, m, count, dmax)
-                for d in range(dmax + 1):
+                r1_all, den_all, scale = cluster_lag1_sums(r, hh, hl, m, count, rate_orders)
+                for d in range(rate_orders + 1):
                     r1[d], den[d] = r1_all[d], den_all[d]
-                orders = dmax
+                orders = rate_orders
             for d in range(orders + 1):
                 sizes[d] = max(count - d, 0)
-            status, alpha, _ = _lag1_decision_compiled(r1, den, sizes, scale, 0, 0, orders)
+            status, alpha, _ = _lag1_decision_compiled(
+                r1, den, sizes, scale, 0, 0, orders, averaged and m >= 2
+            )
             if status == 0:
                 out[t] = _clamp_alpha_compiled(alpha, dmax)
-    return out
+    return out, on_decimated
 
 
 def rate_noise_types(
@@ -813,25 +903,35 @@ def rate_noise_types(
     *,
     avar: np.ndarray | None = None,
     strict: bool = False,
+    on_phase: bool = False,
+    averaged: bool = False,
 ) -> list[float]:
-    """Alpha per averaging factor of rate data in memory, NaN where none is identified.
+    """Alpha per averaging factor of a record in memory, NaN where none is identified.
 
-    The rule of :func:`identify_noise` on the m-cluster means of the record integrated in
-    ``phase`` (:func:`adavar.differences.anchored_phase`): with at least
-    :data:`MIN_POINTS_LAG1` clusters the lag-1 rule on the linearly detrended cluster sums
-    (:func:`lag1_decision`; order 0 from the moments gathered while integrating where ``m``
-    is a fused level, other orders only when order 0 does not decide), every such tau in
-    one compiled call; with at least :data:`MIN_POINTS_B1` the B1 ratio with R(n) as
+    The rule of :func:`identify_noise` on the record integrated in ``phase``
+    (:func:`adavar.differences.anchored_phase`), every lag-1 tau in one compiled call: with
+    at least :data:`MIN_POINTS_LAG1` clusters, ``on_phase`` first the decimated phase
+    (:func:`phase_order0`; a "white PM" there checked by R(n), :func:`pm_with_rn`), then
+    the lag-1 rule on the linearly detrended cluster sums (:func:`lag1_decision`; order 0
+    from the moments gathered while integrating where ``m`` is a fused level, other orders
+    only when order 0 does not decide; up to ``dmax - 1`` differences ``on_phase``, else
+    ``dmax``); with at least :data:`MIN_POINTS_B1` the B1 ratio with R(n) as
     :func:`b1_with_rn` consults it (``strict``: only where B1 says PM), in NumPy on the
-    few taus concerned. ``avar``, if given, is the overlapping Allan variance at every
-    ``m`` (R(n) then reuses it). Each alpha is clamped to the statistic's range; NaN are
-    left for :func:`fill_unidentified`.
+    few taus concerned. The integrated record is the phase whichever input carried it, so
+    phase data and the rate data ``diff(x) / tau0`` of the same phase get the same types.
+    ``averaged`` tells FM types apart on the averaged rate as :func:`averaged_rule` says.
+    ``avar``, if given, is the overlapping Allan variance at every ``m`` (R(n) then
+    reuses it). Each alpha is clamped to the statistic's range; NaN are left for
+    :func:`fill_unidentified`.
     """
     fused = phase.fused if phase.fused is not None else np.empty((0, 4))
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     if avar is not None and len(avar) != len(ms):
         raise ValueError("internal: avar must give one value per averaging factor")
-    out = _rate_noise_kernel(phase.r, phase.hh, phase.hl, fused, ms, int(dmax)).tolist()
+    values, on_decimated = _rate_noise_kernel(
+        phase.r, phase.hh, phase.hl, fused, ms, int(dmax), bool(on_phase), bool(averaged)
+    )
+    out = values.tolist()
     n_points = phase.n_points
     b1: dict[int, int] = {}  # tau index -> B1 alpha, on the taus too long for lag-1
     for t, m in enumerate(ms.tolist()):
@@ -842,14 +942,16 @@ def rate_noise_types(
                 b1[t] = _b1_rate_alpha((z + phase.shift * m) / m, int(dmax))  # cluster means
             except NoiseIdError:  # a constant series: nothing to identify
                 continue
-    # R(n) where B1 wants it, every such tau in one pass of each kernel
+    # R(n) where B1 or a decimated-phase "white PM" wants it, in one pass of each kernel
     asked = [t for t, alpha in b1.items() if rn_wanted(alpha, int(ms[t]), strict)]
+    white_pm = [t for t in np.flatnonzero(on_decimated).tolist() if out[t] == 2 and ms[t] >= 4]
     ratios: dict[int, float | None] = {}
-    if asked:
-        m_asked = ms[asked]
+    if asked or white_pm:
+        wanted = asked + white_pm
+        m_asked = ms[wanted]
         sums = overlapping_sums(phase, m_asked, 2) if avar is None else None
         mod, counts = modified_sums(phase, m_asked)
-        for k, t in enumerate(asked):
+        for k, t in enumerate(wanted):
             m = int(ms[t])
             if sums is None:
                 var = float(avar[t])
@@ -858,4 +960,27 @@ def rate_noise_types(
             ratios[t] = rn_ratio(var, mvar_of_sum(float(mod[k]), m, int(counts[k])))
     for t, alpha in b1.items():
         out[t] = float(b1_rn_alpha(alpha, int(ms[t]), int(dmax), ratios.get(t), strict=strict))
+    for t in white_pm:
+        out[t] = float(pm_with_rn(2, int(ms[t]), lambda t=t: ratios[t]))
     return out
+
+
+def averaged_rule(noise_id: str, m: int) -> bool:
+    """Whether the lag-1 rule at averaging factor ``m`` tells white, flicker and random-walk
+    FM apart at the averaged rate's boundaries (:data:`AVERAGED_FM_BOUNDS`): with
+    ``noise_id="sp1065"`` and ``m >= 2``; ``"input"`` and ``"stable32"`` round ``2 delta``
+    as Riley & Greenhall do (adavar before 0.2)."""
+    return noise_id == "sp1065" and int(m) >= 2
+
+
+def starts_on_phase(data_type: str, noise_id: str) -> bool:
+    """Whether the lag-1 test starts on the decimated phase (:data:`NOISE_ID_RULES`).
+
+    ``"sp1065"``: always, the rate record being integrated to its phase (the noise, not the
+    input type, decides: flicker PM as rate data was read as white PM in half the records
+    at m = 16-128 when the test started on the m-averaged rate); ``"input"``: for phase
+    data only (adavar before); ``"stable32"``: never.
+    """
+    if noise_id == "stable32":
+        return False
+    return noise_id != "input" or _data_type(data_type) == "phase"

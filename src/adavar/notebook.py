@@ -145,7 +145,7 @@ def html_of(obj: Any) -> str:
     raise TypeError(f"no notebook view for {type(obj).__name__}")
 
 
-def plot_of(obj: Any, **kwargs: Any) -> Any:
+def plot_of(obj: Any, ax: Any = None, **kwargs: Any) -> Any:
     """The result's standard figure, returning its (first) matplotlib axes.
 
     Parameters
@@ -153,6 +153,11 @@ def plot_of(obj: Any, **kwargs: Any) -> Any:
     obj : DeviationResult, NoiseFit, DavarResult or AdaptiveResult
         A deviation curve (with ``fit=`` for its noise fit), a DAVAR surface (heat map) or
         a DAVAR stack's fit (one coefficient over time, ``term=``).
+    ax : matplotlib.axes.Axes, optional
+        Draw on these axes. Default: a new figure, made by pyplot (``plt.figure()``, the
+        current figure: ``plt.savefig`` and ``plt.show`` see it) when the caller has
+        imported :mod:`matplotlib.pyplot`, else a plain :class:`~matplotlib.figure.Figure`
+        (``ax.figure.savefig``).
     **kwargs
         Passed to :func:`adavar.plots.deviation_figure`,
         :func:`~adavar.plots.davar_heatmap_figure` or
@@ -161,19 +166,21 @@ def plot_of(obj: Any, **kwargs: Any) -> Any:
     Returns
     -------
     matplotlib.axes.Axes
-        The axes of the new figure (``ax.figure`` is the figure).
+        ``ax``, or the axes of the new figure (``ax.figure`` is the figure).
     """
     from adavar import plots
+    from adavar._figures import pyplot_figures
     from adavar.results import DavarResult, DeviationResult, NoiseFit
 
-    if isinstance(obj, DeviationResult):
-        fig = plots.deviation_figure(obj, **kwargs)
-    elif isinstance(obj, DavarResult):
-        fig = plots.davar_heatmap_figure(obj, **kwargs)
-    elif isinstance(obj, NoiseFit):
-        if obj.time is None:
-            raise TypeError("a whole-record fit is drawn with its curve: result.plot(fit=fit)")
-        fig = plots.coefficient_figure(obj, **kwargs)
-    else:
-        raise TypeError(f"no figure for {type(obj).__name__}")
-    return fig.axes[0]
+    with pyplot_figures():
+        if isinstance(obj, DeviationResult):
+            fig = plots.deviation_figure(obj, ax=ax, **kwargs)
+        elif isinstance(obj, DavarResult):
+            fig = plots.davar_heatmap_figure(obj, ax=ax, **kwargs)
+        elif isinstance(obj, NoiseFit):
+            if obj.time is None:
+                raise TypeError("a whole-record fit is drawn with its curve: result.plot(fit=fit)")
+            fig = plots.coefficient_figure(obj, ax=ax, **kwargs)
+        else:
+            raise TypeError(f"no figure for {type(obj).__name__}")
+    return fig.axes[0] if ax is None else ax

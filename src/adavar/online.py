@@ -26,16 +26,26 @@ range, which the offline scale avoids).
 Latency
 -------
 The row of centre ``c`` is emitted when sample ``c + Lmax // 2`` arrives (:attr:`latency`).
-Hourly calibrated thresholds (``thresholds="calibrated"`` with ``false_alarm_per_hour``)
-need the record's short-range correlation, which the offline pass measures on its first
-:data:`adavar.thresholds.DEPENDENCE_SAMPLES` samples: the online pass waits for as many
-(or for :meth:`~OnlineAdaptive.finish`) before its first row, unless ``dependence`` is
-given. An event is emitted as soon as the change out of its stretch is detected: a change
-time is estimated at the leading edge (``centre + Lmax // 2``) of the last full window
-before the window shrinks, so with the row latency of ``Lmax // 2`` the event comes with
-the sample after its ``end_s`` (up to ``step`` samples later). Its ``before`` and
-``during`` summaries are final then; its ``after`` summary is final when the next change
-is detected or at :meth:`~OnlineAdaptive.finish` (:attr:`OnlineAdaptive.final_count`).
+Hourly calibrated thresholds (the default: ``thresholds="calibrated"`` with
+``false_alarm_per_hour``) need the record's short-range correlation. Both passes estimate
+it in stages (:func:`adavar.adaptive.dependence_stages`): on the first ``max(8192, Lmax //
+2 + 1)`` samples (41 s at 200 Hz; the first row waits for them, or for
+:meth:`~OnlineAdaptive.finish`, unless ``dependence`` is given), then on the first 2, 4,
+... times as many up to :data:`adavar.thresholds.DEPENDENCE_SAMPLES` (2**20). Each
+refined estimate sets the thresholds of the centres from the first multiple of REANCHOR
+at or after ``H - Lmax // 2`` (``H`` the samples it read), none of whose rows has been
+emitted when those samples arrive: an emitted row or event is never revised, a refinement
+changes the tests of the centres still to come only, and the offline pass, which applies
+the same stages, gives the same windows. (Before 0.2 the live pass waited for 2**20
+samples, 87 minutes at 200 Hz, and the offline one used that one estimate throughout.)
+Events are those of :func:`adavar.events.find_events` (one :class:`adavar.events.
+EventTracker` pairs the episodes for both): an episode of shortened windows is decided
+once the N of the windows up to ``Lmax / 2 + 2 Lmax`` after its end has been fitted (or
+the next episode begins), so the event that ends with it comes about ``3 Lmax`` after its
+``end_s`` (plus the row latency). Its ``before`` and ``during`` summaries are final then;
+its ``after`` summary is final when the next episode is decided or at
+:meth:`~OnlineAdaptive.finish` (:attr:`OnlineAdaptive.final_count`). (Before 0.2 an event
+came with the sample after its ``end_s``, paired by parity: one spike inverted the rest.)
 
 The ICI window (``method="ici"``)
 ---------------------------------
@@ -44,12 +54,14 @@ The ICI window (``method="ici"``)
 :func:`adavar.ici.ici_block` centres (``lmax / 2``) aligned on centre 0, offline and
 online alike, so every estimate, interval and decision is the offline one. A unit is
 computed when the right ``lmax`` window of its last centre has arrived: the row of centre
-``c`` comes by sample ``c + ici_block(lmax) + lmax - 2`` (:attr:`OnlineAdaptive.latency`,
-about ``1.5 lmax``, not ``lmax / 2``: a right-sided window at ``c`` ends at
-``c + lmax - 1``). Where the left and right windows tie but disagree (a few centres at a
-change), a centre's side depends on its whole run of such centres: those rows come when
-the run closes. A change at ``c`` is final once the contrast ``lmax / 2`` centres after it
-is known (about ``2 lmax`` after ``c``), and becomes an event when the rows up to it have
+``c`` comes by sample ``c + ici_block(lmax) + lmax - 2`` (about ``1.5 lmax``, not
+``lmax / 2``: a right-sided window at ``c`` ends at ``c + lmax - 1``), and with
+``ici_episodes`` (default) ``1.75 lmax`` later, when no episode's ramp can change its
+window any more (:attr:`OnlineAdaptive.latency`, :mod:`adavar.online_ici`). Where the left
+and right windows tie but disagree (a few centres at a change), a centre's side depends on
+its whole run of such centres: those rows come when the run closes. A change is final once
+its episode is closed and segmented (``ici_episodes``; without, once the contrast
+``lmax / 2`` centres after it is known), and becomes an event when the rows up to it have
 been emitted. The EDF is measured on the first ``ici_edf_samples`` samples (default
 :data:`adavar.settings.ICI_EDF_SAMPLES`, 2**16): nothing is emitted before they have
 arrived, and the offline pass equals the online one given the same ``ici_edf_samples``.
@@ -61,28 +73,26 @@ scaling, online or offline).
 from __future__ import annotations
 
 import bisect
-import dataclasses
-import math
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
 from adavar._jit import get_num_threads
-from adavar.adaptive import record_windows, window_lengths
-from adavar.controller import REANCHOR, Controller, make_controller
+from adavar.adaptive import window_lengths
+from adavar.controller import REANCHOR, Controller, needs_head
 from adavar.davar import edf_table
 from adavar.differences import window_avar
 from adavar.durations import Length
 from adavar.edf import STAT_ALPHA_RANGE
 from adavar.errors import AdavarInputError
-from adavar.events import Event, stretch_summary
+from adavar.events import Event, EventTracker, stretch_summary
 from adavar.noise_model import fit_avar
 from adavar.online_ici import ICI_EDF_SAMPLES, IciTracker
-from adavar.settings import CONTROLLER, ICI_GAMMA
+from adavar.settings import CONTROLLER, HOURLY_FALSE_ALARMS, ICI_GAMMA, THRESHOLDS, threshold_mode
 from adavar.statistics import data_exponent, resolve_tau0, tau_factors, unscale
 from adavar.terms import TERM_NAMES
-from adavar.thresholds import DEPENDENCE_SAMPLES, hourly_thresholds, noise_dependence
+from adavar.window_defaults import dependence_stages, resolve_windows, stage_controller
 
 __all__ = ["ONLINE_METHODS", "OnlineAdaptive"]
 
@@ -172,7 +182,9 @@ class OnlineAdaptive:
 
     The results equal those of the offline pass on the same record:
     ``.window`` is ``adaptive_davar(x, rate=rate, ..., step=step).window`` bit for bit,
-    ``.coefficients`` (``.arw``) is ``fit_noise(that result, terms=terms)`` to rounding
+    ``.coefficients`` (``.arw``) is ``fit_noise(that result, terms=terms,
+    reference=None)`` to rounding (a stream has no whole record to take a filter's roll-off
+    from: give ``fit_options={"reference": fit}`` of an earlier record of the sensor)
     (1e-12 relative) when the offline pass is given ``taus``, ``noise_type`` and
     ``edge_edf`` alike, and ``.events`` after :meth:`finish` is
     :func:`adavar.events.find_events` of those windows and coefficients with
@@ -183,26 +195,37 @@ class OnlineAdaptive:
     ----------
     rate : float
         Sample rate, Hz.
-    lmax, lmin, l : int, str, Duration or timedelta
+    lmax, lmin, l : int, str, Duration or timedelta, optional
         Longest (start) and shortest window and the S test's leading segment: samples or
-        durations, as in :func:`adavar.adaptive_davar`. ``lmin`` and ``l`` not given: two
-        thirds and a sixth of ``lmax`` (:func:`adavar.adaptive.record_windows`; the paper's
-        400 and 100 of 600).
+        durations, as in :func:`adavar.adaptive_davar`. ``lmax`` not given:
+        :data:`adavar.settings.STREAM_LMAX_SECONDS` (180 s, a tenth of a 30-minute record:
+        a stream has no length to take a tenth of; the offline default on a 30-minute
+        record is the same; before 0.2, the paper's 600 samples). ``lmin`` and ``l`` not
+        given: two thirds and a sixth of ``lmax`` (:func:`adavar.adaptive.record_windows`;
+        the paper's 400 and 100 of 600).
     method : {"adaptive", "kurtosis", "ici"}
         A-DAVAR, DAVAR-K, or the intersection-of-confidence-intervals window
-        (docs/method.md section 11; module notes: its latency is about ``1.5 lmax``). For
+        (docs/method.md section 11; module notes: its latency is about ``3.3 lmax``). For
         ``"ici"`` the kurtosis settings (``k1`` .. ``dependence``) are not used and the
         windows, ``.shift`` and the change points equal
         ``adaptive_davar(x, method="ici", ici_edf_samples=K, ...)``'s.
     k1, k2, s1, s2, dl0, dl1, s_test, combine, thresholds, false_alarm, false_alarm_per_hour
-        As in :func:`adavar.adaptive_davar` (the paper's values and thresholds by
-        default).
+        As in :func:`adavar.adaptive_davar`: thresholds calibrated for 0.1 false events per
+        stationary hour by default (before 0.2, the paper's; ``thresholds="paper"`` gives
+        them).
     dependence : (float, float), optional
         The record's ``(c2, c4)`` (:func:`adavar.thresholds.noise_dependence`) for hourly
-        thresholds, given instead of measured on the first
-        :data:`~adavar.thresholds.DEPENDENCE_SAMPLES` samples: no wait at the start, and
-        the windows equal the offline ones when it equals the offline measurement (see
-        ``.parameters["dependence"]`` of a previous run).
+        thresholds, given instead of estimated in stages (module notes): no wait at the
+        start, and the windows of ``adaptive_davar(..., dependence=)`` given the same
+        (``.parameters["dependence"]`` of a previous run is the last estimate).
+    kurtosis_reference : {"record", "gaussian"} or dict
+        As in :func:`adavar.adaptive_davar`: the record's own stationary noise (default),
+        fitted on the same heads as the correlation (stages, module notes; so the wait for
+        the first head holds with ``dependence`` given too), Gaussian noise, or the fit of
+        a previous run (``.parameters["kurtosis_reference_fit"]``): with ``dependence``
+        given too, no wait at the start.
+    pairing : {"level", "parity"}
+        How the episodes make events, as :func:`adavar.events.find_events`.
     step : int, str, Duration or timedelta
         Keep the rows of the centres that are multiples of ``step`` (as
         ``adaptive_davar(..., step=step)``); the controller still visits every centre.
@@ -246,6 +269,9 @@ class OnlineAdaptive:
         ``method="ici"``: samples the EDF is measured on before the first row (default
         :data:`adavar.settings.ICI_EDF_SAMPLES`, 2**16, 5.5 minutes at 200 Hz); give the
         offline pass the same.
+    ici_kurtosis, ici_episodes : bool
+        ``method="ici"``: as in :func:`adavar.adaptive_davar` (the live events are the
+        steps; ramps change the windows, but are not events here).
 
     Attributes
     ----------
@@ -255,7 +281,10 @@ class OnlineAdaptive:
         Each fitted term's value at the rows fitted so far (``.arw`` for N).
     events : list of Event
         The stretches confirmed so far (:class:`adavar.events.Event`), the first
-        ``final_count`` of them with every summary final.
+        ``final_count`` of them with every summary final; after :meth:`finish`, the change
+        times of ``adaptive_davar(...).events`` on the record with the same settings, and
+        the summaries of its ``events_with(fit_noise(result, terms=terms))`` given the
+        same ``taus``, ``noise_type`` and ``edge_edf`` (see ``.coefficients``).
     shift : ndarray of int64
         ``method="ici"``: the offset of each kept row's window from its centre (a
         one-sided window, as ``adaptive_davar(...).shift``); zeros otherwise.
@@ -264,8 +293,10 @@ class OnlineAdaptive:
         ``adaptive_davar(..., method="ici").parameters["ici_changes"]``; empty otherwise.
     latency : int
         Samples between a centre and the emission of its row: ``lmax // 2``; for
-        ``method="ici"`` ``ici_block(lmax) + lmax - 2`` (about ``1.5 lmax``), longer for
-        the centres of a run of tied, disagreeing sides (module notes).
+        ``method="ici"`` ``ici_block(lmax) + lmax - 2 + lmax + lmax // 4 + lmax // 2``
+        (about ``3.3 lmax``; without ``ici_episodes`` ``ici_block(lmax) + lmax - 2``),
+        longer for the centres of a run of tied, disagreeing sides or of an episode (module
+        notes).
 
     Raises
     ------
@@ -284,7 +315,8 @@ class OnlineAdaptive:
     Python call per push; the rows' variances O(M) per kept row; the fit a few microseconds
     per kept row (``docs/benchmarks.md``, "Online adaptive pass"). Memory: with
     ``keep="recent"`` the last push, the samples of one ``REANCHOR`` block and a window
-    (before hourly thresholds are set, the first ``DEPENDENCE_SAMPLES``; ICI: an engine unit
+    (until the last estimate of the correlation of hourly thresholds, the first
+    ``DEPENDENCE_SAMPLES``, 8 MB; ICI: an engine unit
     and two ``lmax``, the first ``ici_edf_samples`` until the EDF is set, and the state of
     an open run of tied sides), the rows since the last change (a window length and each
     term's value: 12 bytes a row with N alone; centres and times are computed when asked),
@@ -302,7 +334,8 @@ class OnlineAdaptive:
     >>> for piece in np.array_split(x, 7):
     ...     new_events = live.push(piece)
     >>> last_events = live.finish()
-    >>> bool(np.array_equal(live.window, adavar.adaptive_davar(x, rate=100.0).window))
+    >>> offline = adavar.adaptive_davar(x, rate=100.0, lmax=600)
+    >>> bool(np.array_equal(live.window, offline.window))
     True
     """
 
@@ -310,7 +343,7 @@ class OnlineAdaptive:
         self,
         *,
         rate: float,
-        lmax: Length = CONTROLLER.lmax,
+        lmax: Length | None = None,
         lmin: Length | None = None,
         l: Length | None = None,  # noqa: E741 - the paper's name
         method: str = "adaptive",
@@ -322,10 +355,12 @@ class OnlineAdaptive:
         dl1: int = CONTROLLER.dl1,
         s_test: str = CONTROLLER.s_test,
         combine: str = CONTROLLER.combine,
-        thresholds: str = CONTROLLER.thresholds,
-        false_alarm: float = CONTROLLER.false_alarm,
-        false_alarm_per_hour: float | None = None,
+        thresholds: str = THRESHOLDS,
+        false_alarm: float | None = None,
+        false_alarm_per_hour: float | None = HOURLY_FALSE_ALARMS,
         dependence: tuple[float, float] | None = None,
+        kurtosis_reference: str | dict = "record",
+        pairing: str = "level",
         step: Length = 1,
         terms: Sequence[str] | None = ("angle_random_walk",),
         taus: str | Sequence[float] = "octave",
@@ -342,6 +377,8 @@ class OnlineAdaptive:
         ici_sides: str = "both",
         ici_edf: str = "correlation",
         ici_edf_samples: int | None = ICI_EDF_SAMPLES,
+        ici_kurtosis: bool = True,
+        ici_episodes: bool = True,
     ) -> None:
         if method not in ONLINE_METHODS:
             raise AdavarInputError(
@@ -352,12 +389,11 @@ class OnlineAdaptive:
         if edge_edf not in ("distinct", "interior"):
             raise AdavarInputError(f"unknown edge_edf {edge_edf!r}: use 'distinct' or 'interior'")
         dt = resolve_tau0(rate, None)
-        big = window_lengths(dt, lmax=lmax, lmin=5, l=1, step=1)[0]
-        _, small, seg = record_windows(0, big)
-        lmax, lmin, seg, step = window_lengths(
-            dt, lmax=big, lmin=small if lmin is None else lmin, l=seg if l is None else l,
-            step=step,
-        )  # fmt: skip
+        lmax, lmin, l = resolve_windows(None, dt, lmax, lmin, l)  # noqa: E741
+        lmax, lmin, seg, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)
+        thresholds, false_alarm, false_alarm_per_hour = threshold_mode(
+            thresholds, false_alarm, false_alarm_per_hour
+        )
         if (
             isinstance(fit_batch, bool)
             or not isinstance(fit_batch, (int, np.integer))
@@ -382,7 +418,8 @@ class OnlineAdaptive:
         if method == "ici":  # windows reach lmax - 1 samples either side of their centre
             self._ici = IciTracker(lmax=lmax, lmin=lmin, lengths=ici_lengths, taus=ici_taus,
                                    gamma=ici_gamma, sides=ici_sides, edf=ici_edf,
-                                   edf_samples=ici_edf_samples)  # fmt: skip
+                                   edf_samples=ici_edf_samples, kurtosis=ici_kurtosis,
+                                   episodes=ici_episodes)  # fmt: skip
             self.latency = self._ici.latency
             self._pad, self._ahead = lmax, lmax - 1
             self._ici_queue: list[int] = []  # changes waiting for their rows
@@ -391,26 +428,24 @@ class OnlineAdaptive:
             method=method, lmax=lmax, lmin=lmin, seg=seg, dl0=dl0, dl1=dl1, k1=k1, k2=k2,
             s1=s1, s2=s2, s_test=s_test, combine=combine, thresholds=thresholds,
             false_alarm=false_alarm, false_alarm_per_hour=false_alarm_per_hour, rate=1.0 / dt,
+            kurtosis_reference=kurtosis_reference,
         )  # fmt: skip
         self._hourly = thresholds == "calibrated" and false_alarm_per_hour is not None
-        quick = self._settings | {"thresholds": "paper"} if self._hourly else self._settings
-        self._ctl: Controller | None = None
-        checked = None if self._ici else make_controller(**quick)
-        if checked is None:
+        self._dependence = dependence
+        # the controllers in force from their first centres on (dependence_stages): hourly
+        # thresholds wait for each estimate of the record's correlation, others need none
+        self._stages: list[tuple[int, Controller]] = []
+        self._planned: list[tuple[int, int]] = []  # (first centre, head) still to measure
+        self._measured: list[int] = []  # samples each stage's estimate read
+        if self._ici:
             pass  # ICI: no kurtosis controller; its EDF is measured on the head
-        elif self._hourly and dependence is not None:
-            dep = tuple(float(c) for c in dependence)
-            if len(dep) != 2 or not all(math.isfinite(c) and c >= 1.0 for c in dep):
-                raise AdavarInputError(
-                    f"dependence must be (c2, c4), two numbers >= 1, got {dependence!r}"
-                )
-            th = hourly_thresholds(
-                lmin, lmax, seg, rate=1.0 / dt, per_hour=float(false_alarm_per_hour),
-                dependence=dep, s_test=s_test,
-            )  # fmt: skip
-            self._ctl = dataclasses.replace(checked, thresholds=th, dependence=dep)
-        elif not self._hourly:
-            self._ctl = checked
+        elif needs_head(thresholds, false_alarm_per_hour, kurtosis_reference, dependence):
+            quick = self._settings | {"thresholds": "paper"}
+            # the settings checked now, not when the head is in
+            stage_controller(quick, dependence=dependence)
+            self._planned = dependence_stages(None, lmax)
+        else:
+            self._stages = [(0, stage_controller(self._settings, dependence=dependence))]
         # the rows' variances and their fit
         self.terms = tuple(terms) if terms else ()
         if self.terms:
@@ -447,15 +482,29 @@ class OnlineAdaptive:
         # rows to fit: centres, lengths, shifts (None: centred)
         self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
         self._trimmed_at = 0  # rows held after the last trim (keep="recent")
-        # events: the kept change times, the state at the last kept row, the stretches
-        self._changes: list[float] = []
+        # events: the episodes paired as find_events pairs them (one implementation), the
+        # state at the last kept row: shortened or not, its centre and length, and the
+        # first row of the regrowth under way (where the trailing edge is pinned)
+        self._tracker = EventTracker(
+            lmax, dt, self._values, pairing=pairing,
+            level="angle_random_walk" if "angle_random_walk" in self.terms else None,
+        )  # fmt: skip
         self._last_short = False
         self._last_centre: int | None = None
-        self._opening: dict[str, Any] = {}  # the "before" of the open stretch
-        self.events: list[Event] = []
-        self.final_count = 0
+        self._last_window = lmax
+        self._regrowth: tuple[int, int] = (0, lmax)  # (centre, length)
 
     # ------------------------------------------------------------------ results so far
+
+    @property
+    def events(self) -> list[Event]:
+        """The events confirmed so far (:class:`adavar.events.Event`)."""
+        return self._tracker.events
+
+    @property
+    def final_count(self) -> int:
+        """How many of :attr:`events` have every summary final."""
+        return self._tracker.final_count
 
     @property
     def window(self) -> np.ndarray:
@@ -527,14 +576,15 @@ class OnlineAdaptive:
 
     @property
     def waiting(self) -> int:
-        """Samples still needed before the first row can be computed: the head the hourly
-        thresholds are measured on (0 once they are set), or the first half window."""
+        """Samples still needed before the first row can be computed: the first head the
+        hourly thresholds are measured on (:func:`adavar.adaptive.dependence_stages`: the
+        larger of 8192 samples and half ``lmax``), or the first half window."""
         if self._ici is not None:
             if not self._ici.ready:
                 return max(0, int(self._ici.options.edf_samples or 0) - self._n)
             return max(0, self.lmax - self._n)
-        if self._ctl is None:
-            return max(0, DEPENDENCE_SAMPLES - self._n)
+        if not self._stages:
+            return max(0, self._planned[0][1] - self._n)
         return max(0, self.lmax // 2 + 1 - self._n)
 
     @property
@@ -553,8 +603,14 @@ class OnlineAdaptive:
                         ici_edf=o.edf, ici_edf_samples=o.edf_samples)  # fmt: skip
         out = {k: v for k, v in self._settings.items() if k != "seg"}
         out.update(l=self.segment, step=self.step, sample_rate=self.rate)
-        ctl = self._ctl
+        ctl = self._stages[-1][1] if self._stages else None
         out["dependence"] = None if ctl is None or ctl.dependence is None else list(ctl.dependence)
+        out["kurtosis_reference_fit"] = None if ctl is None or ctl.reference is None \
+            else ctl.reference.as_dict()  # fmt: skip
+        # as adaptive_davar's: [first centre, samples, c2, c4] of each estimate so far
+        out["dependence_stages"] = None if not self._hourly or ctl is None or not self._measured \
+            else [[c, h, *map(float, k.dependence or ())]
+                  for (c, k), h in zip(self._stages, self._measured, strict=True)]  # fmt: skip
         return out
 
     # ------------------------------------------------------------------ feeding
@@ -647,8 +703,10 @@ class OnlineAdaptive:
         return x
 
     def _append(self, x: np.ndarray) -> None:
-        # drop what no window will read again (the head is kept until the thresholds exist)
-        if self._ctl is not None or (self._ici is not None and self._ici.ready):
+        # drop what no window will read again (the head is kept until the last estimate of
+        # the correlation has been made: at most DEPENDENCE_SAMPLES samples)
+        settled = bool(self._stages) and not self._planned
+        if settled or (self._ici is not None and self._ici.ready):
             oldest = min(self._q, self._emitted)
             if self._pending:  # rows waiting for their fit read their windows again
                 oldest = min(oldest, int(self._pending[0][0][0]))
@@ -685,20 +743,16 @@ class OnlineAdaptive:
             if not self._ici.ready and (self._n >= head_size or final):
                 self._ici.set_edf(self._x[: min(self._xn, head_size)])
             return self._ici.ready
-        if self._ctl is not None:
-            return True
-        if self._n < DEPENDENCE_SAMPLES and not final:
-            return False
-        head = self._x[: min(self._xn, DEPENDENCE_SAMPLES)]  # held from sample 0 until now
-        dep = tuple(round(c, 3) for c in noise_dependence(head))
-        th = hourly_thresholds(
-            self.lmin, self.lmax, self.segment, rate=self.rate,
-            per_hour=float(self._settings["false_alarm_per_hour"]), dependence=dep,
-            s_test=str(self._settings["s_test"]),
-        )  # fmt: skip
-        quick = make_controller(**(self._settings | {"thresholds": "paper"}))
-        self._ctl = dataclasses.replace(quick, thresholds=th, dependence=dep)
-        return True
+        # each estimate of the correlation once its head has arrived (the first one at the
+        # end of a shorter record): it governs the centres from its first one on, none of
+        # which has been emitted yet (adavar.adaptive.dependence_stages)
+        while self._planned and (self._n >= self._planned[0][1] or (final and not self._stages)):
+            centre, size = self._planned.pop(0)
+            size = min(size, self._n)
+            head = self._x[:size]  # held from sample 0 until the last estimate
+            self._stages.append((centre, stage_controller(self._settings, head, self._dependence)))
+            self._measured.append(size)
+        return bool(self._stages)
 
     def _advance(self, *, final: bool) -> list[Event]:
         if not self._make_controller(final):
@@ -714,8 +768,6 @@ class OnlineAdaptive:
 
     def _advance_to(self, avail: int, final: bool) -> list[Event]:
         """The rows of the centres before ``avail`` (every window of which has arrived)."""
-        ctl = self._ctl
-        assert ctl is not None
         q = self._q
         if avail <= max(q, self._emitted):
             return []
@@ -723,8 +775,18 @@ class OnlineAdaptive:
         ext = self._extended(q - pad, avail + pad if final else avail + self.lmax // 2, final)
         # one thread: no speculative segments (their warm-up is pure overhead there)
         segments = 1 if get_num_threads() == 1 else None
-        out, end_length = ctl.run(ext, pad, avail - q, self._length, segments=segments)
-        window = out[0]
+        # each stage's centres by its controller, from the length the last one ended with
+        starts = [c for c, _ in self._stages]
+        k = bisect.bisect_right(starts, q) - 1
+        window = np.empty(avail - q, dtype=np.int64)
+        end_length, a = self._length, q
+        while a < avail:
+            b = min(avail, starts[k + 1]) if k + 1 < len(starts) else avail
+            out, end_length = self._stages[k][1].run(
+                ext[a - q :], pad, b - a, end_length, segments=segments
+            )
+            window[a - q : b - q] = out[0]
+            a, k = b, k + 1
         settled = q + (avail - q) // REANCHOR * REANCHOR
         if final:
             settled = avail
@@ -763,15 +825,13 @@ class OnlineAdaptive:
                         self._flush_fit()
         self._ici_queue += changes
         self.ici_changes += changes
-        new: list[Event] = []
-        # a change's summaries read the rows before it: wait until they are emitted
+        # a change's summaries read the rows before it: wait until they are emitted; each
+        # change point is an episode of its own (find_events(changes=...))
         while self._ici_queue and (final or self._ici_queue[0] < tracker.emitted):
-            c = self._ici_queue.pop(0)
-            when = float(self.t0 + c * self.tau0)  # as adavar adaptive's ici_changes
-            # a change within lmax / 4 of the last one is the same (find_events)
-            if self._changes and not when - self._changes[-1] > 0.25 * self.lmax * self.tau0:
-                continue
-            new += self._on_change(when)
+            when = float(self.t0 + self._ici_queue.pop(0) * self.tau0)  # as ici_changes
+            self._tracker.start(when)
+            self._tracker.end(when)
+        new = self._tracker.advance(self._horizon())
         if self.keep == "recent" and (new or self._rows.size > 2 * self._trimmed_at + self.lmax):
             self._trim()
         return new
@@ -837,92 +897,79 @@ class OnlineAdaptive:
 
     # ------------------------------------------------------------------ events
 
-    def _values(self, above: float, below: float) -> dict[str, dict[str, Any]]:
-        """The summaries over the held rows with ``above < time < below``."""
-        if not self.terms:
+    def _values(self, above: float, below: float, names: Any = None) -> dict[str, Any]:
+        """The summaries over the held rows with ``above < time < below`` (of ``names``
+        only, if given)."""
+        chosen = [name for name in self.terms if names is None or name in names]
+        if not chosen:
             return {}
         self._flush_fit()
         lo = self._rows_before(above, "right")
         hi = max(lo, self._rows_before(below, "left"))
-        return {name: stretch_summary(self._coef.column(name)[lo:hi]) for name in self.terms}
+        return {name: stretch_summary(self._coef.column(name)[lo:hi]) for name in chosen}
+
+    def _horizon(self) -> float:
+        """Time of the last row emitted: every window up to it is known."""
+        if self._rows.size == 0:
+            return -np.inf
+        return self._row_time(self._rows.first + self._rows.size - 1)
 
     def _scan_changes(self, start_row: int, lengths: np.ndarray, centres: np.ndarray) -> list:
-        """The changes the new rows reveal (:func:`adavar.events.change_times`)."""
-        if not self._last_short and int(lengths.min()) >= self.lmax:  # nothing shrank
-            self._last_centre = int(centres[-1])
-            if self.keep == "recent" and self._rows.size > 2 * self._trimmed_at + self.lmax:
-                self._trim()
-            return []
-        short = lengths < self.lmax
-        before = np.concatenate(([self._last_short], short[:-1]))
-        starts = np.flatnonzero(short & ~before)
-        new: list[Event] = []
-        for a in starts.tolist():
-            if a > 0:
-                c = centres[a - 1]
-            elif self._last_centre is not None:
-                c = np.int64(self._last_centre)
-            else:
-                c = centres[a]
-            when = float(self.t0 + (c + self.lmax // 2) * self.tau0)
-            # a window that regrows a step and shrinks again saw the same change
-            if self._changes and not when - self._changes[-1] > 0.25 * self.lmax * self.tau0:
-                continue
-            new += self._on_change(when)
-        self._last_short = bool(short[-1])
+        """The episodes the new rows reveal (:func:`adavar.events.change_episodes`: each
+        run's lead at its start, its trail at its end) and the events they decide."""
+        tracker = self._tracker
+        if self._last_short or int(lengths.min()) < self.lmax:
+            lmax, t0, tau0 = self.lmax, self.t0, self.tau0
+            short = lengths < lmax
+            before = np.concatenate(([self._last_short], short[:-1]))
+            starts = np.flatnonzero(short & ~before).tolist()
+            ends = np.flatnonzero(~short & before).tolist()  # the first full row after a run
+            run = 0 if self._last_short else None  # first row of the run under way
+            for index in sorted(starts + ends):
+                if short[index]:  # a run begins: its lead
+                    if index > 0:
+                        c = int(centres[index - 1])
+                    else:
+                        c = self._last_centre if self._last_centre is not None else int(centres[0])
+                    tracker.start(float(t0 + (c + lmax // 2) * tau0))
+                    run = index
+                else:  # it ended on the row before: its trail
+                    c, w = self._regrowth_start(lengths, centres, index - 1, run)
+                    tracker.end(float(t0 + (c - (w - 1) // 2) * tau0))
+                    run = None
+            if short[-1]:  # a run goes on: where its regrowth under way started
+                self._regrowth = self._regrowth_start(lengths, centres, lengths.size - 1, run)
+            self._last_short = bool(short[-1])
         self._last_centre = int(centres[-1])
+        self._last_window = int(lengths[-1])
+        new = tracker.advance(self._horizon())
         if self.keep == "recent" and (new or self._rows.size > 2 * self._trimmed_at + self.lmax):
             self._trim()  # amortised: the held rows are read when they have doubled
         return new
 
-    def _on_change(self, when: float) -> list[Event]:
-        margin = 0.5 * self.lmax * self.tau0
-        changes = self._changes
-        changes.append(when)
-        k = len(changes) - 1
-        previous = changes[k - 1] if k > 0 else -np.inf
-        between = self._values(previous + margin, when - margin)
-        out: list[Event] = []
-        if k % 2 == 0:  # a stretch opens: its "before" is the previous one's "after"
-            if k >= 2:
-                self.events[-1] = dataclasses.replace(self.events[-1], after=between)
-                self.final_count = len(self.events)
-            self._opening = between
-        else:  # it closes: confirmed, its "after" is final at the next change or the end
-            start = changes[k - 1]
-            during = self._values(start + margin, when - margin)
-            empty = self._values(np.inf, -np.inf)
-            event = Event(start_s=start, end_s=when, before=self._opening, during=during,
-                          after=empty)  # fmt: skip
-            self.events.append(event)
-            out.append(event)
-        return out
+    def _regrowth_start(
+        self, lengths: np.ndarray, centres: np.ndarray, last: int, run: int | None
+    ) -> tuple[int, int]:
+        """(centre, length) of the first row of the increasing lengths that end at row
+        ``last`` of these rows (``run``: the run's first row here, None if it began
+        before them), as :func:`adavar.events.change_episodes` finds it."""
+        e = last
+        first = 0 if run is None else run
+        while e > first and lengths[e - 1] < lengths[e]:
+            e -= 1
+        if e == 0 and run is None and lengths[0] > self._last_window:
+            return self._regrowth  # the regrowth began before these rows
+        return int(centres[e]), int(lengths[e])
 
     def _close_events(self) -> list[Event]:
-        """At the end: the last stretch's "after", or an open stretch to the record's end."""
-        margin = 0.5 * self.lmax * self.tau0
-        changes = self._changes
-        out: list[Event] = []
-        if len(changes) % 2 == 1:
-            start = changes[-1]
-            stop = self.t0 + self._n / self.rate
-            during = self._values(start + margin, stop - margin)
-            empty = self._values(np.inf, -np.inf)
-            event = Event(start_s=start, end_s=None, before=self._opening, during=during,
-                          after=empty)  # fmt: skip
-            self.events.append(event)
-            out.append(event)
-        elif changes:
-            end = changes[-1]
-            after = self._values(end + margin, np.inf)
-            self.events[-1] = dataclasses.replace(self.events[-1], after=after)
-        self.final_count = len(self.events)
-        return out
+        """At the end: every episode decided, the last summaries final."""
+        return self._tracker.advance(
+            np.inf, final=True, end_of_record=self.t0 + self._n / self.rate
+        )
 
     def _trim(self) -> None:
-        """keep="recent": rows before the last change (and older than lmax rows) go."""
-        last = self._changes[-1] if self._changes else -np.inf
-        since = self._rows_before(last, "right")
+        """keep="recent": rows no summary still to come reads (and older than lmax rows) go."""
+        since = self._rows_before(self._tracker.keep_from(), "right")
         recent = max(0, self._rows.size - max(1, self.lmax // self.step))
         self._drop_rows(self._rows.first + min(since, recent))
         self._trimmed_at = self._rows.size

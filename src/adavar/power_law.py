@@ -89,7 +89,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar import avar_covariance, gls_fit
+from adavar import avar_covariance, gls_core, gls_fit
 from adavar import edf as edf_mod
 from adavar.errors import AdavarInputError
 from adavar.results import NoiseTerm
@@ -576,9 +576,13 @@ def _check_terms(terms: Any, drift: bool) -> tuple[str, ...]:
 class _Covariance:
     """The covariance of the curve's estimates for a model (see the module docstring)."""
 
-    def __init__(self, tau, phi, m, n_points, tau0, stat, alpha, edf, f_h):
+    def __init__(self, tau, phi, m, n_points, tau0, stat, alpha, edf, f_h, excess=0.0):
         self.tau, self.phi, self.edf = tau, phi, edf
         self.basis = avar_covariance.covariance_basis(m, n_points, tau0)
+        # heavy tails of the white FM noise, as the IEEE fit takes them (gls_core.Problem)
+        self.tails = None
+        if excess and stat == "oadev":
+            self.tails = (excess / tau0**2) * avar_covariance.fourth_cumulant_basis(m, n_points)
         self.avar_design = power_law_design("oadev", m, tau0, f_h)
         if stat == "oadev":
             self.scale = np.ones(tau.size)
@@ -606,7 +610,9 @@ class _Covariance:
         v = self.phi[idx, :5] @ h
         v = np.where(v > 0, v, avar_random[idx])
         cov = rel * np.outer(v * self.scale[idx], v * self.scale[idx])
-        floor = gls_fit.DIAG_FLOOR * 2.0 * model[idx] ** 2 / self.edf[idx]
+        if self.tails is not None:
+            cov += self.tails[np.ix_(idx, idx)] * max(h[2] / 2.0, 0.0) ** 2
+        floor = gls_core.DIAG_FLOOR * 2.0 * model[idx] ** 2 / self.edf[idx]
         d = np.diag(cov)
         cov[np.diag_indices_from(cov)] = np.maximum(d, floor)
         return cov
@@ -621,7 +627,7 @@ def _fit_terms(var, phi, edf, cov_of, idx, cols, n_iter):
     ref = a.copy()
     for _ in range(3):  # diagonal weights, from the data, then from the model
         w = np.sqrt(edf[idx] / 2.0) / ref
-        x = gls_fit.bounded_lsq(sub * w[:, None], a * w, free)
+        x = gls_core.bounded_lsq(sub * w[:, None], a * w, free)
         coef[:] = 0.0
         coef[cols] = x
         model = sub @ x
@@ -631,8 +637,8 @@ def _fit_terms(var, phi, edf, cov_of, idx, cols, n_iter):
         model = phi @ coef
         scale = np.where(model[idx] > 0, model[idx], a)
         cov = cov_of(coef, model, idx)
-        chol = gls_fit.whiten(cov, scale)
-        x, chi2, aw = gls_fit.nnls_gls(a, sub, chol, scale, free)
+        chol = gls_core.whiten(cov, scale)
+        x, chi2, aw = gls_core.nnls_gls(a, sub, chol, scale, free)
         new = np.zeros(6)
         new[cols] = x
         if not np.any(new[:5] > 0):
@@ -762,8 +768,8 @@ def fit_power_law(
             if usable[j] and not lo <= t <= hi:
                 usable[j] = False
                 reasons[j] = f"outside tau_range [{lo:g}, {hi:g}] s"
-    if usable.sum() > gls_fit.MAX_TAUS:  # as the IEEE fit: 4 taus per octave suffice
-        thinned = gls_fit.thin(tau, usable)
+    if usable.sum() > gls_core.MAX_TAUS:  # as the IEEE fit: 4 taus per octave suffice
+        thinned = gls_core.thin(tau, usable)
         for j in np.flatnonzero(usable & ~thinned):
             reasons[j] = "thinned: a denser tau grid than 4 per octave adds no information"
         usable = thinned
@@ -776,7 +782,16 @@ def fit_power_law(
     phi = power_law_design(stat, m, tau0, f_h_value)
     alpha = np.asarray(getattr(result, "alpha", np.zeros(tau.size)), dtype=np.int64)
     cov_of = _Covariance(
-        tau, phi, m, n_points, tau0, stat, alpha, np.where(good, edf, 1.0), f_h_value
+        tau,
+        phi,
+        m,
+        n_points,
+        tau0,
+        stat,
+        alpha,
+        np.where(good, edf, 1.0),
+        f_h_value,
+        gls_core.white_excess(result),
     )
     idx = np.flatnonzero(usable)
     edf_g = np.where(good, edf, 1.0)
@@ -787,7 +802,7 @@ def fit_power_law(
         coef, chi2, aw, cov = _fit_terms(var_s, phi, edf_g, cov_of, idx, cols, n_iter)
         dof = idx.size - cols.size
         factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
-        fisher = gls_fit.inverse_fisher(aw) * factor
+        fisher = gls_core.inverse_fisher(aw) * factor
         sig = np.sqrt(np.maximum(np.diag(fisher), 0.0))
         z = np.where(sig > 0, coef[cols] / np.where(sig > 0, sig, 1.0), 0.0)
         if select != "significance" or cols.size <= 1:
@@ -808,11 +823,11 @@ def fit_power_law(
         if k in cols and coef[k] > 0:
             continue
         trial = np.array(sorted(set(cols.tolist()) | {int(k)}), dtype=np.int64)
-        _, _, aw_k = gls_fit.nnls_gls(
-            var_s[idx], phi[np.ix_(idx, trial)], gls_fit.whiten(cov, scale), scale,
+        _, _, aw_k = gls_core.nnls_gls(
+            var_s[idx], phi[np.ix_(idx, trial)], gls_core.whiten(cov, scale), scale,
             np.zeros(trial.size, dtype=bool),
         )  # fmt: skip
-        f_k = gls_fit.inverse_fisher(aw_k) * factor
+        f_k = gls_core.inverse_fisher(aw_k) * factor
         pos = list(trial).index(int(k))
         unc[k] = math.sqrt(max(f_k[pos, pos], 0.0))
     full = cov_of(coef, model, np.flatnonzero(good)) if good.any() else np.zeros((0, 0))

@@ -8,9 +8,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from adavar.settings import FitSettings
 from adavar.terms import AVAR_FACTORS as _K
 from adavar.terms import POWERS as _POWERS
-from adavar.terms import TERM_NAMES, term_index
+from adavar.terms import TERM_NAMES, markov_avar, term_index
 from adavar.units import (
     ConvertedNoise,
     ConvertedTerm,
@@ -22,7 +23,14 @@ from adavar.units import (
 if TYPE_CHECKING:
     from adavar.slopes import SlopeReadoff
 
-__all__ = ["ADEQUATE_P", "DavarResult", "DeviationResult", "NoiseFit", "NoiseTerm"]
+__all__ = [
+    "ADEQUATE_P",
+    "DavarResult",
+    "DeviationResult",
+    "MarkovTerm",
+    "NoiseFit",
+    "NoiseTerm",
+]
 
 #: ``p_value`` below which a full-covariance fit is flagged as not describing the data.
 ADEQUATE_P = 1e-3
@@ -66,6 +74,15 @@ class DeviationResult:
     notes : tuple of str
         What the computation changed about the request (taus rounded to multiples of tau0,
         taus dropped because they exceed the record, ...).
+    warnings : tuple of str
+        What may make the result misleading although it is computed as asked: a record
+        whose short-tau noise is not stationary (:func:`adavar.stationarity`), for which
+        one whole-record curve averages different noise levels.
+    increment_kurtosis : float or None
+        Pearson kurtosis of the rate samples' first differences (of at most
+        :data:`adavar.statistics.KURTOSIS_SAMPLES` from the middle of a record in memory;
+        None out of core): 3 for Gaussian noise. The full-covariance noise fit takes the
+        heavy tails of the white rate noise from it (:func:`adavar.fit_noise`).
     """
 
     tau: np.ndarray
@@ -83,6 +100,8 @@ class DeviationResult:
     n_samples: int
     units: str | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
+    warnings: tuple[str, ...] = field(default_factory=tuple)
+    increment_kurtosis: float | None = None
 
     def _repr_html_(self) -> str:
         """Notebook view: a compact table and a small figure (:mod:`adavar.notebook`)."""
@@ -91,7 +110,9 @@ class DeviationResult:
         return html_of(self)
 
     def plot(self, **kwargs: Any) -> Any:
-        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`)."""
+        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`:
+        ``ax=`` draws on given axes; with :mod:`matplotlib.pyplot` imported the figure is
+        pyplot's, so ``plt.savefig`` writes it)."""
         from adavar.notebook import plot_of
 
         return plot_of(self, **kwargs)
@@ -172,6 +193,11 @@ class DavarResult:
     shift : ndarray of int64, shape (T,), or None
         Offset of each row's window from its centre (``davar(..., shift=)``; the window of
         centre ``p`` is centred at ``p + shift``), or None: every window centred.
+    record_curve : DeviationResult or None
+        The overlapping Allan deviation of the whole record at octave taus, for a record
+        in memory (None out of core or lazily, where it would cost another read of the
+        whole file): :func:`adavar.fit_noise` fits it to carry the sensor's roll-off into
+        every window's fit (``reference="auto"``).
     """
 
     time: np.ndarray
@@ -194,6 +220,7 @@ class DavarResult:
     bound_table: np.ndarray | None = None
     terms: np.ndarray | None = None
     shift: np.ndarray | None = None
+    record_curve: DeviationResult | None = None
     _cache: dict[str, np.ndarray] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -233,7 +260,9 @@ class DavarResult:
         return html_of(self)
 
     def plot(self, **kwargs: Any) -> Any:
-        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`)."""
+        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`:
+        ``ax=`` draws on given axes; with :mod:`matplotlib.pyplot` imported the figure is
+        pyplot's, so ``plt.savefig`` writes it)."""
         from adavar.notebook import plot_of
 
         return plot_of(self, **kwargs)
@@ -350,12 +379,50 @@ class NoiseTerm:
         The coefficient, in the data's own units (see :class:`NoiseFit`); an array over the
         leading shape for a stack of curves.
     uncertainty : float or ndarray
-        1-sigma uncertainty (a 1-sigma upper bound where ``value`` is pinned at 0; NaN for a
-        term that was not in the model).
+        1-sigma uncertainty; where ``value`` is 0 (a term the fit left out or pinned), the
+        one-sided 84.1 % ("1-sigma") upper bound of the value instead; NaN for a term that
+        was not a candidate.
+    upper : float or ndarray
+        Where ``value`` is 0 in a full-covariance fit: the one-sided upper bound at
+        :attr:`NoiseFit.bound_level` (95 % by default) from the profile of the fit's
+        chi-square; NaN elsewhere.
     """
 
     value: Any
     uncertainty: Any
+    upper: Any = float("nan")
+
+
+@dataclass(frozen=True)
+class MarkovTerm:
+    """A first-order Gauss-Markov process found by the noise fit (a hump in the curve).
+
+    Attributes
+    ----------
+    sigma : float
+        Its stationary standard deviation, in the rate's unit.
+    sigma_uncertainty : float
+        1-sigma uncertainty of ``sigma`` (at the chosen correlation time).
+    tau_c : float
+        Correlation time (s).
+    tau_c_range : tuple of float
+        Correlation times whose best fit costs at most 1 more in chi-square (about a 68 %
+        interval; the fitted tau range limits it).
+    """
+
+    sigma: float
+    sigma_uncertainty: float
+    tau_c: float
+    tau_c_range: tuple[float, float]
+
+    @property
+    def variance(self) -> float:
+        """``sigma^2``."""
+        return self.sigma**2
+
+    def avar(self, tau: Any) -> np.ndarray:
+        """Its Allan variance at ``tau`` (s) (:func:`adavar.terms.markov_avar`)."""
+        return markov_avar(tau, self.sigma**2, self.tau_c)
 
 
 def coefficient_value(coefficient: Any, k: int) -> Any:
@@ -435,12 +502,27 @@ class NoiseFit:
         too, so a figure can show them), ``sigma`` the model's standard error of the
         estimate (full covariance for ``"gls"``, ``sqrt(2/edf)`` for ``"wls"``).
     dropped : tuple of str
-        Terms removed by the term selection (value 0, uncertainty a 1-sigma upper bound).
+        Terms removed by the term selection (value 0, uncertainty the 84.1 % upper bound,
+        ``upper`` the one at :attr:`bound_level`).
     coefficient_covariance : ndarray, shape (5, 5), or None
         Covariance of ``C_-2 .. C_2`` (``"gls"``; NaN rows for terms not selected).
     slopes : SlopeReadoff or None
         The classical slope-line read-offs of the curve (one curve only), see
         :mod:`adavar.slopes`.
+    markov : MarkovTerm or None
+        A first-order Gauss-Markov process the model selection added (``"gls"``), else None.
+        It is part of :attr:`fitted_avar` and :meth:`model_avar`.
+    coefficient_upper : ndarray, shape (5,), or None
+        ``"gls"``: the one-sided upper bound of ``C_n`` at :attr:`bound_level` for each term
+        whose coefficient is 0 (NaN for the others).
+    bound_level : float
+        The one-sided confidence level of ``coefficient_upper`` (and ``NoiseTerm.upper``).
+    gof_chi2 : float
+        ``"gls"``: the adequacy statistic, the decorrelated sum of squared normal scores
+        (:attr:`residuals`) of the fitted points, a chi-square of :attr:`dof` degrees of
+        freedom when the model is right (NaN for other methods).
+    selection : str
+        How the terms were chosen (``"aic"``, ``"bic"``, ``"significance"``, ``"none"``).
 
     Notes
     -----
@@ -467,6 +549,11 @@ class NoiseFit:
     dropped: tuple[str, ...] = ()
     coefficient_covariance: np.ndarray | None = None
     slopes: SlopeReadoff | None = None
+    markov: MarkovTerm | None = None
+    coefficient_upper: np.ndarray | None = None
+    bound_level: float = FitSettings.bound_level
+    gof_chi2: Any = float("nan")
+    selection: str = "none"
 
     @property
     def rolloff(self) -> Any:
@@ -487,13 +574,18 @@ class NoiseFit:
 
     @property
     def p_value(self) -> Any:
-        """Probability of a chi2 at least this large if the model is right (NaN: no dof)."""
+        """Probability of a misfit at least this large if the model is right (NaN: no dof).
+
+        For the full-covariance fit the misfit is :attr:`gof_chi2` (normal scores, which see
+        a model far above the data as well as one far below); else :attr:`chi2`.
+        """
         # scipy.stats.chi2.sf(x, k) is chdtrc(k, x) for x >= 0 (and 1 below): the same
         # numbers, without importing scipy.stats (about a second)
         from scipy.special import chdtrc
 
         dof = np.asarray(self.dof, dtype=float)
-        x = np.maximum(np.asarray(self.chi2, dtype=float), 0.0)
+        stat = self.gof_chi2 if self.method == "gls" and np.isfinite(self.gof_chi2) else self.chi2
+        x = np.maximum(np.asarray(stat, dtype=float), 0.0)
         with np.errstate(invalid="ignore"):
             p = np.where(dof > 0, chdtrc(np.maximum(dof, 1), x), np.nan)
         return p[()] if p.ndim == 0 else p
@@ -541,8 +633,20 @@ class NoiseFit:
         if self.dropped:
             out.append(
                 "not supported by the data, left out: " + ", ".join(self.dropped)
-                + " (value 0, 1-sigma upper bound given)"
+                + f" (value 0; uncertainty: the 84 % upper bound, upper: the "
+                f"{100 * self.bound_level:.0f} % one)"
             )  # fmt: skip
+        if self.markov is not None:
+            mk = self.markov
+            out.append(
+                f"a first-order Gauss-Markov process (sigma {mk.sigma:.3g}, correlation time "
+                f"{mk.tau_c:.3g} s, {mk.tau_c_range[0]:.3g}-{mk.tau_c_range[1]:.3g} s) makes "
+                f"a hump near {1.89 * mk.tau_c:.3g} s: it is in the model, not read as bias "
+                "instability or rate random walk"
+            )
+        from adavar.fit_checks import tradeoff_warnings
+
+        out.extend(tradeoff_warnings(self))
         return tuple(out)
 
     def _term(self, k: int) -> NoiseTerm:
@@ -550,9 +654,13 @@ class NoiseFit:
         sig = self.coefficient_uncertainty[..., k]
         value = coefficient_value(c, k)
         with np.errstate(divide="ignore", invalid="ignore"):
-            # sigma_value = sigma_C * dvalue/dC; pinned at 0: sqrt of the 1-sigma bound on C
+            # sigma_value = sigma_C * dvalue/dC; pinned at 0: sqrt of the 84 % bound on C
             unc = np.where(c > 0, sig / (2.0 * np.sqrt(_K[k] * c)), np.sqrt(sig / _K[k]))
-        return NoiseTerm(value[()], unc[()])
+            upper = np.full(np.shape(c), np.nan)
+            if self.coefficient_upper is not None:
+                cu = self.coefficient_upper[..., k]
+                upper = np.where(c > 0, np.nan, np.sqrt(cu / _K[k]))
+        return NoiseTerm(value[()], unc[()], upper[()])
 
     @cached_property
     def quantization(self) -> NoiseTerm:
@@ -610,6 +718,8 @@ class NoiseFit:
         t = np.asarray(tau, dtype=float)
         basis = t.reshape(-1, 1) ** _POWERS  # (K, 5)
         out = self.coefficients @ basis.T  # (..., K)
+        if self.markov is not None:
+            out = out + self.markov.avar(t.reshape(-1))
         return out.reshape(self.coefficients.shape[:-1] + t.shape)
 
     def model_dev(self, tau: Any) -> np.ndarray:
@@ -714,5 +824,6 @@ class NoiseFit:
                 convert_coefficient(t.value, name, unit, targets[name]),
                 convert_coefficient(t.uncertainty, name, unit, targets[name]),
                 targets[name],
+                convert_coefficient(t.upper, name, unit, targets[name]),
             )
         return ConvertedNoise(**converted, input_unit=unit, sensor=info.sensor)

@@ -2,9 +2,18 @@
 their defaults in one place.
 
 :class:`ControllerSettings` holds the thirteen keywords of the adaptive window
-(docs/method.md section 8) with the paper's values; :class:`FitSettings` the keywords of
-:func:`adavar.fit_noise`. The command line takes its flags' defaults from them, the
+(docs/method.md section 8) with the paper's values (:data:`PAPER`); :class:`FitSettings` the
+keywords of :func:`adavar.fit_noise`. The command line takes its flags' defaults from them, the
 library's functions and :mod:`adavar.batch` their keywords, so a default is written once.
+
+The adaptive window's defaults are the same in the library (:func:`adavar.adaptive_davar`,
+:class:`adavar.OnlineAdaptive`) and on the command line (``adaptive``, ``report``, ``batch``,
+``monitor``): windows from the record (:func:`adavar.adaptive.record_windows`; a stream:
+:data:`STREAM_LMAX_SECONDS`) and thresholds calibrated for :data:`HOURLY_FALSE_ALARMS` false
+events per stationary hour (:data:`THRESHOLDS`, :func:`threshold_mode`). Only the paper's
+reproduction (:func:`adavar.compare`, ``adavar compare``, :mod:`adavar.paper`) keeps the
+paper's 600/400/100 samples and thresholds, which ``thresholds="paper"`` and ``lmax=600``
+give anywhere.
 :data:`ANALYSIS_DEFAULTS` lists every analysis option of ``adavar report`` (and so of
 ``adavar batch``) with its default; ``tests/test_cli_params.py`` checks that the parser
 agrees with it.
@@ -18,10 +27,16 @@ from typing import Any
 __all__ = [
     "ANALYSIS_DEFAULTS",
     "CONTROLLER",
+    "DEPENDENCE_FIRST",
     "FIT",
+    "HOURLY_FALSE_ALARMS",
+    "PAPER",
+    "STREAM_LMAX_SECONDS",
+    "THRESHOLDS",
     "ControllerSettings",
     "FitSettings",
     "requested_threads",
+    "threshold_mode",
 ]
 
 
@@ -48,11 +63,13 @@ class ControllerSettings:
         How f1 and f2 make f.
     thresholds : {"paper", "calibrated"}
         The given thresholds, or ones calibrated for ``false_alarm``.
-    false_alarm : float
-        Per-step false-alarm rate of the calibrated thresholds.
+    false_alarm : float or None
+        Per-step false-alarm rate of the calibrated thresholds (None: not given, the
+        per-hour calibration; :func:`threshold_mode`).
     false_alarm_per_hour : float or None
-        Calibrate for this many false events per hour of stationary data instead
-        (``adavar adaptive``, ``report`` and ``batch`` use 0.1 with calibrated thresholds).
+        Calibrate for this many false events per hour of stationary data instead (the
+        library and every command but ``compare`` use :data:`HOURLY_FALSE_ALARMS` with
+        calibrated thresholds).
     """
 
     lmax: int = 600
@@ -67,7 +84,7 @@ class ControllerSettings:
     s_test: str = "upper"
     combine: str = "or"
     thresholds: str = "paper"
-    false_alarm: float = 0.01
+    false_alarm: float | None = 0.01
     false_alarm_per_hour: float | None = None
 
     def keywords(self) -> dict[str, Any]:
@@ -79,12 +96,10 @@ class ControllerSettings:
         """From an object with the command line's option names (``segment`` for ``l``).
 
         ``false_alarm`` None (not given) keeps the per-hour calibration; a per-step
-        ``false_alarm`` given replaces it.
+        ``false_alarm`` given replaces it (:func:`threshold_mode`, as the library does).
         """
         values = {f.name: getattr(options, f.name, None) for f in fields(cls) if f.name != "l"}
-        if values["false_alarm"] is None:
-            values["false_alarm"] = cls.false_alarm
-        else:
+        if values["false_alarm"] is not None:
             values["false_alarm_per_hour"] = None
         return cls(l=options.segment, **values)
 
@@ -97,16 +112,39 @@ class FitSettings:
     n_reweight: int = 3
     spacing: str = "octave"
     method: str = "auto"
-    select: str = "significance"
+    select: str = "aic"
     significance: float = 2.0
     exclude: str = "auto"
     rolloff: str = "model"
     tau_range: tuple[float | None, float | None] | None = None
     bandwidth: float | None = None
+    markov: str = "auto"
+    #: one-sided level of the upper bound of a term the selection leaves out: a term is
+    #: left out when its data happen to lie low, and of those records the 95 % profile
+    #: bound covers the truth in 43-66 %, the 99 % one in 87-91 %
+    #: (benchmarks/bench_validation.py)
+    bound_level: float = 0.99
 
 
-#: False events per hour of stationary data the command line's thresholds are calibrated for.
+#: False events per hour of stationary data the default thresholds are calibrated for
+#: (the library's and the command line's).
 HOURLY_FALSE_ALARMS = 0.1
+#: The thresholds of :func:`adavar.adaptive_davar`, :class:`adavar.OnlineAdaptive` and the
+#: commands ``adaptive``, ``report``, ``batch`` and ``monitor``: calibrated for
+#: :data:`HOURLY_FALSE_ALARMS` false events per stationary hour (:func:`threshold_mode`).
+#: ``"paper"`` gives the paper's K1, K2, S2 (a 6 s window at 100 Hz then flags about 5
+#: false changes a minute of white noise).
+THRESHOLDS = "calibrated"
+#: Longest window (s) of a stream, whose length is not known (:class:`adavar.OnlineAdaptive`,
+#: ``adavar monitor``): a tenth of a 30-minute record, as a record's Lmax is a tenth of it
+#: (:func:`adavar.adaptive.record_windows`). Lmin and l follow it in the same proportions.
+STREAM_LMAX_SECONDS = 180.0
+#: Samples the first estimate of the record's short-range correlation reads (hourly
+#: thresholds, :func:`adavar.adaptive.dependence_stages`): fewer give no estimate
+#: (:func:`adavar.thresholds.noise_dependence` needs four of its 2048-sample blocks). The
+#: estimate is refined on the first 2, 4, ... times as many samples, up to
+#: :data:`adavar.thresholds.DEPENDENCE_SAMPLES`, offline and live alike.
+DEPENDENCE_FIRST = 1 << 13
 #: ``sides=`` of :func:`adavar.ici.ici_schedule`
 ICI_SIDES = ("both", "centred")
 #: ``edf=`` of :func:`adavar.ici.ici_schedule`
@@ -142,8 +180,13 @@ ALL_STATISTICS = (
 #: memory of most machines rather than fail cleanly.
 MAX_SAMPLES = 1_000_000_000
 
-#: The defaults everywhere (read-only instances).
-CONTROLLER = ControllerSettings()
+#: The paper's controller (read-only): its windows (600, 400, 100 samples) and thresholds,
+#: which :func:`adavar.compare` and :mod:`adavar.paper` reproduce; the other keywords'
+#: defaults everywhere.
+PAPER = ControllerSettings()
+#: The same instance, by its historical name.
+CONTROLLER = PAPER
+#: The noise fit's defaults everywhere (read-only).
 FIT = FitSettings()
 
 _CONTROLLER_OPTIONS = {("segment" if k == "l" else k): v for k, v in asdict(CONTROLLER).items()}
@@ -162,9 +205,35 @@ ANALYSIS_DEFAULTS: dict[str, Any] = {
     "lmax": None, "lmin": None, "segment": None,
     # thresholds for a rate of false events per stationary hour (issue 13), unless
     # --thresholds paper or a per-step --false-alarm is given
-    "thresholds": "calibrated", "false_alarm": None, "false_alarm_per_hour": HOURLY_FALSE_ALARMS,
+    "thresholds": THRESHOLDS, "false_alarm": None, "false_alarm_per_hour": HOURLY_FALSE_ALARMS,
     **_FIT_OPTIONS,
 }  # fmt: skip
+
+
+def threshold_mode(
+    thresholds: str, false_alarm: float | None, false_alarm_per_hour: float | None
+) -> tuple[str, float, float | None]:
+    """The controller's thresholds from the three keywords of :func:`adavar.adaptive_davar`.
+
+    ``thresholds="calibrated"`` (the default, :data:`THRESHOLDS`) calibrates for
+    ``false_alarm_per_hour`` false events per stationary hour; a per-step ``false_alarm``
+    given instead (or ``false_alarm_per_hour=None``) calibrates for that many false alarms
+    per step (what ``thresholds="calibrated"`` alone meant before 0.2). ``"paper"`` uses
+    ``k1``, ``k2``, ``s2`` as given.
+
+    Returns
+    -------
+    thresholds, false_alarm, false_alarm_per_hour
+        ``false_alarm`` a number (the paper's 0.01 when not given), ``false_alarm_per_hour``
+        None unless the per-hour calibration is in force.
+    """
+    if false_alarm is not None:
+        false_alarm_per_hour = None  # a per-step rate given replaces the per-hour default
+    else:
+        false_alarm = PAPER.false_alarm
+    if thresholds != "calibrated":
+        false_alarm_per_hour = None
+    return thresholds, false_alarm, false_alarm_per_hour
 
 
 def requested_threads() -> int | None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -24,14 +25,15 @@ from adavar.errors import AdavarInputError
 from adavar.noise_id import (
     NOISE_ID_RULES,
     avar_of_sum,
-    b1_with_rn,
+    averaged_rule,
     mvar_of_sum,
-    pm_with_rn,
     rate_noise_types,
     rn_ratio,
+    starts_on_phase,
 )
 from adavar.results import DeviationResult
 from adavar.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, STATISTICS
+from adavar.stationarity import stationarity
 from adavar.taus import averaging_factors
 
 __all__ = [
@@ -390,62 +392,27 @@ def record_noise_types(
 ):
     """Power-law noise exponent per tau: lag-1 ACF, B1 + R(n) fallback, else the neighbour's.
 
-    The lag-1 statistics stream over the cluster sums of the anchored phase (no copy of the
-    record per tau). Phase data (with ``noise_id="sp1065"``) start on the decimated phase
-    (:mod:`adavar.noise_id`) and a "white PM" there is checked by R(n);
-    ``noise_id="stable32"`` identifies phase data on the m-averaged rate as before
-    (clamped) and uses R(n) only where B1 says PM. Short series go to the B1 ratio. Rate
-    data (and ``"stable32"``) take every tau in one compiled call
-    (:func:`adavar.noise_id.rate_noise_types`); phase data one tau at a time here.
-    ``avar``, if given, is the overlapping Allan variance of ``phase`` at every ``m`` (the
-    OADEV being computed): R(n) then takes it instead of recomputing it.
+    Every tau in one compiled call (:func:`adavar.noise_id.rate_noise_types`), on the
+    cluster sums of the anchored phase (no copy of the record per tau). With
+    ``noise_id="sp1065"`` the lag-1 test starts on the decimated phase (:mod:`adavar.noise_id`)
+    for rate and phase data alike (the record integrated to its phase), and a "white PM"
+    there is checked by R(n); ``"input"`` starts it there for phase data only and on the
+    m-averaged rate for rate data (adavar before issue 39); ``"stable32"`` on the
+    m-averaged rate for both (clamped) and uses R(n) only where B1 says PM. Short series go
+    to the B1 ratio. ``avar``, if given, is the overlapping Allan variance of ``phase`` at
+    every ``m`` (the OADEV being computed): R(n) then takes it instead of recomputing it.
     """
-    strict = noise_id == "stable32"
-    if data_type != "phase" or strict:  # the m-averaged rate: one compiled call
-        return edf_mod.fill_unidentified(
-            rate_noise_types(phase, ms, dmax, avar=avar, strict=strict)
+    return edf_mod.fill_unidentified(
+        rate_noise_types(
+            phase,
+            ms,
+            dmax,
+            avar=avar,
+            strict=noise_id == "stable32",
+            on_phase=starts_on_phase(data_type, noise_id),
+            averaged=averaged_rule(noise_id, 2),
         )
-    ms = np.asarray(ms, dtype=np.int64).tolist()
-    n_increments = phase.n_points - 1
-    lag1, b1 = edf_mod.MIN_POINTS_LAG1, edf_mod.MIN_POINTS_B1
-    # B1 between the two; fewer clusters: not identified (the neighbour's type is taken)
-    short = [m for m in ms if b1 <= n_increments // m < lag1]
-    known = None
-    if avar is not None and short:
-        known = dict(zip(ms, avar.tolist(), strict=True))
-    rn = _RnTable(phase, short, known)
-    alpha = []
-    for m in ms:
-        count = n_increments // m
-        try:
-            if count >= lag1:
-                alpha.append(_phase_noise_type(phase, m, count, dmax, rn))
-            elif count >= b1:
-                z = diff.cluster_sums(phase, m) / m
-                alpha.append(b1_with_rn(z, m, dmax, lambda m=m: rn(m), strict=strict))
-            else:
-                alpha.append(math.nan)
-        except edf_mod.NoiseIdError:
-            alpha.append(math.nan)
-    return edf_mod.fill_unidentified(alpha)
-
-
-def _phase_noise_type(
-    phase: diff.AnchoredPhase, m: int, count: int, dmax: int, rn: _RnTable
-) -> int:
-    """SP 1065 lag-1 alpha of phase data at one tau: the decimated phase, then the sums."""
-    z = diff.cluster_differences(phase.r, phase.hh, phase.hl, m, count)
-    pstats = edf_mod.decimated_phase_lag1(z)
-    got = edf_mod.alpha_from_phase_lag1(pstats, None, dmax=dmax)
-    if got is not None:
-        return pm_with_rn(got, m, lambda: rn(m))
-    # most taus stop at d = 0 (delta < 0.25): try that cheaper pass first, from the moments
-    # gathered while integrating when m is short
-    stats = diff.fused_lag1(phase, m) or diff.cluster_lag1(phase, m, 0)
-    r1 = stats[0]
-    if not r1[0] / (1.0 + r1[0]) < 0.25:
-        stats = diff.cluster_lag1(phase, m, dmax - 1)
-    return edf_mod.alpha_from_phase_lag1(pstats, stats, dmax=dmax)
+    )
 
 
 TOTVAR_BIAS: dict[int, float] = {-1: 1.0 / (3.0 * np.log(2.0)), -2: 0.75}
@@ -471,6 +438,7 @@ def deviation(
     theo_ratio_terms: int | None = None,
     total_edf: str | None = None,
     gaps: str = "error",
+    stationarity_check: bool = True,
 ) -> DeviationResult:
     """Allan-family deviation of a whole record, with a confidence interval at every tau.
 
@@ -512,18 +480,21 @@ def deviation(
         Samples per read for the out-of-core computation. Giving it forces that path even
         for an in-memory array; for chunked ``data`` the default is
         :data:`adavar.stream.DEFAULT_CHUNK`.
-    noise_id : {"sp1065", "stable32"}
+    noise_id : {"sp1065", "stable32", "input"}
         Noise identification for the intervals (see :mod:`adavar.noise_id`). ``"sp1065"``
         (default): lag-1 autocorrelation with at least 30 clusters, started on the
-        decimated phase ``x[::m]`` for phase data (SP 1065), where a "white PM" result is
-        checked by R(n) = MVAR/AVAR (the short detrended decimated phase reads flicker PM
-        as white PM at m >= 16); below 30 clusters the B1 ratio, with R(n) separating
-        white PM, flicker PM and white FM whenever B1 says PM or white FM.
-        ``"stable32"``: the rule Stable32's published tables follow: phase data
-        identified on the m-averaged rate (adavar's rule before; white PM then reads as
-        alpha 3..6 in a third of the records, clamped to 2), R(n) only where B1 says PM.
-        Rate data are identified on the m-averaged rate either way. Every alpha is
-        clamped to the statistic's range ([-2, 2]; Hadamard [-4, 2]).
+        decimated phase ``x[::m]`` (SP 1065) for phase and rate data alike (rate data are
+        integrated to their phase), where a "white PM" result is checked by R(n) =
+        MVAR/AVAR (the short detrended decimated phase reads flicker PM as white PM at
+        m >= 16); below 30 clusters the B1 ratio, with R(n) separating white PM, flicker
+        PM and white FM whenever B1 says PM or white FM. A noise thus gets the same type
+        and EDF whichever input type carries it. ``"input"``: the same, but rate data
+        identified on the m-averaged rate (adavar before 0.2: flicker PM as rate data
+        read as white PM in half the records at m = 16-128, intervals covering 48-59 %).
+        ``"stable32"``: the rule Stable32's published tables follow: phase and rate data
+        identified on the m-averaged rate (white PM then reads as alpha 3..6 in a third of
+        the records, clamped to 2), R(n) only where B1 says PM. Every alpha is clamped to
+        the statistic's range ([-2, 2]; Hadamard [-4, 2]).
     totdev_edf : {"sp1065", "stable32", "legacy"}
         TOTDEV EDF convention (:func:`adavar.edf.edf`): ``"stable32"`` reproduces Stable32's
         bounds, ``"legacy"`` adavar's earlier choice.
@@ -558,6 +529,13 @@ def deviation(
         ``oadev``, ``adev``, ``mdev``, ``tdev``, ``hdev``, ``ohdev``; ``totdev`` and the
         other statistics are refused on a record with NaN. A masked array's masked
         samples are missing samples too. Without NaN the result is that of ``"error"``.
+    stationarity_check : bool
+        Test whether the record's short-tau noise is stationary
+        (:func:`adavar.stationarity.stationarity`, one more pass over the record; not with
+        ``gaps="omit"`` on a record with NaN) and, if it is not (p < 1e-3), say so in
+        ``result.warnings``,
+        with the suspect stretch: one whole-record curve then averages different noise
+        levels, and :func:`adavar.adaptive` follows them. Default True; False skips it.
 
     Returns
     -------
@@ -657,10 +635,10 @@ def deviation(
                 f"stat={stat!r} is computed in memory: pass the record as an array "
                 "(np.asarray(data)), or use one of the Allan statistics out of core"
             )
-        return _extended_deviation(
+        return _with_warnings(_extended_deviation(
             spec, u, x.size, dtype, step, exponent, taus, points_per_decade, confidence,
             noise_id, units, options,
-        )  # fmt: skip
+        ), x, step, dtype, stationarity_check)  # fmt: skip
     ms, notes = tau_factors(taus, _m_max(stat, n_points), step, points_per_decade)
     if not chunked:
         phase = diff.anchored_phase(u, cluster_stats=confidence is not None)
@@ -736,10 +714,68 @@ def deviation(
         low = unscale(np.sqrt(var_low), exponent, "deviations")
         high = unscale(np.sqrt(var_high), exponent, "deviations")
 
-    return _result(
+    result = _result(
         tau, unscale(np.sqrt(var), exponent, "deviations"), low, high, edf_values, n, ms,
         alpha, stat, dtype, step, confidence, n_samples, units, notes,
     )  # fmt: skip
+    if chunked:
+        result = replace(result, increment_kurtosis=increment_kurtosis(increments, chunk))
+        return _with_warnings(result, source, step, dtype, stationarity_check, chunk)
+    result = replace(result, increment_kurtosis=increment_kurtosis(u))
+    return _with_warnings(result, x, step, dtype, stationarity_check)
+
+
+#: Rate samples whose first differences :func:`increment_kurtosis` reads at most (from the
+#: middle of the record): its sampling sd is then below 0.005 for Gaussian noise.
+KURTOSIS_SAMPLES = 1 << 20
+
+
+def increment_kurtosis(u: Any, chunk: int = KURTOSIS_SAMPLES) -> float:
+    """Pearson kurtosis of the first differences of the rate samples ``u``.
+
+    Differencing takes the slow terms (flicker, random walks, drifts) out, so this reads
+    the tails of the white rate noise: for white noise of kurtosis ``k`` it is
+    ``3 + (k - 3) / 2``. At most :data:`KURTOSIS_SAMPLES` differences from the middle of
+    the record are read, ``chunk`` samples at a time (``u`` an array or a
+    :class:`adavar.stream.ChunkedSource`); NaN for fewer than 8 samples or a constant
+    record.
+    """
+    n = len(u)
+    if n < 8:
+        return math.nan
+    start = max(0, (n - KURTOSIS_SAMPLES) // 2)
+    stop = min(n, start + KURTOSIS_SAMPLES + 1)
+    read = u.read if hasattr(u, "read") else (lambda a, b: u[a:b])
+    spans = [(a, min(stop, a + chunk + 1)) for a in range(start, stop - 1, chunk)]
+
+    def differences():
+        for a, b in spans:
+            yield np.diff(np.asarray(read(a, b), dtype=np.float64))
+
+    count = stop - start - 1
+    mean = math.fsum(float(d.sum()) for d in differences()) / count
+    m2 = m4 = 0.0
+    for d in differences():
+        sq = (d - mean) ** 2
+        m2 += float(sq.sum())
+        m4 += float((sq * sq).sum())
+    m2, m4 = m2 / count, m4 / count
+    return m4 / (m2 * m2) if m2 > 0 else math.nan
+
+
+def _with_warnings(
+    result: DeviationResult,
+    record: Any,
+    step: float,
+    dtype: str,
+    check: bool,
+    chunk: int | None = None,
+) -> DeviationResult:
+    """``result`` with the stationarity warning of ``record`` if ``check`` finds one."""
+    if not check:
+        return result
+    text = stationarity(record, tau0=step, data_type=dtype, chunk_size=chunk).warning()
+    return result if text is None else replace(result, warnings=(*result.warnings, text))
 
 
 #: the keywords of :func:`deviation` (passed on to the gaps path)

@@ -408,10 +408,10 @@ def noise_types(
 
     The same rule and, to rounding, the same statistics as the in-memory identification of
     :func:`adavar.deviation` and :func:`adavar.davar` (``noise_type="record"``): per ``m``,
-    with at least :data:`adavar.edf.MIN_POINTS_LAG1` clusters the lag-1 rule (for phase
-    data with ``noise_id="sp1065"`` started on the quadratically detrended decimated
-    phase, then the linearly detrended sums of ``m`` increments, differenced up to
-    ``dmax - 1`` times; for rate data the sums, up to ``dmax`` times); else the B1 ratio of
+    with at least :data:`adavar.edf.MIN_POINTS_LAG1` clusters the lag-1 rule (where
+    :func:`adavar.noise_id.starts_on_phase` says so, started on the quadratically detrended
+    decimated phase, then the linearly detrended sums of ``m`` increments, differenced up
+    to ``dmax - 1`` times; otherwise the sums, up to ``dmax`` times); else the B1 ratio of
     the cluster means with R(n) = MVAR/AVAR when B1 says PM; a tau that neither
     identifies takes its nearest identified neighbour's type. Alphas are clamped to the
     statistic's range.
@@ -448,7 +448,15 @@ def noise_types(
     taus that read "PM" costs one more streamed pass (overlapping and modified sums).
     """
     from adavar import stream_statistics as sstat
-    from adavar.noise_id import avar_of_sum, b1_with_rn, mvar_of_sum, pm_with_rn, rn_ratio
+    from adavar.noise_id import (
+        avar_of_sum,
+        averaged_rule,
+        b1_with_rn,
+        mvar_of_sum,
+        pm_with_rn,
+        rn_ratio,
+        starts_on_phase,
+    )
 
     src = as_source(source)
     ms = np.atleast_1d(np.asarray(ms, dtype=np.int64))
@@ -456,7 +464,7 @@ def noise_types(
         raise ValueError("internal: dmax must lie in 0..3")
     chunk = DEFAULT_CHUNK if chunk_size is None else max(1, int(chunk_size))
     strict = noise_id == "stable32"
-    on_phase = str(data_type).lower() == "phase" and not strict
+    on_phase = starts_on_phase(data_type, noise_id)
     stats, pstats, shift = _cluster_statistics_all(src, ms, int(dmax), chunk, on_phase)
     alpha = np.full(ms.size, np.nan)
     rn_cache: dict[int, float | None] = {}
@@ -490,13 +498,21 @@ def noise_types(
                         if r1[0] / (1.0 + r1[0]) < 0.25:
                             k = 1
                         sub = (r1[:k], den[:k], sizes[:k], zmax)
-                        got = edf_mod.alpha_from_phase_lag1(pst, sub, dmax=int(dmax))
+                        got = edf_mod.alpha_from_phase_lag1(
+                            pst, sub, dmax=int(dmax), averaged=averaged_rule(noise_id, m)
+                        )
                     alpha[t] = got
                 else:
                     r1, den, sizes, zmax = st
                     alpha[t] = edf_mod.clamp_alpha(
                         edf_mod.alpha_from_lag1(
-                            r1, den, sizes, zmax, data_type="rate", dmax=r1.size - 1
+                            r1,
+                            den,
+                            sizes,
+                            zmax,
+                            data_type="rate",
+                            dmax=r1.size - 1,
+                            averaged=averaged_rule(noise_id, m),
                         )[0],
                         int(dmax),
                     )

@@ -299,7 +299,7 @@ def fit_blocks(
     -------
     BlockFit
     """
-    from adavar.noise_model import fit_noise
+    from adavar.noise_model import fit_noise, record_reference
 
     fit_options = dict(fit_options or {})
     first_fit: NoiseFit | None = None
@@ -330,6 +330,10 @@ def fit_blocks(
             part = (
                 block if (a, b) == (start, stop) else _take_rows(block, slice(a - start, b - start))
             )
+            if fit_options.get("reference", "auto") == "auto":
+                # one whole-record reference for every block (fit_noise would fit the
+                # curve each block carries again)
+                fit_options["reference"] = record_reference(part, **fit_options)
             fit = fit_noise(part, **fit_options)
             if first_fit is None:  # its settings, not its rows
                 first_fit = _fit_at(fit, np.arange(0))

@@ -22,8 +22,10 @@ __all__ = [
     "Thresholds",
     "calibrated_thresholds",
     "fixed_thresholds",
+    "gaussian_kurtosis_spread",
     "hourly_thresholds",
     "noise_dependence",
+    "shifted",
     "thresholds_for",
 ]
 
@@ -228,6 +230,30 @@ def _anscombe_glynn_real(n: float) -> tuple[float, float, float]:
     return e, sd, a
 
 
+def gaussian_kurtosis_spread(n: float) -> tuple[float, float]:
+    """Median and standard deviation of the kurtosis of ``n`` Gaussian samples.
+
+    Anscombe-Glynn at a real (effective) size ``n`` (at least 8): the median is the
+    kurtosis of z-score 0. What :mod:`adavar.kurtosis_reference` compares a record's
+    median block kurtosis with.
+    """
+    return float(_ag_inverse(0.0, n)), _anscombe_glynn_real(n)[1]
+
+
+def shifted(th: Thresholds, offset: float, margin: float = 0.0) -> Thresholds:
+    """``th`` with ``K1`` and ``K2`` moved by ``offset`` and out by ``margin`` (``S2`` kept;
+    the same object for 0 and 0).
+
+    The band of a record whose stationary kurtosis lies ``offset`` above the Gaussian one,
+    known to within ``margin`` (:class:`adavar.kurtosis_reference.KurtosisReference`).
+    """
+    if offset == 0.0 and margin == 0.0:
+        return th
+    return Thresholds(k1=th.k1 + offset - margin, k2=th.k2 + offset + margin, s2=th.s2,
+                      source=f"{th.source}, kurtosis band moved by {offset:+.4g} and "
+                      f"widened by {margin:.3g}")  # fmt: skip
+
+
 #: Lags of the autocorrelation summed by :func:`noise_dependence`.
 DEPENDENCE_LAGS = 256
 #: Samples of the record :func:`noise_dependence` reads (from its start).
@@ -409,13 +435,18 @@ def thresholds_for(parameters: dict, lmax: int | None = None) -> Thresholds:
     lmax = int(p["lmax"] if lmax is None else lmax)
     if p.get("thresholds") != "calibrated":
         return fixed_thresholds(lmax, p["k1"], p["k2"], p["s2"])
+    # a record whose stationary kurtosis the reference could not bring to 3 (its offset),
+    # known to within its margin
+    fit = p.get("kurtosis_reference_fit") or {}
+    offset, margin = float(fit.get("offset", 0.0)), float(fit.get("margin", 0.0))
     if p.get("false_alarm_per_hour") is not None:
-        return hourly_thresholds(
+        return shifted(hourly_thresholds(
             int(p["lmin"]), lmax, int(p["l"]), rate=float(p["sample_rate"]),
             per_hour=float(p["false_alarm_per_hour"]),
             dependence=tuple(p.get("dependence") or (1.0, 1.0)), s_test=p.get("s_test", "upper"),
-        )  # fmt: skip
-    return calibrated_thresholds(int(p["lmin"]), lmax, int(p["l"]), false_alarm=p["false_alarm"])
+        ), offset, margin)  # fmt: skip
+    return shifted(calibrated_thresholds(int(p["lmin"]), lmax, int(p["l"]),
+                                         false_alarm=p["false_alarm"]), offset, margin)  # fmt: skip
 
 
 def threshold_summary(th: Thresholds, lmin: int, lmax: int) -> dict[str, list[float]]:

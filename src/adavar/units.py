@@ -327,11 +327,15 @@ class ConvertedTerm:
     uncertainty : float or ndarray
         1-sigma, converted with the same factor as ``value``.
     unit : str
+    upper : float or ndarray
+        The one-sided upper bound of a term at 0 (:attr:`adavar.NoiseTerm.upper`), converted
+        likewise; NaN elsewhere.
     """
 
     value: Any
     uncertainty: Any
     unit: str
+    upper: Any = float("nan")
 
 
 @dataclass(frozen=True)

@@ -817,6 +817,7 @@ def fit_json(fit: NoiseFit) -> dict[str, Any]:
         out[name] = {
             "value": term.value,
             "uncertainty": term.uncertainty,
+            "upper": term.upper,
             "unit": term_unit(name, fit.units),
         }
     conv = conventional(fit)
@@ -824,10 +825,11 @@ def fit_json(fit: NoiseFit) -> dict[str, Any]:
         None
         if conv is None
         else {
-            name: {"value": t.value, "uncertainty": t.uncertainty, "unit": t.unit}
+            name: {"value": t.value, "uncertainty": t.uncertainty, "upper": t.upper,
+                   "unit": t.unit}
             for name, t in conv.as_dict().items()
         }
-    )
+    )  # fmt: skip
     out["reduced_chi2"] = fit.reduced_chi2
     out["chi2"] = fit.chi2
     out["dof"] = fit.dof
@@ -835,8 +837,16 @@ def fit_json(fit: NoiseFit) -> dict[str, Any]:
     out["terms"] = list(fit.terms)
     out["method"] = fit.method
     out["dropped"] = list(fit.dropped)
+    out["selection"] = fit.selection
+    out["bound_level"] = fit.bound_level
     out["adequate"] = bool(fit.adequate)
     out["p_value"] = fit.p_value
+    out["gof_chi2"] = fit.gof_chi2
+    mk = fit.markov
+    out["markov"] = None if mk is None else {
+        "sigma": mk.sigma, "sigma_uncertainty": mk.sigma_uncertainty, "tau_c_s": mk.tau_c,
+        "tau_c_range_s": list(mk.tau_c_range), "unit": fit.units,
+    }  # fmt: skip
     out["rolloff"] = fit.rolloff
     out["warnings"] = list(fit.warnings)
     out["excluded"] = [

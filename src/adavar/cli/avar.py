@@ -23,6 +23,7 @@ from adavar.cli.options import (
     parse_terms,
     points_per_decade,
     positive_int,
+    warn,
 )
 from adavar.cli.output import (
     Status,
@@ -190,6 +191,7 @@ def _avar_channel(
         theo_ratio_terms=args.theo_ratio_terms,
         total_edf=args.total_edf,
         gaps="omit" if args.gaps == "omit" else "error",
+        stationarity_check=args.stationarity_check,
         **chunk_keywords(args),
     )
     fit = None
@@ -213,6 +215,10 @@ def _avar_channel(
         "units": deviation_unit(args.stat, rate_u),
         **deviation_json(result),
     }
+    # not stationary: a warning, not an error (the exit code stays)
+    payload["warnings"] = list(result.warnings)
+    for text in result.warnings:
+        warn(f"column {meta['column']!r}: {text}")
     if fit is not None:
         payload["fit"] = fit_json(fit)
     power_law, power_law_note = _power_law(args, result, units, do_fit)
@@ -303,9 +309,10 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         "--stat", default="oadev", choices=ALL_STATISTICS, help="statistic (default: oadev)"
     )
     avar.add_argument(
-        "--noise-id", default="sp1065", choices=("sp1065", "stable32"),
-        help="noise identification for the intervals: SP 1065 (default; phase data on the "
-        "decimated phase, B1 + R(n) below 30 clusters) or Stable32's tables' rule",
+        "--noise-id", default="sp1065", choices=("sp1065", "stable32", "input"),
+        help="noise identification for the intervals: SP 1065 (default; rate and phase data "
+        "on the decimated phase, B1 + R(n) below 30 clusters), Stable32's tables' rule, or "
+        "'input' (rate data on the averaged rate: the rule before 0.2)",
     )  # fmt: skip
     avar.add_argument(
         "--totdev-edf", default="sp1065", choices=("sp1065", "stable32", "legacy"),
@@ -315,6 +322,11 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
     avar.add_argument(
         "--totdev-bias", action="store_true",
         help="divide out totdev's bias for flicker and random-walk FM (SP 1065)",
+    )  # fmt: skip
+    avar.add_argument(
+        "--stationarity-check", action=argparse.BooleanOptionalAction, default=True,
+        help="test whether the record's short-tau noise is stationary and warn if not "
+        "(default; --no-stationarity-check skips the test)",
     )  # fmt: skip
     avar.add_argument(
         "--bias-correction", action=argparse.BooleanOptionalAction, default=None,

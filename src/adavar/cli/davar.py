@@ -21,8 +21,10 @@ from adavar.cli.options import (
     TERM_FILES,
     UsageError,
     add_controller_arguments,
+    add_dependence_argument,
     add_ici_arguments,
     add_input_arguments,
+    add_kurtosis_reference_argument,
     add_output_arguments,
     add_surface_arguments,
     ici_settings,
@@ -475,6 +477,7 @@ def _davar_channel(
     if adaptive:
         result = adaptive_davar(
             samples, method=args.method, change_times=args.change_times,
+            dependence=args.dependence, kurtosis_reference=args.kurtosis_reference,
             **controller_settings(args), **ici_settings(args), **common,
         )  # fmt: skip
     else:
@@ -557,13 +560,18 @@ def _davar_channel(
 
         lmax = int(result.parameters["lmax"]) if adaptive else int(args.window)
         changes = None if adaptive else _fixed_window_changes(args, samples, common, tau0)
-        if adaptive and result.method == "ici":  # its own change points (one-sided windows)
-            changes = [float(args.t0) + c * tau0 for c in result.parameters["ici_changes"]]
-        events = find_events(
-            result.window, result.centre, result.time, lmax, tau0,
-            {name: fit.term(name).value for name in fit.terms}, t0=float(args.t0),
-            duration=float(args.t0) + result.n_samples * tau0, changes=changes,
-        )  # fmt: skip
+        terms = {name: fit.term(name).value for name in fit.terms}
+        duration = float(args.t0) + result.n_samples * tau0
+        if adaptive and result.method == "ici":  # its steps, ramps and long-tau changes
+            from adavar.ici_events import ici_events
+
+            events = ici_events(result.window, result.centre, result.time, lmax, tau0, terms,
+                                t0=float(args.t0), duration=duration,
+                                parameters=result.parameters)  # fmt: skip
+        else:
+            events = find_events(result.window, result.centre, result.time, lmax, tau0, terms,
+                                 t0=float(args.t0), duration=duration,
+                                 changes=changes)  # fmt: skip
         payload["events"] = [e.as_dict() for e in events]
         if not adaptive:
             payload["events_rule"] = (
@@ -748,6 +756,8 @@ def add_adaptive_parser(sub: Any) -> argparse.ArgumentParser:
         help="known change times in seconds, for --method oracle",
     )  # fmt: skip
     add_controller_arguments(ada)
+    add_dependence_argument(ada)
+    add_kurtosis_reference_argument(ada)
     add_ici_arguments(ada)
     add_surface_arguments(ada)
     ada.add_argument("--json", action="store_true", help="print one JSON object (a summary)")

@@ -103,13 +103,16 @@ def _demo_report(demo: Any) -> str:
     from adavar.adaptive import adaptive_davar
     from adavar.noise_model import fit_noise
     from adavar.report import build_report
+    from adavar.settings import PAPER
 
     gyro = demo.gyro
     paper = demo.paper
     adaptive = coefficients = comparison = None
     if paper is not None:
         comparison = paper.comparison
-        adaptive = adaptive_davar(comparison.data, rate=comparison.rate, taus="octave")
+        # the paper's controller, as the scenario's comparison (not the record's defaults)
+        adaptive = adaptive_davar(comparison.data, rate=comparison.rate, taus="octave",
+                                  **PAPER.keywords())  # fmt: skip
         coefficients = fit_noise(adaptive)
     return build_report(
         title="adavar demo: a simulated MEMS gyro and the A-DAVAR paper's scenario 1",

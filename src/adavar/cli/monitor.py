@@ -29,12 +29,13 @@ from adavar.cli.options import (
     EXIT_OK,
     UsageError,
     add_controller_arguments,
+    add_dependence_argument,
     add_ici_arguments,
+    add_kurtosis_reference_argument,
     check_arguments,
     finite_float,
     ici_settings,
     length_arg,
-    number_tuple,
     parse_noise_type,
     parse_taus,
     parse_terms,
@@ -42,7 +43,7 @@ from adavar.cli.options import (
     positive_int,
 )
 from adavar.errors import AdavarInputError
-from adavar.settings import ICI_EDF_SAMPLES
+from adavar.settings import ICI_EDF_SAMPLES, STREAM_LMAX_SECONDS
 
 __all__ = ["add_monitor_parser"]
 
@@ -67,11 +68,15 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
         "on stdout as one JSON object (start_s, end_s, and the noise coefficient N before, "
         "during and after it) as soon as its end is detected; at the end of the input, "
         "after --idle-timeout seconds without data, or on Ctrl-C, the pass is finished and "
-        "the remaining events are printed. The windows and the change times are those of "
-        "'adavar adaptive' on the same record with the same controller flags, the events "
-        "with their N summaries those of 'adavar adaptive --taus octave --noise-type 0 "
-        "--terms N' (where its whole-record fit finds no filter roll-off to take out of "
-        "every window). A status line goes to stderr when it is a terminal.",
+        "the remaining events are printed. The defaults are those of 'adavar adaptive' "
+        "(Lmin and l from Lmax, thresholds for 0.1 false events per stationary hour; "
+        "--lmax 180 s, a stream having no length to take a tenth of); the first window "
+        "comes after the first 8192 samples or half Lmax. The windows and the change times "
+        "are those of 'adavar adaptive' on the same record with the same --lmax (on a "
+        "30-minute record, also without), the events with their N summaries those of "
+        "'adavar adaptive --taus octave --noise-type 0 --terms N' (where its whole-record "
+        "fit finds no filter roll-off to take out of every window). A status line goes to "
+        "stderr when it is a terminal.",
     )
     cmd.add_argument("source", metavar="SOURCE",
                      help="- (standard input), a file path, or udp://HOST:PORT")  # fmt: skip
@@ -98,13 +103,15 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
         "--method", default="adaptive", choices=("adaptive", "kurtosis", "ici"),
         help="adaptive (A-DAVAR, default), kurtosis (DAVAR-K) or ici (intersection of "
         "confidence intervals, one-sided windows next to a change: docs/method.md section "
-        "11; its rows come about 1.5 Lmax after their centre)",
+        "11; its rows come about 3.3 Lmax after their centre, 1.5 Lmax with "
+        "--no-ici-episodes)",
     )  # fmt: skip
     add_controller_arguments(cmd)
-    add_ici_arguments(cmd)
-    defaults = {  # a stream has no length: the paper's 600 samples and its proportions
-        "lmax": "longest window: samples, or a duration such as 6s or 10min (default: 600 "
-        "samples, the paper's)",
+    add_ici_arguments(cmd, live=True)
+    defaults = {  # a stream has no length: a tenth of a 30-minute record
+        "lmax": "longest window: samples, or a duration such as 6s or 10min (default: "
+        f"{STREAM_LMAX_SECONDS:g} s, a tenth of a 30-minute record; 'adavar adaptive' takes a "
+        "tenth of the record)",
         "lmin": "shortest window: samples or a duration (default: two thirds of Lmax)",
         "segment": "leading segment of the S test: samples or a duration (default: a sixth "
         "of Lmax)",
@@ -117,12 +124,8 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
     for action in cmd._actions:
         if action.dest in defaults:
             action.help = defaults[action.dest]
-    cmd.add_argument(
-        "--dependence", type=number_tuple("--dependence", 2, 2), metavar="C2,C4",
-        help="the record's (c2, c4) for the hourly thresholds, instead of waiting for the "
-        "first 2^20 samples to measure them (see result.json's dependence of 'adavar "
-        "adaptive')",
-    )  # fmt: skip
+    add_dependence_argument(cmd)
+    add_kurtosis_reference_argument(cmd)
     cmd.add_argument(
         "--step", type=length_arg(1), default=1, metavar="S",
         help="keep every S-th centre's window and N (samples or a duration; default: every "
@@ -396,7 +399,8 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
         ici["ici_edf_samples"] = ICI_EDF_SAMPLES
     live = OnlineAdaptive(
         rate=args.rate, method=args.method, **settings, l=args.segment, dependence=args.dependence,
-        step=args.step, terms=args.terms, taus=args.taus, noise_type=args.noise_type,
+        kurtosis_reference=args.kurtosis_reference, step=args.step, terms=args.terms,
+        taus=args.taus, noise_type=args.noise_type,
         edge_edf=args.edge_edf, units=args.units.strip(), t0=args.t0,
         fit_options=fit_options, fit_batch=args.fit_batch, keep="recent", **ici,
     )  # fmt: skip

@@ -559,6 +559,17 @@ def _tau_range(text: str) -> tuple[float | None, float | None]:
     return lo, hi
 
 
+def _probability(text: str) -> float:
+    """A one-sided confidence level strictly between 0.5 and 1."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.5 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"takes a probability between 0.5 and 1, got {text!r}")
+    return value
+
+
 def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
     """The noise fit's options (:func:`adavar.fit_noise`)."""
     cmd.add_argument(
@@ -569,13 +580,25 @@ def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
         "slope-line read-offs)",
     )  # fmt: skip
     cmd.add_argument(
-        "--select", default=FIT.select, choices=("significance", "none"),
-        help="gls: keep a term only while C/sigma_C >= --significance (default), or keep "
-        "every --terms term",
+        "--select", default=FIT.select, choices=("aic", "bic", "significance", "none"),
+        help="gls: choose the terms by comparing the likelihoods of every subset, with "
+        "Akaike's penalty (aic, default) or the Bayesian one (bic); or the elimination of "
+        "terms below --significance sigma (the behaviour before 0.3); or keep every --terms "
+        "term",
     )  # fmt: skip
     cmd.add_argument(
         "--significance", type=positive_float("sigma"), default=FIT.significance, metavar="Z",
-        help="gls: the significance a term needs to stay in the model (default: 2)",
+        help="gls with --select significance: the significance a term needs to stay in the "
+        "model (default: 2)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--markov", default=FIT.markov, choices=("auto", "none"),
+        help="gls with --select aic/bic: add a first-order Gauss-Markov term where the curve "
+        "has a hump the IEEE terms cannot describe (default auto), or never",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--bound-level", type=_probability, default=FIT.bound_level, metavar="P",
+        help="gls: one-sided level of the upper bound of a term left out (default 0.99)",
     )  # fmt: skip
     cmd.add_argument(
         "--exclude", default=FIT.exclude, choices=("auto", "none"),
@@ -697,8 +720,31 @@ def whole_list(text: str) -> list[int]:
     return values
 
 
-def add_ici_arguments(cmd: argparse.ArgumentParser) -> None:
-    """The options of ``--method ici`` (:func:`adavar.ici.ici_schedule`)."""
+def add_dependence_argument(cmd: argparse.ArgumentParser) -> None:
+    """``--dependence C2,C4``: the record's correlation for the hourly thresholds, given."""
+    cmd.add_argument(
+        "--dependence", type=number_tuple("--dependence", 2, 2), metavar="C2,C4",
+        help="the record's (c2, c4) for the hourly thresholds, instead of measuring them on "
+        "its first 8192 samples (or half Lmax) and refining them at every doubling up to 2^20 "
+        "(result.json's dependence_stages); 'adavar adaptive' and 'adavar monitor' given the "
+        "same give the same windows",
+    )  # fmt: skip
+
+
+def add_kurtosis_reference_argument(cmd: argparse.ArgumentParser) -> None:
+    """``--kurtosis-reference``: what the calibrated kurtosis tests compare a window with."""
+    cmd.add_argument(
+        "--kurtosis-reference", choices=("record", "gaussian"), default="record",
+        help="with --thresholds calibrated: compare each window with the record's own "
+        "stationary noise (default: fitted on the same first samples as the correlation, so "
+        "that non-Gaussian noise such as a platykurtic gyro or Student-t noise gives no false "
+        "events; docs/method.md section 8) or with Gaussian noise (before 0.2)",
+    )  # fmt: skip
+
+
+def add_ici_arguments(cmd: argparse.ArgumentParser, live: bool = False) -> None:
+    """The options of ``--method ici`` (:func:`adavar.ici.ici_schedule`); ``live``: without
+    ``--ici-long-tau`` (the long-tau scan needs the whole record)."""
     group = cmd.add_argument_group("ICI window (--method ici)")
     group.add_argument(
         "--ici-gamma", type=positive_float("standard deviations"), default=ICI_GAMMA,
@@ -729,10 +775,31 @@ def add_ici_arguments(cmd: argparse.ArgumentParser) -> None:
         help="measure the correlation EDF on the first K samples only (what 'adavar "
         "monitor --method ici' knows when it starts; default: the whole record)",
     )  # fmt: skip
+    group.add_argument(
+        "--ici-kurtosis", action=argparse.BooleanOptionalAction, default=True,
+        help="scale the EDF by the record's robust excess kurtosis, wider intervals on "
+        "heavy-tailed noise (default; --no-ici-kurtosis: the Gaussian EDF, before 0.3)",
+    )  # fmt: skip
+    group.add_argument(
+        "--ici-episodes", action=argparse.BooleanOptionalAction, default=True,
+        help="locate the changes by segmenting each episode of disagreeing Lmax windows, "
+        "report gradual changes as one ramp and track them (default; --no-ici-episodes: "
+        "the largest contrast within Lmax/2, before 0.3)",
+    )  # fmt: skip
+    if not live:
+        group.add_argument(
+            "--ici-long-tau", action=argparse.BooleanOptionalAction, default=True,
+            help="also report changes of the long-tau terms (rate random walk, bias "
+            "instability) found at long averaging times, events with tau_s (default)",
+        )  # fmt: skip
 
 
 def ici_settings(args: argparse.Namespace) -> dict[str, object]:
     """The ICI keywords of :func:`adavar.adaptive_davar` from the options."""
-    return dict(ici_gamma=args.ici_gamma, ici_lengths=args.ici_lengths, ici_taus=args.ici_taus,
-                ici_sides=args.ici_sides, ici_edf=args.ici_edf,
-                ici_edf_samples=args.ici_edf_samples)  # fmt: skip
+    settings = dict(ici_gamma=args.ici_gamma, ici_lengths=args.ici_lengths,
+                    ici_taus=args.ici_taus, ici_sides=args.ici_sides, ici_edf=args.ici_edf,
+                    ici_edf_samples=args.ici_edf_samples, ici_kurtosis=args.ici_kurtosis,
+                    ici_episodes=args.ici_episodes)  # fmt: skip
+    if hasattr(args, "ici_long_tau"):  # not live
+        settings["ici_long_tau"] = args.ici_long_tau
+    return settings

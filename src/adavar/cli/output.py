@@ -68,8 +68,8 @@ def fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = Non
     red = float(fit.reduced_chi2)
     terms = "all five terms" if len(fit.terms) == 5 else ", ".join(fit.terms)
     how = {
-        "gls": "generalised least squares with the covariance of the taus, terms kept where "
-        "significant",
+        "gls": "generalised least squares with the covariance of the taus, terms chosen by "
+        f"{fit.selection.upper() if fit.selection in ('aic', 'bic') else fit.selection}",
         "wls": "non-negative least squares weighted by each point's edf",
         "slopes": "slope-line read-offs",
     }[fit.method]
@@ -102,10 +102,14 @@ def fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = Non
         if name not in fit.terms:
             row += ["not in the model"] * (2 if conv is not None else 1)
         else:
-            row.append(format_pm(term.value, term.uncertainty, term_unit(name, fit.units)))
+            # a term at 0: its one-sided upper bound at the fit's level, where there is one
+            bound = term.uncertainty if not math.isfinite(float(term.upper)) else term.upper
+            row.append(format_pm(term.value, term.uncertainty if term.value else bound,
+                                 term_unit(name, fit.units)))  # fmt: skip
             if conv is not None:
                 c = conv[name]
-                row.append(format_pm(c.value, c.uncertainty, c.unit))
+                bound = c.uncertainty if not math.isfinite(float(c.upper)) else c.upper
+                row.append(format_pm(c.value, c.uncertainty if c.value else bound, c.unit))
         if true is not None:
             value, unit = true[name]
             row.append(f"{value:g} {unit}")
@@ -113,10 +117,20 @@ def fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = Non
             row.append(f"{100 * (fitted / value - 1):+.1f} %" if value else "")
         rows.append(row)
     lines.append(text_table(headers, rows, indent))
+    level = f"{100 * fit.bound_level:.0f} %" if fit.method == "gls" else "1-sigma"
     lines.append(
-        f"{indent}(0 (< x): pinned at zero or left out as not significant, x is a "
-        "1-sigma upper bound)"
+        f"{indent}(0 (< x): left out by the model selection or pinned at zero, x is its "
+        f"one-sided {level} upper bound)"
     )
+    if fit.markov is not None:
+        mk = fit.markov
+        unit = f" {fit.units}" if fit.units else ""
+        lo, hi = mk.tau_c_range
+        lines.append(
+            f"{indent}Gauss-Markov process: sigma = "
+            f"{format_pm(mk.sigma, mk.sigma_uncertainty)}{unit}, correlation time "
+            f"{mk.tau_c:.3g} s ({lo:.3g}-{hi:.3g} s)"
+        )
     if fit.slopes is not None:
         read = []
         for n, v in fit.slopes.values.items():
