@@ -266,7 +266,8 @@ def test_fit_reports_inadequacy_of_a_model_that_cannot_describe_the_data():
     r = adavar.deviation(w, rate=10.0)
     fit = adavar.fit_noise(r, markov="none")
     assert not bool(fit.adequate) and fit.p_value < 1e-3
-    assert any("does not describe" in w for w in fit.warnings)
+    assert fit.better_model is not None and "Gauss-Markov" in fit.better_model
+    assert any("do not describe" in w for w in fit.warnings)
     # by default the fit adds the Gauss-Markov term, names it and describes the curve
     named = adavar.fit_noise(r)
     assert named.markov is not None and bool(named.adequate)

@@ -16,7 +16,7 @@ import pytest
 
 import adavar
 from adavar.errors import AdavarInputError
-from adavar.stationarity import stationarity
+from adavar.stationary_noise import stationarity
 
 from . import independent_noise as ind
 from .cli_helpers import run

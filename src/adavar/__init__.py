@@ -51,6 +51,7 @@ _LAZY = {
     "long_tau_changes": "adavar.long_tau",
     "NoiseFit": "adavar.noise_model",
     "NoiseTerm": "adavar.noise_model",
+    "MarkovTerm": "adavar.results",
     "fit_avar": "adavar.noise_model",
     "fit_noise": "adavar.noise_model",
     "OnlineAdaptive": "adavar.online",
@@ -60,8 +61,8 @@ _LAZY = {
     "DavarResult": "adavar.results",
     "DeviationResult": "adavar.results",
     "deviation": "adavar.statistics",
-    "StationarityResult": "adavar.stationarity",
-    "stationarity": "adavar.stationarity",
+    "StationarityResult": "adavar.stationary_noise",
+    "stationarity": "adavar.stationary_noise",
 }
 _SUBMODULES = ("simulate",)
 
@@ -79,8 +80,8 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from adavar.online import OnlineAdaptive
     from adavar.paper.studies import compare_seeds
     from adavar.power_law import PowerLawFit, fit_power_law
-    from adavar.results import DavarResult, DeviationResult
-    from adavar.stationarity import StationarityResult, stationarity
+    from adavar.results import DavarResult, DeviationResult, MarkovTerm
+    from adavar.stationary_noise import StationarityResult, stationarity
     from adavar.statistics import deviation
 
 
@@ -100,9 +101,8 @@ def __dir__() -> list[str]:
 
 
 class _Package(types.ModuleType):
-    """``adavar.compare``, ``adavar.davar`` and ``adavar.stationarity`` are functions (the
-    first two as they always were), though modules of those names exist: importing the
-    module must not rebind the name."""
+    """``adavar.compare`` and ``adavar.davar`` are functions (as they always were), though
+    modules of those names exist: importing the module must not rebind the name."""
 
     def __setattr__(self, name: str, value: Any) -> None:
         if name in _LAZY and isinstance(value, types.ModuleType):
@@ -122,6 +122,7 @@ __all__ = [
     "DeviationResult",
     "Duration",
     "LongTauChanges",
+    "MarkovTerm",
     "NoiseFit",
     "NoiseTerm",
     "OnlineAdaptive",

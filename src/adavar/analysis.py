@@ -562,8 +562,10 @@ class ReportAnalysis:
                     "leading_edge_s": float(time_s[a] + self._seconds(lmax // 2)),
                     "min_window": int(window[a : b + 1].min()),
                 })  # fmt: skip
-            rule = ("changes at the leading edge of the last full window before each run of "
-                    f"windows shorter than Lmax = {lmax}, paired into stretches")  # fmt: skip
+            rule = (f"episodes of windows shorter than Lmax = {lmax}: a change up (at the "
+                    "leading edge before the shrink) or down (at the trailing edge where the "
+                    "window regrows) by N on each side opens or closes a stretch; an episode "
+                    "with no change of level (a spike) is an event of its own")  # fmt: skip
             if self.adaptive.method == "ici":  # its own steps, ramps and long-tau changes
                 from adavar.ici_events import ici_events
 
@@ -602,7 +604,7 @@ class ReportAnalysis:
             settings["l"] = record_windows(0, length)[2]
         rule = (f"changes at the leading edge of the first window of each run of centres "
                 f"where the adaptive controller's test flags the fixed {length}-sample "
-                "window, paired into stretches")  # fmt: skip
+                "window, classified by N on each side into stretches and short events")  # fmt: skip
         if settings["l"] > length - 4:
             note = (
                 f"no events: the S test needs a window of more than l + 3 = "

@@ -159,6 +159,7 @@ class GlsOutcome:
     gof_chi2: float
     markov: MarkovFit | None
     correlation: np.ndarray
+    better: str | None = None
 
 
 def fit_curve(
@@ -302,19 +303,25 @@ def fit_curve(
                 )
                 continue
         break
-    # then a Gauss-Markov term, on that tau range
-    if markov == "auto" and select in ("aic", "bic"):
-        with_markov, dropped_m = choose(prob, idx, all_cols, n_iter, signed, select,
-                                         significance, True, forced)  # fmt: skip
-        if prob.markov_tau is not None:
-            trial = evaluate(idx, with_markov)
-            dof = idx.size - trial.n_params
-            # a hump that still leaves the curve undescribed is not named a Gauss-Markov
-            # process (a vibration's bump is sharper, a roll-off deeper)
-            if dof > 0 and chi2_sf(dof, trial.gof) >= ADEQUATE_P:
+    # then a Gauss-Markov term, on that tau range; where the fit may not take one, its
+    # model is still compared with the best that has one (an unmodelled hump)
+    better = None
+    how = select if select in ("aic", "bic") else "aic"
+    with_markov, dropped_m = choose(prob, idx, all_cols, n_iter, signed, how,
+                                     significance, True, forced)  # fmt: skip
+    if prob.markov_tau is not None:
+        trial = evaluate(idx, with_markov)
+        dof = idx.size - trial.n_params
+        # a hump that still leaves the curve undescribed is not named a Gauss-Markov
+        # process (a vibration's bump is sharper, a roll-off deeper)
+        if dof > 0 and chi2_sf(dof, trial.gof) >= ADEQUATE_P:
+            if markov == "auto" and select in ("aic", "bic"):
                 cols, dropped, state = with_markov, dropped_m, trial
             else:
+                better = f"a Gauss-Markov process of correlation time {prob.markov_tau:.3g} s"
                 prob.set_markov(None)
+        else:
+            prob.set_markov(None)
     coef, chi2, factor, fisher, resid = (state.coef, state.chi2, state.factor, state.fisher,
                                          state.resid)  # fmt: skip
     sig = np.sqrt(np.maximum(np.diag(fisher), 0.0))
@@ -364,6 +371,7 @@ def fit_curve(
         gof_chi2=gof,
         markov=markov_fit,
         correlation=_correlation(fisher, cols),
+        better=better,
     )
 
 

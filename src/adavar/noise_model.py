@@ -779,4 +779,5 @@ def _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
         bound_level=bound_level,
         gof_chi2=float(out.gof_chi2),
         selection=select,
+        better_model=out.better,
     )

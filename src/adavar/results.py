@@ -523,6 +523,10 @@ class NoiseFit:
         freedom when the model is right (NaN for other methods).
     selection : str
         How the terms were chosen (``"aic"``, ``"bic"``, ``"significance"``, ``"none"``).
+    better_model : str or None
+        ``"gls"``: a model the fit was not allowed (a Gauss-Markov term with
+        ``markov="none"``, or with ``select`` other than ``"aic"``/``"bic"``) that describes
+        the curve far better; the fit is then not :attr:`adequate`. None otherwise.
 
     Notes
     -----
@@ -554,6 +558,7 @@ class NoiseFit:
     bound_level: float = FitSettings.bound_level
     gof_chi2: Any = float("nan")
     selection: str = "none"
+    better_model: str | None = None
 
     @property
     def rolloff(self) -> Any:
@@ -592,7 +597,8 @@ class NoiseFit:
 
     @property
     def adequate(self) -> Any:
-        """True where the model describes the points it fitted (``p_value >= 1e-3``).
+        """True where the model describes the points it fitted (``p_value >= 1e-3``, and
+        no :attr:`better_model`).
 
         Judged only for the full-covariance fit, whose chi-square has its nominal
         distribution; the diagonal fit's chi-square ignores the correlation of the taus, so
@@ -600,7 +606,7 @@ class NoiseFit:
         """
         if self.method == "gls":
             p = np.asarray(self.p_value, dtype=float)
-            out = ~(p < ADEQUATE_P)
+            out = ~(p < ADEQUATE_P) & (self.better_model is None)
         else:
             out = ~(np.asarray(self.reduced_chi2, dtype=float) > 3.0)
         return out[()] if out.ndim == 0 else out
@@ -611,7 +617,12 @@ class NoiseFit:
         if np.ndim(self.chi2) != 0:
             return ()
         out = []
-        if not bool(self.adequate):
+        if self.better_model is not None:
+            out.append(
+                f"the model's terms do not describe the curve: {self.better_model} "
+                "describes it far better (markov='auto' with select='aic' fits it)"
+            )
+        elif not bool(self.adequate):
             out.append(
                 f"the noise model does not describe the data (reduced chi2 = "
                 f"{float(self.reduced_chi2):.3g}, p = {float(self.p_value):.2g}): read the "

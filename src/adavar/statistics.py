@@ -33,7 +33,7 @@ from adavar.noise_id import (
 )
 from adavar.results import DeviationResult
 from adavar.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, STATISTICS
-from adavar.stationarity import stationarity
+from adavar.stationary_noise import stationarity
 from adavar.taus import averaging_factors
 
 __all__ = [
@@ -531,7 +531,7 @@ def deviation(
         samples are missing samples too. Without NaN the result is that of ``"error"``.
     stationarity_check : bool
         Test whether the record's short-tau noise is stationary
-        (:func:`adavar.stationarity.stationarity`, one more pass over the record; not with
+        (:func:`adavar.stationarity`, one more pass over the record; not with
         ``gaps="omit"`` on a record with NaN) and, if it is not (p < 1e-3), say so in
         ``result.warnings``,
         with the suspect stretch: one whole-record curve then averages different noise

@@ -842,6 +842,7 @@ def fit_json(fit: NoiseFit) -> dict[str, Any]:
     out["adequate"] = bool(fit.adequate)
     out["p_value"] = fit.p_value
     out["gof_chi2"] = fit.gof_chi2
+    out["better_model"] = fit.better_model
     mk = fit.markov
     out["markov"] = None if mk is None else {
         "sigma": mk.sigma, "sigma_uncertainty": mk.sigma_uncertainty, "tau_c_s": mk.tau_c,
