@@ -107,8 +107,12 @@ def force(monkeypatch):
     """Run every threaded kernel on the calling thread alone (``force("serial")``) or on
     every thread from the smallest input (``force("parallel")``)."""
 
+    from adavar import differences
+
     def choose(which: str) -> None:
         monkeypatch.setattr(_jit, "SERIAL_WORK", 1 << 62 if which == "serial" else 0)
+        # the whole-record kernels' own threshold (issue 42)
+        monkeypatch.setattr(differences, "RECORD_THREADS_MIN", 1 << 62 if which == "serial" else 0)
 
     return choose
 
@@ -308,3 +312,42 @@ def test_grouped_items_cover_every_unit_once(least):
         per, items = _jit.grouped_items(units, least)
         assert per >= least and items <= max(1, _jit.work_items(units))
         assert per * (items - 1) < units <= per * items  # no empty item, none missing
+
+
+def test_threaded_whole_record_kernels_are_bit_identical(force):
+    """The integration pass and the overlapping sums of a record with an offset, a step and
+    a drift: the same bits on one thread and on all (issue 42)."""
+    from adavar import differences as diff
+    from adavar.statistics import deviation
+
+    x = _record(300_000, seed=5)
+    u = np.diff(x)
+    a, b = _both(force, lambda: diff.anchored_phase(u, cluster_stats=True))
+    for name in ("r", "hh", "hl", "cluster_stats", "fused"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+    for stat in ("oadev", "ohdev", "totdev"):
+        one, every = _both(force, lambda stat=stat: deviation(x, stat=stat, taus="octave"))
+        np.testing.assert_array_equal(one.dev, every.dev, err_msg=stat)
+        np.testing.assert_array_equal(one.edf, every.edf, err_msg=stat)
+
+
+def test_whole_record_kernels_use_every_thread_above_the_threshold(monkeypatch):
+    """Below RECORD_THREADS_MIN samples the calling thread alone (a thread's start costs
+    more than the work), from it on the pool of the other threads (issue 42)."""
+    import numba
+
+    from adavar import differences as diff
+    from adavar.statistics import deviation
+
+    if numba.get_num_threads() < 2:
+        pytest.skip("one thread set for the kernels")
+    monkeypatch.delenv("ADAVAR_SERIAL_KERNELS", raising=False)
+    sizes = []
+    real = _jit._pool
+    monkeypatch.setattr(_jit, "_pool", lambda size: sizes.append(size) or real(size))
+    x = np.random.default_rng(1).standard_normal(1 << 19)
+    deviation(x, taus="octave", confidence=None, stationarity_check=False)
+    assert sizes == []
+    monkeypatch.setattr(diff, "RECORD_THREADS_MIN", 1 << 18)
+    deviation(x, taus="octave", confidence=None, stationarity_check=False)
+    assert len(sizes) >= 2 and min(sizes) == numba.get_num_threads() - 1

@@ -104,7 +104,9 @@ STAGES: dict[str, tuple[Callable[[], None], tuple[tuple[str, str], ...]]] = {
                              ("adavar.kurtosis", "_record"))),
     "deviation": (_deviation, (("adavar.noise_id", "_rate_noise_kernel"),
                                ("adavar.differences", "_anchored_prefix"),
-                               ("adavar.differences", "overlapping_sums_kernel"),
+                               ("adavar.differences", "_prefix_blocks"),
+                               ("adavar.differences", "_overlap_partials"),
+                               ("adavar.differences", "_superblock_totals"),
                                ("adavar.differences", "cluster_differences"))),
 }  # fmt: skip
 

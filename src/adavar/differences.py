@@ -22,11 +22,13 @@ from __future__ import annotations
 
 import numpy as np
 
-# The kernels here are compiled serially (their ``prange`` loops run in order): on 2 cores
-# the serial form is faster up to 1e6 samples (2.7 vs 11 ms at 1e5, 18 vs 28 ms at 1e6),
-# within 1.3x at 1e7, immune to a busy core, and compiles in 10 s instead of 18 s
-# (docs/benchmarks.md, issue 15).
-from adavar._jit import jit, prange, read_only
+# The integration pass and the overlapping sums run their independent blocks on several
+# threads from RECORD_THREADS_MIN samples on (threaded kernels, :class:`adavar._jit.
+# ThreadedKernel`), serially below: on 2 cores the serial form is faster up to about 1e6
+# samples (a thread's start costs more than the work), the threaded one about 1.7x faster at
+# 1e7 (issue 42). Each block is computed the same way on any thread and the partial sums
+# are added in block order, so the result does not depend on the thread count.
+from adavar._jit import grouped_items, jit, prange, read_only, threaded_jit
 from adavar._kernels.double_double import dd_add, dd_scaled_add, two_sum
 from adavar._kernels.window_avar import window_avar
 
@@ -50,6 +52,8 @@ SECOND = read_only(np.array([1, -2, 1], dtype=np.int64))  # coefficients of the 
 THIRD = read_only(np.array([-1, 3, -3, 1], dtype=np.int64))  # and of the Hadamard one
 BLOCK = 1 << SHIFT  # anchor spacing, samples
 SUPERBLOCK = 1 << 14  # terms per parallel work item; each touches a few 128 KiB chunks
+#: Samples (or terms) from which the whole-record kernels use every thread.
+RECORD_THREADS_MIN = 1 << 21
 
 
 # ---------------------------------------------------------------------------------------
@@ -99,17 +103,14 @@ def _block_cluster_stats(rb, total, m, k_first, count, kc, out):  # pragma: no c
     out[7] = nq
 
 
-@jit
-def _anchored_prefix(u, shift, nlev, stats, fused):  # pragma: no cover - compiled
-    # stats (zeros, one row of 8 per block and level) and fused come from the caller:
-    # allocating them here would compile np.zeros for 3-D and 2-D arrays (0.3 s cold)
+@threaded_jit
+def _prefix_blocks(u, shift, nlev, stats, r, tot_h, tot_l, per, lo, hi):  # pragma: no cover
+    """Blocks ``lo * per .. hi * per - 1`` of the integration: each block's local sums
+    ``r`` (compensated), its total, and its cluster moments for the fused levels."""
     n = u.size
     npts = n + 1
-    nb = (npts + BLOCK - 1) >> SHIFT
-    r = np.empty(npts)
-    tot_h = np.zeros(nb)
-    tot_l = np.zeros(nb)
-    for b in prange(nb):
+    nb = tot_h.size
+    for b in range(lo * per, min(hi * per, nb)):
         j0 = b << SHIFT
         j1 = min(j0 + BLOCK, npts)
         # the block's increments, including the one that leads to the next anchor
@@ -136,6 +137,13 @@ def _anchored_prefix(u, shift, nlev, stats, fused):  # pragma: no cover - compil
                 _block_cluster_stats(
                     r[j0:j1], h, m, k_first, count, 0.5 * (count - 1), stats[b, lev]
                 )
+
+
+@jit
+def _anchored_prefix(n, nlev, stats, fused, tot_h, tot_l):  # pragma: no cover - compiled
+    # stats (one row of 8 per block and level, filled by _prefix_blocks) and fused come
+    # from the caller: allocating them here would compile np.zeros for 3-D and 2-D arrays
+    nb = tot_h.size
     hh = np.empty(nb)
     hl = np.empty(nb)
     ah = 0.0
@@ -202,7 +210,7 @@ def _anchored_prefix(u, shift, nlev, stats, fused):  # pragma: no cover - compil
         )
         fused[lev, 0] = ((zin + zs) - cross1 - cross2 + lines) / den
         fused[lev, 3] = 1.0
-    return r, hh, hl
+    return hh, hl
 
 
 def _median(values: np.ndarray) -> float:
@@ -294,7 +302,15 @@ def anchored_phase(
     nlev = FUSED_LEVELS if cluster_stats else 0
     stats = np.zeros((1 + (u.size >> SHIFT), max(nlev, 1), 8))  # a row per anchor block
     fused = np.empty((max(nlev, 1), 4))
-    r, hh, hl = _anchored_prefix(read_only(u), float(shift), nlev, stats, fused)
+    nb = (u.size + BLOCK) >> SHIFT  # blocks of the u.size + 1 phase points
+    r = np.empty(u.size + 1)
+    tot_h = np.zeros(nb)
+    tot_l = np.zeros(nb)
+    per, items = grouped_items(nb, least=16)
+    work = u.size if u.size >= RECORD_THREADS_MIN else 0
+    _prefix_blocks.run(work, items, read_only(u), float(shift), nlev, stats, r, tot_h, tot_l,
+                       per)  # fmt: skip
+    hh, hl = _anchored_prefix(u.size, nlev, stats, fused, tot_h, tot_l)
     if not cluster_stats:
         return AnchoredPhase(r, hh, hl, shift)
     return AnchoredPhase(r, hh, hl, shift, stats, fused)
@@ -376,33 +392,28 @@ def _run_fill2(r, c, lo, hi, m, out):  # pragma: no cover - compiled
         out[k] = c + ((x0[k] + x2[k]) - 2.0 * x1[k])
 
 
-@jit
-def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs):  # pragma: no cover - compiled
-    """``sum_{i=start}^{start+count-1} (sum_k coefs[k] S[i + k m])^2`` for every tau.
-
-    Fused over taus: each work item takes one superblock of ``i`` and runs every tau over
-    it, so the chunks of ``r`` that neighbouring octaves share stay in cache.
-    """
+@threaded_jit
+def _overlap_partials(
+    r, hh, hl, ms, starts, counts, coefs, partial, per, lo, hi
+):  # pragma: no cover
+    """Superblocks ``lo * per .. hi * per - 1`` of :func:`overlapping_sums_kernel`: every
+    tau's sum over each, into ``partial[sb * nt + t]``."""
     nt = ms.size
     kp = coefs.size
-    imax = 0
-    for t in range(nt):
-        imax = max(imax, starts[t] + counts[t])
-    nsb = (imax + SUPERBLOCK - 1) // SUPERBLOCK
-    partial = np.zeros(nsb * nt)  # [sb, t] flat: a 2-D np.zeros costs 0.15 s to compile
-    for sb in prange(nsb):
+    nsb = partial.size // nt
+    for sb in range(lo * per, min(hi * per, nsb)):
         b0 = sb * SUPERBLOCK
         b1 = b0 + SUPERBLOCK
         for t in range(nt):
-            lo = max(b0, starts[t])
-            hi = min(b1, starts[t] + counts[t])
-            if lo >= hi:
+            lo_t = max(b0, starts[t])
+            hi_t = min(b1, starts[t] + counts[t])
+            if lo_t >= hi_t:
                 continue
             m = ms[t]
             acc = 0.0
-            i = lo
-            while i < hi:
-                e = segment_end(i, hi, m, kp)
+            i = lo_t
+            while i < hi_t:
+                e = segment_end(i, hi_t, m, kp)
                 c = anchor_combo(hh, hl, i, m, coefs)
                 if kp == 3:
                     acc += _run_sq2(r, c, i, e, m)
@@ -410,13 +421,37 @@ def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs):  # pragma: no
                     acc += _run_sq3(r, c, i, e, m)
                 i = e
             partial[sb * nt + t] = acc
+
+
+@jit
+def _superblock_totals(partial, nt):  # pragma: no cover - compiled
+    """Each tau's sum of its superblocks' partial sums, in superblock order."""
+    nsb = partial.size // nt
     out = np.zeros(nt)
     for t in range(nt):
-        total = 0.0  # in superblock order, as np.sum would (and without compiling it)
+        total = 0.0
         for sb in range(nsb):
             total += partial[sb * nt + t]
         out[t] = total
     return out
+
+
+def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs) -> np.ndarray:
+    """``sum_{i=start}^{start+count-1} (sum_k coefs[k] S[i + k m])^2`` for every tau.
+
+    Fused over taus: each work item takes superblocks of ``i`` and runs every tau over
+    them, so the chunks of ``r`` that neighbouring octaves share stay in cache; from
+    :data:`RECORD_THREADS_MIN` terms on, on every thread.
+    """
+    nt = ms.size
+    imax = int(np.max(starts + counts)) if nt else 0
+    nsb = (imax + SUPERBLOCK - 1) // SUPERBLOCK
+    partial = np.zeros(nsb * nt)
+    per, items = grouped_items(nsb)
+    work = imax if imax >= RECORD_THREADS_MIN else 0
+    _overlap_partials.run(work, max(items, 1), r, hh, hl, ms, starts, counts, coefs,
+                          partial, per)  # fmt: skip
+    return _superblock_totals(partial, nt)
 
 
 @jit

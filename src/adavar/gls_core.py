@@ -72,21 +72,29 @@ class Problem:
 
     Coefficient vectors have six entries: ``C_-2 .. C_2`` and the Gauss-Markov variance
     (0 without one); the sixth design column is that term's Allan variance per unit
-    variance at :attr:`markov_tau` (zeros when there is none).
+    variance at :attr:`markov_tau` (zeros when there is none). The covariance is known only
+    at the taus ``covered`` (the fitted ones, at most :data:`MAX_TAUS` after thinning): its
+    basis costs O(M^2) pairs of lag sums, which a grid of every tau would make hours.
     """
 
     def __init__(self, tau, avar, edf, ms, n_points, tau0, stat, alpha, powers,
-                 excess=0.0):  # fmt: skip
+                 excess=0.0, covered=None):  # fmt: skip
         self.tau, self.avar, self.edf = tau, avar, edf
         self.ms, self.n_points, self.tau0 = ms, n_points, tau0
+        covered = np.arange(tau.size) if covered is None else np.asarray(covered)
+        self.covered = covered
+        self.position = np.full(tau.size, -1, dtype=np.int64)
+        self.position[covered] = np.arange(covered.size)
         # heavy tails of the white rate noise (excess kurtosis of its samples): the
         # fourth-cumulant part of the estimates' covariance, per unit C_-1^2
         self.tails = None
         if excess and math.isfinite(excess) and stat == "oadev":
-            self.tails = (excess / tau0**2) * avar_covariance.fourth_cumulant_basis(ms, n_points)
+            self.tails = (excess / tau0**2) * avar_covariance.fourth_cumulant_basis(
+                ms[covered], n_points
+            )
         self.phi = np.zeros((tau.size, 6))
         self.phi[:, :5] = tau[:, None] ** powers[None, :]  # (M, 6)
-        self.basis = avar_covariance.covariance_basis(ms, n_points, tau0)
+        self.basis = avar_covariance.covariance_basis(ms[covered], n_points, tau0)
         self.markov_tau: float | None = None
         # adev/totdev: the oadev correlation with the statistic's own variance
         if stat == "oadev":
@@ -103,25 +111,30 @@ class Problem:
         if tau_c == self.markov_tau:
             return
         self.markov_tau = tau_c
+        ms = self.ms[self.covered]
         if tau_c is None:
             self.phi[:, MARKOV] = 0.0
-            self.basis = avar_covariance.covariance_basis(self.ms, self.n_points, self.tau0)
+            self.basis = avar_covariance.covariance_basis(ms, self.n_points, self.tau0)
         else:
             self.phi[:, MARKOV] = markov_avar(self.tau, 1.0, tau_c)
             self.basis = avar_covariance.covariance_basis(
-                self.ms, self.n_points, self.tau0, markov_tau=tau_c
+                ms, self.n_points, self.tau0, markov_tau=tau_c
             )
 
     def model(self, coef: np.ndarray) -> np.ndarray:
         return self.phi @ coef
 
     def cov(self, coef: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        basis = self.basis[np.ix_(idx, idx)]
+        """The covariance of the estimates at ``idx`` (taus the problem covers)."""
+        pos = self.position[idx]
+        if np.any(pos < 0):
+            raise ValueError("internal: a covariance asked at taus the problem does not cover")
+        basis = self.basis[np.ix_(pos, pos)]
         markov = coef[MARKOV] if self.markov_tau is not None else 0.0
         c = avar_covariance.covariance(basis, coef[:5], markov_var=markov)
         c *= np.outer(self.scale[idx], self.scale[idx])
         if self.tails is not None:
-            c += self.tails[np.ix_(idx, idx)] * max(coef[1], 0.0) ** 2
+            c += self.tails[np.ix_(pos, pos)] * max(coef[1], 0.0) ** 2
         model = self.phi[idx] @ coef
         floor = DIAG_FLOOR * _weights_from_edf(model, self.edf[idx])
         d = np.diag(c)
@@ -276,11 +289,18 @@ class Whitened:
         return np.linalg.solve(self.chol, values / self.scale)
 
 
-def whitened(prob: Problem, idx: np.ndarray, coef: np.ndarray) -> Whitened:
+def whitened(prob: Problem, idx: np.ndarray, coef: np.ndarray, *, data: bool = False) -> Whitened:
+    """The data and design whitened by the covariance of the model ``coef``; with ``data``,
+    by the model's correlation and the data's own scale (each estimate's sd in proportion
+    to itself), under which a model far above the data is as far off as one below."""
     a = prob.avar[idx]
     model = prob.phi[idx] @ coef
-    scale = np.where(model > 0, model, a)
-    chol = whiten(prob.cov(coef, idx), scale)
+    scale = a if data else np.where(model > 0, model, a)
+    cov = prob.cov(coef, idx)
+    if data:  # the same relative spread, about the data instead of the model
+        ratio = np.where(model > 0, a / np.where(model > 0, model, 1.0), 1.0)
+        cov = cov * np.outer(ratio, ratio)
+    chol = whiten(cov, scale)
     both = np.linalg.solve(chol, np.column_stack([prob.phi[idx] / scale[:, None], a / scale]))
     return Whitened(chol, scale, both[:, :-1], both[:, -1])
 

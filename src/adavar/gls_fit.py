@@ -235,7 +235,10 @@ def fit_curve(
     for j in np.flatnonzero(usable & ~thinned):
         reasons[j] = "thinned: a denser tau grid than 4 per octave adds no information"
     used = thinned.copy()
-    prob = Problem(tau, avar, edf, ms, n_points, tau0, stat, alpha, powers, excess)
+    covered = np.flatnonzero(thinned)
+    prob = Problem(tau, avar, edf, ms, n_points, tau0, stat, alpha, powers, excess, covered)
+    # the taus thinned out are scored with their own variance only (2 model^2 / edf)
+    between = np.flatnonzero(usable & ~thinned)
     dev = np.sqrt(np.where(usable, avar, np.nan))
     tau_min_dev = tau[np.nanargmin(dev)] if np.any(usable) else np.inf
     n_cand = len(terms)
@@ -249,10 +252,13 @@ def fit_curve(
         dof = idx.size - n_params
         factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
         fisher = inverse_fisher(aw) * factor
-        good = np.flatnonzero(usable)
-        full_cov = prob.cov(coef, good)
+        model = prob.model(coef)
         resid = np.full(tau.size, np.nan)
-        resid[good] = normal_scores(avar[good], prob.model(coef)[good], np.diag(full_cov))
+        resid[covered] = normal_scores(avar[covered], model[covered],
+                                       np.diag(prob.cov(coef, covered)))  # fmt: skip
+        if between.size:
+            var = 2.0 * model[between] ** 2 / edf[between]
+            resid[between] = normal_scores(avar[between], model[between], var)
         # adequacy: the normal scores of the fitted points, decorrelated
         cov_used = prob.cov(coef, idx)
         d = np.sqrt(np.diag(cov_used))

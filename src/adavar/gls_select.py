@@ -131,14 +131,19 @@ def subset_choice(
     if not markov:
         return best
     ieee_best = best
-    # a Gauss-Markov term: screened under the best model's covariance on a grid of
-    # correlation times (cheap), then judged under its own covariance (one basis per T)
+    # a Gauss-Markov term: screened on a grid of correlation times (cheap), then judged
+    # under its own covariance (one basis per T). The screen whitens by the best model's
+    # correlation on the data's own scale: on the model's, a model that overshoots the long
+    # taus makes their variance so large that nothing there could look better
     tau = prob.tau[idx]
-    w_best = whitened(prob, idx, best.coef)
+    w_best = whitened(prob, idx, best.coef, data=True)
     screen = []
-    for t in markov_grid(tau):
+    # the hump replaces some of the best model's terms, rarely adds others; its grid is
+    # half an octave (the judging below tries a quarter octave either side)
+    within = [c for r in range(len(best.cols) + 1) for c in itertools.combinations(best.cols, r)]
+    for t in markov_grid(tau, step=0.5):
         column = w_best.column(markov_avar(tau, 1.0, float(t)))
-        for cols in [(), *subsets]:
+        for cols in within:
             x, chi2 = solve(w_best, cols, signed, column)
             if x[-1] > 0:
                 k = sum(1 for v in x[:-1] if v != 0) + MARKOV_PARAMS
