@@ -128,11 +128,11 @@ def print_fit(results: dict, title: str) -> None:
               + "  ".join(parts))  # fmt: skip
 
 
-def run_fit(seeds: int, quick: bool) -> None:
+def run_fit(seeds: int, quick: bool, mixes: list[str] | None = None) -> None:
     cells = QUICK_CELLS if quick else CELLS
     t = time.perf_counter()
     results: dict = {"new": {}, "old": {}}
-    for mix in MIXES:
+    for mix in mixes or MIXES:
         for seconds, rate in cells:
             # the 24-hour 100 Hz records (8.6e6 samples) take about 10 s each
             n = seeds if seconds * rate <= 5e6 else min(seeds, 12)
@@ -237,10 +237,11 @@ def main() -> None:
     parser.add_argument("--part", choices=("fit", "events", "all"), default="all")
     parser.add_argument("--seeds", type=int, default=40)
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--mixes", nargs="*", choices=list(MIXES), help="the fit's mixes (all)")
     args = parser.parse_args()
     print(describe())
     if args.part in ("fit", "all"):
-        run_fit(args.seeds, args.quick)
+        run_fit(args.seeds, args.quick, args.mixes)
     if args.part in ("events", "all"):
         run_events(args.seeds, args.quick)
 

@@ -39,7 +39,7 @@ from adavar.batch import (
     report_options,
     run_batch,
 )
-from adavar.batch_state import BATCH_STATE, folder_name
+from adavar.batch_state import BATCH_LOCK, BATCH_STATE, folder_name
 from adavar.compare import schedule_nodes
 from adavar.writers import OUTPUT_MARKER
 
@@ -266,8 +266,8 @@ def _check_broken_row(out, rows, err, records):
         header = (folder / "deviation.csv").read_text().splitlines()[0]
         assert header == "tau_s,n,m,alpha,edf,dev,dev_low,dev_high"
     assert sorted(p.name for p in out.iterdir()) == sorted([
-        BATCH_MARKER, BATCH_STATE, *(row["name"] for row in rows.values()), "summary.csv",
-        "summary.json", "summary.parquet"])  # fmt: skip
+        BATCH_MARKER, BATCH_STATE, BATCH_LOCK, *(row["name"] for row in rows.values()),
+        "summary.csv", "summary.json", "summary.parquet"])  # fmt: skip
     # one stderr line that names the file and the way out
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("adavar: error: 1 of 4 files failed")
@@ -417,7 +417,7 @@ def test_rerun_skips_done_files_and_force_recomputes(small_records, tmp_path):
     assert [row["status"] for row in json.loads(text)["rows"]] == ["ok", "ok", "error"]
     assert (out / names["r0"] / "result.json").stat().st_mtime_ns != stamps["r0"]
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == [
-        BATCH_MARKER, BATCH_STATE]  # fmt: skip
+        BATCH_MARKER, BATCH_STATE, BATCH_LOCK]  # fmt: skip
 
 
 def test_all_ok_exits_0_and_prints_a_table(small_records, tmp_path):

@@ -143,7 +143,7 @@ def test_report_one_section_per_channel(capsys, imu_csv, tmp_path):
     for k, name in enumerate(["gx", "gy", "gz"], start=1):
         section = doc[doc.index(f'<section id="channel-{k}"') :]
         section = section[: section.index("</section>")]
-        assert f"<h2>Channel {name} (deg/s)</h2>" in section
+        assert f"<h2>Channel <bdi>{name}</bdi> (<bdi>deg/s</bdi>)</h2>" in section
         assert "Noise coefficients" in section and "<table>" in section
         for plot in ("deviation", "surface", "coefficients"):
             assert f'id="plot-{k}-{plot}"' in section

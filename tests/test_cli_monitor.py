@@ -46,6 +46,7 @@ def parse(out: str) -> list[dict]:
         assert obj.pop("event") == k
         assert obj.pop("units") == "deg/s"
         obj.pop("final")
+        assert obj.pop("lost_datagrams", 0) == obj.pop("bad_datagrams", 0) == 0  # UDP only
     return lines
 
 

@@ -66,6 +66,9 @@ NOT_FLAGS = {
     # davar(rows=): a block of a surface, for code that works through a long record's
     # surface piece by piece (adavar.surface_fit); the command writes the whole surface
     "rows",
+    # read_record(memory_map=): the commands always read .npy files with file reads, never
+    # through a map (a file cut short meanwhile is then an error, not a SIGBUS crash)
+    "memory_map",
 }
 
 #: (function, commands that call it with the user's settings)
@@ -324,18 +327,24 @@ def test_davar_gets_every_flag(capsys, monkeypatch, record):
     assert "chunk_size" not in seen["_passed"] and seen["gaps"] == "error"
 
 
+# the thresholds by hand (--thresholds paper): a flag the chosen thresholds ignore is an
+# error, so the calibrated ones' flags are checked in runs of their own
 CONTROLLER_FLAGS = ["--lmax", "120", "--lmin", "60", "--k1", "2", "--k2", "4", "--s1", "-0.1",
                     "--s2", "0.1", "--l", "30", "--dl0", "3", "--dl1", "4", "--s-test", "band",
-                    "--combine", "and", "--thresholds", "calibrated", "--false-alarm",
-                    "0.05"]  # fmt: skip
+                    "--combine", "and", "--thresholds", "paper"]  # fmt: skip
 CONTROLLER = {"lmax": 120, "lmin": 60, "k1": 2.0, "k2": 4.0, "s1": -0.1, "s2": 0.1, "l": 30,
               "dl0": 3, "dl1": 4, "s_test": "band", "combine": "and",
-              "thresholds": "calibrated", "false_alarm": 0.05,
-              "false_alarm_per_hour": None}  # fmt: skip  # a per-step rate replaces it
+              "thresholds": "paper", "false_alarm": None,
+              "false_alarm_per_hour": 0.1}  # fmt: skip  # the defaults (unused: paper)
+#: the defaults of the ICI window's flags (each given is checked with --method ici)
+ICI_DEFAULTS = {"ici_gamma": 3.0, "ici_lengths": None, "ici_taus": [1], "ici_sides": "both",
+                "ici_edf": "correlation", "ici_edf_samples": None, "ici_kurtosis": True,
+                "ici_episodes": True, "ici_long_tau": True}  # fmt: skip
 
 
-#: compare keeps the paper's controller (no per-hour calibration)
-COMPARE = {k: v for k, v in CONTROLLER.items() if k != "false_alarm_per_hour"}
+#: compare keeps the paper's controller (no per-hour calibration; per step 0.01)
+COMPARE = {**{k: v for k, v in CONTROLLER.items() if k != "false_alarm_per_hour"},
+           "false_alarm": 0.01}  # fmt: skip
 
 
 def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
@@ -345,31 +354,43 @@ def test_adaptive_davar_gets_every_flag(capsys, monkeypatch, record):
                                 "50", *CONTROLLER_FLAGS, "--taus", "decade", "--edges",
                                 "valid", "--step", "2", "--confidence", "0.9", "--t0", "1",
                                 "--points-per-decade", "7", "--noise-type", "0",
-                                "--chunk-size", "64", "--edge-edf", "interior",
-                                "--ici-gamma", "2", "--ici-lengths", "30,60,90,120",
-                                "--ici-taus", "1,2", "--ici-sides", "centred", "--ici-edf",
-                                "engine", "--ici-edf-samples", "5000", "--dependence",
-                                "1.5,1.25", "--no-ici-kurtosis", "--no-ici-episodes",
-                                "--no-ici-long-tau", "--kurtosis-reference",
-                                "gaussian"])  # fmt: skip
+                                "--chunk-size", "64", "--edge-edf", "interior"])  # fmt: skip
     assert code == 1 and "Stop" in err
     expected = {
-        "method": "oracle", "change_times": [50.0], **CONTROLLER, "dependence": (1.5, 1.25),
-        "kurtosis_reference": "gaussian",
+        "method": "oracle", "change_times": [50.0], **CONTROLLER, "dependence": None,
+        "kurtosis_reference": "record",
         "taus": "decade",
         "edges": "valid", "step": 2, "confidence": 0.9, "t0": 1.0, "points_per_decade": 7,
         "noise_type": 0, "data_type": "rate", "units": "deg/s", "chunk_size": 64,
-        "edge_edf": "interior", "ici_gamma": 2.0, "ici_lengths": [30, 60, 90, 120],
-        "ici_taus": [1, 2], "ici_sides": "centred", "ici_edf": "engine",
-        "ici_edf_samples": 5000, "ici_kurtosis": False, "ici_episodes": False,
-        "ici_long_tau": False,
+        "edge_edf": "interior", **ICI_DEFAULTS,
     }  # fmt: skip
     check(seen, adavar.adaptive_davar, expected)
     seen.clear()
     code, _, err = run(capsys, ["adaptive", str(record), "--column", "x", "--rate", "4",
-                                "--units", "deg/s", "--false-alarm-per-hour", "0.5"])  # fmt: skip
+                                "--units", "deg/s", "--method", "ici", "--ici-gamma", "2",
+                                "--ici-lengths", "30,60,90,120", "--ici-taus", "1,2",
+                                "--ici-sides", "centred", "--ici-edf", "engine",
+                                "--ici-edf-samples", "5000", "--no-ici-kurtosis",
+                                "--no-ici-episodes", "--no-ici-long-tau"])  # fmt: skip
+    assert code == 1 and "Stop" in err
+    given = {"method": "ici", "ici_gamma": 2.0, "ici_lengths": [30, 60, 90, 120],
+             "ici_taus": [1, 2], "ici_sides": "centred", "ici_edf": "engine",
+             "ici_edf_samples": 5000, "ici_kurtosis": False, "ici_episodes": False,
+             "ici_long_tau": False}  # fmt: skip
+    assert {key: seen[key] for key in given} == given
+    seen.clear()
+    code, _, err = run(capsys, ["adaptive", str(record), "--column", "x", "--rate", "4",
+                                "--units", "deg/s", "--false-alarm-per-hour", "0.5",
+                                "--dependence", "1.5,1.25", "--kurtosis-reference",
+                                "gaussian"])  # fmt: skip
     assert code == 1 and seen["false_alarm_per_hour"] == 0.5
-    assert seen["thresholds"] == "calibrated"
+    assert seen["thresholds"] == "calibrated" and seen["false_alarm"] is None
+    assert seen["dependence"] == (1.5, 1.25) and seen["kurtosis_reference"] == "gaussian"
+    seen.clear()
+    code, _, err = run(capsys, ["adaptive", str(record), "--column", "x", "--rate", "4",
+                                "--units", "deg/s", "--false-alarm", "0.05"])  # fmt: skip
+    assert code == 1 and seen["false_alarm"] == 0.05
+    assert seen["false_alarm_per_hour"] is None  # a per-step rate replaces it
     # adaptive_schedule (the controller alone) takes a subset of these, all passed on by
     # adaptive_davar
     assert set(keywords(adavar.adaptive_schedule)) <= set(keywords(adavar.adaptive_davar))

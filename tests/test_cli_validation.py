@@ -9,6 +9,8 @@ numeric column with one ``--units``, and kalibr's messages about a constant axis
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -235,3 +237,82 @@ def test_points_per_decade_is_bounded_on_the_command_line(capsys, gyro_csv):
     too_many = str(MAX_POINTS_PER_DECADE + 1)
     code, out, err = run(capsys, avar(gyro_csv, "--taus", "log", "--points-per-decade", too_many))
     assert_one_line_error(code, out, err, "--points-per-decade", f"at most {MAX_POINTS_PER_DECADE}")
+
+
+# --------------------------------------------------------------------------------------
+# Issue 40, item 11: a flag the chosen mode ignores is an error; item 13: --chunk-size
+# --------------------------------------------------------------------------------------
+
+IGNORED = [
+    (["--k1", "2.0"],
+     ["--k1 is not used with --thresholds calibrated, the default", "add --thresholds paper"]),
+    (["--k2", "4", "--s2", "0.1", "--thresholds", "calibrated"],
+     ["--k2 and --s2 are not used with --thresholds calibrated (", "drop --k2 and --s2"]),
+    (["--false-alarm", "0.01", "--false-alarm-per-hour", "0.5"],
+     ["--false-alarm (false alarms a step) and --false-alarm-per-hour", "give one of them"]),
+    (["--thresholds", "paper", "--false-alarm", "0.01"],
+     ["--false-alarm is not used with --thresholds paper", "add --thresholds calibrated"]),
+    (["--thresholds", "paper", "--false-alarm-per-hour", "1", "--kurtosis-reference",
+      "gaussian"], ["--false-alarm-per-hour and --kurtosis-reference are not used"]),
+    (["--s1", "0.01"], ["--s1 is not used with --s-test upper", "add --s-test band"]),
+    (["--ici-gamma", "2"], ["--ici-gamma is not used by --method adaptive", "add --method ici"]),
+    (["--method", "kurtosis", "--no-ici-episodes"],
+     ["--no-ici-episodes is not used by --method kurtosis"]),
+    (["--method", "ici", "--k2", "4"],
+     ["--k2 is not used by --method ici", "choose --method adaptive"]),
+    (["--false-alarm", "0.01", "--dependence", "1,1"],
+     ["--dependence is not used with --false-alarm", "drop --false-alarm"]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("extra", "fragments"), IGNORED)
+def test_a_flag_the_mode_ignores_is_an_error(capsys, gyro_csv, extra, fragments):
+    assert_one_line_error(*run(capsys, adaptive(gyro_csv, *extra)), *fragments)
+
+
+@pytest.mark.parametrize("command", ["report", "batch", "monitor"])
+def test_every_command_with_the_controller_refuses_ignored_flags(capsys, gyro_csv, tmp_path,
+                                                                 command):  # fmt: skip
+    where = {"report": ["--column", "gyro_x", "-o", str(tmp_path / "r.html")],
+             "batch": ["--column", "gyro_x", "--out", str(tmp_path / "o")],
+             "monitor": []}[command]  # fmt: skip
+    code, out, err = run(capsys, [command, str(gyro_csv), "--rate", "10", "--units", "deg/s",
+                                  *where, "--k1", "2"])  # fmt: skip
+    assert_one_line_error(code, out, err, "--k1 is not used with --thresholds calibrated")
+    assert list(tmp_path.iterdir()) == []  # refused before any work
+
+
+def test_the_thresholds_used_are_recorded(capsys, gyro_csv):
+    """What the run used: the given K1 with --thresholds paper; the calibrated ones (and the
+    rate they were calibrated for) otherwise."""
+    code, out, err = run(capsys, adaptive(gyro_csv, "--thresholds", "paper", "--k1", "2.0"))
+    assert code == 0, err
+    used = json.loads(out)["parameters"]["controller"]
+    assert used["thresholds"] == "paper" and used["thresholds_used"]["k1"] == [2.0, 2.0]
+    code, out, err = run(capsys, adaptive(gyro_csv, "--false-alarm", "0.02"))
+    assert code == 0, err
+    used = json.loads(out)["parameters"]["controller"]
+    assert used["thresholds"] == "calibrated" and used["false_alarm"] == 0.02
+    assert used["false_alarm_per_hour"] is None and used["thresholds_used"]["k1"][0] != 2.5
+
+
+@pytest.mark.parametrize("value", ["nan", "0", "-1", "inf"])
+def test_power_law_bandwidth_must_be_positive(capsys, gyro_csv, value):
+    code, out, err = run(capsys, avar(gyro_csv, "--power-law", "on", "--f-h", value))
+    assert_one_line_error(code, out, err, "--f-h", "positive number of Hz")
+
+
+def test_power_law_bandwidth_without_the_power_law_fit(capsys, gyro_csv):
+    code, out, err = run(capsys, avar(gyro_csv, "--power-law", "off", "--f-h", "2"))
+    assert_one_line_error(code, out, err, "--f-h is not used with --power-law off")
+
+
+def test_a_tiny_chunk_size_warns(capsys, gyro_csv):
+    from adavar.settings import EFFICIENT_CHUNK
+
+    code, _, err = run(capsys, avar(gyro_csv, "--chunk-size", "16"))
+    assert code == 0, err
+    [line] = err.strip().splitlines()
+    assert line.startswith("adavar: warning: --chunk-size 16") and str(EFFICIENT_CHUNK) in line
+    code, _, err = run(capsys, avar(gyro_csv, "--chunk-size", str(EFFICIENT_CHUNK)))
+    assert code == 0 and err == ""

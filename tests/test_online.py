@@ -378,3 +378,36 @@ def test_a_backlog_is_fitted_in_blocks(monkeypatch):
     ici = pushed(x, [5000, x.size], method="ici")  # one-sided windows, in blocks too
     monkeypatch.setattr(online, "FIT_ROWS", 1 << 30)
     np.testing.assert_array_equal(ici.arw, pushed(x, [5000, x.size], method="ici").arw)
+
+
+def test_masked_samples_refused_as_deviation_refuses_them():
+    """A masked sample was pushed as whatever lay under the mask; deviation refuses it."""
+    x = np.ma.masked_array(np.arange(100.0), mask=np.arange(100) == 7)
+    with pytest.raises(AdavarInputError) as offline_error:
+        adavar.deviation(x, rate=RATE)
+    live = OnlineAdaptive(rate=RATE, lmax=60, lmin=40, l=10)
+    with pytest.raises(AdavarInputError) as live_error:
+        live.push(x)
+    assert str(live_error.value) == str(offline_error.value)
+    assert "masked" in str(live_error.value) and "sample 7" in str(live_error.value)
+    assert live.samples == 0
+    live.push(np.ma.masked_array(np.arange(100.0)))  # nothing masked: read as it is
+    assert live.samples == 100
+
+
+@pytest.mark.parametrize("terms", [(N_TERM,), None])
+def test_huge_outlier_refused_in_one_push_and_in_pieces(terms):
+    """A 1e300 sample in unit noise: its fourth powers overflowed (inf in the sums) when it
+    came after the first push, and passed silently; in one push the scale it sets left the
+    noise's fourth powers below the float64 range. Both are now the same clear error."""
+    x = np.random.default_rng(3).standard_normal(3000)
+    x[2000] = 1e300
+    for sizes in ([3000], [1000], [1, 2999]):
+        with pytest.raises(AdavarInputError, match=r"more than 2\*\*240 in magnitude") as info:
+            pushed(x, sizes, lmax=240, lmin=160, l=40, thresholds="paper", terms=terms)
+        assert "is 1e+300" in str(info.value) and "remove the outliers" in str(info.value)
+    # magnitudes within 2**240 of the first push's: the offline windows, whatever the pieces
+    y = np.asarray(record(12_000, seed=5)).copy()
+    y[6000:] *= 1e40  # 2**133 beyond the first push's scale: that of the offline pass differs
+    controller = dict(lmax=240, lmin=160, l=40)
+    assert_same(pushed(y, [3000], **controller), y, **controller)

@@ -389,3 +389,107 @@ def test_ambiguous_decimal_separators_are_explained(tmp_path):
     text = "t;x\n0;1.500\n" + "".join(f"{k};{k},5\n" for k in range(1, 80))
     fails(r"row 2: '1\.500'; a decimal point in a file whose numbers have decimal commas",
           write(tmp_path, "p.csv", text), columns="x", rate=1)  # fmt: skip
+
+
+# --------------------------------------------------------------------------------------
+# Issue 40: a header that does not fit its rows, integers beyond float64, Stable32 phase
+# --------------------------------------------------------------------------------------
+
+
+def test_decimal_commas_in_a_comma_file_under_a_header_are_an_error(tmp_path):
+    # before: two header names over four fields: the header dropped, four columns 0..3
+    rows = "".join(f"{k},5,1,{k % 7}5\n" for k in range(200))
+    path = write(tmp_path, "x.csv", "t,x\n" + rows)
+    message = fails("the header", path, rate=1.0)
+    assert "row 1" in message and "2 field(s)" in message and "4 (comma-separated)" in message
+    assert "decimal commas" in message and "';'" in message
+
+
+def test_a_header_with_more_names_than_fields_is_an_error(tmp_path):
+    rows = "".join(f"{k} {k * 0.5}\n" for k in range(200))
+    path = write(tmp_path, "x.txt", "time [s]  rate [deg/s]\n" + rows)
+    message = fails("the header", path)
+    assert "4 field(s)" in message and "have 2" in message and "one name per column" in message
+
+
+def test_a_matching_header_and_a_title_over_one_column_still_read(tmp_path):
+    rows = "".join(f"{k * 0.1:.1f},{k}\n" for k in range(200))
+    assert read_record(write(tmp_path, "a.csv", "t,x\n" + rows)).names == ["x"]
+    one = "".join(f"{k}\n" for k in range(200))
+    assert read_record(write(tmp_path, "b.txt", "gyro x output\n" + one), rate=1.0).names == ["0"]
+
+
+BIG = (1 << 60) + np.arange(4000) % 7  # an offset beyond 2**53 and a few units of noise
+
+
+def test_integers_beyond_2_53_in_a_text_file_are_an_error(tmp_path):
+    # before: rounded to multiples of 256, the noise gone (adev 0)
+    path = tmp_path / "x.csv"
+    np.savetxt(path, BIG, fmt="%d")
+    message = fails("beyond 2\\*\\*53", path, rate=1.0)
+    assert "row 1" in message and str(int(BIG[0])) in message and "offset" in message
+
+
+def test_integers_beyond_2_53_in_a_npy_are_an_error_when_read(tmp_path):
+    from adavar.statistics import deviation
+
+    path = tmp_path / "x.npy"
+    np.save(path, BIG.astype(np.int64))
+    for memory_map in (True, False):  # the library's map, the command line's file reads
+        record = read_record(path, rate=1.0, memory_map=memory_map)
+        with pytest.raises(AdavarInputError, match="beyond 2\\*\\*53"):
+            deviation(record.channel(), rate=1.0)
+    with pytest.raises(AdavarInputError, match="sample 0 of data is the integer"):
+        deviation(BIG.astype(np.int64))  # an array in memory
+    small = deviation(BIG.astype(np.int64) - (1 << 60))  # the way out: exact
+    assert small.dev[0] > 0
+
+
+def _stable32(tmp_path, suffix):
+    phase = np.cumsum(np.random.default_rng(3).standard_normal(3000)) * 1e-9
+    path = tmp_path / f"clock{suffix}"
+    np.savetxt(path, phase if suffix == ".phd" else np.diff(phase), fmt="%.15e")
+    return path
+
+
+def _first_dev(capsys, argv):
+    import json
+
+    code, out, err = run(capsys, [*argv, "--json"])
+    assert code == 0, err
+    payload = json.loads(out)
+    return payload["input"]["data_type"], payload["dev"][0]
+
+
+def test_a_stable32_phase_file_is_analysed_as_phase(tmp_path, capsys):
+    # before: rate data by default (OADEV(1 s) 1.004e-2 instead of 1.741e-2 in the issue)
+    path = str(_stable32(tmp_path, ".phd"))
+    base = ["avar", path, "--rate", "1", "--units", "s"]
+    kind, dev = _first_dev(capsys, base)
+    assert kind == "phase"
+    assert dev == _first_dev(capsys, [*base, "--data-type", "phase"])[1]
+    code, out, err = run(capsys, [*base, "--data-type", "rate"])
+    assert_one_line_error(code, out, err, "Stable32 phase file (.phd)", "--data-type rate",
+                          "leave out --data-type", ".frd")  # fmt: skip
+
+
+def test_a_stable32_frequency_file_is_rate_data(tmp_path, capsys):
+    path = str(_stable32(tmp_path, ".frd"))
+    base = ["avar", path, "--rate", "1", "--units", "s"]
+    assert _first_dev(capsys, base)[0] == "rate"
+    code, out, err = run(capsys, [*base, "--data-type", "phase"])
+    assert_one_line_error(code, out, err, "Stable32 frequency file (.frd)", ".phd")
+
+
+def test_file_data_type():
+    from adavar.readers import file_data_type
+    from adavar.settings import DATA_TYPE_DEFAULT
+
+    assert file_data_type("a.PHD", DATA_TYPE_DEFAULT) == "phase"
+    assert file_data_type("a.phd", None) == "phase"
+    assert file_data_type("a.phd", "phase") == "phase"
+    assert file_data_type("a.frd", "frequency") == "rate"
+    assert file_data_type("a.csv", DATA_TYPE_DEFAULT) is DATA_TYPE_DEFAULT
+    assert file_data_type("a.csv", "phase") == "phase"
+    with pytest.raises(AdavarInputError, match="Stable32 phase file"):
+        file_data_type("a.phd", "rate")

@@ -204,6 +204,26 @@ def test_user_strings_are_escaped(report: str) -> None:
     assert EVIL_FILE in text and EVIL_COLUMN in text and EVIL_TITLE in text  # shown as text
 
 
+RLO = "\u202e"  # right-to-left override: the text after it is shown reversed
+
+
+def test_user_text_is_isolated_in_bdi(report: str) -> None:
+    """A file name with U+202E reversed the report's title (issue 40): every user string
+    is in a <bdi> (still escaped), and a file name inside a composed title in its own."""
+    assert f"<h1><bdi>{html.escape(EVIL_TITLE)}</bdi></h1>" in report
+    assert f"<td><bdi>{html.escape(EVIL_FILE)}</bdi></td>" in report
+    assert f"<li><bdi>dropped column {html.escape(EVIL_COLUMN)}</bdi></li>" in report
+    name = f"gyro{RLO}v.csv"
+    doc = build_report(title=f"{name}, column gx", source={"file": f"/data/{name}",
+                                                           "column": "gx"})  # fmt: skip
+    assert f"<h1><bdi><bdi>{name}</bdi>, column gx</bdi></h1>" in doc
+    assert f"<title>\u2068\u2068{name}\u2069, column gx\u2069</title>" in doc
+    assert f"<td><bdi>/data/{name}</bdi></td>" in doc
+    plain = build_report(title="a plain title", source="/data/plain.csv")
+    assert "<h1><bdi>a plain title</bdi></h1>" in plain
+    assert "<code><bdi>/data/plain.csv</bdi></code>" in plain
+
+
 def test_strings_inside_script_are_safe(results: dict) -> None:
     dev = adavar.deviation(np.random.default_rng(0).normal(size=2000))  # no unit declared
     doc = build_report(title="units", deviation=dev, fit=adavar.fit_noise(dev), units=EVIL_UNIT)

@@ -120,3 +120,23 @@ def test_short_constant_and_bad_input():
             stationarity(x, **bad)
     with pytest.raises(AdavarInputError):
         stationarity(np.r_[x, np.nan])
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_block_powers_in_memory_are_numpys(order):
+    """The compiled block powers of a record in memory (issue 42) are the NumPy
+    version's bit for bit: the squared differences of the scaled samples, summed in the
+    pieces the NumPy version reads as NumPy sums them (pairwise), blocks across pieces
+    included. So the p-value, the stretch and the ratio are those of before."""
+    from adavar.stationary_noise import _block_powers, _record_powers
+
+    rng = np.random.default_rng(order)
+    for n, offset, scale in ((300, 0.0, 1.0), (70_001, 1e9, 1e-3), (250_000, -3.0, 1e5)):
+        x = offset + scale * rng.standard_normal(n)
+        x[n // 3 : n // 2] *= 2.5
+        big = float(np.max(np.abs(x)))
+        for n_blocks, piece in ((16, 1 << 20), (256, 1000), (64, 4093), (5, 7)):
+            size = (n - order) // n_blocks
+            want = _block_powers(lambda a, b: x[a:b] / big, n_blocks, size, order, piece=piece)
+            got = _record_powers(x, big, n_blocks, size, order, piece=piece)
+            assert got.tobytes() == want.tobytes(), (n, n_blocks, piece)

@@ -107,12 +107,13 @@ def force(monkeypatch):
     """Run every threaded kernel on the calling thread alone (``force("serial")``) or on
     every thread from the smallest input (``force("parallel")``)."""
 
-    from adavar import differences
+    from adavar import differences, noise_id
 
     def choose(which: str) -> None:
         monkeypatch.setattr(_jit, "SERIAL_WORK", 1 << 62 if which == "serial" else 0)
-        # the whole-record kernels' own threshold (issue 42)
+        # the whole-record kernels' own thresholds (issue 42)
         monkeypatch.setattr(differences, "RECORD_THREADS_MIN", 1 << 62 if which == "serial" else 0)
+        monkeypatch.setattr(noise_id, "NOISE_THREADS_MIN", 1 << 62 if which == "serial" else 0)
 
     return choose
 
@@ -351,3 +352,61 @@ def test_whole_record_kernels_use_every_thread_above_the_threshold(monkeypatch):
     monkeypatch.setattr(diff, "RECORD_THREADS_MIN", 1 << 18)
     deviation(x, taus="octave", confidence=None, stationarity_check=False)
     assert len(sizes) >= 2 and min(sizes) == numba.get_num_threads() - 1
+
+
+def test_threaded_noise_identification_and_stationarity_are_bit_identical(force):
+    """The noise identification over taus and the stationarity check's block powers, of
+    records with an offset, a step and a drift: the same bits on one thread and on all
+    (issue 42)."""
+    from adavar import differences as diff
+    from adavar import stationary_noise as sn
+    from adavar.stationary_noise import stationarity
+    from adavar.statistics import record_noise_types
+
+    x = _record(300_000, seed=9)
+    ms = 2 ** np.arange(17)  # the octaves, and a few taus the fused levels do not cover
+    ms = np.unique(np.concatenate([ms, [3, 5, 10, 20, 50, 100, 1000]]))
+    for dtype, u in (("rate", x - 1e9), ("phase", np.diff(x))):
+        phase = diff.anchored_phase(u, cluster_stats=True)
+        for dmax in (2, 3):
+            one, every = _both(
+                force, lambda p=phase, d=dmax, t=dtype: record_noise_types(p, ms, d, data_type=t)
+            )
+            np.testing.assert_array_equal(one[0], every[0])
+        one, every = _both(force, lambda t=dtype: stationarity(x, data_type=t))
+        assert repr(one) == repr(every)
+    one, every = _both(force, lambda: sn._record_powers(x, 1e9, 256, 1171, 2, piece=4096))
+    np.testing.assert_array_equal(one, every)
+
+
+def test_noise_identification_and_stationarity_use_every_thread_above_the_threshold(
+    monkeypatch,
+):
+    """The noise identification's passes over the data run their taus on every thread
+    from NOISE_THREADS_MIN cluster sums on, the stationarity check its blocks from
+    RECORD_THREADS_MIN samples on; below, the calling thread alone (issue 42)."""
+    import numba
+
+    from adavar import differences as diff
+    from adavar.stationary_noise import stationarity
+    from adavar.statistics import record_noise_types
+
+    if numba.get_num_threads() < 2:
+        pytest.skip("one thread set for the kernels")
+    monkeypatch.delenv("ADAVAR_SERIAL_KERNELS", raising=False)
+    sizes = []
+    real = _jit._pool
+    monkeypatch.setattr(_jit, "_pool", lambda size: sizes.append(size) or real(size))
+    x = np.random.default_rng(1).standard_normal(1 << 19)
+    phase = diff.anchored_phase(x, cluster_stats=True)
+    # octaves: the fused levels settle m <= 32 without a pass, the longer taus read 6e4
+    # cluster sums, below the threshold; m = 3 and 5 add 1.1e6, above it
+    octaves = 2 ** np.arange(14)
+    record_noise_types(phase, octaves, 2)
+    stationarity(x)
+    assert sizes == []
+    record_noise_types(phase, np.concatenate([octaves, [3, 5]]), 2)
+    assert sizes == [numba.get_num_threads() - 1]
+    monkeypatch.setattr(diff, "RECORD_THREADS_MIN", 1 << 18)
+    stationarity(x)
+    assert sizes == [numba.get_num_threads() - 1] * 2

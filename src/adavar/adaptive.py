@@ -47,6 +47,7 @@ from adavar.events import Event
 from adavar.ici import ici_schedule
 from adavar.long_tau import LONG_TAU_SAMPLES, long_tau_changes
 from adavar.results import DavarResult
+from adavar.sampling import RATE_DEFAULT, resolve_rate
 from adavar.settings import CONTROLLER, HOURLY_FALSE_ALARMS, ICI_GAMMA, THRESHOLDS, threshold_mode
 from adavar.statistics import (
     DATA_TYPE_ALIASES,
@@ -562,7 +563,7 @@ class AdaptiveResult(DavarResult):
 def adaptive_davar(
     data: Sequence[float] | np.ndarray | ChunkedSource,
     *,
-    rate: float = 1.0,
+    rate: float = RATE_DEFAULT,
     method: str = "adaptive",
     lmax: Length | None = None,
     lmin: Length | None = None,
@@ -612,8 +613,10 @@ def adaptive_davar(
         The record (rate samples, or phase with ``data_type="phase"``). A source
         (:mod:`adavar.stream`), a memory map of a ``.npy`` file (``np.load(path,
         mmap_mode="r")``) or a dask array is processed out of core.
-    rate : float
-        Sample rate in Hz (or give ``tau0``).
+    rate : float, optional
+        Sample rate in Hz (or give ``tau0``). By default that of the time index of a pandas
+        Series or xarray DataArray, else 1 Hz, as in :func:`adavar.deviation`
+        (:func:`adavar.statistics.resolve_rate`).
     method : {"adaptive", "kurtosis", "oracle", "fixed", "ici"}
         ``"adaptive"``: A-DAVAR, docs/method.md section 8 (``f = f1 combine f2``);
         ``"kurtosis"``: DAVAR-K (``f = f1``); ``"oracle"``: the ideal schedule for
@@ -833,7 +836,7 @@ def _adaptive_surfaces(
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
     refuse_masked(data)
-    dt = resolve_tau0(rate, tau0)
+    rate, tau0, dt = resolve_rate(data, rate, tau0)  # a time index gives it, or 1 Hz
     if None in (lmax, lmin, l, taus, step):  # the defaults follow the record
         # the record's length, as the command line counts it (phase: its samples)
         size = _record_size(data, chunk_size is not None or stream.is_chunked(data))

@@ -83,7 +83,7 @@ def load_input(
     """
     from adavar._heap import release_free_memory
     from adavar.preprocess import preprocess
-    from adavar.readers import read_record
+    from adavar.readers import file_data_type, read_record
 
     if args.rate is not None and args.tau0 is not None:
         raise AdavarInputError("give exactly one of --rate HZ or --tau0 SECONDS (both given)")
@@ -97,7 +97,10 @@ def load_input(
         gaps=option("gaps", "error"), nan=option("nan", "error"),
         dataset=option("dataset", None), topic=option("topic", None),
         gap_tolerance=option("gap_tolerance", 0.5), lazy=option("lazy", None),
+        memory_map=False,  # .npy read with file reads: a file cut short is an error, no SIGBUS
     )  # fmt: skip
+    if hasattr(args, "data_type"):  # a Stable32 .phd file holds phase, a .frd frequency
+        args.data_type = file_data_type(args.file, args.data_type)
     if len(record.names) != 1 and not several:
         raise AdavarInputError(
             f"{args.file} has {len(record.names)} channels ({', '.join(record.names)}): "
@@ -701,6 +704,7 @@ def analyse_file(
     # the lengths as used (durations and the record's windows resolved), for the events
     opts = {**opts, **{k: getattr(args, k) for k in _LENGTHS if hasattr(args, k)}}
     opts["segment_given"] = segment_given
+    opts["data_type"] = args.data_type  # as read: a Stable32 .phd file holds phase
     rate_kw = dict(
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,

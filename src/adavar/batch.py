@@ -33,6 +33,11 @@ numba kernels use every core for each file). A cluster without any worker for
 ``worker_timeout`` seconds (every worker died) ends the batch: the files not analysed are
 error rows, and the summary holds every row done so far.
 
+One run at a time writes into an ``OUT``: a second run into it while the first runs
+stops at once (the folder's lock, :mod:`adavar.batch_state`) rather than lose the first
+one's rows from the summary. A file's outputs that adavar did not write (a note added to
+``OUT/<name>/``) stop its replacement, also with ``force=True``: the row's error names them.
+
 A bad file (unreadable, NaN, too short, ...) ends its own task with its one-line error in
 its row (``status="error"``) and does not stop the batch. A rerun skips every file whose
 ``OUT/<name>/result.json`` exists with the same input size, modification time and options,
@@ -62,11 +67,18 @@ from pathlib import Path
 from typing import Any
 
 from adavar.analysis import ReportAnalysis, analyse_file, report_options, surface_shape
-from adavar.batch_cluster import DEFAULT_WORKER_TIMEOUT, check_worker_timeout, connect, gather
+from adavar.batch_cluster import (
+    DEFAULT_WORKER_TIMEOUT,
+    check_worker_timeout,
+    check_workers,
+    connect,
+    gather,
+)
 from adavar.batch_state import (
     STATUS_ABSENT,
     BatchState,
     file_key,
+    locked,
     output_names,
     outputs_complete,
     outputs_record,
@@ -577,8 +589,10 @@ def run_batch(
         Address of a running ``dask scheduler`` (``tcp://host:8786``) or the path of its
         ``--scheduler-file``; its workers must see the files and ``out``.
     workers : int, optional
-        Start a ``distributed.LocalCluster`` of this many single-threaded processes.
-        Neither ``scheduler`` nor ``workers``: the files run one by one in this process.
+        Start a ``distributed.LocalCluster`` of this many single-threaded processes: at
+        most two a core, and no more than the free memory holds at 256 MiB each
+        (:func:`adavar.batch_cluster.max_workers`). Neither ``scheduler`` nor ``workers``:
+        the files run one by one in this process.
     force : bool
         Recompute files analysed by an earlier run (default: skip them).
     progress : callable, optional
@@ -601,14 +615,18 @@ def run_batch(
     Raises
     ------
     AdavarInputError
-        Bad options, an unusable ``out``, both or a bad ``scheduler``/``workers``, a
-        scheduler that cannot be reached or has no worker. Nothing is written then.
+        Bad options, an unusable ``out``, both or a bad ``scheduler``/``workers`` (more
+        workers than this machine runs), a scheduler that cannot be reached or has no
+        worker: nothing is written then. Another run writing into ``out`` now (it holds
+        the folder's lock, :func:`adavar.batch_state.locked`): the message names its pid,
+        and nothing of this run is written.
     """
-    from adavar.writers import sweep_stale_temporaries
+    from adavar.writers import sweep_partial_files, sweep_stale_temporaries
 
     start = time.perf_counter()
     target = _check_out(out)
     wait_s = check_worker_timeout(worker_timeout)
+    check_workers(workers)  # before any work: a million processes fill the memory
     paths = [os.path.abspath(os.fspath(p)) for p in files]
     notes: list[str] = []
     inside = [p for p in paths if Path(p) == target or target in Path(p).parents]
@@ -639,56 +657,63 @@ def run_batch(
 
     with connect(scheduler, workers, float(timeout)) as (client, where):
         _open_out(target)
-        swept = sweep_stale_temporaries(target)
-        if swept:
-            notes.append(f"removed {len(swept)} temporary folder(s) that killed runs left in "
-                         f"--out {out}")  # fmt: skip
-        state = BatchState.load(target)
-        names = state.assign(paths)
-        absent = [_absent_row(*item) for item in state.absent(set(by_key))]
-        state.orphans()
-        state.save()  # before any task: a killed run's folders are found again
-        notes += state.notes
-        pending = []
-        for i, (path, name) in enumerate(zip(paths, names, strict=True)):
-            row = None if force else _done_row(target, path, name, opts, html)
-            if row is None:
-                pending.append(i)
-            else:
-                finished(i, row)
-        if client is None:
-            for i in pending:
-                finished(i, _process_file(paths[i], names[i], str(target), opts, html))
-        elif pending:
+        with locked(target, out):  # one run at a time writes into OUT
+            swept = sweep_stale_temporaries(target)
+            if swept:
+                notes.append(f"removed {len(swept)} temporary folder(s) that killed runs "
+                             f"left in --out {out}")  # fmt: skip
+            swept_files = sweep_partial_files(target)
+            if swept_files:
+                notes.append(f"removed {len(swept_files)} temporary file(s) that killed runs "
+                             f"left in --out {out}")  # fmt: skip
+            state = BatchState.load(target)
+            names = state.assign(paths)
+            absent = [_absent_row(*item) for item in state.absent(set(by_key))]
+            state.orphans()
+            state.save()  # before any task: a killed run's folders are found again
+            notes += state.notes
+            pending = []
+            for i, (path, name) in enumerate(zip(paths, names, strict=True)):
+                row = None if force else _done_row(target, path, name, opts, html)
+                if row is None:
+                    pending.append(i)
+                else:
+                    finished(i, row)
+            if client is None:
+                for i in pending:
+                    finished(i, _process_file(paths[i], names[i], str(target), opts, html))
+            elif pending:
 
-            def failed(i: int, message: str) -> dict[str, Any]:
-                row = _row(paths[i], names[i], status="error", error_type="internal",
-                           error=message)  # fmt: skip
-                return _write_error_folder(target, row, opts, html)
+                def failed(i: int, message: str) -> dict[str, Any]:
+                    row = _row(paths[i], names[i], status="error", error_type="internal",
+                               error=message)  # fmt: skip
+                    return _write_error_folder(target, row, opts, html)
 
-            jobs = {i: (paths[i], names[i], str(target), opts, html) for i in pending}
-            left = gather(client, _process_file, jobs, finished, failed, wait_s)
-            if left:
-                message = (
-                    f"not analysed: the cluster ({where}) had no worker for {wait_s:g} s "
-                    "(every worker died or left): start workers and rerun with the same "
-                    "--out (the finished files are skipped), or wait longer with "
-                    "--worker-timeout SECONDS"
-                )
-                for i in left:
-                    finished(i, failed(i, message))
-                notes.append(f"gave up after {wait_s:g} s without any dask worker: "
-                             f"{len(left)} of {total} file(s) not analysed")  # fmt: skip
-    final = [row for row in rows if row is not None]
-    counts = Counter(row["status"] for row in final)
-    errors = Counter(row["error_type"] for row in final if row["status"] == "error")
-    summary_counts = {
-        "files": total, "ok": counts["ok"], "done": counts["done"], "error": counts["error"],
-        "input_errors": errors["input"], "internal_errors": errors["internal"],
-        "absent": len(absent),
-    }  # fmt: skip
-    about = {"counts": summary_counts, "cluster": where, "options": _plain(opts), "html": html}
-    csv_path, parquet = _write_summary(target, final + absent, notes, about)
+                jobs = {i: (paths[i], names[i], str(target), opts, html) for i in pending}
+                left = gather(client, _process_file, jobs, finished, failed, wait_s)
+                if left:
+                    message = (
+                        f"not analysed: the cluster ({where}) had no worker for {wait_s:g} s "
+                        "(every worker died or left): start workers and rerun with the same "
+                        "--out (the finished files are skipped), or wait longer with "
+                        "--worker-timeout SECONDS"
+                    )
+                    for i in left:
+                        finished(i, failed(i, message))
+                    notes.append(f"gave up after {wait_s:g} s without any dask worker: "
+                                 f"{len(left)} of {total} file(s) not analysed")  # fmt: skip
+            final = [row for row in rows if row is not None]
+            counts = Counter(row["status"] for row in final)
+            errors = Counter(row["error_type"] for row in final if row["status"] == "error")
+            summary_counts = {
+                "files": total, "ok": counts["ok"], "done": counts["done"],
+                "error": counts["error"], "input_errors": errors["input"],
+                "internal_errors": errors["internal"], "absent": len(absent),
+            }  # fmt: skip
+            about = {"counts": summary_counts, "cluster": where, "options": _plain(opts),
+                     "html": html}  # fmt: skip
+            # inside the lock: the summary is this run's rows and no other run's
+            csv_path, parquet = _write_summary(target, final + absent, notes, about)
     return BatchResult(
         rows=final + absent, counts=summary_counts, out=target, summary_csv=csv_path,
         summary_parquet=parquet, cluster=where, elapsed_s=time.perf_counter() - start,

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import os
 import re
 import time
 from collections.abc import Callable, Iterator, Mapping
@@ -16,10 +17,27 @@ from typing import Any
 
 from adavar.errors import AdavarInputError
 
-__all__ = ["DEFAULT_WORKER_TIMEOUT", "connect", "gather", "n_workers"]
+__all__ = [
+    "DEFAULT_WORKER_TIMEOUT",
+    "WORKERS_PER_CORE",
+    "WORKER_MEMORY",
+    "check_workers",
+    "connect",
+    "gather",
+    "max_workers",
+    "n_workers",
+]
 
 #: Seconds a batch waits on a cluster without any worker before it gives up.
 DEFAULT_WORKER_TIMEOUT = 120.0
+#: Worker processes of a LocalCluster per core, at most: the tasks are single-threaded and
+#: CPU-bound (a little of their time is reading the file), so more only add memory and
+#: contention.
+WORKERS_PER_CORE = 2
+#: Bytes of memory a LocalCluster worker needs, at least: 160 MiB once it has imported
+#: adavar, 220 MiB after the report of a 1e5-sample record (measured with
+#: distributed 2025, Python 3.11); a longer record needs more.
+WORKER_MEMORY = 256 * 2**20
 #: A scheduler address: optional protocol, host (name, IPv4 or [IPv6]) and port.
 _ADDRESS = re.compile(r"^(?:[a-z][a-z0-9+]*://)?(?:\[[0-9a-fA-F:.]+\]|[^\s:/\[\]]+):\d{1,5}$")
 #: Seconds between two looks for finished tasks, and between two counts of the workers.
@@ -50,6 +68,58 @@ def check_worker_timeout(worker_timeout: Any) -> float:
     return value
 
 
+def _cores() -> int:
+    affinity = getattr(os, "sched_getaffinity", None)  # Linux; elsewhere every core
+    return len(affinity(0)) if affinity is not None else os.cpu_count() or 1
+
+
+def max_workers() -> tuple[int, str]:
+    """The most worker processes a LocalCluster of this machine may start, and why.
+
+    Returns
+    -------
+    int
+        :data:`WORKERS_PER_CORE` per core this process may use, and no more than the free
+        memory holds at :data:`WORKER_MEMORY` each (at least 1).
+    str
+        What bounds it (the cores, the free memory), for a message.
+    """
+    from adavar.sources import available_memory
+
+    cores = _cores()
+    most = WORKERS_PER_CORE * cores
+    why = f"{cores} core{'s' if cores != 1 else ''} ({WORKERS_PER_CORE} workers a core)"
+    free = available_memory()
+    if free is not None and free // WORKER_MEMORY < most:
+        most = int(free // WORKER_MEMORY)
+        why = (f"{free / 2**30:.1f} GiB of free memory (about {WORKER_MEMORY // 2**20} MiB "
+               "a worker)")  # fmt: skip
+    return max(1, most), why
+
+
+def check_workers(workers: Any) -> int | None:
+    """``workers`` (None, or a positive integer this machine can start), before any work.
+
+    Raises
+    ------
+    AdavarInputError
+        Not a positive integer, or more workers than :func:`max_workers` (each is a
+        process: a million of them fill the memory long before the first task runs).
+    """
+    if workers is None:
+        return None
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise AdavarInputError(f"workers must be a positive integer, got {workers!r}")
+    most, why = max_workers()
+    if workers > most:
+        raise AdavarInputError(
+            f"--workers {workers} is more worker processes than this machine can run: its "
+            f"{why} allow {most}; give --workers {most} or fewer, or --scheduler ADDRESS "
+            "for a cluster of several machines"
+        )
+    return workers
+
+
 @contextlib.contextmanager
 def connect(
     scheduler: str | None, workers: int | None, timeout: float
@@ -65,8 +135,7 @@ def connect(
     from distributed import Client, LocalCluster
 
     if workers is not None:
-        if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-            raise AdavarInputError(f"workers must be a positive integer, got {workers!r}")
+        check_workers(workers)
         # one single-threaded process per core: the numba kernels must not oversubscribe.
         # No dashboard; the scheduler's HTTP server (health, metrics) on a free local port:
         # by default it takes port 8787 on every interface, and a second batch running
@@ -127,6 +196,18 @@ def n_workers(client: Any) -> int:
         return 0
 
 
+def _task_failure(exc: Any) -> str:
+    """The row's message of a task the cluster gave up on (one line, no task key)."""
+    text = _one_line(exc)
+    if "scheduler-connection-lost" in text or "lost the connection to the scheduler" in text:
+        return (
+            "not analysed: the connection to the dask scheduler was lost (it stopped, or "
+            "the network failed): restart it and rerun with the same --out (the finished "
+            "files are skipped)"
+        )
+    return f"the task failed on the cluster: {type(exc).__name__}: {text}"
+
+
 def gather(
     client: Any,
     function: Callable[..., dict[str, Any]],
@@ -177,8 +258,7 @@ def gather(
             if future.status == "error" or not isinstance(result, dict):
                 # a lost worker, a task the cluster gave up on
                 exc = result[1] if isinstance(result, tuple) and len(result) > 1 else result
-                row = failed(i, f"the task failed on the cluster: {type(exc).__name__}: "
-                                f"{_one_line(exc)}")  # fmt: skip
+                row = failed(i, _task_failure(exc))
             else:
                 row = result
             pending.discard(future)

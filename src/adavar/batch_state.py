@@ -13,26 +13,40 @@ the summary, with status :data:`STATUS_ABSENT`; a file whose folder was deleted 
 forgotten. :data:`OUTPUT_FORMAT` and the options that shape a file's outputs (``html``) are
 recorded in its ``result.json`` (``outputs``): a later run redoes a file when they differ
 from what it needs or an expected file is missing (:func:`outputs_complete`).
+
+One run at a time writes into a batch folder: :func:`locked` holds an exclusive
+``flock`` on ``OUT/.adavar-batch.lock`` (:data:`BATCH_LOCK`) for the whole run, and a second
+run into the same folder stops at once with a one-line error naming the first one's pid
+(two runs at once each rewrote the summary and the state file from their own rows, and
+lost the other's). The lock goes with its process, however it ends (a killed run leaves
+no stale lock).
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import hashlib
 import json
 import os
-from collections.abc import Mapping, Sequence
+import socket
+import time
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from adavar.errors import AdavarInputError
+
 __all__ = [
+    "BATCH_LOCK",
     "BATCH_STATE",
     "OUTPUT_FORMAT",
     "STATUS_ABSENT",
     "BatchState",
     "file_key",
     "folder_name",
+    "locked",
     "output_names",
     "outputs_complete",
     "outputs_record",
@@ -41,6 +55,8 @@ __all__ = [
 
 #: The state file of a batch folder: every file's path and folder name (JSON).
 BATCH_STATE = ".adavar-batch-state.json"
+#: The lock file of a batch folder, held by the run writing into it (its pid inside).
+BATCH_LOCK = ".adavar-batch.lock"
 #: The layout of a file's outputs (2: plain CSV, the marker, ``outputs`` in result.json).
 #: A stored result of another layout is redone.
 OUTPUT_FORMAT = 2
@@ -134,6 +150,67 @@ def output_names(
             recorded[key] = name
         names.append(name)
     return names
+
+
+def _holder(fd: int) -> str:
+    """Who holds the lock of ``fd``'s file, from what it wrote there."""
+    with contextlib.suppress(OSError, ValueError, TypeError, KeyError):
+        info = json.loads(os.pread(fd, 4096, 0).decode("utf-8"))
+        host = str(info["host"])
+        where = "" if host == socket.gethostname() else f" on {host}"
+        return f"pid {int(info['pid'])}{where}"
+    return "pid unknown"
+
+
+@contextlib.contextmanager
+def locked(out: Path, shown: str | os.PathLike[str] | None = None) -> Iterator[None]:
+    """Hold the batch folder ``out`` for this run (:data:`BATCH_LOCK`), or stop at once.
+
+    Parameters
+    ----------
+    out : Path
+        An existing batch folder.
+    shown : str or path-like, optional
+        How the folder is named in the error (the ``--out`` as given).
+
+    Raises
+    ------
+    AdavarInputError
+        Another run holds it (the message names its pid), or the lock file cannot be
+        written. Where the file system has no locks (``flock`` unsupported), the run goes
+        on unlocked.
+    """
+    shown = out if shown is None else shown
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: no flock
+        yield
+        return
+    try:
+        fd = os.open(out / BATCH_LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError as exc:
+        raise AdavarInputError(
+            f"cannot write the output folder {out}: {exc.strerror or exc}"
+        ) from None
+    try:
+        held = True
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError as exc:
+            if exc.errno in (errno.EWOULDBLOCK, errno.EAGAIN, errno.EACCES):
+                raise AdavarInputError(
+                    f"{shown} is being written by another adavar run ({_holder(fd)}); wait "
+                    "for it or choose another --out"
+                ) from None
+            held = False  # a file system without locks (some network ones): unlocked
+        if held:
+            info = {"pid": os.getpid(), "host": socket.gethostname(), "started": time.time()}
+            with contextlib.suppress(OSError):
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, (json.dumps(info) + "\n").encode("utf-8"), 0)
+        yield
+    finally:
+        os.close(fd)  # releases the lock
 
 
 def read_result(folder: Path) -> dict[str, Any] | None:

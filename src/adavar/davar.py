@@ -47,6 +47,7 @@ from adavar._kernels.window_hvar import window_hvar
 from adavar.durations import Length, to_samples
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
+from adavar.sampling import RATE_DEFAULT, resolve_rate
 from adavar.statistics import (
     _OMIT_HINT,  # the way out the error about a NaN names
     DATA_TYPE_ALIASES,
@@ -55,13 +56,12 @@ from adavar.statistics import (
     deviation,
     record_noise_types,
     refuse_masked,
-    resolve_tau0,
     scaled,
     scaled_source,
     tau_factors,
     unscale,
 )
-from adavar.windows import window_classes, window_schedule
+from adavar.windows import check_window_times, window_classes, window_schedule
 
 __all__ = ["STATS", "DavarStatResult", "davar", "edf_table"]
 
@@ -519,7 +519,7 @@ def davar(
     *,
     window: Length | Sequence[int] | np.ndarray,
     stat: str = "oavar",
-    rate: float = 1.0,
+    rate: float = RATE_DEFAULT,
     data_type: str = "rate",
     taus: str | Sequence[float] | np.ndarray = "all",
     edges: str = "mirror",
@@ -576,8 +576,8 @@ def davar(
         interior's): 0.87 (oavar), 1.9 (ohvar), 0.03 (mvar: a modified term centred on the
         record's end is its own negative) at m = 64; 1.01, 1.04, 0.73 at m = 48; within
         4 % at m <= 32. Use ``edges="valid"`` where that matters.
-    rate : float
-        Sample rate in Hz (ignored when ``tau0`` is given).
+    rate : float, optional
+        Sample rate in Hz (ignored when ``tau0`` is given); by default as :func:`deviation`.
     data_type : {"rate", "phase"}
         Rate samples (gyro rate, accelerometer output, fractional frequency) or their
         integral (angle, velocity, time error). Phase input is differenced first; windows,
@@ -807,7 +807,7 @@ def _surfaces(
         t0 = float(t0)
     except (TypeError, ValueError):
         raise AdavarInputError(f"t0 must be a number of seconds, got {t0!r}") from None
-    dt = resolve_tau0(rate, tau0)
+    rate, tau0, dt = resolve_rate(data, rate, tau0)  # a time index gives it, or 1 Hz
     min_length = 4 if dtype == "phase" else 3
     if gaps != "error":  # adavar.davar_gaps imports this module: loaded on first use
         from adavar.davar_gaps import gap_davar, missing_record
@@ -924,11 +924,7 @@ def _surfaces(
     with np.errstate(over="ignore"):
         # dividing by an integral rate rounds once: 3999 / 10 is 399.9, 3999 * 0.1 is not
         time = t0 + (sched.centre * dt if tau0 is not None else sched.centre / float(rate))
-    if not np.isfinite(time[-1]):
-        raise AdavarInputError(
-            f"the time of the last centre ({int(sched.centre[-1])} samples of {dt:g} s after "
-            f"t0 = {t0:g} s) overflows float64: check the rate (Hz), tau0 (s) and t0 (s)"
-        )
+    check_window_times(time, sched.centre, t0, dt)  # overflow, or too coarse for dt
     # the kernel computes chunks of centres each on its own: a block that starts and ends
     # on them (or is cut from whole ones) has the whole surface's rows
     chunk_rows = _chunk_size(n_rows, longest, sched.step)

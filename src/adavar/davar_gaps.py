@@ -70,7 +70,7 @@ from adavar.gaps import (
 )
 from adavar.results import DavarResult
 from adavar.statistics import data_exponent, tau_factors, unscale
-from adavar.windows import window_overhang, window_schedule
+from adavar.windows import check_window_times, window_overhang, window_schedule
 
 __all__ = ["extended_layout", "gap_davar", "missing_record"]
 
@@ -270,11 +270,7 @@ def gap_davar(
         window_class = np.arange(sched.centre.size, dtype=np.int64)
     with np.errstate(over="ignore"):
         time = t0 + (sched.centre * dt if tau0 is not None else sched.centre / float(rate))
-    if not np.isfinite(time[-1]):
-        raise AdavarInputError(
-            f"the time of the last centre ({int(sched.centre[-1])} samples of {dt:g} s after "
-            f"t0 = {t0:g} s) overflows float64: check the rate (Hz), tau0 (s) and t0 (s)"
-        )
+    check_window_times(time, sched.centre, t0, dt)  # overflow, or too coarse for dt
     surface = dict(
         time=time, tau=ms * dt, avar=avar, window=sched.length, centre=sched.centre, m=ms,
         alpha=alpha, tau0=dt, data_type=data_type, edges=sched.edges, step=sched.step,

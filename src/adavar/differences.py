@@ -103,13 +103,59 @@ def _block_cluster_stats(rb, total, m, k_first, count, kc, out):  # pragma: no c
     out[7] = nq
 
 
+#: entries of a block's row of moments per level: 8 of the cluster sums
+#: (:func:`_block_cluster_stats`), 4 of the decimated phase (:func:`_block_phase_moments`)
+STATS_WIDTH = 12
+
+
+@jit(fastmath=True)
+def _block_phase_moments(rb, j0, n, nlev, out, buf):  # pragma: no cover - compiled
+    """Moments of one block's points of the decimated phase ``S[k m]`` at every fused
+    level, for the lag-1 test on the phase (:mod:`adavar._kernels.decimated_phase`).
+
+    At level ``m = 2**lev`` the points are the cluster starts of
+    :func:`_block_cluster_stats`, ``q = 0 .. nq-1``, taken as the block's local sums
+    ``rb[q m]`` (the anchor is added when the blocks are combined); each level's points
+    are every other one of the level below, copied into ``buf`` (so that every sum runs
+    over contiguous values). Fills ``out[lev, 8:12]`` with sum rb, sum q rb, sum q^2 rb
+    and sum rb^2. Any summation order will do (fast-math): those sums are used with a
+    bound on their error.
+    """
+    points = rb
+    at = 0
+    for lev in range(nlev):
+        if lev > 0:
+            below = points
+            points = buf[at : at + (below.size + 1) // 2]
+            for i in range(points.size):
+                points[i] = below[2 * i]
+            at += points.size
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        for q in range(max(min(rb.size >> lev, (n >> lev) - (j0 >> lev)), 0)):
+            p = points[q]
+            fq = float(q)
+            s0 += p
+            s1 += fq * p
+            s2 += (fq * fq) * p
+            s3 += p * p
+        out[lev, 8] = s0
+        out[lev, 9] = s1
+        out[lev, 10] = s2
+        out[lev, 11] = s3
+
+
 @threaded_jit
 def _prefix_blocks(u, shift, nlev, stats, r, tot_h, tot_l, per, lo, hi):  # pragma: no cover
     """Blocks ``lo * per .. hi * per - 1`` of the integration: each block's local sums
-    ``r`` (compensated), its total, and its cluster moments for the fused levels."""
+    ``r`` (compensated), its total, and its cluster and decimated-phase moments for the
+    fused levels."""
     n = u.size
     npts = n + 1
     nb = tot_h.size
+    buf = np.empty(BLOCK)  # the decimated-phase points of levels 1, 2, ...
     for b in range(lo * per, min(hi * per, nb)):
         j0 = b << SHIFT
         j1 = min(j0 + BLOCK, npts)
@@ -137,11 +183,13 @@ def _prefix_blocks(u, shift, nlev, stats, r, tot_h, tot_l, per, lo, hi):  # prag
                 _block_cluster_stats(
                     r[j0:j1], h, m, k_first, count, 0.5 * (count - 1), stats[b, lev]
                 )
+        if nlev:
+            _block_phase_moments(r[j0:j1], j0, n, nlev, stats[b], buf)
 
 
 @jit
 def _anchored_prefix(n, nlev, stats, fused, tot_h, tot_l):  # pragma: no cover - compiled
-    # stats (one row of 8 per block and level, filled by _prefix_blocks) and fused come
+    # stats (one row per block and level, filled by _prefix_blocks) and fused come
     # from the caller: allocating them here would compile np.zeros for 3-D and 2-D arrays
     nb = tot_h.size
     hh = np.empty(nb)
@@ -256,6 +304,7 @@ class AnchoredPhase:
         self.hl = hl
         self.shift = shift
         #: per block and level m = 2**lev: the moments of :func:`_block_cluster_stats`
+        #: (entries 0-7) and of :func:`_block_phase_moments` (8-11)
         self.cluster_stats = cluster_stats
         #: per level: the order-0 lag-1 statistics computed from them (r1, den, zmax, ok)
         self.fused = fused
@@ -300,7 +349,7 @@ def anchored_phase(
     if shift is None:
         shift = _median(u[:BLOCK]) if u.size else 0.0
     nlev = FUSED_LEVELS if cluster_stats else 0
-    stats = np.zeros((1 + (u.size >> SHIFT), max(nlev, 1), 8))  # a row per anchor block
+    stats = np.zeros((1 + (u.size >> SHIFT), max(nlev, 1), STATS_WIDTH))  # a row per block
     fused = np.empty((max(nlev, 1), 4))
     nb = (u.size + BLOCK) >> SHIFT  # blocks of the u.size + 1 phase points
     r = np.empty(u.size + 1)

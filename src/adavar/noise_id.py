@@ -31,7 +31,16 @@ from typing import Final
 
 import numpy as np
 
-from adavar._jit import jit
+from adavar._jit import jit, threaded_jit
+from adavar._kernels.decimated_phase import (  # noqa: F401 - phase_* re-exported
+    decimated_phase_lag1,
+    decimated_phase_stats,
+    fused_phase_levels,
+    phase_lag1_result,
+    phase_moments,
+    phase_residual_lag,
+    quadratic_fit,
+)
 from adavar.differences import (
     AnchoredPhase,
     cluster_differences,
@@ -587,107 +596,10 @@ def identify_noise(
 
 
 # ---------------------------------------------------------------------------------------------
-# Lag-1 test on the decimated phase, from cluster sums (in memory and out of core alike)
+# Lag-1 test on the decimated phase: its sums live in adavar._kernels.decimated_phase
+# (phase_moments, phase_residual_lag, quadratic_fit, phase_lag1_result and
+# decimated_phase_lag1 are imported here from there, where they were defined before)
 # ---------------------------------------------------------------------------------------------
-
-
-@jit
-def phase_moments(zs, nz, k0, count, pm):  # pragma: no cover - compiled
-    """First pass over the decimated phase ``P[0] = 0, P[k+1] = P[k] + z[k]``.
-
-    ``zs[:nz]`` are the cluster sums ``k0 .. k0+nz-1``; ``pm`` carries ``[P, sum P,
-    sum u P, sum u^2 P, max |P|]`` with ``u = k - count/2`` over the ``count + 1`` points.
-    Sequential sums in cluster order: the same numbers whatever the piece boundaries.
-    """
-    kc = 0.5 * count
-    p = pm[0]
-    for q in range(nz):
-        p += zs[q]
-        u = k0 + q + 1 - kc
-        pm[1] += p
-        pm[2] += u * p
-        pm[3] += u * u * p
-        pm[4] = max(pm[4], abs(p))
-    pm[0] = p
-
-
-@jit
-def phase_residual_lag(zs, nz, k0, count, coef, ps):  # pragma: no cover - compiled
-    """Second pass: residuals ``e = P - (c0 + c1 u + c2 u^2)`` and their lag-1 sums.
-
-    ``ps`` carries ``[P, e_prev, sum e, sum e^2, sum e_prev e, e_first]``.
-    """
-    kc = 0.5 * count
-    c0, c1, c2 = coef[0], coef[1], coef[2]
-    if k0 == 0:  # the point P[0] = 0 opens the series
-        e = -(c0 - c1 * kc + c2 * kc * kc)
-        ps[1] = e
-        ps[2] += e
-        ps[3] += e * e
-        ps[5] = e
-    p = ps[0]
-    prev = ps[1]
-    for q in range(nz):
-        p += zs[q]
-        u = k0 + q + 1 - kc
-        e = p - (c0 + c1 * u + c2 * u * u)
-        ps[2] += e
-        ps[3] += e * e
-        ps[4] += prev * e
-        prev = e
-    ps[0] = p
-    ps[1] = prev
-
-
-def quadratic_fit(count: int, pm: np.ndarray) -> np.ndarray:
-    """Least-squares quadratic ``c0 + c1 u + c2 u^2`` through the ``count + 1`` points."""
-    n = count + 1.0
-    u2 = n * (n * n - 1.0) / 12.0  # sums of u^2 and u^4 over the symmetric abscissa
-    u4 = n * (n * n - 1.0) * (3.0 * n * n - 7.0) / 240.0
-    c1 = pm[2] / u2 if u2 > 0 else 0.0
-    det = n * u4 - u2 * u2
-    if det > 0:
-        c0 = (pm[1] * u4 - pm[3] * u2) / det
-        c2 = (n * pm[3] - u2 * pm[1]) / det
-    else:
-        c0, c2 = pm[1] / n, 0.0
-    return np.array([c0, c1, c2])
-
-
-def phase_lag1_result(count: int, pm: np.ndarray, ps: np.ndarray) -> tuple[float, float, float]:
-    """``(r1, den, scale)`` of the detrended decimated phase from the two passes' sums."""
-    n = count + 1
-    s1, s2, s11, first, last = ps[2], ps[3], ps[4], ps[5], ps[1]
-    mean = s1 / n
-    den = s2 - n * mean * mean
-    num = s11 - mean * ((s1 - last) + (s1 - first)) + (n - 1) * mean * mean
-    r1 = num / den if den > 0 else math.nan
-    return r1, den, float(pm[4])
-
-
-def decimated_phase_lag1(z: np.ndarray) -> tuple[float, float, int, float]:
-    """Lag-1 autocorrelation of the quadratically detrended decimated phase.
-
-    Parameters
-    ----------
-    z : ndarray
-        The ``count`` cluster sums ``x[(k+1) m] - x[k m]`` (any constant offset per sum,
-        i.e. a linear phase trend, is irrelevant: the detrend removes it).
-
-    Returns
-    -------
-    r1, den, size, scale
-        As one order of :func:`alpha_from_lag1`'s inputs: the autocorrelation, its
-        denominator ``sum e^2``, the series length ``count + 1`` and ``max |P|``.
-    """
-    z = np.ascontiguousarray(z, dtype=np.float64)
-    count = z.size
-    pm = np.zeros(5)
-    phase_moments(z, count, 0, count, pm)
-    ps = np.zeros(6)
-    phase_residual_lag(z, count, 0, count, quadratic_fit(count, pm), ps)
-    r1, den, scale = phase_lag1_result(count, pm, ps)
-    return r1, den, count + 1, scale
 
 
 def phase_order0(r1: float, den: float, size: int, scale: float) -> float:
@@ -828,72 +740,128 @@ def b1_rn_alpha(alpha: int, m: int, dmax: int, ratio: float | None, *, strict: b
 # The whole rule for rate data in memory, compiled (one call per record)
 # ---------------------------------------------------------------------------------------------
 
+
+def phase_order0_settled(r1, den, size, scale, tol_r1, tol_den) -> int:
+    """Whether :func:`phase_order0` decides (1), does not (0) or may do either (-1), for
+    statistics known to within bounds: ``r1`` to within ``tol_r1``, ``den`` to within
+    ``tol_den * den``, and a ``scale`` at most ``scale``.
+
+    Order 0 decides where the phase is noise (``den`` above the rounding floor), not
+    alternating (``r1 > -1``) and ``delta = r1 / (1 + r1) < 0.25``, i.e. ``r1 < 1/3``.
+    Written so that Numba compiles it too (:func:`_rate_noise_kernel`).
+    """
+    if not (tol_r1 < 0.5 and tol_den < 0.5):  # NaN too: nothing known
+        return -1
+    if not den * (1.0 - tol_den) > (_RESIDUAL_FLOOR * scale) ** 2 * size:
+        return -1
+    if r1 - tol_r1 > 1.0 / 3.0:
+        return 0
+    if r1 + tol_r1 < 1.0 / 3.0 and r1 - tol_r1 > -1.0:
+        return 1
+    return -1
+
+
+#: Cluster sums that :func:`rate_noise_types`' passes over the data read (an estimate,
+#: :func:`_passes_over_the_data`) from which its taus run on every thread: each tau is
+#: an item, and below about 2 ms of work a thread's start costs more than it saves.
+NOISE_THREADS_MIN: Final = 1 << 19
+
 _lag1_decision_compiled = jit(lag1_decision)
 _clamp_alpha_compiled = jit(clamp_alpha)
 _phase_order0_compiled = jit(phase_order0)
-_quadratic_fit_compiled = jit(quadratic_fit)
-_phase_lag1_result_compiled = jit(phase_lag1_result)
+_phase_order0_settled_compiled = jit(phase_order0_settled)
 
 
 @jit
-def _decimated_phase_alpha(r, hh, hl, m, count, dmax):  # pragma: no cover - compiled
+def _decimated_phase_alpha(r, hh, hl, m, count):  # pragma: no cover - compiled
     """:func:`phase_order0` of the decimated phase ``x[::m]`` (:func:`decimated_phase_lag1`)."""
-    z = cluster_differences(r, hh, hl, m, count)
-    pm = np.zeros(5)
-    phase_moments(z, count, 0, count, pm)
-    ps = np.zeros(6)
-    phase_residual_lag(z, count, 0, count, _quadratic_fit_compiled(count, pm), ps)
-    r1, den, scale = _phase_lag1_result_compiled(count, pm, ps)
+    r1, den, scale = decimated_phase_stats(r, hh, hl, m, count)
     return _phase_order0_compiled(r1, den, count + 1, scale)
 
 
-@jit
-def _rate_noise_kernel(r, hh, hl, fused, ms, dmax, on_phase, averaged):  # pragma: no cover
-    """Lag-1 alpha per ``m`` (NaN: not identified) and whether the decimated phase decided
-    it; see :func:`rate_noise_types`."""
+@threaded_jit
+def _rate_noise_kernel(
+    r, hh, hl, fused, phase_fused, ms, dmax, on_phase, averaged, out, on_decimated, lo, hi
+):  # pragma: no cover - compiled
+    """Taus ``lo .. hi-1``: the lag-1 alpha per ``m`` into ``out`` (NaN: not identified)
+    and whether the decimated phase decided it into ``on_decimated``; see
+    :func:`rate_noise_types`."""
     n_increments = r.size - 1
-    out = np.empty(ms.size)
-    on_decimated = np.zeros(ms.size, np.bool_)
     r1 = np.empty(dmax + 1)
     den = np.empty(dmax + 1)
     sizes = np.empty(dmax + 1, np.int64)
     # phase first: the rate orders stop one short (the phase's orders 1 .. dmax)
     rate_orders = dmax - 1 if on_phase else dmax
-    for t in range(ms.size):
+    for t in range(lo, hi):
         m = ms[t]
         count = n_increments // m
         out[t] = math.nan
-        if count >= MIN_POINTS_LAG1:
-            if on_phase:
-                got = _decimated_phase_alpha(r, hh, hl, m, count, dmax)
+        on_decimated[t] = False
+        if count < MIN_POINTS_LAG1:
+            continue
+        level = 0
+        while (1 << level) < m:
+            level += 1
+        fused_level = (1 << level) == m
+        if on_phase:
+            # order 0 on the decimated phase, from the fused statistics where they settle
+            # it, else from the two sequential passes over the data
+            decides = -1
+            if fused_level and level < phase_fused.shape[0]:
+                row = phase_fused[level]
+                decides = _phase_order0_settled_compiled(
+                    row[0], row[1], count + 1, row[2], row[3], row[4]
+                )
+            if decides == 1:  # delta < 0.25 there: alpha >= 2, white PM once clamped
+                out[t] = _clamp_alpha_compiled(2, dmax)
+                on_decimated[t] = True
+                continue
+            if decides == -1:
+                got = _decimated_phase_alpha(r, hh, hl, m, count)
                 if not math.isnan(got):
                     out[t] = _clamp_alpha_compiled(got, dmax)
                     on_decimated[t] = True
                     continue
-            # order 0 first (most taus stop there: delta < 0.25), from the moments gathered
-            # while integrating where m is a usable fused level, else one pass over the data
-            level = 0
-            while (1 << level) < m:
-                level += 1
-            if (1 << level) == m and level < fused.shape[0] and fused[level, 3] > 0:
-                r1[0], den[0], scale = fused[level, 0], fused[level, 1], fused[level, 2]
-            else:
-                r1_0, den_0, scale = cluster_lag1_sums(r, hh, hl, m, count, 0)
-                r1[0], den[0] = r1_0[0], den_0[0]
-            orders = 0
-            if not (r1[0] == -1.0 or r1[0] / (1.0 + r1[0]) < 0.25):  # r1 = -1 stops too
-                r1_all, den_all, scale = cluster_lag1_sums(r, hh, hl, m, count, rate_orders)
-                for d in range(rate_orders + 1):
-                    r1[d], den[d] = r1_all[d], den_all[d]
-                orders = rate_orders
-            for d in range(orders + 1):
-                sizes[d] = max(count - d, 0)
-            status, alpha, _ = _lag1_decision_compiled(
-                r1, den, sizes, scale, 0, 0, orders, averaged and m >= 2
-            )
-            if status == 0:
-                out[t] = _clamp_alpha_compiled(alpha, dmax)
-    return out, on_decimated
+        # order 0 first (most taus stop there: delta < 0.25), from the moments gathered
+        # while integrating where m is a usable fused level, else one pass over the data
+        if fused_level and level < fused.shape[0] and fused[level, 3] > 0:
+            r1[0], den[0], scale = fused[level, 0], fused[level, 1], fused[level, 2]
+        else:
+            r1_0, den_0, scale = cluster_lag1_sums(r, hh, hl, m, count, 0)
+            r1[0], den[0] = r1_0[0], den_0[0]
+        orders = 0
+        if not (r1[0] == -1.0 or r1[0] / (1.0 + r1[0]) < 0.25):  # r1 = -1 stops too
+            r1_all, den_all, scale = cluster_lag1_sums(r, hh, hl, m, count, rate_orders)
+            for d in range(rate_orders + 1):
+                r1[d], den[d] = r1_all[d], den_all[d]
+            orders = rate_orders
+        for d in range(orders + 1):
+            sizes[d] = max(count - d, 0)
+        status, alpha, _ = _lag1_decision_compiled(
+            r1, den, sizes, scale, 0, 0, orders, averaged and m >= 2
+        )
+        if status == 0:
+            out[t] = _clamp_alpha_compiled(alpha, dmax)
+
+
+def _passes_over_the_data(
+    ms: np.ndarray, n_increments: int, fused_levels: int, settled: list[int], on_phase: bool
+) -> int:
+    """The clusters :func:`_rate_noise_kernel` reads at most, tau by tau: the decimated
+    phase's two passes where the fused statistics do not settle order 0, the rate's where
+    ``m`` is not a fused level (a work estimate for the thread choice)."""
+    work = 0
+    for m in ms.tolist():
+        count = n_increments // m
+        if count < MIN_POINTS_LAG1:
+            continue
+        level = m.bit_length() - 1
+        fused = m == 1 << level and level < fused_levels
+        if on_phase and not (fused and level < len(settled) and settled[level] >= 0):
+            work += 2 * count
+        if not fused:
+            work += 2 * count
+    return work
 
 
 def rate_noise_types(
@@ -928,9 +896,25 @@ def rate_noise_types(
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     if avar is not None and len(avar) != len(ms):
         raise ValueError("internal: avar must give one value per averaging factor")
-    values, on_decimated = _rate_noise_kernel(
-        phase.r, phase.hh, phase.hl, fused, ms, int(dmax), bool(on_phase), bool(averaged)
-    )
+    phase_fused = fused_phase_levels(phase) if on_phase else None
+    if phase_fused is None:
+        phase_fused = np.empty((0, 5))
+    n_increments = phase.n_points - 1
+    work = 0  # (at most 4 passes over each tau's clusters: a short record has no need)
+    if 4 * n_increments * ms.size >= NOISE_THREADS_MIN:
+        settled = [
+            phase_order0_settled(*row[:2], (n_increments >> lev) + 1, *row[2:])
+            for lev, row in enumerate(phase_fused.tolist())
+        ]
+        work = _passes_over_the_data(ms, n_increments, fused.shape[0], settled, on_phase)
+    values = np.empty(ms.size)
+    on_decimated = np.zeros(ms.size, dtype=np.bool_)
+    if ms.size:
+        _rate_noise_kernel.run(
+            work if work >= NOISE_THREADS_MIN else 0, ms.size, phase.r, phase.hh,
+            phase.hl, fused, phase_fused, ms, int(dmax), bool(on_phase), bool(averaged),
+            values, on_decimated,
+        )  # fmt: skip
     out = values.tolist()
     n_points = phase.n_points
     b1: dict[int, int] = {}  # tau index -> B1 alpha, on the taus too long for lag-1

@@ -73,6 +73,7 @@ scaling, online or offline).
 from __future__ import annotations
 
 import bisect
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -84,13 +85,19 @@ from adavar.controller import REANCHOR, Controller, needs_head
 from adavar.davar import edf_table
 from adavar.differences import window_avar
 from adavar.durations import Length
-from adavar.edf import STAT_ALPHA_RANGE
 from adavar.errors import AdavarInputError
 from adavar.events import Event, EventTracker, stretch_summary
 from adavar.noise_model import fit_avar
 from adavar.online_ici import ICI_EDF_SAMPLES, IciTracker
+from adavar.online_rows import Rows, check_noise_type
 from adavar.settings import CONTROLLER, HOURLY_FALSE_ALARMS, ICI_GAMMA, THRESHOLDS, threshold_mode
-from adavar.statistics import data_exponent, resolve_tau0, tau_factors, unscale
+from adavar.statistics import (
+    data_exponent,
+    refuse_masked,
+    resolve_tau0,
+    tau_factors,
+    unscale,
+)
 from adavar.terms import TERM_NAMES
 from adavar.window_defaults import dependence_stages, resolve_windows, stage_controller
 
@@ -100,81 +107,15 @@ __all__ = ["ONLINE_METHODS", "OnlineAdaptive"]
 ONLINE_METHODS = ("adaptive", "kurtosis", "ici")
 
 
-def _check_noise_type(noise_type: Any, size: int) -> np.ndarray:
-    """alpha per tau from an integer or one integer per tau (no record to identify it)."""
-    if isinstance(noise_type, str):
-        raise AdavarInputError(
-            f"noise_type={noise_type!r}: a live stream has no whole record to identify the "
-            "noise type on; give an integer alpha (0: white rate noise, the default) or one "
-            "per tau"
-        )
-    alpha = np.atleast_1d(np.asarray(noise_type))
-    if not np.issubdtype(alpha.dtype, np.integer) or alpha.ndim != 1:
-        raise AdavarInputError("noise_type must be an integer alpha or one integer per tau")
-    if alpha.size == 1:
-        alpha = np.full(size, int(alpha[0]))
-    elif alpha.size != size:
-        raise AdavarInputError(
-            f"noise_type has {alpha.size} values but there are {size} taus: give one"
-        )
-    lo, hi = STAT_ALPHA_RANGE["oadev"]
-    if alpha.min() < lo or alpha.max() > hi:
-        raise AdavarInputError(f"noise_type alpha must lie in {lo} .. {hi} for the Allan variance")
-    return alpha.astype(np.int64)
-
-
+#: binary exponent a push may reach above the scale the first push set (``2**-k``): the
+#: controller's sums of fourth powers over up to 2**30 samples stay below 2**1023
+RANGE_EXPONENT = 240
 #: rows whose variances are computed and fitted together (a backlog goes in blocks)
 FIT_ROWS = 1 << 15
 #: centres the controller runs at once (a multiple of REANCHOR): the first rows after the
 #: calibrated thresholds exist are a backlog of a million centres, whose per-centre
 #: outputs would otherwise be held all at once
 BACKLOG_CENTRES = 1 << 16
-
-
-class _Rows:
-    """Append-only columns in growable arrays (amortised O(1) a row), trimmed in front.
-
-    The arrays grow by half (not double): a stationary stream keeps every row since its
-    start, and the spare capacity and the copy at each growth set the monitor's peak.
-    """
-
-    def __init__(self, names: Sequence[str], dtypes: Sequence[Any]) -> None:
-        self.capacity = 1024
-        self.data = {n: np.empty(1024, dtype=d) for n, d in zip(names, dtypes, strict=True)}
-        self.start = 0  # index in the arrays of the first row held
-        self.first = 0  # index (over all rows ever) of the first row held
-        self.size = 0  # rows held
-
-    def append(self, **columns: np.ndarray) -> None:
-        count = len(next(iter(columns.values())))
-        capacity = self.capacity
-        if self.start + self.size + count > capacity:  # move the rows down, or grow
-            if self.size + count > capacity // 2:
-                capacity = max(capacity + capacity // 2, (3 * (self.size + count)) // 2)
-            for name, array in self.data.items():
-                moved = array if capacity == self.capacity else np.empty(capacity, array.dtype)
-                moved[: self.size] = array[self.start : self.start + self.size]
-                self.data[name] = moved
-            self.capacity = capacity
-            self.start = 0
-        end = self.start + self.size
-        for name, value in columns.items():
-            self.data[name][end : end + count] = value
-        self.size += count
-
-    def column(self, name: str) -> np.ndarray:
-        """The held rows of ``name`` (a view: valid until the next append)."""
-        return self.data[name][self.start : self.start + self.size]
-
-    def last(self, name: str) -> Any:
-        return self.data[name][self.start + self.size - 1]
-
-    def drop_before(self, index: int) -> None:
-        """Forget the rows before ``index`` (over all rows ever)."""
-        cut = min(self.size, max(0, index - self.first))
-        self.start += cut
-        self.first += cut
-        self.size -= cut
 
 
 class OnlineAdaptive:
@@ -456,7 +397,7 @@ class OnlineAdaptive:
                 )
             self._ms, _ = tau_factors(taus, lmax // 3, dt, 10)
             self._ms = np.ascontiguousarray(self._ms, dtype=np.int64)
-            self._alpha = _check_noise_type(noise_type, self._ms.size)
+            self._alpha = check_noise_type(noise_type, self._ms.size)
             self.tau = self._ms * dt
         self._edge_edf = edge_edf
         self._fit_options = dict(fit_options or {})
@@ -476,8 +417,8 @@ class OnlineAdaptive:
         # every row since its start)
         columns = ("window",) + (("shift",) if self._ici else ())
         lengths = np.int32 if lmax < 2**31 else np.int64
-        self._rows = _Rows(columns, (lengths, np.int64)[: len(columns)])
-        self._coef = _Rows(self.terms, (float,) * len(self.terms))
+        self._rows = Rows(columns, (lengths, np.int64)[: len(columns)])
+        self._coef = Rows(self.terms, (float,) * len(self.terms))
         self._fitted = 0  # rows (over all ever) with coefficients
         # rows to fit: centres, lengths, shifts (None: centred)
         self._pending: list[tuple[np.ndarray, np.ndarray, np.ndarray | None]] = []
@@ -631,7 +572,12 @@ class OnlineAdaptive:
         Raises
         ------
         AdavarInputError
-            A non-numeric, non-finite or multi-channel input, or a push after :meth:`finish`.
+            A non-numeric, non-finite or multi-channel input, a masked array with masked
+            samples (as :func:`adavar.deviation`), samples spanning more than
+            ``2**RANGE_EXPONENT`` (1e72) in magnitude with those pushed before (whose fourth
+            powers cannot all be held in float64: refused whether they come in one push or
+            many; before 0.3 a later push's were taken and overflowed to inf), or a push
+            after :meth:`finish`.
         """
         if self._finished:
             raise AdavarInputError("this pass is finished: start a new OnlineAdaptive")
@@ -640,6 +586,8 @@ class OnlineAdaptive:
             return []
         if self._k is None and np.any(x):
             self._k = data_exponent(x)  # any power of two is exact; this keeps sums in range
+        if self._k is not None:  # one push or many: the same samples refused
+            self._check_range(x)
         if self._k:
             x = np.ldexp(x, -self._k)
         self._append(x)
@@ -678,6 +626,7 @@ class OnlineAdaptive:
         if type(samples) is np.ndarray and samples.dtype == np.float64 and samples.ndim == 1:
             if np.isfinite(samples).all():  # the common case, checked cheaply
                 return samples
+        refuse_masked(samples)  # as every statistic: a masked sample cannot be skipped
         try:
             x = np.asarray(samples)
         except Exception as exc:  # pragma: no cover - exotic containers
@@ -701,6 +650,29 @@ class OnlineAdaptive:
                 "samples; drop or interpolate missing ones before pushing"
             )
         return x
+
+    def _check_range(self, x: np.ndarray) -> None:
+        """Refuse samples whose magnitudes span more than 2**RANGE_EXPONENT: a push far above
+        the scale the first set, or (a scale set by an outlier) mostly far below it."""
+        k = self._k or 0
+        top = max(-float(x.min()), float(x.max()))  # two reductions: cheap on small pushes
+        if top and math.frexp(top)[1] - k > RANGE_EXPONENT:
+            where = int(np.argmax(np.abs(x) == top))
+        elif k > RANGE_EXPONENT - 64:  # a scale above 2**176 was set by huge samples
+            size = np.abs(x)
+            small = (size < math.ldexp(1.0, k - RANGE_EXPONENT)) & (size > 0)
+            if 2 * int(np.count_nonzero(small)) <= int(np.count_nonzero(size)):
+                return
+            # name the outlier that set the scale if this push holds it
+            where = int(np.argmax(size if math.frexp(top)[1] >= k else small))
+        else:
+            return
+        raise AdavarInputError(
+            f"sample {where} of this push is {float(x[where])!r} and the scale of the pass is "
+            f"2**{k}: its samples span more than 2**{RANGE_EXPONENT} in magnitude, beyond what "
+            "the sums of fourth powers hold in float64; remove the outliers, or analyse the "
+            "stretches of different magnitude in separate passes"
+        )
 
     def _append(self, x: np.ndarray) -> None:
         # drop what no window will read again (the head is kept until the last estimate of

@@ -8,8 +8,9 @@ method comparison, the parameters and preprocessing used) into one HTML document
 The document needs no network: plotly.js (from the ``plotly`` Python package) is embedded
 inline once, no file, font or style sheet is referenced, and the figures are plain JSON
 drawn by a short inline script. Every string that comes from the user (title, file and
-column names, units, parameter values, notes) is HTML-escaped before it reaches the page,
-and the figure JSON is made safe inside ``<script>`` (``<``, ``>`` and ``&`` written as
+column names, units, parameter values, notes) is HTML-escaped before it reaches the page
+and isolated in ``<bdi>`` (its direction controls never reorder the page around it), and
+the figure JSON is made safe inside ``<script>`` (``<``, ``>`` and ``&`` written as
 ``\\u003c`` ...; the text fields plotly renders as pseudo-HTML are HTML-escaped too).
 
 Large inputs are thinned before drawing so the file stays a few MB (plotly.js alone is
@@ -50,6 +51,8 @@ from adavar.report_parts import (
     script_json,
     series_rows,
     surface_plot,
+    user_text,
+    user_title,
 )
 from adavar.writers import atomic_file
 
@@ -190,7 +193,7 @@ def build_report(
         if isinstance(source, Mapping):
             body = mapping_table(source)
         else:
-            body = f"<p><code>{escape(source)}</code></p>"
+            body = f"<p><code>{user_text(source)}</code></p>"
         sections.append(f'<section id="source"><h2>Data</h2>{body}</section>')
 
     if deviation is not None or fit is not None:
@@ -272,7 +275,7 @@ def build_report(
                         f"{mapping_table(parameters)}</section>")  # fmt: skip
 
     if preprocessing:
-        items = "".join(f"<li>{escape(step)}</li>" for step in preprocessing)
+        items = "".join(f"<li>{user_text(step)}</li>" for step in preprocessing)
         sections.append(f'<section id="preprocessing"><h2>Preprocessing</h2><ol>{items}</ol>'
                         "</section>")  # fmt: skip
 
@@ -284,6 +287,10 @@ def build_report(
                    '<script type="application/json" id="adavar-figures">',
                    script_json(figures), f"</script>\n<script>{_RENDER_JS}</script>"]  # fmt: skip
 
+    # the file's name and column inside a title composed from them are isolated too
+    named = [str(v) for v in (source.values() if isinstance(source, Mapping) else [source])
+             if isinstance(v, (str, os.PathLike))]  # fmt: skip
+    page_title, heading = user_title(title, [*named, *(Path(v).name for v in named)])
     now = _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M:%S UTC")
     footer = f"Made with adavar {escape(__version__)} on {now}"
     if plotly_version:
@@ -294,8 +301,8 @@ def build_report(
         '<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
         '<meta name="viewport" content="width=device-width, initial-scale=1">\n'
         f'<meta name="generator" content="adavar {escape(__version__)}">\n'
-        f"<title>{escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
-        f"<header><h1>{escape(title)}</h1></header>\n<main>\n",
+        f"<title>{page_title}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
+        f"<header><h1>{heading}</h1></header>\n<main>\n",
         "\n".join(sections),
         f"\n</main>\n<footer>{footer}.</footer>\n", *scripts, "\n</body>\n</html>\n",
     ])  # fmt: skip
@@ -336,8 +343,8 @@ def channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, A
         "Hover for values."
     )
     parts = [
-        f'<section id="channel-{k}" class="channel"><h2>Channel {escape(name)} '
-        f"({escape(run['units'])})</h2>",
+        f'<section id="channel-{k}" class="channel"><h2>Channel {user_text(name)} '
+        f"({user_text(run['units'])})</h2>",
         "<h3>Deviation and noise fit</h3>",
         plot(f"plot-{k}-deviation", deviation_plot(dev, fit, units)),
         f'<p class="caption">{escape(cap)}</p>{notes_html(dev.notes)}',

@@ -2,7 +2,9 @@
 
 Each ``*_plot`` function turns a result into a plotly figure as plain JSON-ready dicts
 (drawn in the page by a short script, no plotly Python objects); each ``*_table`` into an
-HTML table; every user string is escaped here (:func:`escape`). Large inputs are thinned
+HTML table; every user string is escaped here (:func:`escape`) and isolated from the text
+around it (:func:`user_text`: a file name with a right-to-left override, U+202E, reversed
+the report's title). Large inputs are thinned
 before drawing: a DAVAR surface to at most :data:`MAX_SURFACE_TIMES` x
 :data:`MAX_SURFACE_TAUS` cells, time series to at most :data:`MAX_SERIES_POINTS` points
 (:func:`series_rows`; flags by "any in the bin", window lengths by "shortest in the bin").
@@ -14,7 +16,8 @@ import contextlib
 import html as _html
 import json
 import math
-from collections.abc import Mapping, Sequence
+import re
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -51,6 +54,8 @@ __all__ = [
     "script_json",
     "series_rows",
     "surface_plot",
+    "user_text",
+    "user_title",
 ]
 
 #: Most windows (rows) of a DAVAR surface drawn in 3-D.
@@ -72,6 +77,48 @@ _COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#
 def escape(value: Any) -> str:
     """HTML-escape any value's text (quotes too: safe in text and in attributes)."""
     return _html.escape(str(value), quote=True)
+
+
+#: The characters that set or change the direction of the text after them (embeddings,
+#: overrides, isolates and marks, UAX #9).
+_BIDI_CONTROLS = re.compile("[\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069]")
+#: First strong isolate and pop directional isolate: the plain-text form of ``<bdi>``.
+_FSI, _PDI = "\u2068", "\u2069"
+
+
+def _isolated(text: str, parts: Iterable[str], start: str, end: str) -> str:
+    """``text`` escaped, with every occurrence of each of ``parts`` that holds a direction
+    control between ``start`` and ``end`` (a user string inside a composed title, such as
+    a file name)."""
+    pieces = sorted({p for p in parts if p and _BIDI_CONTROLS.search(p) and p in text},
+                    key=len, reverse=True)  # fmt: skip
+    if not pieces:
+        return escape(text)
+    out, pos = [], 0
+    for found in re.finditer("|".join(map(re.escape, pieces)), text):
+        out += [escape(text[pos : found.start()]), start, escape(found.group()), end]
+        pos = found.end()
+    return "".join([*out, escape(text[pos:])])
+
+
+def user_text(value: Any) -> str:
+    """A user's text (a file or column name, a unit, a note) for the page: HTML-escaped and
+    in ``<bdi>``, so that its direction controls (a right-to-left override, U+202E) and
+    right-to-left letters never reorder the text around it."""
+    return f"<bdi>{escape(value)}</bdi>"
+
+
+def user_title(value: Any, parts: Iterable[str] = ()) -> tuple[str, str]:
+    """The page's title as (the ``<title>`` element's text, the heading's HTML).
+
+    Both isolate the whole title and, inside it, each of ``parts`` (the file's name, the
+    column) that holds a direction control; ``<title>`` takes no markup, so there the
+    isolates are the characters FSI and PDI.
+    """
+    text = str(value)
+    parts = [*parts]
+    heading = f"<bdi>{_isolated(text, parts, '<bdi>', '</bdi>')}</bdi>"
+    return f"{_FSI}{_isolated(text, parts, _FSI, _PDI)}{_PDI}", heading
 
 
 def script_json(obj: Any) -> str:
@@ -597,7 +644,7 @@ def _table(
     head = "".join(f"<th>{escape(h)}</th>" for h in header)
     body = "".join(
         "<tr>" + "".join(
-            f'<td class="num">{escape(c)}</td>' if numeric[i] else f"<td>{escape(c)}</td>"
+            f'<td class="num">{escape(c)}</td>' if numeric[i] else f"<td>{user_text(c)}</td>"
             for i, c in enumerate(row)
         ) + "</tr>"
         for row in rows
@@ -608,7 +655,7 @@ def _table(
 def notes_html(notes: Sequence[str] | None) -> str:
     if not notes:
         return ""
-    items = "".join(f"<li>{escape(n)}</li>" for n in notes)
+    items = "".join(f"<li>{user_text(n)}</li>" for n in notes)
     return f'<ul class="notes">{items}</ul>'
 
 

@@ -20,9 +20,12 @@ names its sample.
 
 from __future__ import annotations
 
+import datetime
 import os
-from collections.abc import Iterator
+import stat
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -33,16 +36,22 @@ from adavar.errors import AdavarInputError
 
 __all__ = [
     "DEFAULT_CHUNK",
+    "EXACT_INTEGER",
     "ArraySource",
     "ChunkedSource",
     "DaskSource",
     "DifferencedSource",
+    "FileState",
     "HDF5Source",
     "NpyFileSource",
     "ParquetSource",
     "as_source",
     "available_memory",
+    "changed_error",
     "check_chunk_size",
+    "check_exact_integers",
+    "check_unchanged",
+    "file_state",
     "is_chunked",
     "is_dask",
     "memmap_source",
@@ -55,6 +64,93 @@ __all__ = [
 DEFAULT_CHUNK = 1 << 22
 #: pieces shorter than this are integrated on the calling thread only
 PARALLEL_MIN = 1 << 16
+#: the largest integer magnitude float64 holds exactly (2**53); integer samples beyond it
+#: would be rounded (by up to 128 at 2**60), which can flatten a record's noise to zero
+EXACT_INTEGER = 1 << 53
+
+
+@dataclass(frozen=True)
+class FileState:
+    """What tells that a file changed: its size, modification time and identity.
+
+    A folder (a ROS 2 bag) is the sum of its files' sizes and the latest of their times.
+    """
+
+    size: int
+    mtime_ns: int
+    inode: int
+    device: int
+
+    @classmethod
+    def of(cls, st: os.stat_result) -> FileState:
+        return cls(int(st.st_size), int(st.st_mtime_ns), int(st.st_ino), int(st.st_dev))
+
+
+def file_state(path: str | os.PathLike[str]) -> FileState | None:
+    """The :class:`FileState` of ``path`` now, or None when it is gone."""
+    try:
+        st = os.stat(path)
+        if not stat.S_ISDIR(st.st_mode):
+            return FileState.of(st)
+        size, mtime = 0, int(st.st_mtime_ns)
+        with os.scandir(path) as entries:
+            for entry in entries:
+                if entry.is_file():
+                    est = entry.stat()
+                    size += int(est.st_size)
+                    mtime = max(mtime, int(est.st_mtime_ns))
+        return FileState(size, mtime, int(st.st_ino), int(st.st_dev))
+    except FileNotFoundError:
+        return None
+
+
+def _when(ns: int) -> str:
+    return datetime.datetime.fromtimestamp(ns / 1e9).isoformat(sep=" ", timespec="milliseconds")
+
+
+def changed_error(name: str, before: FileState, after: FileState | None) -> AdavarInputError:
+    """The error for file ``name`` that changed (``after``) since it was first read."""
+    way_out = "copy it first, or wait until its writer is done"
+    if after is None:
+        return AdavarInputError(f"{name} was deleted or moved while being read: {way_out}")
+    what = []
+    if (after.inode, after.device) != (before.inode, before.device):
+        what.append("replaced by another file")
+    if after.size != before.size:
+        what.append(f"size {before.size} -> {after.size} bytes")
+    if after.mtime_ns != before.mtime_ns:
+        what.append(f"modified {_when(before.mtime_ns)} -> {_when(after.mtime_ns)}")
+    return AdavarInputError(f"{name} changed while being read ({', '.join(what)}): {way_out}")
+
+
+def check_unchanged(path: str | os.PathLike[str], before: FileState | None, name: str) -> None:
+    """Fail with :func:`changed_error` when ``path`` is no longer in state ``before``."""
+    if before is None:
+        return
+    after = file_state(path)
+    if after != before:
+        raise changed_error(name, before, after)
+
+
+def check_exact_integers(
+    values: np.ndarray, name: str, start: int = 0, where: Callable[[int], str] | None = None
+) -> None:
+    """Fail when integer ``values`` (samples ``start ..`` of ``name``; ``where(i)`` names
+    sample ``i`` otherwise) hold one beyond :data:`EXACT_INTEGER`, which float64, the
+    precision of every sum, cannot hold."""
+    if values.dtype.kind not in "iu" or values.dtype.itemsize < 8 or values.size == 0:
+        return
+    low, high = int(values.min()), int(values.max())
+    if -EXACT_INTEGER <= low and high <= EXACT_INTEGER:
+        return
+    first = int(np.argmax((values > EXACT_INTEGER) | (values < -EXACT_INTEGER)))
+    at = f"sample {start + first}" if where is None else where(first)
+    raise AdavarInputError(
+        f"{at} of {name} is the integer {int(values[first])}, beyond 2**53 (9.007e15), "
+        "which float64 cannot hold exactly (its noise would be rounded away): subtract an "
+        "offset in integers first (e.g. the first value), or give the samples in a larger "
+        "unit"
+    )
 
 
 class ChunkedSource:
@@ -74,6 +170,10 @@ class ChunkedSource:
     size: int = 0
     name: str = "record"
     dtype: np.dtype = np.dtype(np.float64)
+    #: the file read and its state when it was opened (sources of a file): every read
+    #: checks that it has not changed since, so a record is never read half old, half new
+    path: Path | None = None
+    state: FileState | None = None
 
     def __len__(self) -> int:
         return self.size
@@ -85,17 +185,32 @@ class ChunkedSource:
     def _read_raw(self, start: int, stop: int) -> np.ndarray:  # pragma: no cover - abstract
         raise NotImplementedError
 
+    def _read_file(self, start: int, stop: int) -> np.ndarray:
+        """:meth:`_read_raw`, for a file source checked against its state after the read
+        (and when the read fails: a truncated file is reported as changed, not as short)."""
+        if self.state is None or self.path is None:
+            return self._read_raw(start, stop)
+        try:
+            raw = self._read_raw(start, stop)
+        except Exception:
+            check_unchanged(self.path, self.state, self.name)
+            raise
+        check_unchanged(self.path, self.state, self.name)
+        return raw
+
     def read_unchecked(self, start: int, stop: int) -> np.ndarray:
         """Samples ``start .. stop - 1`` in the source's own dtype, NaN and Inf included
         (for a scan that looks for them: :func:`adavar.readers.read_record`)."""
-        return self._read_raw(int(start), int(stop))
+        return self._read_file(int(start), int(stop))
 
     def read(self, start: int, stop: int) -> np.ndarray:
         """Samples ``start .. stop - 1`` as a new float64 array (finite, checked)."""
         start, stop = int(start), int(stop)
         if not 0 <= start <= stop <= self.size:
             raise ValueError(f"internal: read({start}, {stop}) outside 0..{self.size}")
-        out = np.asarray(self._read_raw(start, stop), dtype=np.float64)
+        raw = np.asarray(self._read_file(start, stop))
+        check_exact_integers(raw, self.name, start)
+        out = np.asarray(raw, dtype=np.float64)
         if out.shape != (stop - start,):  # pragma: no cover - a source broke its contract
             raise AdavarInputError(
                 f"{self.name}: expected {stop - start} samples at {start}, got shape {out.shape}"
@@ -151,6 +266,9 @@ class NpyFileSource(ChunkedSource):
         Column of a 2-D (samples x channels) array.
     offset, shape, dtype, fortran_order
         Header fields, when already known (from a :class:`numpy.memmap`).
+    state : FileState, optional
+        The file's state when its reading began (default: now); a read that finds it
+        changed fails (:func:`changed_error`).
     """
 
     def __init__(
@@ -162,9 +280,11 @@ class NpyFileSource(ChunkedSource):
         shape: tuple[int, ...] | None = None,
         dtype: Any = None,
         fortran_order: bool = False,
+        state: FileState | None = None,
     ) -> None:
         self.path = Path(path)
         self.name = self.path.name if column is None else f"{self.path.name} column {column}"
+        self.state = file_state(self.path) if state is None else state
         if offset is None or shape is None or dtype is None:
             with open(self.path, "rb") as fh:
                 fmt = np.lib.format
@@ -203,10 +323,16 @@ class NpyFileSource(ChunkedSource):
             return np.empty(0, dtype=self.dtype)
         # from this channel's first sample to its last: no trailing row past the file's end
         count = (stop - start - 1) * self.stride + 1
-        with open(self.path, "rb") as fh:
+        try:
+            fh = open(self.path, "rb")
+        except FileNotFoundError:
+            check_unchanged(self.path, self.state, self.name)
+            raise
+        with fh:
             fh.seek(self.offset + (start * self.stride + self.column) * self.dtype.itemsize)
             raw = np.fromfile(fh, dtype=self.dtype, count=count)
         if raw.size != count:
+            check_unchanged(self.path, self.state, self.name)  # truncated meanwhile?
             raise AdavarInputError(f"{self.path.name} is shorter than its header says: re-save it")
         return raw if self.stride == 1 else raw[:: self.stride]
 
@@ -255,6 +381,7 @@ class HDF5Source(ChunkedSource):
         self.size = int(shape[0])
         self.dtype = np.dtype(dtype)
         self.name = f"{self.path.name}:{dataset}"
+        self.state = file_state(self.path)
         self._handle: Any = None
 
     def _read_raw(self, start: int, stop: int) -> np.ndarray:
@@ -288,6 +415,7 @@ class ParquetSource(ChunkedSource):
         self._group_start = np.concatenate([[0], np.cumsum(self._group_rows)])
         self.size = int(meta.num_rows)
         self.name = f"{self.path.name} column {column!r}"
+        self.state = file_state(self.path)
         self._file: Any = None
         self._cache: tuple[int, np.ndarray] | None = None
 
@@ -383,6 +511,7 @@ def _memmap_file(data: Any) -> NpyFileSource | None:
     src.offset = int(position)
     src.stride = stride // itemsize
     src.column = 0
+    src.state = file_state(src.path)
     _check_numeric(np.empty(0, dtype=data.dtype), src.name)
     return src
 

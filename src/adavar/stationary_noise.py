@@ -44,6 +44,7 @@ at 1 kHz. It does not see a burst much shorter than a block (a 20 s x5 burst in 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from typing import Final
@@ -51,6 +52,8 @@ from typing import Final
 import numpy as np
 from scipy.special import gammaincc
 
+from adavar import differences
+from adavar._jit import grouped_items, jit, read_only, threaded_jit
 from adavar.errors import AdavarInputError
 from adavar.sources import DEFAULT_CHUNK, check_chunk_size, is_chunked, open_record
 
@@ -204,12 +207,15 @@ def stationarity(
         source, _ = scaled_source(open_record(data, 1))  # power-of-two scale: no overflow
         size, read = source.size, source.read
         piece = DEFAULT_CHUNK if chunk_size is None else check_chunk_size(chunk_size)
+        powers = functools.partial(_block_powers, read, piece=piece)
     else:
         x = as_samples(data, min_length=1)
-        big = float(np.max(np.abs(x))) if x.size else 0.0
-        if big > 0.0:  # the squares neither overflow nor underflow
-            x = x / big
-        size, read, piece = x.size, (lambda a, b: x[a:b]), _PIECE
+        big = _max_abs(x)
+        # by the largest magnitude, so that the squares neither overflow nor underflow
+        # (x / 1 is x: a record of zeros stays as it is)
+        scale = big if big > 0.0 else 1.0
+        size, read, piece = x.size, (lambda a, b: x[a:b] / scale), _PIECE
+        powers = functools.partial(_record_powers, x, scale, piece=piece)
     order = 2 if dtype == "phase" else 1
     # (no more than a piece: a streamed record's working memory stays a few pieces)
     first = min(size, min(_HEAD, piece) + order)
@@ -226,7 +232,7 @@ def stationarity(
         )
     zeros = float(np.mean(head == 0.0)) if head.size else 1.0
     layout = (segments, blocks, shortest, zeros)
-    return _test(read, size, order, step, float(level), layout, piece)
+    return _test(powers, size, order, step, float(level), layout)
 
 
 def _correlation_time(s: np.ndarray) -> float:
@@ -249,9 +255,12 @@ def _correlation_time(s: np.ndarray) -> float:
     return max(1.0, 1.0 + 2.0 * float(np.sum(acf[1:stop])))
 
 
-def _block_powers(read, n_blocks: int, size: int, order: int, piece: int) -> np.ndarray:
+def _block_powers(read, n_blocks: int, size: int, order: int, *, piece: int) -> np.ndarray:
     """Sums of the squared ``order``-th differences over ``n_blocks`` blocks of ``size``,
-    reading ``piece`` samples at a time (``read(start, stop)``: samples ``start .. stop-1``)."""
+    reading ``piece`` samples at a time (``read(start, stop)``: samples ``start .. stop-1``).
+
+    NumPy, for a streamed record; :func:`_record_powers` computes the same numbers for a
+    record in memory."""
     power = np.zeros(n_blocks)
     used = n_blocks * size
     for start in range(0, used, piece):
@@ -264,18 +273,103 @@ def _block_powers(read, n_blocks: int, size: int, order: int, piece: int) -> np.
     return power
 
 
+# ---------------------------------------------------------------------------------------
+# the block powers of a record in memory, compiled: NumPy's numbers, one pass, every thread
+
+
+def _max_abs(x: np.ndarray) -> float:
+    """``float(np.max(np.abs(x)))`` of a finite record (0 when empty), without its copy."""
+    return max(float(x.max()), -float(x.min())) if x.size else 0.0
+
+
+@jit
+def _pairwise(a, lo, n):  # pragma: no cover - compiled
+    """``a[lo : lo + n]`` summed as NumPy's ``add.reduce`` sums float64 (pairwise: blocks
+    of up to 128 in 8 running sums, halved above), the same number bit for bit."""
+    if n < 8:
+        res = 0.0
+        for i in range(lo, lo + n):
+            res += a[i]
+        return res
+    if n <= 128:
+        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+        i = 8
+        while i < n - n % 8:
+            j = lo + i
+            r0 += a[j]
+            r1 += a[j + 1]
+            r2 += a[j + 2]
+            r3 += a[j + 3]
+            r4 += a[j + 4]
+            r5 += a[j + 5]
+            r6 += a[j + 6]
+            r7 += a[j + 7]
+            i += 8
+        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        for j in range(lo + i, lo + n):
+            res += a[j]
+        return res
+    half = n // 2
+    half -= half % 8
+    return _pairwise(a, lo, half) + _pairwise(a, lo + half, n - half)
+
+
+@threaded_jit
+def _record_power_blocks(x, scale, order, size, piece, power, per, lo, hi):  # pragma: no cover
+    """Blocks ``lo * per .. hi * per - 1`` of :func:`_record_powers`."""
+    buf = np.empty(size + order)
+    sq = np.empty(size)
+    for i in range(lo * per, min(hi * per, power.size)):
+        b0 = i * size
+        for k in range(size + order):
+            buf[k] = x[b0 + k] / scale
+        for k in range(size):
+            d = buf[k + 1] - buf[k]
+            if order == 2:
+                d = (buf[k + 2] - buf[k + 1]) - d
+            sq[k] = d * d
+        # the block's parts in the pieces NumPy reads, each summed as reduceat sums a
+        # segment (its first term plus the pairwise sum of the rest), in piece order
+        total = 0.0
+        a = b0
+        while a < b0 + size:
+            e = min(b0 + size, (a // piece + 1) * piece)
+            total += sq[a - b0] + _pairwise(sq, a - b0 + 1, e - a - 1)
+            a = e
+        power[i] = total
+
+
+def _record_powers(
+    x: np.ndarray, scale: float, n_blocks: int, size: int, order: int, *, piece: int
+) -> np.ndarray:
+    """:func:`_block_powers` of the record ``x / scale`` in memory, bit for bit, in one
+    compiled pass, on every thread from :data:`adavar.differences.RECORD_THREADS_MIN`
+    samples on: each block's squared differences of the scaled samples, summed in the
+    pieces of ``piece`` samples the NumPy version reads, as NumPy sums them."""
+    power = np.zeros(n_blocks)
+    work = n_blocks * size
+    threads = work >= differences.RECORD_THREADS_MIN
+    per, items = grouped_items(n_blocks) if threads else (n_blocks, 1)
+    _record_power_blocks.run(
+        work if items > 1 else 0, items, read_only(x), float(scale), order, size, piece,
+        power, per,
+    )  # fmt: skip
+    return power
+
+
 def _test(
-    read,
+    powers,
     n_samples: int,
     order: int,
     step: float,
     level: float,
     layout: tuple[int, int, int, float],
-    piece: int,
 ) -> StationarityResult:
-    """:func:`stationarity` of a checked record read by ``read`` (``order`` differences);
-    ``layout``: segments, blocks per segment, the shortest block and the fraction of the
-    first differences that are 0."""
+    """:func:`stationarity` of a checked record whose block powers ``powers(n_blocks,
+    size, order)`` gives (:func:`_block_powers`, :func:`_record_powers`; ``order``
+    differences); ``layout``: segments, blocks per segment, the shortest block and the
+    fraction of the first differences that are 0."""
     segments, blocks, shortest, zeros = layout
     n_blocks = segments * blocks
     size = (n_samples - order) // n_blocks
@@ -300,7 +394,7 @@ def _test(
             "its differences are 0): their rate follows the slow wander of the signal across "
             "the levels, so the stationarity test is not run"
         )
-    power = _block_powers(read, n_blocks, size, order, piece)
+    power = powers(n_blocks, size, order)
     if not np.all(power > 0.0):
         if not np.any(power > 0.0):
             return skipped(quiet)

@@ -32,7 +32,9 @@ from adavar.noise_id import (
     starts_on_phase,
 )
 from adavar.results import DeviationResult
-from adavar.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, STATISTICS
+from adavar.sampling import resolve_rate, resolve_tau0
+from adavar.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, RATE_DEFAULT, STATISTICS
+from adavar.sources import check_exact_integers
 from adavar.stationary_noise import stationarity
 from adavar.taus import averaging_factors
 
@@ -40,6 +42,7 @@ __all__ = [
     "DATA_TYPES",
     "MAX_POINTS_PER_DECADE",
     "NOISE_ID_RULES",
+    "RATE_DEFAULT",
     "SAFE_EXPONENT",
     "STATISTICS",
     "ScaledSource",
@@ -48,6 +51,7 @@ __all__ = [
     "data_exponent",
     "deviation",
     "refuse_masked",
+    "resolve_rate",
     "resolve_tau0",
     "scaled",
     "scaled_source",
@@ -66,40 +70,6 @@ _SCALE_PIECES = 64
 _TINY = float(np.finfo(np.float64).tiny)
 
 
-def resolve_tau0(rate: float | None, tau0: float | None) -> float:
-    """Sample interval from either a sample rate (Hz) or an interval (s), not both.
-
-    ``rate=None`` needs ``tau0``; a ``bool`` is not a rate. A rate whose interval lies
-    outside the normal float64 range (below about 2.2e-308 s or above 1.8e308 s) is refused
-    rather than carried into infinite or digit-less taus.
-    """
-    if tau0 is not None:
-        if rate is not None and not (_is_real(rate) and float(rate) == 1.0):
-            raise AdavarInputError("give either rate or tau0, not both")
-        value, name = tau0, "tau0"
-    elif rate is None:
-        raise AdavarInputError(
-            "no sampling rate: give rate= (samples per second, Hz) or tau0= (seconds)"
-        )
-    else:
-        value, name = rate, "rate"
-    if isinstance(value, (bool, np.bool_)):
-        raise AdavarInputError(f"{name} must be a number, got {value!r}")
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise AdavarInputError(f"{name} must be a number, got {value!r}") from None
-    if not math.isfinite(value) or value <= 0:
-        raise AdavarInputError(f"{name} must be a positive number, got {value!r}")
-    step = value if name == "tau0" else 1.0 / value  # a Python float: inf, not an error
-    if not (_TINY <= step < math.inf):
-        raise AdavarInputError(
-            f"{name} = {value!r} gives a sample interval of {step!r} s, outside the normal "
-            "float64 range (2.2e-308 .. 1.8e308): give the rate in Hz (or tau0 in seconds)"
-        )
-    return step
-
-
 def check_confidence(confidence: object) -> None:
     """``confidence`` is None or a number strictly between 0 and 1 (else a one-line error)."""
     if confidence is None:
@@ -113,12 +83,6 @@ def check_confidence(confidence: object) -> None:
             f"confidence must lie strictly between 0 and 1 (e.g. 0.683), or be None, got "
             f"{confidence!r}"
         )
-
-
-def _is_real(value: object) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_)
-    )
 
 
 def refuse_masked(data: object) -> None:
@@ -143,7 +107,8 @@ def refuse_masked(data: object) -> None:
 def as_samples(data: object, *, min_length: int = 3, missing_hint: str = "") -> np.ndarray:
     """Validate a record: a finite 1-D numeric array of at least ``min_length`` samples.
 
-    float32 and integer input is promoted to float64 (the sums need the precision).
+    float32 and integer input is promoted to float64 (the sums need the precision);
+    integers beyond 2**53, which float64 would round, are refused.
     ``missing_hint`` is added to the error about a NaN sample (a way out the caller has).
     """
     return _samples_and_range(data, min_length, missing_hint)[0]
@@ -171,6 +136,7 @@ def _samples_and_range(
             )
     if x.size < min_length:
         raise AdavarInputError(f"the record has {x.size} samples; at least {min_length} are needed")
+    check_exact_integers(x, "data")  # beyond 2**53, float64 would round them
     x = np.asarray(x, dtype=np.float64)
     # min and max are NaN or infinite exactly when some sample is: the range checks them all
     low, high = (float(x.min()), float(x.max())) if x.size else (0.0, 0.0)
@@ -423,7 +389,7 @@ def deviation(
     data: Sequence[float] | np.ndarray | stream.ChunkedSource,
     *,
     stat: str = "oadev",
-    rate: float = 1.0,
+    rate: float = RATE_DEFAULT,
     data_type: str = "rate",
     taus: str | Sequence[float] | np.ndarray = "octave",
     confidence: float | None = 0.683,
@@ -453,8 +419,11 @@ def deviation(
         Allan, ``mdev`` modified Allan, ``tdev`` time deviation (``tau * mdev / sqrt(3)``,
         in phase units), ``hdev``/``ohdev`` non-overlapping/overlapping Hadamard, ``totdev``
         total deviation (reflected record, NIST SP 1065).
-    rate : float
-        Sample rate in Hz (ignored when ``tau0`` is given).
+    rate : float, optional
+        Sample rate in Hz (ignored when ``tau0`` is given). By default the rate of the time
+        index of a pandas Series/DataFrame (DatetimeIndex, TimedeltaIndex) or of the time
+        coordinate of an xarray DataArray, else 1 Hz (:func:`resolve_rate`: an index that
+        is not evenly spaced, or a rate or tau0 given that contradicts it, is an error).
     data_type : {"rate", "phase"}
         ``"rate"``: rate samples (gyro angular rate, accelerometer output, fractional
         frequency); ``"phase"``: their integral (angle, velocity, time error).
@@ -586,7 +555,7 @@ def deviation(
     if dtype is None:
         raise AdavarInputError(f"unknown data_type {data_type!r}: use 'rate' or 'phase'")
     check_confidence(confidence)
-    step = resolve_tau0(rate, tau0)
+    rate, tau0, step = resolve_rate(data, rate, tau0)  # a time index gives it, or 1 Hz
     min_length = 4 if dtype == "phase" else 3
     if gaps != "error":  # adavar.gaps imports this module: loaded on first use
         from adavar.gaps import deviation_omitting_gaps

@@ -32,6 +32,7 @@ __all__ = [
     "WindowClasses",
     "WindowSchedule",
     "centre_range",
+    "check_window_times",
     "window_classes",
     "window_overhang",
     "window_schedule",
@@ -40,6 +41,10 @@ __all__ = [
 
 EDGES = ("mirror", "valid")
 MIN_WINDOW = 3  # the shortest window with one Allan-variance term at m = 1
+#: Float64 window times ``t0 + centre * tau0`` must resolve this fraction of the sample
+#: interval: a ``t0`` far from the record (``1e18`` s) rounded them to 128 s, so that every
+#: window of a 100 Hz record got one of a few times.
+TIME_RESOLUTION = 0.1
 
 
 _LAST_RANGE: list[Any] = [None, None]  # (start, stop, step), a weak reference to it
@@ -381,3 +386,31 @@ def _as_shift(shift: Any, n_samples: int, candidates: np.ndarray, step: int) -> 
             f"({n_samples} samples): give offsets within it"
         )
     return arr.astype(np.int64)
+
+
+def check_window_times(time: np.ndarray, centre: np.ndarray, t0: float, dt: float) -> None:
+    """A one-line error when the window times ``t0 + centre * dt`` are not usable.
+
+    Raises
+    ------
+    AdavarInputError
+        The last one overflows float64, or float64 numbers near the largest are further
+        apart than :data:`TIME_RESOLUTION` times the sample interval ``dt`` (a ``t0`` far
+        from the record: the times would no longer tell the samples apart).
+    """
+    if time.size == 0:
+        return
+    if not np.isfinite(time[-1]):
+        raise AdavarInputError(
+            f"the time of the last centre ({int(centre[-1])} samples of {dt:g} s after "
+            f"t0 = {t0:g} s) overflows float64: check the rate (Hz), tau0 (s) and t0 (s)"
+        )
+    largest = float(max(abs(time[0]), abs(time[-1])))
+    spacing = float(np.spacing(largest))
+    if spacing > TIME_RESOLUTION * dt:
+        raise AdavarInputError(
+            f"t0 = {t0:g} s is too far from the record for float64 window times: near "
+            f"{largest:.3g} s they are {spacing:g} s apart, coarser than a tenth of the sample "
+            f"interval {dt:g} s; give t0 relative to an origin near the record (0 by "
+            "default) and add the offset to the times yourself"
+        )

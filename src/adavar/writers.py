@@ -3,8 +3,9 @@
 :func:`atomic_directory` builds an output folder under a temporary sibling name and moves it
 into place only when everything in it was written, so an interrupted or failed run never
 leaves a half-written folder behind (SIGTERM removes the temporary; a later run sweeps the
-temporaries of killed runs); every folder it writes holds :data:`OUTPUT_MARKER`, and only
-such a folder is ever replaced. :func:`atomic_file` does the same for one file.
+temporaries of killed runs); every folder it writes holds :data:`OUTPUT_MARKER` with the
+list of its files, and only such a folder that holds nothing else is ever replaced.
+:func:`atomic_file` does the same for one file (both from :mod:`adavar.atomic`).
 :func:`write_surface` writes a DAVAR surface as NetCDF (readable by xarray, netCDF4,
 ``scipy.io.netcdf_file``, ncdump, ...) or Parquet (pandas, pyarrow, polars, DuckDB, ...),
 so that it can be read without adavar. :func:`dumps`, :func:`deviation_json` and
@@ -19,23 +20,32 @@ one-line message that names the problem and the way out.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import math
 import os
-import re
-import secrets
-import shutil
-import signal
-import socket
-import threading
-import time
-from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, BinaryIO
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from adavar.atomic import (
+    BATCH_MARKER,
+    DEMO_MARKER,
+    OUTPUT_MARKER,
+    PAUSE_BEFORE_RENAME_ENV,
+    PAUSE_FILE_RENAME_ENV,
+    STALE_TEMPORARY_S,
+    atomic_directory,
+    atomic_file,
+    check_output_directory,
+    foreign_files,
+    is_adavar_folder,
+    partial_name,
+    remove_partial_files,
+    sweep_partial_files,
+    sweep_stale_temporaries,
+    write_marker,
+)
 from adavar.csv_tables import (
     CSV_PIECE_ROWS,
     block_rows,
@@ -56,6 +66,9 @@ __all__ = [
     "CSV_PIECE_ROWS",
     "DEMO_MARKER",
     "OUTPUT_MARKER",
+    "PAUSE_BEFORE_RENAME_ENV",
+    "PAUSE_FILE_RENAME_ENV",
+    "STALE_TEMPORARY_S",
     "SURFACE_FORMATS",
     "atomic_directory",
     "atomic_file",
@@ -69,11 +82,13 @@ __all__ = [
     "deviation_json",
     "dumps",
     "fit_json",
+    "foreign_files",
     "is_adavar_folder",
     "jsonable",
     "partial_name",
     "remove_partial_files",
     "spreadsheet_safe",
+    "sweep_partial_files",
     "sweep_stale_temporaries",
     "write_deviation_csv",
     "write_marker",
@@ -84,339 +99,6 @@ __all__ = [
 
 def _fail(message: str) -> AdavarInputError:
     return AdavarInputError(message)
-
-
-# --------------------------------------------------------------------------------------
-# Output folders
-# --------------------------------------------------------------------------------------
-
-#: The file in every folder adavar writes (JSON: who wrote it, its pid and host, when).
-#: ``--force`` replaces only a folder that holds it (or an empty one); a temporary folder
-#: that holds it is swept by a later run once its writer is gone.
-OUTPUT_MARKER = ".adavar-output"
-#: The marker of ``adavar demo`` folders (written before :data:`OUTPUT_MARKER` existed).
-DEMO_MARKER = ".adavar-demo"
-#: The marker of an ``adavar batch`` output folder (only such a folder is reused).
-BATCH_MARKER = ".adavar-batch"
-_MARKERS = (OUTPUT_MARKER, DEMO_MARKER, BATCH_MARKER)
-#: A temporary of a writer on another machine (or a reused pid) is stale after this, s.
-STALE_TEMPORARY_S = 6 * 3600.0
-#: Test hook: seconds :func:`atomic_directory` sleeps once the folder is written, before
-#: it is renamed into place (the tests send SIGTERM then).
-PAUSE_BEFORE_RENAME_ENV = "ADAVAR_TEST_PAUSE_BEFORE_RENAME"
-#: The hidden siblings :func:`atomic_directory` builds and replaces through.
-_SIBLING = re.compile(r"^\..+\.(tmp|old)-[0-9a-f]{12}$")
-
-
-def is_adavar_folder(path: str | os.PathLike[str]) -> bool:
-    """Whether ``path`` is a folder adavar wrote (it holds :data:`OUTPUT_MARKER`, or the
-    marker of an older ``adavar demo`` or ``adavar batch`` folder).
-
-    Parameters
-    ----------
-    path : str or path-like
-
-    Returns
-    -------
-    bool
-    """
-    folder = Path(path)
-    return any((folder / marker).is_file() for marker in _MARKERS)
-
-
-def write_marker(folder: str | os.PathLike[str], purpose: str = "output") -> Path:
-    """Write :data:`OUTPUT_MARKER` into ``folder``: adavar wrote it and may replace it.
-
-    Parameters
-    ----------
-    folder : str or path-like
-        An existing folder.
-    purpose : str
-        What the folder is (``output``, ``temporary``, ...), for a reader of the marker.
-
-    Returns
-    -------
-    Path
-        The marker file.
-    """
-    from adavar import __version__
-
-    marker = Path(folder) / OUTPUT_MARKER
-    marker.write_text(
-        json.dumps({
-            "written_by": f"adavar {__version__}", "purpose": purpose, "pid": os.getpid(),
-            "host": socket.gethostname(), "created": time.time(),
-            "note": "adavar wrote this folder: adavar --force may replace it",
-        }) + "\n", encoding="utf-8",
-    )  # fmt: skip
-    return marker
-
-
-def check_output_directory(path: str | os.PathLike[str], *, replace: bool = False) -> Path:
-    """Check that an output folder can be created at ``path``, before any work is done.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The folder to create.
-    replace : bool
-        Whether an existing folder may be replaced. Only a folder adavar wrote
-        (:func:`is_adavar_folder`) or an empty one is ever replaced.
-
-    Returns
-    -------
-    Path
-        The absolute path.
-
-    Raises
-    ------
-    AdavarInputError
-        If ``path`` exists and ``replace`` is False, exists and was not written by adavar,
-        is an existing file, or its parent folder does not exist.
-    """
-    target = Path(path).expanduser().absolute()
-    if target.exists() or target.is_symlink():
-        if not target.is_dir() or target.is_symlink():
-            raise _fail(f"{path} exists and is not a folder: choose another output folder")
-        if not replace:
-            raise _fail(
-                f"output folder {path} exists already: choose another one, or pass --force "
-                "to replace it"
-            )
-        _check_replaceable(target, path)
-    if not target.parent.is_dir():
-        raise _fail(
-            f"the parent folder of {path} does not exist: create it first or choose "
-            "another output folder"
-        )
-    return target
-
-
-def _check_replaceable(target: Path, shown: str | os.PathLike[str]) -> None:
-    if is_adavar_folder(target):
-        return
-    try:
-        empty = not any(target.iterdir())
-    except OSError as exc:
-        raise _fail(f"cannot read the folder {shown}: {exc.strerror or exc}") from None
-    if not empty:
-        raise _fail(
-            f"{shown} exists and was not written by adavar (no {OUTPUT_MARKER} in it), so "
-            "even --force does not replace it: choose another output folder, or remove it "
-            "yourself if you no longer need it"
-        )
-
-
-def _make_sibling(target: Path, tag: str) -> Path:
-    """A new hidden folder next to ``target`` that holds only its marker (with this pid, so
-    that a later run can tell a dead writer's leftover); os.mkdir honours the umask, where
-    tempfile.mkdtemp would leave the final folder at mode 0700."""
-    while True:
-        candidate = target.parent / f".{target.name}.{tag}-{secrets.token_hex(6)}"
-        try:
-            candidate.mkdir()
-        except FileExistsError:
-            continue
-        except OSError as exc:
-            reason = exc.strerror or exc
-            raise _fail(f"cannot create a folder in {target.parent}: {reason}") from None
-        try:
-            write_marker(candidate, "temporary" if tag == "tmp" else "replaced folder")
-        except OSError as exc:
-            shutil.rmtree(candidate, ignore_errors=True)
-            raise _fail(f"cannot write in {target.parent}: {exc.strerror or exc}") from None
-        return candidate
-
-
-def _pid_alive(pid: int) -> bool:
-    if pid == os.getpid():
-        return True
-    if os.name != "posix":
-        return True  # no cheap check: the age decides
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:  # PermissionError: another user's live process
-        return True
-    return True
-
-
-def _stale(folder: Path, now: float) -> bool:
-    """Whether a hidden sibling is a leftover: its writer (this host) is gone, or it is old."""
-    try:
-        info = json.loads((folder / OUTPUT_MARKER).read_text(encoding="utf-8"))
-        pid, host, created = int(info["pid"]), str(info["host"]), float(info["created"])
-    except (OSError, ValueError, TypeError, KeyError):
-        return False  # not a temporary of ours (or one we cannot read): never touched
-    if host == socket.gethostname() and not _pid_alive(pid):
-        return True
-    return now - created > STALE_TEMPORARY_S
-
-
-def sweep_stale_temporaries(folder: str | os.PathLike[str]) -> list[Path]:
-    """Remove the temporaries that killed runs of :func:`atomic_directory` left in ``folder``.
-
-    Only hidden ``.NAME.tmp-*`` and ``.NAME.old-*`` folders that hold :data:`OUTPUT_MARKER`
-    are considered, and only those whose writer is no longer running on this machine or
-    that are older than :data:`STALE_TEMPORARY_S`. A stale ``.NAME.old-*`` (a folder set
-    aside while being replaced) is moved back to ``NAME`` if ``NAME`` is missing.
-
-    Parameters
-    ----------
-    folder : str or path-like
-
-    Returns
-    -------
-    list of Path
-        The temporaries removed (or moved back).
-    """
-    base = Path(folder)
-    try:
-        entries = [p for p in base.iterdir() if _SIBLING.match(p.name) and p.is_dir()]
-    except OSError:
-        return []
-    now = time.time()
-    removed = []
-    for entry in entries:
-        if not _stale(entry, now):
-            continue
-        if ".old-" in entry.name:
-            name = entry.name[1 : entry.name.rindex(".old-")]
-            kept = entry / name
-            with contextlib.suppress(OSError):
-                if kept.is_dir() and not (base / name).exists():
-                    os.replace(kept, base / name)  # the run died before the new one was in
-        shutil.rmtree(entry, ignore_errors=True)
-        if not entry.exists():
-            removed.append(entry)
-    return removed
-
-
-class _TerminateCleanly:
-    """While a folder is being written (main thread only): SIGTERM removes the temporary
-    and exits with 143 (128 + SIGTERM), instead of leaving it behind. Inside
-    :meth:`critical` (the renames) the signal waits until the renames are done."""
-
-    def __init__(self, tmp: Path, target: Path) -> None:
-        self.tmp, self.target = tmp, target
-        self.previous: Any = None
-        self.installed = False
-        self.deferred = False
-        self.pending: int | None = None
-
-    def __enter__(self) -> _TerminateCleanly:
-        if threading.current_thread() is threading.main_thread():
-            try:
-                self.previous = signal.signal(signal.SIGTERM, self._handler)
-                self.installed = True
-            except (ValueError, OSError):  # not the main interpreter, or no signals here
-                pass
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self.installed:
-            signal.signal(signal.SIGTERM, self.previous if self.previous is not None
-                          else signal.SIG_DFL)  # fmt: skip
-
-    def _handler(self, signum: int, frame: Any) -> None:
-        if self.deferred:
-            self.pending = signum
-            return
-        self._terminate(signum)
-
-    def _terminate(self, signum: int) -> None:
-        shutil.rmtree(self.tmp, ignore_errors=True)
-        with contextlib.suppress(OSError):  # os.write: safe inside a signal handler
-            os.write(2, f"adavar: terminated (signal {signum}): {self.target} was not "
-                     "written\n".encode(errors="replace"))  # fmt: skip
-        raise SystemExit(128 + signum)
-
-    @contextlib.contextmanager
-    def critical(self) -> Iterator[None]:
-        self.deferred = True
-        try:
-            yield
-        finally:
-            self.deferred = False
-        if self.pending is not None:
-            self._terminate(self.pending)
-
-
-@contextlib.contextmanager
-def atomic_directory(
-    path: str | os.PathLike[str], *, replace: bool = False, sweep: bool = True
-) -> Iterator[Path]:
-    """Build a folder under a temporary sibling name and move it to ``path`` at the end.
-
-    Use as ``with atomic_directory(out) as tmp: write files into tmp``. If the block raises,
-    the temporary folder is removed and ``path`` is left as it was. If it completes, the
-    temporary folder is renamed to ``path`` (when ``replace`` is True, an existing folder at
-    ``path`` is first renamed aside, then deleted once the new one is in place).
-
-    Every folder it writes holds :data:`OUTPUT_MARKER`, and only such a folder (or an empty
-    one) is ever replaced. While the block runs in the main thread, SIGTERM removes the
-    temporary and exits with status 143; temporaries that a killed run left next to
-    ``path`` are swept first (:func:`sweep_stale_temporaries`).
-
-    Parameters
-    ----------
-    path : str or path-like
-        The final folder.
-    replace : bool
-        Whether an existing folder at ``path`` may be replaced (one adavar wrote).
-    sweep : bool
-        Sweep stale temporaries in the parent folder first (default). A caller that writes
-        many folders into one parent sweeps it once itself.
-
-    Yields
-    ------
-    Path
-        The temporary folder to write into (same parent as ``path``).
-
-    Raises
-    ------
-    AdavarInputError
-        As :func:`check_output_directory` (checked again when the block is entered).
-    """
-    target = check_output_directory(path, replace=replace)
-    if sweep:
-        sweep_stale_temporaries(target.parent)
-    tmp = _make_sibling(target, "tmp")
-    guard = _TerminateCleanly(tmp, target)
-    try:
-        with guard:
-            yield tmp
-            remove_partial_files(tmp)  # of a worker process killed while it wrote
-            write_marker(tmp)  # the final folder's marker: an output, no longer a temporary
-            pause = os.environ.get(PAUSE_BEFORE_RENAME_ENV)
-            if pause:
-                time.sleep(float(pause))
-            with guard.critical():
-                _move_into_place(tmp, target, path, replace)
-    finally:
-        if tmp.exists():
-            shutil.rmtree(tmp, ignore_errors=True)
-
-
-def _move_into_place(tmp: Path, target: Path, shown: str | os.PathLike[str], replace: bool) -> None:
-    if not target.exists():
-        os.replace(tmp, target)
-        return
-    if not replace:
-        raise _fail(
-            f"output folder {shown} appeared while it was being written: choose "
-            "another one, or pass --force to replace it"
-        )
-    _check_replaceable(target, shown)
-    old = _make_sibling(target, "old")
-    os.replace(target, old / target.name)
-    try:
-        os.replace(tmp, target)
-    except BaseException:
-        os.replace(old / target.name, target)  # put the old folder back
-        raise
-    shutil.rmtree(old, ignore_errors=True)
 
 
 # --------------------------------------------------------------------------------------
@@ -627,69 +309,6 @@ def _write_parquet(handle: Any, result: DavarResult) -> None:
     }  # fmt: skip
     table = pa.Table.from_arrays(arrays, schema=pa.schema(fields, metadata=schema_meta))
     pq.write_table(table, handle)
-
-
-def partial_name(target: Path) -> Path:
-    """The temporary name a file is written under before it is renamed to ``target``:
-    ``.NAME.HEX.tmp`` beside it (hidden, unique, in the same folder so the rename is atomic)."""
-    return target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
-
-
-def remove_partial_files(folder: Path) -> None:
-    """Delete the :func:`partial_name` files that a killed writer left in ``folder``.
-
-    A writer removes its temporary when it fails; one killed in between (a worker
-    process of the demo or of a batch) cannot, and its file is redone by another.
-    """
-    for stray in folder.glob(".*.tmp"):
-        if _PARTIAL.fullmatch(stray.name):
-            stray.unlink(missing_ok=True)
-
-
-_PARTIAL = re.compile(r"\..+\.[0-9a-f]{12}\.tmp")
-
-
-@contextlib.contextmanager
-def atomic_file(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
-    """Write ``path`` all or nothing: a binary handle on a temporary sibling, renamed at the end.
-
-    The temporary file sits in the destination folder (so ``os.replace`` is atomic), is
-    created with ``open(..., "x")`` (the umask's permissions, not mkstemp's private 0600), is
-    synced before the rename, and is removed if anything fails, so an interrupted or
-    failed write leaves neither a half-written file nor a temporary behind.
-
-    Raises
-    ------
-    AdavarInputError
-        The folder does not exist, ``path`` is a folder, or the file cannot be written.
-    """
-    target = Path(path)
-    if not target.parent.is_dir():
-        raise _fail(
-            f"the folder of {target} does not exist: create it first or choose another path"
-        )
-    if target.is_dir():
-        raise _fail(f"{target} is a folder: give the path of the file to write")
-    tmp = partial_name(target)
-    try:
-        with open(tmp, "xb") as handle:
-            yield handle
-        # data on disk before the name points at it (the writer may have closed the handle)
-        with contextlib.suppress(OSError):
-            fd = os.open(tmp, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
-        os.replace(tmp, target)
-    except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise _fail(f"cannot write {target}: {exc.strerror or exc}") from None
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
 
 
 def write_surface(

@@ -22,6 +22,7 @@ from adavar.cli.options import (
     parse_taus,
     parse_terms,
     points_per_decade,
+    positive_float,
     positive_int,
     warn,
 )
@@ -34,7 +35,7 @@ from adavar.cli.output import (
     safe_name,
 )
 from adavar.errors import AdavarInputError
-from adavar.settings import ALL_STATISTICS
+from adavar.settings import ALL_STATISTICS, DATA_TYPE_DEFAULT
 from adavar.writers import (
     atomic_directory,
     check_output_directory,
@@ -342,9 +343,10 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         help="theobr/theoh: AVAR/Theo1 ratios in the bias ratio (default: all, as SP 1065)",
     )  # fmt: skip
     avar.add_argument(
-        "--data-type", default="rate", choices=("rate", "phase"),
+        "--data-type", default=DATA_TYPE_DEFAULT, choices=("rate", "phase"),
         help="rate samples (gyro rate, acceleration, fractional frequency) or their "
-        "integral (angle, velocity, time error); default: rate",
+        "integral (angle, velocity, time error); default: phase for a Stable32 .phd "
+        "file, else rate",
     )  # fmt: skip
     avar.add_argument(
         "--taus", default="octave", type=parse_taus, metavar="SPEC",
@@ -366,7 +368,7 @@ def add_avar_parser(sub: Any) -> argparse.ArgumentParser:
         "frequency), on, or off",
     )  # fmt: skip
     avar.add_argument(
-        "--f-h", type=float, default=None, metavar="HZ",
+        "--f-h", type=positive_float("Hz"), default=None, metavar="HZ",
         help="measurement bandwidth of the PM terms of --power-law (default: Nyquist)",
     )  # fmt: skip
     avar.add_argument(

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
+import os
 import sys
 import time
+from collections.abc import Iterator
 from typing import Any
 
 from adavar import __version__
@@ -74,6 +78,35 @@ def _batch_error(row: dict[str, Any]) -> str:
     return error if row["file"] in error else f"{row['file']}: {error}"
 
 
+#: The loggers of the cluster's libraries that this command quiets (below CRITICAL).
+_CLUSTER_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+@contextlib.contextmanager
+def _quiet_cluster_logs(cluster: bool, debug: bool) -> Iterator[None]:
+    """While this command runs a cluster (not with ``--debug``): dask's loggers print
+    nothing below CRITICAL. A scheduler that died logged a 35-line traceback before the
+    one-line error; every file's row says what happened instead. Only this command's
+    process, only while it runs: importing adavar leaves the loggers alone."""
+    if not cluster or debug:
+        yield
+        return
+    import distributed  # noqa: F401 - its logging set-up first, then ours over it
+
+    names = [
+        name for name in (*_CLUSTER_LOGGERS, *logging.root.manager.loggerDict)
+        if name in _CLUSTER_LOGGERS or name.startswith(tuple(f"{n}." for n in _CLUSTER_LOGGERS))
+    ]  # fmt: skip
+    before = {name: logging.getLogger(name).level for name in names}
+    for name in before:
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        for name, level in before.items():
+            logging.getLogger(name).setLevel(level)
+
+
 def _cmd_batch(args: argparse.Namespace) -> int:
     from adavar.batch import STATUS_ABSENT, collect_files, report_options, run_batch
 
@@ -81,12 +114,17 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     files = collect_files(args.inputs, files_from=args.files_from)
     options = report_options(args, ignore_unknown=True)
     progress = _BatchProgress()
+    cluster = args.scheduler is not None or args.workers is not None
+    debug = bool(getattr(args, "debug", False)) or os.environ.get(
+        "ADAVAR_DEBUG", ""
+    ).strip() not in ("", "0")
     try:
-        result = run_batch(
-            files, out=args.out, options=options, scheduler=args.scheduler,
-            workers=args.workers, force=args.force, progress=progress, timeout=args.timeout,
-            html=args.html, worker_timeout=args.worker_timeout,
-        )  # fmt: skip
+        with _quiet_cluster_logs(cluster, debug):
+            result = run_batch(
+                files, out=args.out, options=options, scheduler=args.scheduler,
+                workers=args.workers, force=args.force, progress=progress,
+                timeout=args.timeout, html=args.html, worker_timeout=args.worker_timeout,
+            )  # fmt: skip
     finally:
         progress.close()
     counts = result.counts
@@ -155,6 +193,7 @@ def add_batch_parser(sub: Any, report: argparse.ArgumentParser) -> argparse.Argu
         "is named after its stem and a hash of its path (gyro-3f2a9c), the same in every "
         "run. A bad file is an error row (its folder says so) and does not stop the batch; "
         "a rerun skips the files done (same size, modification time, options and outputs). "
+        "One run at a time writes into an --out: a second one stops at once. "
         "Exit code 0: every file ok; 2: some file (or the command line) has a user error; "
         "1: an internal error.",
     )
@@ -177,8 +216,10 @@ def add_batch_parser(sub: Any, report: argparse.ArgumentParser) -> argparse.Argu
                      help="address of a running dask scheduler (tcp://HOST:8786) or its "
                      "--scheduler-file JSON; its workers must see the files and --out")  # fmt: skip
     bat.add_argument("--workers", metavar="N", type=positive_int,
-                     help="start a local cluster of N single-threaded worker processes "
-                     "(default: no cluster, the files one by one in this process)")  # fmt: skip
+                     help="start a local cluster of N single-threaded worker processes, "
+                     "at most two a core and as many as the free memory holds at 256 MiB "
+                     "each (default: no cluster, the files one by one in this "
+                     "process)")  # fmt: skip
     bat.add_argument("--timeout", metavar="SECONDS", type=positive_float("seconds"),
                      default=10.0, help="wait this long for the scheduler and its first "
                      "worker (default: 10)")  # fmt: skip

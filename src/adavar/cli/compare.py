@@ -418,7 +418,7 @@ def _truth_column(args: argparse.Namespace, size: int, tau0: float) -> np.ndarra
 
     record = read_record(
         args.file, columns=[args.truth_column], rate=1.0 / tau0, gaps=args.gaps,
-        nan=args.nan, gap_tolerance=args.gap_tolerance,
+        nan=args.nan, gap_tolerance=args.gap_tolerance, memory_map=False,
     )  # fmt: skip
     truth = np.asarray(record.channel(record.names[0]), dtype=np.float64)
     if truth.size != size:

@@ -237,11 +237,19 @@ def _davar_summary(
 
 
 def _fixed_events_possible(args: argparse.Namespace, samples: Any) -> bool:
-    """Events of a fixed window: rate data in memory, a window the S test fits in, and no
-    missing sample (--gaps omit: the controller's tests need every sample)."""
-    return (args.data_type == "rate" and isinstance(samples, np.ndarray)
-            and args.window is not None and int(args.window) >= 16
-            and not np.isnan(samples).any())  # fmt: skip
+    """Events of a fixed window: rate data in memory or in a .npy file (read with file
+    reads), a window the S test fits in, and no missing sample (--gaps omit: the
+    controller's tests need every sample)."""
+    from adavar.sources import DEFAULT_CHUNK, NpyFileSource
+
+    def missing() -> bool:
+        if not isinstance(samples, NpyFileSource):
+            return bool(np.isnan(samples).any())
+        return any(np.isnan(samples.read_unchecked(a, min(samples.size, a + DEFAULT_CHUNK))).any()
+                   for a in range(0, samples.size, DEFAULT_CHUNK))  # fmt: skip
+
+    return (args.data_type == "rate" and isinstance(samples, (np.ndarray, NpyFileSource))
+            and args.window is not None and int(args.window) >= 16 and not missing())  # fmt: skip
 
 
 def _fixed_window_changes(

@@ -27,7 +27,7 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
     status(f"reading {args.file}")
     record = read_record(
         args.file, columns=[*args.gyro, *args.accel], rate=args.rate,
-        time_column=args.time_column, topic=args.topic, gaps=args.gaps,
+        time_column=args.time_column, topic=args.topic, gaps=args.gaps, memory_map=False,
     )  # fmt: skip
     # units given must agree with those the file declares (a ROS bag: rad/s, m/s^2)
     gyro_units = record.units_of(args.gyro_units, names=args.gyro, flag="--gyro-units")[

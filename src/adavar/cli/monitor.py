@@ -1,30 +1,32 @@
 """``adavar monitor``: the adaptive window on a live stream, one JSON line per event.
 
 The samples come from standard input (``-``), a file that is being appended to (followed
-like ``tail -f``) or UDP datagrams on a local port (``udp://127.0.0.1:PORT``), as text (one
-number a line, or delimited columns with ``--column``) or little-endian binary floats
-(``--format f32`` / ``f64``). They go to :class:`adavar.OnlineAdaptive` as they arrive;
-each event (a non-stationary stretch) is printed on stdout as soon as it is confirmed.
-At the end of the input, after ``--idle-timeout`` seconds without data, or on Ctrl-C, the
-pass is finished (the record's right mirror) and the remaining events are printed.
+like ``tail -F``: through truncation, rotation and deletion) or UDP datagrams on a local
+port (``udp://127.0.0.1:PORT``), as text (one number a line, or delimited columns with
+``--column``) or little-endian binary floats (``--format f32`` / ``f64``); the readers are
+in :mod:`adavar.cli.monitor_sources`. The samples go to :class:`adavar.OnlineAdaptive` as
+they arrive; each event (a non-stationary stretch) is printed on stdout as soon as it is
+confirmed. Whatever ends the stream (the end of the input, ``--idle-timeout`` seconds
+without data, Ctrl-C, SIGTERM, a bad line or sample), the pass is finished with every sample
+received before it (the record's right mirror) and the remaining events are printed; then
+the command exits 0, or 2 for a bad line (its one-line error last).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
+import math
 import re
-import select
-import socket
+import signal
 import sys
+import threading
 import time
-from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from adavar.cli.monitor_sources import BOUNDARY, open_source
 from adavar.cli.options import (
     EXIT_OK,
     UsageError,
@@ -47,10 +49,6 @@ from adavar.settings import ICI_EDF_SAMPLES, STREAM_LMAX_SECONDS
 
 __all__ = ["add_monitor_parser"]
 
-#: bytes read at a time from a file or a pipe
-READ_BYTES = 1 << 16
-#: seconds between polls of a file that has no new data
-POLL_SECONDS = 0.05
 #: seconds between status-line updates
 STATUS_SECONDS = 0.25
 _SPLIT = re.compile(rb"[,;\s]+")
@@ -63,15 +61,19 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
         help="the adaptive window on a live stream: one JSON line per detected event",
         description="Run the adaptive window (A-DAVAR, docs/method.md section 8) on a live "
         "stream of rate samples: SOURCE is - (standard input), a file that is being "
-        "appended to (followed like tail -f) or udp://127.0.0.1:PORT (datagrams of text "
-        "lines, or of binary floats with --format). Each non-stationary stretch is printed "
+        "appended to (followed like tail -F, through truncation, rotation and deletion, each "
+        "noted on stderr) or udp://127.0.0.1:PORT (datagrams of text lines, or of binary "
+        "floats with --format; datagrams lost or malformed are counted on the status line, "
+        "on stderr at the end and in the JSON). Each non-stationary stretch is printed "
         "on stdout as one JSON object (start_s, end_s, and the noise coefficient N before, "
-        "during and after it) as soon as its end is detected; at the end of the input, "
-        "after --idle-timeout seconds without data, or on Ctrl-C, the pass is finished and "
-        "the remaining events are printed. The defaults are those of 'adavar adaptive' "
-        "(Lmin and l from Lmax, thresholds for 0.1 false events per stationary hour; "
-        "--lmax 180 s, a stream having no length to take a tenth of); the first window "
-        "comes after the first 8192 samples or half Lmax. The windows and the change times "
+        "during and after it) as soon as its end is detected. At the end of the input, "
+        "after --idle-timeout seconds without data, on Ctrl-C or SIGTERM (exit 0), or at a "
+        "bad line or sample (exit 2, its error last), the pass is finished with the samples "
+        "received before and the remaining events are printed. The defaults are those of "
+        "'adavar adaptive' (Lmin and l from Lmax, thresholds for 0.1 false events per "
+        "stationary hour; --lmax 180 s, a stream having no length to take a tenth of); the "
+        "first window comes after the first 8192 samples or half Lmax. The windows and the "
+        "change times "
         "are those of 'adavar adaptive' on the same record with the same --lmax (on a "
         "30-minute record, also without), the events with their N summaries those of "
         "'adavar adaptive --taus octave --noise-type 0 --terms N' (where its whole-record "
@@ -157,6 +159,13 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
         "sample on a fast stream and delays N(t), not the events)",
     )  # fmt: skip
     cmd.add_argument(
+        "--summary", action="store_true",
+        help="at the end, print one more JSON line: {\"summary\": {samples, events, ended_by "
+        "(end of input, idle timeout, interrupt, SIGTERM or bad input), and the source's "
+        "counts: datagrams, lost_datagrams, bad_datagrams and receive_buffer for UDP, "
+        "file_truncated, file_replaced and file_deleted for a file}}",
+    )  # fmt: skip
+    cmd.add_argument(
         "--final", action="store_true",
         help="print each event once its 'after' summary is final (at the next event or the "
         "end) instead of when it is confirmed",
@@ -166,110 +175,32 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
 
 
 # ---------------------------------------------------------------------------------------
-# sources: byte chunks as they arrive (None: nothing new within the poll interval)
+# decoding: bytes -> samples. A bad line or sample stops the decoder: the samples before it
+# are returned, ``error`` says what it was, and the command finishes the pass with them.
 
-
-def _stdin_chunks(idle: float | None) -> Iterator[bytes | None]:
-    stream = sys.stdin.buffer if hasattr(sys.stdin, "buffer") else None
-    try:
-        fd = (stream or sys.stdin).fileno()
-    except (AttributeError, OSError, ValueError):
-        fd = None
-    if fd is None:  # an in-memory stdin (tests, notebooks): read it as it is
-        data = sys.stdin.read()
-        yield data.encode() if isinstance(data, str) else data
-        return
-    last = time.monotonic()
-    while True:
-        wait = STATUS_SECONDS if idle is None else min(STATUS_SECONDS, idle)
-        try:
-            ready, _, _ = select.select([fd], [], [], wait)
-        except (OSError, ValueError):  # not selectable (Windows): blocking reads
-            ready = [fd]
-        if ready:
-            data = os.read(fd, READ_BYTES)
-            if not data:
-                return
-            last = time.monotonic()
-            yield data
-        elif idle is not None and time.monotonic() - last >= idle:
-            return
-        else:
-            yield None
-
-
-def _file_chunks(path: Path, idle: float | None) -> Iterator[bytes | None]:
-    try:
-        handle = path.open("rb")
-    except OSError as exc:
-        raise UsageError(f"cannot read {str(path)!r}: {exc.strerror or exc}") from None
-    with handle:
-        last = time.monotonic()
-        while True:
-            data = handle.read(READ_BYTES)
-            if data:
-                last = time.monotonic()
-                yield data
-                continue
-            if idle is not None and time.monotonic() - last >= idle:
-                return
-            yield None
-            time.sleep(POLL_SECONDS)
-
-
-def _udp_chunks(host: str, port: int, idle: float | None, text: bool) -> Iterator[bytes | None]:
-    family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    sock = socket.socket(family, socket.SOCK_DGRAM)
-    try:
-        sock.bind((host, port))
-    except OSError as exc:
-        sock.close()
-        raise UsageError(f"cannot listen on udp://{host}:{port}: {exc.strerror or exc}") from None
-    with sock:
-        sock.settimeout(STATUS_SECONDS if idle is None else min(STATUS_SECONDS, idle))
-        last = time.monotonic()
-        while True:
-            try:
-                data = sock.recv(1 << 16)
-            except TimeoutError:
-                if idle is not None and time.monotonic() - last >= idle:
-                    return
-                yield None
-                continue
-            last = time.monotonic()
-            # a datagram holds whole lines: end the last one
-            yield data + b"\n" if text and data and not data.endswith(b"\n") else data
-
-
-def _open_source(source: str, idle: float | None, text: bool) -> Iterator[bytes | None]:
-    if source == "-":
-        return _stdin_chunks(idle)
-    if source.startswith("udp://"):
-        match = re.fullmatch(r"udp://\[?([^\[\]]+?)\]?:(\d+)", source)
-        if match is None or not 0 < int(match.group(2)) < 65536:
-            raise UsageError(f"SOURCE {source!r}: give udp://127.0.0.1:PORT (PORT 1-65535)")
-        host = "127.0.0.1" if match.group(1) == "localhost" else match.group(1)
-        return _udp_chunks(host, int(match.group(2)), idle, text)
-    path = Path(source)
-    if not path.exists():
-        raise UsageError(f"SOURCE {source!r}: no such file (give -, a file or udp://HOST:PORT)")
-    if path.is_dir():
-        raise UsageError(f"SOURCE {source!r} is a folder: give a file")
-    return _file_chunks(path, idle)
-
-
-# ---------------------------------------------------------------------------------------
-# decoding: bytes -> samples
+_NOT_FINITE = (
+    "the pass needs finite samples: remove or interpolate missing ones (what 'adavar "
+    "adaptive --nan interpolate' does offline)"
+)
 
 
 class _TextDecoder:
-    """Complete lines -> numbers (one column); a header line before the first number skipped."""
+    """Complete lines -> numbers (one column); a header line before the first number skipped
+    (at the start of the stream, and of each new file a followed file is replaced by)."""
 
     def __init__(self, column: int | None) -> None:
         self.column = column
         self.rest = b""
         self.line = 0
         self.started = False
+        self.error: AdavarInputError | None = None
+
+    def end_piece(self) -> tuple[np.ndarray, str]:
+        """The last line of a file that ended (no newline needed); a header may follow."""
+        values = self(b"", final=True)
+        self.started = False
+        self.line = 0
+        return values, ""
 
     def __call__(self, data: bytes, final: bool = False) -> np.ndarray:
         data = self.rest + data
@@ -286,90 +217,158 @@ class _TextDecoder:
                 except ValueError:
                     pass  # the line by line path below names the bad line
                 else:
-                    self.line += lines
-                    return values
-        lines = block.splitlines()
+                    if np.isfinite(values).all():
+                        self.line += lines
+                        return values
         values: list[float] = []
-        for raw in lines:
+        for raw in block.splitlines():
             self.line += 1
-            text = raw.strip()
-            if not text or text.startswith(b"#"):
-                continue
-            fields = [f for f in _SPLIT.split(text) if f]
-            if self.column is None and len(fields) > 1:
-                raise AdavarInputError(
-                    f"line {self.line} has {len(fields)} columns: choose one with --column N "
-                    "(0-based)"
-                )
-            index = 0 if self.column is None else self.column
-            if index >= len(fields):
-                raise AdavarInputError(
-                    f"line {self.line} has {len(fields)} columns, no column {index} "
-                    "(--column is 0-based)"
-                )
-            try:
-                values.append(float(fields[index]))
-            except ValueError:
-                if not self.started:  # a header
-                    self.started = True
-                    continue
-                shown = fields[index].decode(errors="replace")[:40]
-                raise AdavarInputError(
-                    f"line {self.line}: {shown!r} is not a number (one sample a line, or "
-                    "--column N of delimited lines)"
-                ) from None
-            self.started = True
+            problem = self._line(raw, values)
+            if problem:
+                self.error = AdavarInputError(f"line {self.line}{problem}")
+                self.rest = b""
+                break
         return np.asarray(values, dtype=float)
+
+    def _line(self, raw: bytes, values: list[float]) -> str:
+        """Append the number of one line to ``values``; what is wrong with it, or ''
+        (to follow "line N")."""
+        text = raw.strip()
+        if not text or text.startswith(b"#"):
+            return ""
+        fields = [f for f in _SPLIT.split(text) if f]
+        if self.column is None and len(fields) > 1:
+            return f" has {len(fields)} columns: choose one with --column N (0-based)"
+        index = 0 if self.column is None else self.column
+        if index >= len(fields):
+            return f" has {len(fields)} columns, no column {index} (--column is 0-based)"
+        try:
+            value = float(fields[index])
+        except ValueError:
+            if not self.started:  # a header
+                self.started = True
+                return ""
+            shown = fields[index].decode(errors="replace")[:40]
+            return (
+                f": {shown!r} is not a number (one sample a line, or --column N of delimited lines)"
+            )
+        if not math.isfinite(value):
+            return f": {fields[index].decode(errors='replace')[:40]!r}: {_NOT_FINITE}"
+        self.started = True
+        values.append(value)
+        return ""
 
 
 class _BinaryDecoder:
     def __init__(self, dtype: str) -> None:
         self.dtype = np.dtype(dtype)
         self.rest = b""
+        self.samples = 0  # decoded so far
+        self.error: AdavarInputError | None = None
+
+    def end_piece(self) -> tuple[np.ndarray, str]:
+        """A file that ended: a partial sample at its end is dropped, with a notice."""
+        rest, self.rest = self.rest, b""
+        if not rest:
+            return np.empty(0), ""
+        return np.empty(0), (
+            f"dropped the last {len(rest)} bytes of the old file: not a whole "
+            f"{self.dtype.itemsize}-byte sample"
+        )
 
     def __call__(self, data: bytes, final: bool = False) -> np.ndarray:
         data = self.rest + data
         size = self.dtype.itemsize
         cut = len(data) // size * size
         self.rest = data[cut:]
-        if final and self.rest:
-            raise AdavarInputError(
+        values = np.frombuffer(data[:cut], dtype=self.dtype).astype(np.float64)
+        finite = np.isfinite(values)
+        if not finite.all():
+            first = int(np.argmin(finite))
+            self.error = AdavarInputError(
+                f"sample {self.samples + first} is {float(values[first])!r}: {_NOT_FINITE}"
+            )
+            values = values[:first]
+        elif final and self.rest:
+            self.error = AdavarInputError(
                 f"the input ends with {len(self.rest)} bytes, not a whole {size}-byte sample"
             )
-        return np.frombuffer(data[:cut], dtype=self.dtype).astype(np.float64)
+        self.samples += values.size
+        return values
 
 
 # ---------------------------------------------------------------------------------------
 # the command
 
 
-def _event_line(live: Any, index: int, units: str, final: bool) -> str:
+class _Stop:
+    """SIGINT (Ctrl-C) and SIGTERM end the stream: they set ``reason``, which the loop reads
+    between pushes (an exception in the middle of one would leave the pass half-updated). A
+    second signal aborts (KeyboardInterrupt: exit 130), and so does one once the handlers are
+    restored (the pass is being finished). A signal the process ignores stays ignored."""
+
+    def __init__(self) -> None:
+        self.reason: str | None = None
+        self._saved: dict[int, Any] = {}
+
+    def _handler(self, signum: int, _frame: Any) -> None:
+        if self.reason is not None:
+            raise KeyboardInterrupt
+        self.reason = "SIGTERM" if signum == signal.SIGTERM else "interrupt"
+
+    def __enter__(self) -> _Stop:
+        if threading.current_thread() is threading.main_thread():
+            for signum in (signal.SIGINT, signal.SIGTERM):
+                try:
+                    if signal.getsignal(signum) is not signal.SIG_IGN:
+                        self._saved[signum] = signal.signal(signum, self._handler)
+                except (OSError, ValueError):  # pragma: no cover - not settable here
+                    continue
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for signum, handler in self._saved.items():
+            signal.signal(signum, handler)
+        self._saved.clear()
+
+
+def _event_line(live: Any, index: int, units: str, final: bool, extra: dict) -> str:
     obj = {"event": index, **live.events[index].as_dict(), "units": units, "final": final}
-    return json.dumps(obj)
+    return json.dumps({**obj, **extra})
 
 
 class _Status:
-    """One status line on stderr, only on a terminal, at most every STATUS_SECONDS."""
+    """One status line on stderr, only on a terminal, at most every STATUS_SECONDS; the
+    source's notices as lines of their own, always."""
 
     def __init__(self) -> None:
         self.enabled = sys.stderr.isatty()
         self.last = 0.0
         self.shown = False
 
-    def __call__(self, live: Any, units: str, force: bool = False) -> None:
+    def notify(self, source: Any) -> None:
+        if source.notices:
+            notices = source.notices[:]
+            del source.notices[: len(notices)]
+            self.close()
+            for text in notices:
+                print(f"adavar monitor: {text}", file=sys.stderr, flush=True)
+
+    def __call__(self, live: Any, units: str, source: Any, force: bool = False) -> None:
+        self.notify(source)
         now = time.monotonic()
         if not self.enabled or (not force and now - self.last < STATUS_SECONDS):
             return
         self.last = now
         row = live.latest
         if not row:
-            line = (f"monitor: {live.samples} samples, {live.waiting} more before the first "
-                    "window")  # fmt: skip
+            line = (f"monitor: {live.samples} samples{source.status()}, {live.waiting} more "
+                    "before the first window")  # fmt: skip
         else:
             n = row.get("angle_random_walk")
             arw = "" if n is None else f", N {n:.4g} {units}*sqrt(s)"
-            line = (f"monitor: {live.samples} samples, t {row['time']:.2f} s, window "
-                    f"{row['window']}{arw}, {len(live.events)} events")  # fmt: skip
+            line = (f"monitor: {live.samples} samples{source.status()}, t {row['time']:.2f} "
+                    f"s, window {row['window']}{arw}, {len(live.events)} events")  # fmt: skip
         print("\r" + line.ljust(79)[:79], end="", file=sys.stderr, flush=True)
         self.shown = True
 
@@ -405,12 +404,13 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
         fit_options=fit_options, fit_batch=args.fit_batch, keep="recent", **ici,
     )  # fmt: skip
     text = args.input_format == "text"
-    decode = _TextDecoder(args.column) if text else _BinaryDecoder(
+    decode: Any = _TextDecoder(args.column) if text else _BinaryDecoder(
         "<f4" if args.input_format == "f32" else "<f8"
     )  # fmt: skip
     units = args.units.strip()
     status = _Status()
     printed = 0  # events printed (confirmed, or final with --final)
+    source = open_source(args.source, args.idle_timeout, None if text else decode.dtype.itemsize)
 
     def emit() -> None:
         nonlocal printed
@@ -419,36 +419,75 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
             status.close()
         while printed < ready:
             final = printed < live.final_count
-            print(_event_line(live, printed, units, final), flush=True)
+            line = _event_line(live, printed, units, final, source.event_fields())
+            print(line, flush=True)
             printed += 1
 
-    chunks = _open_source(args.source, args.idle_timeout, text)
+    def push(samples: np.ndarray) -> None:
+        if samples.size:
+            live.push(samples)
+            emit()
+
+    # every way the stream ends finishes the pass with what came before it: the end of the
+    # input, --idle-timeout, Ctrl-C, SIGTERM and a bad line or sample alike
+    ended = None
+    stop = _Stop()
     try:
-        try:
-            for data in chunks:
-                if data:
-                    samples = decode(data)
-                    if samples.size:
-                        live.push(samples)
-                        emit()
-                status(live, units)
-            tail = decode(b"", final=True)
-            if tail.size:
-                live.push(tail)
-        except KeyboardInterrupt:  # Ctrl-C ends the stream; the pass is finished below
-            pass
-        finally:
-            close = getattr(chunks, "close", None)
-            if close is not None:
-                close()
+        with stop:
+            try:
+                for data in source:
+                    if data is BOUNDARY:  # a followed file was replaced or truncated
+                        values, notice = decode.end_piece()
+                        if notice:
+                            source.notices.append(f"{args.source}: {notice}")
+                        push(values)
+                    elif data:
+                        push(decode(data))
+                    if decode.error is not None:
+                        ended = "bad input"
+                        break
+                    status(live, units, source)
+                    if stop.reason is not None:
+                        ended = stop.reason
+                        break
+                else:
+                    push(decode(b"", final=True))
+                    ended = "bad input" if decode.error is not None else source.ended
+            except KeyboardInterrupt:
+                if stop.reason is not None:  # a second signal: abort (exit 130)
+                    raise
+                ended = "interrupt"  # no handler could be set (not the main thread)
+            finally:
+                source.close()
+            if ended in ("interrupt", "SIGTERM"):  # what was received, not yet pushed
+                push(decode(source.drain()))
+                if decode.error is not None:
+                    ended = "bad input"
+        # the handlers are restored: a signal now aborts the finishing pass
+        status.notify(source)
         status.close()
         if live.samples < live.lmax:
+            if decode.error is not None:
+                raise decode.error
             raise AdavarInputError(
                 f"the stream ended after {live.samples} samples; the window needs at least "
                 f"--lmax {live.lmax}"
             )
         live.finish()
         emit()
+        if args.summary:
+            obj = {"samples": live.samples, "events": len(live.events), "ended_by": ended}
+            print(json.dumps({"summary": {**obj, **source.stats()}}), flush=True)
     finally:
         status.close()
+        stats = source.stats()
+        if "lost_datagrams" in stats:
+            print(
+                f"adavar monitor: {args.source}: {stats['datagrams']} datagrams, "
+                f"{stats['lost_datagrams']} lost, {stats['bad_datagrams']} malformed "
+                f"(receive buffer {stats['receive_buffer']} bytes)",
+                file=sys.stderr, flush=True,
+            )  # fmt: skip
+    if decode.error is not None:
+        raise decode.error
     return EXIT_OK

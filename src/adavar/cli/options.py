@@ -15,6 +15,7 @@ from adavar.errors import AdavarInputError
 from adavar.preprocess import MAX_DETREND_ORDER, parse_steps
 from adavar.settings import (
     CONTROLLER,
+    DATA_TYPE_DEFAULT,
     DEFAULT_MAX_MEMORY_MB,
     FIT,
     HOURLY_FALSE_ALARMS,
@@ -44,6 +45,13 @@ EXIT_USAGE = 2
 EXIT_INTERRUPTED = 130
 
 
+#: Destinations of the flags of the kurtosis controller (adaptive, kurtosis): --method ici
+#: has no kurtosis or S test and ignores them.
+KURTOSIS_CONTROLLER = frozenset({
+    "k1", "k2", "s1", "s2", "dl0", "dl1", "s_test", "combine", "thresholds", "false_alarm",
+    "false_alarm_per_hour", "dependence", "kurtosis_reference",
+})  # fmt: skip
+
 #: File name (without suffix) of the coefficient figure of each term in a davar --out folder.
 TERM_FILES = {t.name: t.short for t in TERMS}
 
@@ -58,6 +66,45 @@ class Parser(argparse.ArgumentParser):
     def error(self, message: str) -> NoReturn:
         """Raise a one-line :class:`UsageError` pointing at this parser's ``--help``."""
         raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+#: The attribute of a parsed namespace that lists the flags given (destination -> the flag
+#: as typed), for the checks of flags that the chosen mode ignores.
+GIVEN = "given_flags"
+
+
+def _note_given(namespace: argparse.Namespace, dest: str, flag: str | None) -> None:
+    given = dict(getattr(namespace, GIVEN, None) or {})
+    given[dest] = flag or f"--{dest.replace('_', '-')}"
+    setattr(namespace, GIVEN, given)
+
+
+class Given(argparse.Action):
+    """``store``, noting the flag as given (on the command line or in ``--config``)."""
+
+    def __call__(
+        self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+        option_string: str | None = None,
+    ) -> None:  # fmt: skip
+        setattr(namespace, self.dest, values)
+        _note_given(namespace, self.dest, option_string)
+
+
+class GivenBoolean(argparse.BooleanOptionalAction):
+    """``--flag/--no-flag``, noting the flag as given."""
+
+    def __call__(
+        self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: object,
+        option_string: str | None = None,
+    ) -> None:  # fmt: skip
+        super().__call__(parser, namespace, values, option_string)
+        _note_given(namespace, self.dest, option_string)
+
+
+def given_flags(args: argparse.Namespace) -> dict[str, str]:
+    """The flags of ``args`` given on the command line (or in ``--config``), among those
+    parsed by :class:`Given`: destination -> the flag as typed."""
+    return dict(getattr(args, GIVEN, None) or {})
 
 
 def positive_float(what: str) -> Callable[[str], float]:
@@ -335,6 +382,13 @@ def check_arguments(args: argparse.Namespace) -> None:
                 f"--s-test band flags S outside [S1, S2], but --s1 {args.s1:g} is not below "
                 f"--s2 {args.s2:g}: give --s1 < --s2"
             )
+    check_controller_flags(args)
+    check_chunk_size(args)
+    if getattr(args, "f_h", None) is not None and getattr(args, "power_law", None) == "off":
+        raise UsageError(
+            "--f-h is not used with --power-law off (it is the bandwidth of the power-law "
+            "fit): drop --f-h, or --power-law off"
+        )
     method = getattr(args, "method", None)
     if getattr(args, "command", None) == "adaptive" and args.change_times and method != "oracle":
         if args.out is None:
@@ -348,6 +402,11 @@ def check_arguments(args: argparse.Namespace) -> None:
                 f"--change-times only marks the changes in the controller figure: the window "
                 f"is --method {method}'s; add --method oracle for the ideal schedule of them"
             )
+    file = getattr(args, "file", None)
+    if "data_type" in vars(args) and isinstance(file, str):  # a Stable32 .phd: phase
+        from adavar.readers import file_data_type
+
+        args.data_type = file_data_type(file, args.data_type)
     units = getattr(args, "units", None)
     if isinstance(units, str) and units.strip():
         data_type = getattr(args, "data_type", "rate")
@@ -357,6 +416,88 @@ def check_arguments(args: argparse.Namespace) -> None:
                 " with --data-type phase their integrals, or s): the results are in it as "
                 "given, without conventional units"
             )
+
+
+def _listed_flags(flags: list[str]) -> str:
+    return ", ".join(flags[:-1]) + f" and {flags[-1]}" if len(flags) > 1 else flags[0]
+
+
+def _ignored(flags: list[str], why: str, way_out: str) -> UsageError:
+    verb = "are" if len(flags) > 1 else "is"
+    return UsageError(f"{_listed_flags(flags)} {verb} not used {why}: {way_out}")
+
+
+def check_controller_flags(args: argparse.Namespace) -> None:
+    """A flag of the adaptive window that the chosen mode ignores is an error (exit 2): the
+    run would silently use something else than what was asked (``--k1 2`` with calibrated
+    thresholds recorded 2 and ran with 2.62). One line naming the flags, the mode and the
+    way out. Only flags given (:func:`given_flags`) count, never the defaults."""
+    from adavar.settings import BAND_ONLY, CALIBRATED_ONLY, CALIBRATED_REPLACES, HOURLY_ONLY
+
+    given = given_flags(args)
+    if not given:
+        return
+    method = getattr(args, "method", None)
+    ici = [flag for dest, flag in given.items() if dest.startswith("ici_")]
+    if ici and method != "ici":
+        raise _ignored(ici, f"by --method {method or 'adaptive'} (only --method ici uses "
+                       f"{'them' if len(ici) > 1 else 'it'})",
+                       f"add --method ici, or drop {_listed_flags(ici)}")  # fmt: skip
+    if method == "ici":
+        kurtosis = [flag for dest, flag in given.items() if dest in KURTOSIS_CONTROLLER]
+        if kurtosis:
+            way_out = f"drop {_listed_flags(kurtosis)}, or choose --method adaptive"
+            raise _ignored(kurtosis, "by --method ici (it has no kurtosis or S test)", way_out)
+        return
+    thresholds = getattr(args, "thresholds", None)
+    if thresholds is None:
+        return
+    how = "--thresholds calibrated" + ("" if "thresholds" in given else ", the default")
+    if "false_alarm" in given and "false_alarm_per_hour" in given:
+        raise UsageError(
+            f"{given['false_alarm']} (false alarms a step) and {given['false_alarm_per_hour']} "
+            "(false events an hour) both set the rate of the calibrated thresholds: give one "
+            "of them"
+        )
+    if thresholds == "calibrated":
+        replaced = [given[d] for d in CALIBRATED_REPLACES if d in given]
+        if replaced:
+            per_hour = "false_alarm" not in given and hasattr(args, "false_alarm_per_hour")
+            rate = "--false-alarm-per-hour" if per_hour else "--false-alarm"
+            raise _ignored(replaced, f"with {how} (its K1, K2, S2 come from {rate})",
+                           f"add --thresholds paper to use {'them' if len(replaced) > 1 else 'it'}"
+                           f", or drop {_listed_flags(replaced)}")  # fmt: skip
+        hourly = [given[d] for d in HOURLY_ONLY if d in given]
+        if hourly and "false_alarm" in given:
+            raise _ignored(hourly, f"with {given['false_alarm']} (per-step thresholds)",
+                           f"drop {given['false_alarm']} for the hourly thresholds, or drop "
+                           f"{_listed_flags(hourly)}")  # fmt: skip
+    else:
+        calibrated = [given[d] for d in CALIBRATED_ONLY if d in given]
+        if calibrated:
+            way_out = f"add --thresholds calibrated, or drop {_listed_flags(calibrated)}"
+            raise _ignored(calibrated, "with --thresholds paper (K1, K2, S2 as given)", way_out)
+    s_test = getattr(args, "s_test", None)
+    band = [given[d] for d in BAND_ONLY if d in given]
+    if band and s_test != "band":
+        raise _ignored(band, f"with --s-test {s_test} (S1 bounds --s-test band only)",
+                       f"add --s-test band, or drop {_listed_flags(band)}")  # fmt: skip
+
+
+def check_chunk_size(args: argparse.Namespace) -> None:
+    """A warning for a ``--chunk-size`` so small that reading a piece costs more than
+    analysing it (1e5 samples: 0.85 s in memory, 1.6 s at 64, 4.0 s at 16, 22 s at 1)."""
+    from adavar.settings import EFFICIENT_CHUNK
+
+    size = getattr(args, "chunk_size", None)
+    if size is not None and size < EFFICIENT_CHUNK:
+        warn(
+            f"--chunk-size {size} reads the record {size} samples at a time: below "
+            f"{EFFICIENT_CHUNK} each piece costs more than its samples (1e5 samples took 22 s "
+            f"at 1, 1.6 s at 64, 0.9 s at {EFFICIENT_CHUNK}); give --chunk-size "
+            f"{EFFICIENT_CHUNK} or more ({EFFICIENT_CHUNK} samples are "
+            f"{8 * EFFICIENT_CHUNK // 1024} KiB)"
+        )
 
 
 def check_change_times(times: list[float] | None, n_samples: int, tau0: float) -> None:
@@ -477,32 +618,37 @@ def add_controller_arguments(cmd: argparse.ArgumentParser, *, hourly: bool = Tru
     cmd.add_argument("--lmin", type=length_arg(5), metavar="L",
                       help="shortest window: samples or a duration (default: two thirds of "
                       "Lmax)")  # fmt: skip
-    cmd.add_argument("--k1", type=finite_float, default=CONTROLLER.k1, metavar="K",
-                      help="lower kurtosis threshold (default: 2.5)")  # fmt: skip
-    cmd.add_argument("--k2", type=finite_float, default=CONTROLLER.k2, metavar="K",
-                      help="upper kurtosis threshold (default: 3.3)")  # fmt: skip
-    cmd.add_argument("--s1", type=finite_float, default=CONTROLLER.s1, metavar="S",
+    cmd.add_argument("--k1", type=finite_float, action=Given, default=CONTROLLER.k1, metavar="K",
+                      help="lower kurtosis threshold, --thresholds paper only (default: "
+                      "2.5)")  # fmt: skip
+    cmd.add_argument("--k2", type=finite_float, action=Given, default=CONTROLLER.k2, metavar="K",
+                      help="upper kurtosis threshold, --thresholds paper only (default: "
+                      "3.3)")  # fmt: skip
+    cmd.add_argument("--s1", type=finite_float, action=Given, default=CONTROLLER.s1, metavar="S",
                       help="lower S threshold, --s-test band only (default: 0)")  # fmt: skip
-    cmd.add_argument("--s2", type=finite_float, default=CONTROLLER.s2, metavar="S",
-                      help="upper S threshold (default: 0.07)")  # fmt: skip
+    cmd.add_argument("--s2", type=finite_float, action=Given, default=CONTROLLER.s2, metavar="S",
+                      help="upper S threshold, --thresholds paper only (default: "
+                      "0.07)")  # fmt: skip
     cmd.add_argument("--l", type=length_arg(1), metavar="N",
                       dest="segment",
                       help="leading segment of the S test: samples or a duration (default: a "
                       "sixth of Lmax)")  # fmt: skip
-    cmd.add_argument("--dl0", type=parse_seed, default=CONTROLLER.dl0, metavar="N",
+    cmd.add_argument("--dl0", type=parse_seed, action=Given, default=CONTROLLER.dl0, metavar="N",
                       help="regrow step, samples (default: 2)")  # fmt: skip
-    cmd.add_argument("--dl1", type=parse_seed, default=CONTROLLER.dl1, metavar="N",
+    cmd.add_argument("--dl1", type=parse_seed, action=Given, default=CONTROLLER.dl1, metavar="N",
                       help="shrink step, samples (default: 2)")  # fmt: skip
     cmd.add_argument(
         "--s-test",
+        action=Given,
         default=CONTROLLER.s_test,
         choices=("upper", "band", "abs"),
         help="f2 test: S > S2 (default), S outside [S1, S2], |S| > S2",
     )
-    cmd.add_argument("--combine", default=CONTROLLER.combine, choices=("or", "and"),
+    cmd.add_argument("--combine", action=Given, default=CONTROLLER.combine,
+                     choices=("or", "and"),
                       help="f = f1 or f2 (default) / f1 and f2")  # fmt: skip
     cmd.add_argument(
-        "--thresholds", default="calibrated" if hourly else "paper",
+        "--thresholds", action=Given, default="calibrated" if hourly else "paper",
         choices=("paper", "calibrated"),
         help=("calibrated (default): for --false-alarm-per-hour false events per stationary "
               "hour; paper: K1, K2, S2 as given" if hourly else
@@ -510,12 +656,14 @@ def add_controller_arguments(cmd: argparse.ArgumentParser, *, hourly: bool = Tru
               "distribution of the kurtosis for --false-alarm"),
     )  # fmt: skip
     if hourly:
-        cmd.add_argument("--false-alarm-per-hour", type=positive_float("false events per hour"),
+        cmd.add_argument("--false-alarm-per-hour", action=Given,
+                          type=positive_float("false events per hour"),
                           default=HOURLY_FALSE_ALARMS, metavar="F",
                           help="false events per hour of stationary data of --thresholds "
                           "calibrated (default: 0.1)")  # fmt: skip
     cmd.add_argument(
         "--false-alarm",
+        action=Given,
         type=parse_confidence,
         default=None if hourly else CONTROLLER.false_alarm,
         metavar="P",
@@ -680,9 +828,10 @@ def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
         "(default) or the full window's (before 0.2)",
     )  # fmt: skip
     cmd.add_argument(
-        "--data-type", default="rate", choices=("rate", "phase"),
+        "--data-type", default=DATA_TYPE_DEFAULT, choices=("rate", "phase"),
         help="rate samples (gyro rate, acceleration, fractional frequency) or their "
-        "integral (angle, velocity, time error); default: rate",
+        "integral (angle, velocity, time error); default: phase for a Stable32 .phd "
+        "file, else rate",
     )  # fmt: skip
     cmd.add_argument(
         "--confidence", default=0.683, type=_confidence_or_none, metavar="P",
@@ -723,7 +872,7 @@ def whole_list(text: str) -> list[int]:
 def add_dependence_argument(cmd: argparse.ArgumentParser) -> None:
     """``--dependence C2,C4``: the record's correlation for the hourly thresholds, given."""
     cmd.add_argument(
-        "--dependence", type=number_tuple("--dependence", 2, 2), metavar="C2,C4",
+        "--dependence", action=Given, type=number_tuple("--dependence", 2, 2), metavar="C2,C4",
         help="the record's (c2, c4) for the hourly thresholds, instead of measuring them on "
         "its first 8192 samples (or half Lmax) and refining them at every doubling up to 2^20 "
         "(result.json's dependence_stages); 'adavar adaptive' and 'adavar monitor' given the "
@@ -734,7 +883,7 @@ def add_dependence_argument(cmd: argparse.ArgumentParser) -> None:
 def add_kurtosis_reference_argument(cmd: argparse.ArgumentParser) -> None:
     """``--kurtosis-reference``: what the calibrated kurtosis tests compare a window with."""
     cmd.add_argument(
-        "--kurtosis-reference", choices=("record", "gaussian"), default="record",
+        "--kurtosis-reference", action=Given, choices=("record", "gaussian"), default="record",
         help="with --thresholds calibrated: compare each window with the record's own "
         "stationary noise (default: fitted on the same first samples as the correlation, so "
         "that non-Gaussian noise such as a platykurtic gyro or Student-t noise gives no false "
@@ -747,48 +896,49 @@ def add_ici_arguments(cmd: argparse.ArgumentParser, live: bool = False) -> None:
     ``--ici-long-tau`` (the long-tau scan needs the whole record)."""
     group = cmd.add_argument_group("ICI window (--method ici)")
     group.add_argument(
-        "--ici-gamma", type=positive_float("standard deviations"), default=ICI_GAMMA,
+        "--ici-gamma", action=Given, type=positive_float("standard deviations"),
+        default=ICI_GAMMA,
         metavar="G", help=f"half-width of the intervals in standard normal units (default "
         f"{ICI_GAMMA:g}; smaller shortens the window more readily)",
     )  # fmt: skip
     group.add_argument(
-        "--ici-lengths", type=whole_list, default=None, metavar="L,...",
+        "--ici-lengths", action=Given, type=whole_list, default=None, metavar="L,...",
         help="candidate window lengths in samples, holding --lmin and ending at --lmax; "
         "those below --lmin are probes (default: lmin/8, lmin/4, lmin/2, then 3 geometric "
         "steps from lmin to lmax)",
     )  # fmt: skip
     group.add_argument(
-        "--ici-taus", type=whole_list, default=[1], metavar="M,...",
+        "--ici-taus", action=Given, type=whole_list, default=[1], metavar="M,...",
         help="averaging factors of the estimates (default 1: the white-noise level)",
     )  # fmt: skip
     group.add_argument(
-        "--ici-sides", choices=ICI_SIDES, default="both",
+        "--ici-sides", action=Given, choices=ICI_SIDES, default="both",
         help="both: left, centred and right windows (default); centred: centred only",
     )  # fmt: skip
     group.add_argument(
-        "--ici-edf", choices=ICI_EDF, default="correlation",
+        "--ici-edf", action=Given, choices=ICI_EDF, default="correlation",
         help="EDF of the estimates: from the record's correlation (default) or the "
         "engine's Greenhall EDF",
     )  # fmt: skip
     group.add_argument(
-        "--ici-edf-samples", type=positive_int, default=None, metavar="K",
+        "--ici-edf-samples", action=Given, type=positive_int, default=None, metavar="K",
         help="measure the correlation EDF on the first K samples only (what 'adavar "
         "monitor --method ici' knows when it starts; default: the whole record)",
     )  # fmt: skip
     group.add_argument(
-        "--ici-kurtosis", action=argparse.BooleanOptionalAction, default=True,
+        "--ici-kurtosis", action=GivenBoolean, default=True,
         help="scale the EDF by the record's robust excess kurtosis, wider intervals on "
         "heavy-tailed noise (default; --no-ici-kurtosis: the Gaussian EDF, before 0.3)",
     )  # fmt: skip
     group.add_argument(
-        "--ici-episodes", action=argparse.BooleanOptionalAction, default=True,
+        "--ici-episodes", action=GivenBoolean, default=True,
         help="locate the changes by segmenting each episode of disagreeing Lmax windows, "
         "report gradual changes as one ramp and track them (default; --no-ici-episodes: "
         "the largest contrast within Lmax/2, before 0.3)",
     )  # fmt: skip
     if not live:
         group.add_argument(
-            "--ici-long-tau", action=argparse.BooleanOptionalAction, default=True,
+            "--ici-long-tau", action=GivenBoolean, default=True,
             help="also report changes of the long-tau terms (rate random walk, bias "
             "instability) found at long averaging times, events with tau_s (default)",
         )  # fmt: skip

@@ -21,6 +21,7 @@ from adavar.cli.options import (
     window_length,
 )
 from adavar.cli.output import Status, check_output_file, fit_lines, output_error
+from adavar.settings import DATA_TYPE_DEFAULT
 from adavar.terms import TERM_NAMES
 from adavar.writers import dumps, fit_json
 
@@ -201,8 +202,9 @@ def add_report_parser(sub: Any) -> argparse.ArgumentParser:
         help="the report to write (atomically; an existing file needs --force)",
     )  # fmt: skip
     rep.add_argument(
-        "--data-type", default="rate", choices=("rate", "phase"),
-        help="rate samples (default) or their integral (angle, velocity, time error)",
+        "--data-type", default=DATA_TYPE_DEFAULT, choices=("rate", "phase"),
+        help="rate samples (default; phase for a Stable32 .phd file) or their integral "
+        "(angle, velocity, time error)",
     )  # fmt: skip
     rep.add_argument(
         "--window", metavar="L", type=window_length,

@@ -45,6 +45,18 @@ def _check_memory(n: int) -> None:
         )
 
 
+def _check_finite(x: np.ndarray, what: str) -> None:
+    """A one-line error, before anything is written, when the samples overflow float64
+    (``--arw 1e308`` wrote rows of inf with exit 0)."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        bad = int(x.size - np.count_nonzero(np.isfinite(x)))
+    if bad:
+        raise UsageError(
+            f"{bad} of the {x.size} simulated samples overflow float64 (beyond "
+            f"{np.finfo(np.float64).max:.3g}) with {what}: give smaller coefficients"
+        )
+
+
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from adavar import simulate
 
@@ -76,11 +88,12 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             raise UsageError("noise coefficients must not be negative")
         _check_memory(args.n)
         status(f"simulating {args.n} samples")
-        try:
-            x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, bias=args.bias,
-                                markov=args.markov, sinusoid=args.sinusoid,
-                                bandwidth=args.bandwidth, filter_order=args.filter_order,
-                                lsb=args.lsb, **terms)  # fmt: skip
+        try:  # an overflow is the one-line error of _check_finite, not numpy's warning
+            with np.errstate(over="ignore", invalid="ignore"):
+                x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, bias=args.bias,
+                                    markov=args.markov, sinusoid=args.sinusoid,
+                                    bandwidth=args.bandwidth, filter_order=args.filter_order,
+                                    lsb=args.lsb, **terms)  # fmt: skip
         except ValueError as exc:  # e.g. a sinusoid above the Nyquist frequency
             raise AdavarInputError(str(exc)) from None
         rate = float(args.rate)
@@ -91,6 +104,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         for name, one in (("bandwidth", args.bandwidth), ("lsb", args.lsb)):
             if one is not None:
                 what += f", {name}={one:g}"
+        _check_finite(x, what + (f", bias={args.bias:g}" if args.bias else ""))
     status(f"writing {output}")
     header = (f"# adavar {__version__} simulate, seed {args.seed}: {what}; "
               f"rate {rate:g} Hz, samples in {args.units}\ntime,x\n")  # fmt: skip

@@ -54,6 +54,7 @@ module                holds
 from adavar.readers.dispatch import SUFFIXES, read_record
 from adavar.readers.lazy import LAZY_BYTES as LAZY_BYTES
 from adavar.readers.record import GAP_POLICIES, NAN_POLICIES, Record
+from adavar.readers.stable32 import file_data_type
 from adavar.readers.table import TIME_FORMATS
 from adavar.readers.text import COMMENT_PREFIXES as COMMENT_PREFIXES
 
@@ -63,5 +64,6 @@ __all__ = [
     "SUFFIXES",
     "TIME_FORMATS",
     "Record",
+    "file_data_type",
     "read_record",
 ]

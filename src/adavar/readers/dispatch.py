@@ -10,9 +10,11 @@ into a :class:`~adavar.readers.record.Record` by
 
 from __future__ import annotations
 
+import errno
 import math
 import numbers
 import os
+import stat
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -26,6 +28,7 @@ from adavar.readers.rosbag import read_rosbag
 from adavar.readers.stable32 import read_stable32
 from adavar.readers.table import TIME_FORMATS, as_list
 from adavar.readers.text import read_text
+from adavar.sources import FileState, check_unchanged, file_state
 
 #: File-name suffix -> reader kind (ROS 2 bags are also recognised as folders).
 SUFFIXES: dict[str, str] = {
@@ -66,6 +69,43 @@ def _kind_of(path: Path) -> str:
     return SUFFIXES[suffix]
 
 
+def _opened_state(target: Path, src: str) -> FileState:
+    """The state of the file (or bag folder) to read, after the checks that it is one:
+    a clear error for a missing file, a symbolic link loop or one to nothing, a file that
+    may not be read, and a named pipe or device (never opened: opening a pipe with no
+    writer would wait forever, and a record is read whole, its end too)."""
+    try:
+        st = os.stat(target)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise fail(
+                f"{src}: symbolic link loop (too many levels of symbolic links): point the "
+                "link at the data file"
+            ) from None
+        if exc.errno == errno.ENOENT and os.path.islink(target):
+            raise fail(
+                f"{src} is a symbolic link to {os.readlink(target)}, which does not exist: "
+                "point the link at the data file"
+            ) from None
+        if exc.errno == errno.ENOENT:
+            raise fail(f"{src}: no such file: check the path") from None
+        raise fail(f"cannot read {src}: {exc.strerror or exc}") from None
+    if stat.S_ISFIFO(st.st_mode):
+        raise fail(
+            f"{src} is a named pipe (FIFO), not a file: a record is read whole, its end too; "
+            "save the stream to a file first (cat FIFO > record.csv), or follow it live "
+            "with adavar monitor"
+        )
+    if not (stat.S_ISREG(st.st_mode) or stat.S_ISDIR(st.st_mode)):
+        raise fail(f"{src} is not a regular file (a device or socket?): give a data file")
+    if not os.access(target, os.R_OK):
+        raise fail(f"cannot read {src}: permission denied")
+    state = file_state(target)
+    if state is None:  # pragma: no cover - deleted between the two calls
+        raise fail(f"{src}: no such file: check the path")
+    return state
+
+
 def read_record(
     path: str | os.PathLike[str],
     *,
@@ -79,6 +119,7 @@ def read_record(
     topic: str | None = None,
     gap_tolerance: float = 0.5,
     lazy: bool | None = None,
+    memory_map: bool = True,
 ) -> Record:
     """Read the channels of a record, with its sampling rate and time base.
 
@@ -164,7 +205,20 @@ def read_record(
         of the available memory and there is no time column and ``nan="error"`` (NaN/Inf
         are then reported, with their sample, when the analysis reads them). A time column
         needs every stamp in memory, so ``lazy=True`` with one is an error. ``.npy`` and
-        uncompressed ``.npz`` columns are always memory-mapped and read piece by piece.
+        uncompressed ``.npz`` columns are memory-mapped (``memory_map``) and read piece by
+        piece.
+    memory_map : bool
+        ``.npy`` and uncompressed ``.npz`` columns: ``True`` (default) returns them as
+        read-only memory maps in the file's dtype; ``False`` as
+        :class:`adavar.stream.ChunkedSource` pieces read with file reads, never through a
+        map (the command line's choice): a file truncated while it is read is then an
+        error naming it, where touching a map past the file's new end kills the process
+        (SIGBUS). Either way the analyses read them piece by piece. With a time column,
+        or ``nan`` other than ``"error"``, ``False`` loads them with file reads.
+
+    A file that changes while it is read (its size, modification time or identity differ
+    after reading; out of core: after each piece) is an error, as is one deleted
+    meanwhile: a record is never analysed half old, half new.
 
     Returns
     -------
@@ -174,7 +228,8 @@ def read_record(
     Raises
     ------
     AdavarInputError
-        A missing, unreadable, corrupt or unknown file; a missing optional package (the
+        A missing, unreadable, corrupt or unknown file, a symbolic link loop, a named pipe
+        or device, a file that changed while it was read; a missing optional package (the
         message names it); no numeric column, an unknown or non-numeric column; no rate and
         no time column, or a declared rate disagreeing with the time stamps; time stamps
         that repeat or go back; a gap, non-uniform sampling or a NaN/infinite sample under
@@ -202,8 +257,7 @@ def read_record(
         rate = float(rate)
     target = Path(path)
     src = str(target)
-    if not target.exists():
-        raise fail(f"{src}: no such file: check the path")
+    before = _opened_state(target, src)
     kind = _kind_of(target)
     if kind == "ros2" and not target.is_dir():
         if not (target.parent / "metadata.yaml").is_file():
@@ -212,6 +266,7 @@ def read_record(
                 "bag folder"
             )
         target = target.parent
+        before = _opened_state(target, src)
     if lazy and kind not in ("hdf5", "parquet", "npy", "npz"):
         raise fail(
             f"{src} is read whole (lazy reading is for .npy, HDF5 and Parquet files): leave "
@@ -235,6 +290,8 @@ def read_record(
         "topic": topic,
         "lazy": lazy,
         "nan": nan,
+        "memory_map": bool(memory_map),
+        "state": before,
     }
     meta: dict[str, Any] = {
         "path": src,
@@ -245,21 +302,19 @@ def read_record(
             "gap_tolerance": float(gap_tolerance),
         },
     }  # fmt: skip
-    if kind == "csv":
-        raw = read_text(target, src, opts)
-    elif kind == "stable32":
-        raw = read_stable32(target, src, opts)
-    elif kind == "npy":
-        raw = read_npy(target, src, opts)
-    elif kind == "npz":
-        raw = read_npz(target, src, opts)
-    elif kind == "hdf5":
-        raw = read_hdf5(target, src, opts)
-    elif kind == "parquet":
-        raw = read_parquet(target, src, opts)
-    else:
-        raw = read_rosbag(target, src, opts, ros2=kind == "ros2")
-    return finish_record(
-        raw, rate=rate, gaps=gaps, nan=nan, tol=float(gap_tolerance), src=src, kind=kind,
-        meta=meta,
-    )  # fmt: skip
+    readers = {"csv": read_text, "stable32": read_stable32, "npy": read_npy,
+               "npz": read_npz, "hdf5": read_hdf5, "parquet": read_parquet}  # fmt: skip
+    try:
+        if kind in readers:
+            raw = readers[kind](target, src, opts)
+        else:
+            raw = read_rosbag(target, src, opts, ros2=kind == "ros2")
+        record = finish_record(
+            raw, rate=rate, gaps=gaps, nan=nan, tol=float(gap_tolerance), src=src, kind=kind,
+            meta=meta,
+        )  # fmt: skip
+    except Exception:
+        check_unchanged(target, before, src)  # a file cut short reads as nonsense
+        raise
+    check_unchanged(target, before, src)
+    return record

@@ -4,7 +4,10 @@ A 1-D array is one channel, a 2-D array is samples x channels, a structured arra
 are columns; an ``.npz`` archive's 1-D arrays of equal length are columns (or its only
 array is read as a ``.npy``). Files are never unpickled; a ``.npy`` and the stored
 (uncompressed) members of an ``.npz`` are memory-mapped, so the analyses read a record
-larger than memory piece by piece.
+larger than memory piece by piece. With ``memory_map=False`` (the command line) their
+columns are :class:`adavar.sources.NpyFileSource` pieces read with file reads instead, and
+nothing is read through the map (whose pages, touched past the end of a file truncated
+meanwhile, would kill the process with SIGBUS).
 """
 
 from __future__ import annotations
@@ -19,7 +22,69 @@ import numpy as np
 
 from adavar.readers.errors import fail, one_line
 from adavar.readers.record import RawRecord
-from adavar.readers.table import Table, array_table, channels_from_table, dt64_ns, numeric_kind
+from adavar.readers.table import (
+    Table,
+    array_table,
+    as_channel,
+    channels_from_table,
+    dt64_ns,
+    numeric_kind,
+)
+from adavar.sources import ChunkedSource, FileState, check_unchanged, memmap_source
+
+
+def _read_whole(path: Path, arr: np.memmap, src: str, state: FileState | None) -> np.ndarray:
+    """The array behind memory map ``arr``, read with file reads (the map left untouched)."""
+    with open(path, "rb") as fh:
+        fh.seek(int(arr.offset))
+        flat = np.fromfile(fh, dtype=arr.dtype, count=arr.size)
+    if flat.size != arr.size:
+        check_unchanged(path, state, src)
+        raise fail(f"{src} is shorter than its header says: re-save it")
+    fortran = arr.ndim > 1 and arr.flags.f_contiguous and not arr.flags.c_contiguous
+    return flat.reshape(arr.shape, order="F" if fortran else "C")
+
+
+def _file_column(view: Any, state: FileState | None) -> Any:
+    """A numeric 1-D view of a memory map as a source read with file reads, or None."""
+    if not isinstance(view, np.memmap) or view.dtype.kind not in "iuf":
+        return None
+    source = memmap_source(view)
+    if source is not None:
+        source.state = state
+    return source
+
+
+def _unmapped_table(arr: np.memmap, path: Path, src: str, label: str, opts: dict) -> Table:
+    """:func:`array_table` of ``arr`` with nothing read through the map: a numeric column is
+    a source of file reads, anything else (structured arrays, date-times) the array read
+    whole with file reads."""
+    tab = array_table(arr, src, label)  # the names and kinds: nothing read yet
+    state = opts.get("state")
+    loaded: list[Table] = []
+
+    def get(name: str) -> Any:
+        if not arr.dtype.names and tab.kinds[name] == "num":
+            column = _file_column(arr if arr.ndim == 1 else arr[:, int(name)], state)
+            if column is not None:
+                return column
+        if not loaded:
+            loaded.append(array_table(_read_whole(path, arr, src, state), src, label))
+        return loaded[0].get(name)
+
+    return Table(tab.names, tab.kinds, get, tab.n)
+
+
+def _loaded(channels: dict[str, Any], src: str, opts: dict, timed: bool) -> dict[str, Any]:
+    """Sources of file reads loaded whole where the record is needed in memory, as a memory
+    map would be: with a time base (gaps, segments) or NaN to drop or interpolate (masks,
+    fills). NaN kept stay in the file for the analyses (``gaps="omit"``) to stream."""
+    if not timed and opts.get("nan", "error") in ("error", "keep"):
+        return channels
+    return {
+        k: as_channel(v.read_unchecked(0, v.size), k, src) if isinstance(v, ChunkedSource) else v
+        for k, v in channels.items()
+    }
 
 
 def read_npy(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
@@ -38,12 +103,15 @@ def read_npy(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
         raise fail(f"{src} is not a valid .npy file ({one_line(exc)}): re-save it") from None
     except (OSError, EOFError) as exc:
         raise fail(f"{src} is not a valid .npy file ({one_line(exc)}): re-save it") from None
-    tab = array_table(arr, src, "0")
+    mapped = opts.get("memory_map", True) or not isinstance(arr, np.memmap)
+    tab = array_table(arr, src, "0") if mapped else _unmapped_table(arr, path, src, "0", opts)
     channels, rel, t0, info = channels_from_table(
         tab, columns=opts["columns"], time_column=opts["time_column"],
         time_format=opts["time_format"], src=src,
     )  # fmt: skip
-    info.update(memory_mapped=isinstance(arr, np.memmap), shape=list(arr.shape))
+    if not mapped:
+        channels = _loaded(channels, src, opts, rel is not None)
+    info.update(memory_mapped=mapped and isinstance(arr, np.memmap), shape=list(arr.shape))
     return RawRecord(channels, rel, t0, None, "sample", info)
 
 
@@ -99,9 +167,13 @@ def read_npz(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
         raise fail(f"{src} is not a valid .npz file ({one_line(exc)}): re-save it") from None
     if not arrays:
         raise fail(f"{src} holds no arrays: save the samples with numpy.savez")
+    unmapped = not opts.get("memory_map", True)
     if len(arrays) == 1 and next(iter(arrays.values())).ndim != 1:
         key, arr = next(iter(arrays.items()))
-        tab = array_table(arr, src, key)
+        if unmapped and isinstance(arr, np.memmap):
+            tab = _unmapped_table(arr, path, src, key, opts)
+        else:
+            tab = array_table(arr, src, key)
     else:
         series = {
             k: a for k, a in arrays.items()
@@ -119,14 +191,23 @@ def read_npz(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
                 f"the 1-D arrays of {src} differ in length ({sizes}): save channels of equal length"
             )
         names = list(series)
+
+        def get(name: str) -> Any:
+            column = _file_column(series[name], opts.get("state")) if unmapped else None
+            if column is None and unmapped and isinstance(series[name], np.memmap):
+                return dt64_ns(_read_whole(path, series[name], src, opts.get("state")))
+            return dt64_ns(series[name]) if column is None else column
+
         tab = Table(
-            names, {k: numeric_kind(a.dtype) for k, a in series.items()},
-            lambda n: dt64_ns(series[n]), lengths.pop(),
+            names, {k: numeric_kind(a.dtype) for k, a in series.items()}, get, lengths.pop()
         )  # fmt: skip
     channels, rel, t0, info = channels_from_table(
         tab, columns=opts["columns"], time_column=opts["time_column"],
         time_format=opts["time_format"], src=src,
     )  # fmt: skip
+    if unmapped:
+        channels = _loaded(channels, src, opts, rel is not None)
+        mapped = []
     info.update(
         keys=list(arrays), memory_mapped=bool(mapped) and all(k in mapped for k in channels)
     )

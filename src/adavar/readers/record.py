@@ -21,14 +21,14 @@ import numpy as np
 from adavar.errors import AdavarInputError
 from adavar.readers.errors import fail, locate
 from adavar.readers.table import resolve
-from adavar.stream import DEFAULT_CHUNK, ChunkedSource, memmap_source
+from adavar.settings import RATE_AGREEMENT
+from adavar.sources import DEFAULT_CHUNK, ChunkedSource, NpyFileSource, memmap_source
 
 #: Values of ``gaps``: what to do with gaps and non-uniform sampling in a time base.
 GAP_POLICIES = ("error", "split", "interpolate", "nan")
 #: Values of ``nan``: what to do with NaN / infinite / empty samples.
 NAN_POLICIES = ("error", "drop", "interpolate", "keep")
 
-_RATE_AGREEMENT = 0.01  # a declared rate and a time column must agree within 1 %
 _MAX_LISTED = 50  # gaps / dropped rows listed one by one in meta
 _NOMINAL = "nominal rate of the time stamps (every interval equals it within their resolution)"
 _MEAN = "mean time interval (gaps excluded)"
@@ -219,13 +219,19 @@ def _fmt_t(value: float) -> str:
     return f"{value:.6g} s"
 
 
+def _npy_source(values: Any) -> NpyFileSource | None:
+    """The ``.npy`` file source of a channel (read with file reads, or a memory map)."""
+    return values if isinstance(values, NpyFileSource) else memmap_source(values)
+
+
 def _all_finite_by_file(raw: RawRecord) -> bool:
-    """Whether every channel is a file memory map with only finite samples, checked piece by
-    piece with file reads: a large ``.npy`` is scanned without its pages piling up in the
-    process's resident memory (and without an N-sample mask)."""
+    """Whether every channel is a ``.npy`` file column (a memory map or a source of file
+    reads) with only finite samples, checked piece by piece with file reads: a large
+    ``.npy`` is scanned without its pages piling up in the process's resident memory (and
+    without an N-sample mask)."""
     if raw.time is not None or not raw.channels:
         return False
-    sources = [memmap_source(v) for v in raw.channels.values()]
+    sources = [_npy_source(v) for v in raw.channels.values()]
     if any(s is None for s in sources):
         return False
     for source in sources:
@@ -237,15 +243,23 @@ def _all_finite_by_file(raw: RawRecord) -> bool:
 
 
 def _handle_nan(raw: RawRecord, policy: str, src: str, meta: dict[str, Any]) -> RawRecord:
-    if all(isinstance(v, ChunkedSource) for v in raw.channels.values()):
+    lazy = [isinstance(v, ChunkedSource) for v in raw.channels.values()]
+    if all(lazy) and not any(isinstance(v, NpyFileSource) for v in raw.channels.values()):
         meta["lazy"] = True  # each piece is checked as it is read (the error names the sample)
         return raw
     if policy == "keep" and raw.time is None:  # nothing to do: every sample stays in place
-        if not any(memmap_source(v) is not None for v in raw.channels.values()):
+        if not any(_npy_source(v) is not None for v in raw.channels.values()):
             meta["nan_values_kept"] = _non_finite_counts(raw)
         return raw
     if _all_finite_by_file(raw):
         return raw
+    if any(lazy):  # .npy sources with a bad sample: in memory, to name it as a text file's
+        channels = {
+            k: np.asarray(v.read_unchecked(0, v.size), dtype=np.float64)
+            if isinstance(v, NpyFileSource) else v
+            for k, v in raw.channels.items()
+        }  # fmt: skip
+        raw = RawRecord(channels, raw.time, raw.t0, raw.rows, raw.word, raw.meta)
     if all(np.isfinite(v).all() for v in raw.channels.values()) and (
         raw.time is None or np.isfinite(raw.time).all()
     ):
@@ -478,7 +492,7 @@ def finish_record(
     resolution = float(meta.get("time_resolution", 0.0)) + float(np.spacing(t[-1]))
     interval, found, nominal = sampling_interval(dt, step, tol, resolution)
     if rate is not None:
-        if abs(found - rate) > _RATE_AGREEMENT * rate:
+        if abs(found - rate) > RATE_AGREEMENT * rate:
             raise fail(
                 f"{src}: the declared rate {rate:g} Hz disagrees with the time stamps "
                 f"({found:.6g} Hz from the median interval {step:.6g} s): leave out --rate, "

@@ -4,11 +4,14 @@ A Stable32 file is a text file (read by :func:`adavar.readers.text.text_table`, 
 any number of header lines) of one column (the data) or two (an MJD time tag, then the
 data). The data column becomes the channel ``"phase"`` (``.phd``) or ``"frequency"``
 (``.frd``); a time-tag column is read as Modified Julian Dates unless ``time_format`` says
-otherwise.
+otherwise. Its samples are phase (``.phd``) or frequency, rate data (``.frd``):
+:func:`file_data_type` makes that the data type analysed, and refuses a ``data_type``
+given that contradicts it.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -16,6 +19,45 @@ from adavar.readers.errors import fail
 from adavar.readers.record import RawRecord
 from adavar.readers.table import channels_from_table
 from adavar.readers.text import text_table
+from adavar.settings import FileDefault
+
+#: Stable32 suffix -> the data type of its samples (``data_type`` of the analyses)
+STABLE32_DATA_TYPES = {".phd": "phase", ".frd": "rate"}
+_NAMES = {".phd": "phase", ".frd": "frequency"}
+_SPELLINGS = {"rate": "rate", "freq": "rate", "frequency": "rate", "phase": "phase"}
+
+
+def file_data_type(path: str | os.PathLike[str], given: str | None) -> str | None:
+    """The data type of the samples of ``path``: phase for a Stable32 ``.phd`` file,
+    rate (fractional frequency) for a ``.frd`` file, ``given`` for any other file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file.
+    given : str or None
+        The data type asked for: a :class:`adavar.settings.FileDefault` (the default,
+        ``--data-type`` not given) or None yields to the file's; a value given must agree.
+
+    Raises
+    ------
+    AdavarInputError
+        A given data type that contradicts a Stable32 file's.
+    """
+    suffix = Path(path).suffix.lower()
+    implied = STABLE32_DATA_TYPES.get(suffix)
+    if implied is None:
+        return given
+    if given is None or isinstance(given, FileDefault):
+        return implied
+    if _SPELLINGS.get(str(given).lower(), given) != implied:
+        other = next(s for s in STABLE32_DATA_TYPES if s != suffix)
+        raise fail(
+            f"{path} is a Stable32 {_NAMES[suffix]} file ({suffix}), so its samples are "
+            f"{implied} data, but --data-type {given} was given: leave out --data-type, or "
+            f"rename the file to {other} if it holds {_NAMES[other]}"
+        )
+    return implied
 
 
 def read_stable32(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
@@ -23,7 +65,7 @@ def read_stable32(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
     tab, meta = text_table(path, src, preamble=True)
     time_column, time_format = opts["time_column"], opts["time_format"]
     columns = opts["columns"]
-    quantity = "phase" if path.suffix.lower() == ".phd" else "frequency"
+    quantity = _NAMES[path.suffix.lower()]
     if len(tab.names) > 2:
         raise fail(
             f"{src} has {len(tab.names)} columns; a Stable32 file has one (data) or two "

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from adavar.readers.errors import fail, locate
-from adavar.stream import ChunkedSource, memmap_source
+from adavar.sources import ChunkedSource, check_exact_integers, memmap_source
 
 #: Values of ``time_format``.
 TIME_FORMATS = ("auto", "s", "ms", "us", "ns", "iso", "mjd")
@@ -153,7 +153,7 @@ def _time_from_table(
         info.update(time_format="iso", timezone=tz, time_resolution=1e-6)
         return rel, t0, info
     if kind == "ns":
-        values = np.asarray(tab.get(name), dtype=np.int64)
+        values = np.asarray(_raw(tab.get(name)), dtype=np.int64)
         bad = values == np.iinfo(np.int64).min  # NaT
         rel = np.full(values.shape, np.nan)
         if (~bad).any():
@@ -176,7 +176,7 @@ def _time_from_table(
         unit, how = named_unit, "from the column name"
     else:
         unit, how = "s", "assumed: set time_format if the column is not in seconds"
-    values = np.asarray(tab.get(name))
+    values = np.asarray(_raw(tab.get(name)))
     factor = _UNIT_FACTOR[unit]
     if np.issubdtype(values.dtype, np.integer):
         rel = (values - values[0]).astype(np.float64) * factor  # exact for int64 ns stamps
@@ -307,7 +307,7 @@ def channels_from_table(
             )
     if len(set(chosen)) != len(chosen):
         raise fail(f"a column is named twice in --column ({', '.join(chosen)}): name each once")
-    channels = {n: _as_channel(tab.get(n)) for n in chosen}
+    channels = {n: as_channel(tab.get(n), n, src, tab.rows) for n in chosen}
     info: dict[str, Any] = {"columns": list(tab.names), "channels": list(chosen)}
     if tab.units:
         info["units"] = {n: tab.units[n] for n in chosen if n in tab.units}
@@ -318,9 +318,22 @@ def channels_from_table(
     return channels, rel, t0, info
 
 
-def _as_channel(values: Any) -> np.ndarray:
+def _raw(values: Any) -> Any:
+    """A column's values as stored (a source read whole with file reads: exact integers)."""
+    if isinstance(values, ChunkedSource):
+        return values.read_unchecked(0, values.size)
+    return values
+
+
+def as_channel(
+    values: Any, name: str = "", src: str = "", rows: np.ndarray | None = None
+) -> np.ndarray:
     """float64 samples; a memory-mapped file column stays mapped, in the file's own dtype,
-    so that a record larger than memory is never read whole (the analyses stream it)."""
+    and a column read piece by piece stays a source, so that a record larger than memory is
+    never read whole (the analyses stream it, checking each piece as they read it).
+
+    Integers beyond 2**53 are refused: float64 would round them (silently flattening the
+    noise of a record with a large offset)."""
     if isinstance(values, ChunkedSource):
         return values  # type: ignore[return-value]
     if (
@@ -330,6 +343,8 @@ def _as_channel(values: Any) -> np.ndarray:
         and memmap_source(values) is not None
     ):
         return values
+    values = np.asarray(values)
+    check_exact_integers(values, f"column {name!r} of {src}", where=lambda i: locate(rows, i))
     return np.asarray(values, dtype=np.float64)
 
 

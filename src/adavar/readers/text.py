@@ -117,6 +117,22 @@ def cell_hint(cell: str, decimal_comma: bool, comma_separated: bool) -> str:
     return ""
 
 
+def _header_mismatch(src: str, row: int, n_head: int, n_cols: int, delim: str | None) -> Exception:
+    """The error for a header whose names do not match the data rows' fields (dropping it
+    would leave the columns unnamed, and the time column unfound, without a word)."""
+    why = ""
+    if delim == "," and n_head < n_cols:
+        why = (
+            "; decimal commas in a comma-separated file split every number in two: write the "
+            "numbers with decimal points, or separate the columns with ';' or tabs"
+        )
+    return fail(
+        f"{src}: the header (row {row}) has {n_head} field(s) but the data rows have {n_cols} "
+        f"({_DELIM_NAMES[delim]}-separated){why}; otherwise give the header one name per "
+        "column, or comment it out with #"
+    )
+
+
 def text_table(path: Path, src: str, *, preamble: bool) -> tuple[Table, dict[str, Any]]:
     """The columns of a text file, and what was found (delimiter, header, lines skipped)."""
     scan = open_text(path, src, n_head=_SEARCHED + 1)
@@ -156,6 +172,8 @@ def text_table(path: Path, src: str, *, preamble: bool) -> tuple[Table, dict[str
         head = split(before[2], delim, src, before[0])
         if len(head) == n_cols and (n_cols > 1 or first_data == 1):
             names = [cell if cell else f"column {j}" for j, cell in enumerate(head)]
+        elif n_cols > 1 and not preamble:
+            raise _header_mismatch(src, before[0], len(head), n_cols, delim)
     has_header = names is not None
     if names is None:
         names = [str(j) for j in range(n_cols)]
