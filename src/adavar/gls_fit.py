@@ -116,6 +116,7 @@ _EXCLUDE_LOOK = 3  # the shortest fitted taus whose residuals decide an exclusio
 _EXCLUDE_OCTAVES = 4  # ... or those this close to it, when the model misses the curve
 _ROLLOFF_Z = 1.0  # an excluded point lies this far below the model's noise terms
 _FAIR_P = 0.01  # an exclusion is kept when the fit of the rest reaches this p-value...
+_MARKOV_GATE_P = 1e-6  # ... and a Gauss-Markov term when its model reaches this one
 
 
 @dataclass(frozen=True)
@@ -318,9 +319,11 @@ def fit_curve(
     if prob.markov_tau is not None:
         trial = evaluate(idx, with_markov)
         dof = idx.size - trial.n_params
-        # a hump that still leaves the curve undescribed is not named a Gauss-Markov
-        # process (a vibration's bump is sharper, a roll-off deeper)
-        if dof > 0 and chi2_sf(dof, trial.gof) >= ADEQUATE_P:
+        # a hump that still leaves the curve far from described is not named a
+        # Gauss-Markov process (a vibration's bump is sharper, a roll-off deeper: their
+        # adequacy chi-squares stay in the thousands; a real hump's falls to tens, a few
+        # long-tau estimates of one or two degrees of freedom way off included)
+        if dof > 0 and chi2_sf(dof, trial.gof) >= _MARKOV_GATE_P:
             if markov == "auto" and select in ("aic", "bic"):
                 cols, dropped, state = with_markov, dropped_m, trial
             else:

@@ -48,7 +48,8 @@ RAMP_PARAMS = 2
 #: (the simulated MEMS gyro of tests/test_fit_real.py gains 4.0), a real one gains
 #: 15-65 on 3-hour records (benchmarks/bench_validation.py).
 MARKOV_MARGIN = 10.0
-_MARKOV_CANDIDATES = 3  # Gauss-Markov candidates judged under their own covariance
+_MARKOV_CANDIDATES = 4  # term sets judged with a Gauss-Markov term under their own covariance
+_MARKOV_REACH = 3.0  # octaves either side of the screened correlation time the likelihood scans
 
 
 def markov_grid(tau: np.ndarray, step: float = 0.25) -> np.ndarray:
@@ -131,48 +132,70 @@ def subset_choice(
     if not markov:
         return best
     ieee_best = best
-    # a Gauss-Markov term: screened on a grid of correlation times (cheap), then judged
-    # under its own covariance (one basis per T). The screen whitens by the best model's
-    # correlation on the data's own scale: on the model's, a model that overshoots the long
-    # taus makes their variance so large that nothing there could look better
+    # a Gauss-Markov term. A cheap screen (every term set on a half-octave grid of
+    # correlation times, whitened by the IEEE model's correlation on the data's own scale:
+    # on the model's own, a model that overshoots the long taus makes their variance so
+    # large that nothing there could look better) tells whether a hump may be there and
+    # which term sets go with it; the correlation time is then chosen by the likelihood
+    # itself, each on its own covariance (one basis per time): the screen's approximate
+    # weights pull it towards too short a time when the IEEE model overshoots.
     tau = prob.tau[idx]
-    w_best = whitened(prob, idx, best.coef, data=True)
-    screen = []
-    # the hump replaces some of the best model's terms, rarely adds others; its grid is
-    # half an octave (the judging below tries a quarter octave either side)
-    within = [c for r in range(len(best.cols) + 1) for c in itertools.combinations(best.cols, r)]
+    # the hump replaces some of the best IEEE model's terms, rarely adds others
+    within = [
+        c for r in range(len(ieee_best.cols) + 1)
+        for c in itertools.combinations(ieee_best.cols, r)
+    ]  # fmt: skip
+    w_ieee = whitened(prob, idx, ieee_best.coef, data=True)
+    _, chi2_ieee = solve(w_ieee, ieee_best.cols, signed)
+    bar = chi2_ieee + penalty * len(ieee_best.cols)
+    ranked: dict[tuple, float] = {}  # term set -> its best screened criterion
+    screened = math.inf, math.nan  # the best screened criterion and its time
     for t in markov_grid(tau, step=0.5):
-        column = w_best.column(markov_avar(tau, 1.0, float(t)))
+        col = w_ieee.column(markov_avar(tau, 1.0, float(t)))
         for cols in within:
-            x, chi2 = solve(w_best, cols, signed, column)
+            x, chi2 = solve(w_ieee, cols, signed, col)
             if x[-1] > 0:
-                k = sum(1 for v in x[:-1] if v != 0) + MARKOV_PARAMS
-                screen.append((chi2 + penalty * k, float(t), cols))
-    _, chi2_best = solve(w_best, best.cols, signed)
-    bar = chi2_best + penalty * len(best.cols)
-    screen.sort()
-    tried: set = set()
-    for crit, t, cols in screen[:_MARKOV_CANDIDATES]:
-        if crit >= bar or (t, cols) in tried:
-            continue
-        tried.add((t, cols))
-        for tc in (t * 2.0**-0.25, t, t * 2.0**0.25):
-            prob.set_markov(tc)
-            w = whitened(prob, idx, best.coef)
+                crit = chi2 + penalty * (sum(1 for v in x[:-1] if v != 0) + MARKOV_PARAMS)
+                if crit < bar and crit < ranked.get(cols, math.inf):
+                    ranked[cols] = crit
+                screened = min(screened, (crit, float(t)))
+    if not ranked:
+        return best
+    sets = sorted(ranked, key=ranked.__getitem__)[:_MARKOV_CANDIDATES]
+
+    def trial(tc: float) -> Choice | None:
+        """The best of the term sets with a Gauss-Markov term of correlation time tc."""
+        prob.set_markov(tc)
+        w = whitened(prob, idx, ieee_best.coef)
+        found = None
+        for cols in sets:
             x, _ = solve(w, cols, signed, w.aw[:, MARKOV])
             coef = np.zeros(6)
             coef[list(cols)] = x[: len(cols)]
             coef[MARKOV] = x[-1]
             if coef[MARKOV] <= 0:
                 continue
-            coef = own_fit(prob, idx, cols, coef, signed, True)
-            choice = judge(cols, coef, tc)
-            if (
-                choice.markov_tau is not None
-                and choice.criterion < ieee_best.criterion - MARKOV_MARGIN
-                and better(choice, best)
-            ):
-                best = choice
+            choice = judge(cols, own_fit(prob, idx, cols, coef, signed, True), tc)
+            if choice.markov_tau is not None and better(choice, found):
+                found = choice
+        return found
+
+    # the likelihood's times: an octave apart, up to _MARKOV_REACH octaves either side of
+    # the screen's (which an overshooting IEEE model pulls short by two or three)
+    grid = markov_grid(tau, step=1.0)
+    near = np.abs(np.log2(grid / screened[1])) <= _MARKOV_REACH
+    scan = [(trial(float(t)), float(t)) for t in (grid[near] if near.any() else grid)]
+    scan = [(c, t) for c, t in scan if c is not None]
+    if not scan:
+        return best
+    top, t_top = min(scan, key=lambda ct: ct[0].criterion)
+    for step in (0.5, 0.25, 0.125):  # a finer time around the best
+        for tc in (t_top * 2.0**-step, t_top * 2.0**step):
+            choice = trial(tc)
+            if choice is not None and choice.criterion < top.criterion:
+                top, t_top = choice, tc
+    if top.criterion < ieee_best.criterion - MARKOV_MARGIN and better(top, best):
+        best = top
     prob.set_markov(best.markov_tau)
     return best
 
