@@ -19,6 +19,12 @@ too), written as CSV with a time column. Printed per command and record length:
 Run: ``python benchmarks/bench_memory.py [--minutes 4,12] [--only davar,report]``
 (under 3 minutes with the defaults on 2 cores; ``--minutes 30,120`` for the numbers in
 docs/benchmarks.md, about 12 minutes).
+
+``--large 2e8,1e9``: the records that do not fit comfortably in memory (issue 42): a
+float32 ``.npy`` of that many samples (800 MB, 4 GB; written piece by piece in the
+temporary folder), analysed with no flag by ``davar`` (the issue's command: window 6001,
+step 100000, four taus) and ``avar`` (octave taus); printed: peak RSS and
+``peak / (input file + output)``.
 """
 
 from __future__ import annotations
@@ -189,12 +195,63 @@ def _line(r: dict, slope: float | None) -> str:
             f"{per_out} | {grows} | {r['wall']:.1f} s{note} |")  # fmt: skip
 
 
+#: the large-record commands (issue 42): arguments after the file, output name
+LARGE = {
+    "davar": ("davar BIG --rate 1 --units deg/s --window 6001 --step 100000 "
+              "--taus 1,10,100,1000 --out out", "out"),
+    "avar": ("avar BIG --rate 1 --units deg/s --taus octave --out out", "out"),
+}  # fmt: skip
+
+
+def write_large(path: Path, n: int, seed: int = 7) -> None:
+    """``n`` float32 samples of white noise as ``.npy``, written a piece at a time."""
+    out = np.lib.format.open_memmap(path, mode="w+", dtype=np.float32, shape=(n,))
+    rng = np.random.default_rng(seed)
+    piece = 1 << 24
+    for a in range(0, n, piece):
+        b = min(n, a + piece)
+        out[a:b] = rng.standard_normal(b - a, dtype=np.float32)
+    out.flush()
+    del out
+
+
+def measure_large(sizes: list[int]) -> None:
+    """Peak RSS of each :data:`LARGE` command on float32 files of ``sizes`` samples."""
+    mb = 2**20
+    print("| command | samples | input file | output | peak | peak / (input + output) | wall |"
+          "\n|---|---|---|---|---|---|---|")  # fmt: skip
+    for n in sizes:
+        with tempfile.TemporaryDirectory(dir=Path.cwd()) as tmp:  # the disk, not a tmpfs
+            folder = Path(tmp)
+            big = folder / "big.npy"
+            write_large(big, n)
+            size = big.stat().st_size
+            for label, (text, written) in LARGE.items():
+                work = folder / "work"
+                work.mkdir()
+                args = [str(big) if w == "BIG" else w for w in text.split()]
+                command = [str(Path(sys.executable).parent / "adavar"), *args]
+                peak, wall, code, err = _peak_mb(command, str(work))
+                out = _size(work / written) if (work / written).exists() else 0
+                note = "" if code == 0 else f" (exit {code}: {err[:80]})"
+                print(f"| {label} | {n:.3g} | {size / mb:.0f} MB | {out / mb:.1f} MB | "
+                      f"{peak:.0f} MB | {peak * mb / (size + out):.2f} | {wall:.0f} s{note} |",
+                      flush=True)  # fmt: skip
+                subprocess.run(["rm", "-rf", str(work)], check=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", default=DEFAULT_MINUTES,
                         help=f"record lengths, comma-separated ({DEFAULT_MINUTES})")  # fmt: skip
     parser.add_argument("--only", help="commands to run, comma-separated (e.g. davar,report)")
+    parser.add_argument("--large", help="float32 .npy records of these many samples instead "
+                        "(e.g. 2e8,1e9: 0.8 and 4 GB on disk)")  # fmt: skip
     args = parser.parse_args()
+    if args.large:
+        print(f"machine: {describe()}", flush=True)
+        measure_large([int(float(v)) for v in args.large.split(",")])
+        return
     minutes = [float(v) for v in args.minutes.split(",")]
     only = set(args.only.split(",")) if args.only else None
     print(f"machine: {describe()}", flush=True)

@@ -234,7 +234,7 @@ def _records(kw, seeds, n=100_000):
 def test_white_plus_rrw_gets_no_spurious_terms_and_calibrated_uncertainties():
     kw = dict(angle_random_walk=1.0, rate_random_walk=1e-2)
     z_n, z_k, k_ratio, spurious, old_spurious = [], [], [], 0, 0
-    for r in _records(kw, 60):
+    for r in _records(kw, 30):
         fit = adavar.fit_noise(r)
         spurious += fit.bias_instability.value > 0 or fit.rate_ramp.value > 0
         old = adavar.fit_noise(r, method="wls")
@@ -243,8 +243,9 @@ def test_white_plus_rrw_gets_no_spurious_terms_and_calibrated_uncertainties():
         z_k.append((fit.rate_random_walk.value - 1e-2) / fit.rate_random_walk.uncertainty)
         k_ratio.append(fit.rate_random_walk.value / 1e-2)
         assert set(fit.dropped) <= {"quantization", "bias_instability", "rate_ramp"}
-    assert spurious <= 6 < old_spurious  # a 2-sigma test: a few percent by chance
-    # 60 records: the sample sd of z scatters by ~9 %; ideal 1
+    assert spurious <= 3 < old_spurious  # a few percent by chance (0 of 30; the old: 22)
+    # 30 records: the sample sd of z scatters by ~13 %; ideal 1 (60 and more records:
+    # benchmarks/bench_fit_real.py)
     assert 0.75 < np.std(z_n) < 1.3 and 0.75 < np.std(z_k) < 1.3
     assert abs(np.mean(k_ratio) - 1) < 0.05
 

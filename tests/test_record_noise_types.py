@@ -345,7 +345,7 @@ def test_decimated_phase_stats_are_the_two_passes(n, seed, kind):
     for m in (1, 2, 3, 8, 33, n // 40 + 1):
         count = n // m
         z = diff.cluster_differences(p.r, p.hh, p.hl, m, count)
-        r1, den, size, scale = nid.decimated_phase_lag1(z)
+        r1, den, _, scale = nid.decimated_phase_lag1(z)
         got = decimated_phase_stats(p.r, p.hh, p.hl, m, count)
         assert np.array_equal([r1, den, scale], got, equal_nan=True), (m, got)
 

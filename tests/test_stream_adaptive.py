@@ -7,6 +7,7 @@ windows and flags and bit-identical kurtosis and S, for any chunk size.
 
 from __future__ import annotations
 
+import itertools
 import math
 import tracemalloc
 
@@ -210,6 +211,66 @@ def test_memory_stays_within_a_few_chunks():
     finally:
         tracemalloc.stop()
     assert full > 25 * n  # the in-memory pass: the per-centre schedule and the extension
+
+
+@pytest.mark.parametrize("method", ["fixed", "adaptive"])
+@pytest.mark.parametrize("chunk", [1, 513, 4133, None])
+def test_keep_runs_gives_the_runs_of_the_full_flags(burst, method, chunk):
+    """keep="runs" (the fixed window's change times, issue 42): the runs of f over every
+    centre, joined across pieces, equal to those of the whole in-memory schedule."""
+    from adavar.events import flag_change_times, run_change_times
+
+    x, _ = burst
+    want = adaptive_schedule(x, **{**SMALL, "method": method})
+    got = adaptive_schedule(x, **{**SMALL, "method": method}, keep="runs", chunk_size=chunk)
+    runs = got.flag_runs()
+    assert got.runs is runs and got.centre.size == 0 and got.f.size == 0
+    assert len(runs) > 5  # runs cross many piece boundaries of 1 and 513 centres
+    np.testing.assert_array_equal(runs, want.flag_runs())
+    assert run_change_times(runs, 200, 0.01, 5.0) == flag_change_times(
+        want.f, want.centre, 200, 0.01, 5.0
+    )
+    assert got.parameters == want.parameters
+
+
+def test_join_runs_across_pieces():
+    from adavar.events import flag_runs, join_runs
+
+    rng = np.random.default_rng(3)
+    flags = rng.random(5000) < 0.7
+    flags[1000:1300] = True  # a run over several piece boundaries
+    cuts = [0, 1, 1001, 1100, 1101, 2500, 5000]
+    pieces = [flag_runs(flags[a:b], a) for a, b in itertools.pairwise(cuts)]
+    np.testing.assert_array_equal(join_runs(pieces), flag_runs(flags))
+    assert join_runs([]).shape == (0, 2)
+
+
+def test_keep_runs_holds_no_per_centre_array():
+    """Memory of keep="runs" is one piece, not the record (a 2e8-sample file: issue 42)."""
+    chunk = 4096
+    n = 60 * chunk
+    x = record(5, n=n)
+    settings = {**SMALL, "method": "fixed", "lmin": SMALL["lmax"]}
+    adaptive_schedule(x, **settings, keep="runs", chunk_size=chunk)  # compile, warm caches
+    tracemalloc.start()
+    try:
+        adaptive_schedule(x, **settings, keep="runs", chunk_size=chunk)
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak < n * 8 / 4  # a quarter of the record itself
+    tracemalloc.start()
+    try:
+        adaptive_schedule(x, **settings)
+        _, full = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert full > 25 * n  # keep="all": the per-centre schedule
+
+
+def test_keep_runs_refuses_ici():
+    with pytest.raises(AdavarInputError, match="keep"):
+        adaptive_schedule(np.zeros(1000), **SMALL, method="ici", keep="runs")
 
 
 @pytest.mark.parametrize(

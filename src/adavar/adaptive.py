@@ -43,7 +43,7 @@ from adavar.controller import REANCHOR, check_whole, controller_outputs, make_co
 from adavar.davar import davar, davar_blocks
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
-from adavar.events import Event
+from adavar.events import Event, flag_runs, join_runs
 from adavar.ici import ici_schedule
 from adavar.long_tau import LONG_TAU_SAMPLES, long_tau_changes
 from adavar.results import DavarResult
@@ -67,7 +67,7 @@ from adavar.window_defaults import (
     staged_controllers,
     surface_resolution,
 )
-from adavar.windows import centre_range
+from adavar.windows import centre_range, oracle_lengths, oracle_schedule
 
 __all__ = [
     "METHODS",
@@ -127,6 +127,10 @@ class Schedule:
     shift : ndarray of int64 or None
         ``"ici"``: offset of each window from its centre (a one-sided window next to a
         change, see :mod:`adavar.ici`; ``davar(..., shift=)``); None: centred windows.
+    runs : ndarray of int64, shape (R, 2), or None
+        ``adaptive_schedule(..., keep="runs")``: the first and last centre (sample index)
+        of every run of ``f`` over all centres, the per-centre arrays being empty; None
+        otherwise (:meth:`flag_runs` computes them from ``f``).
     """
 
     window: np.ndarray
@@ -141,47 +145,14 @@ class Schedule:
     parameters: dict[str, Any] = field(default_factory=dict)
     step: int = 1
     shift: np.ndarray | None = None
+    runs: np.ndarray | None = None
 
-
-def oracle_schedule(
-    n_samples: int, change_samples: Sequence[int], *, lmax: int = 600, lmin: int = 400
-) -> np.ndarray:
-    """The ideal window lengths for changes at known samples (docs/method.md section 8).
-
-    For each change ``X`` the length is ``lmax`` until the window's leading edge reaches
-    ``X``, shrinks with the leading edge pinned on ``X`` to ``lmin``, stays there until the
-    trailing edge reaches ``X``, and regrows with the trailing edge pinned on ``X``; with
-    the window convention of :mod:`adavar.windows` (edges ``p + L // 2`` and
-    ``p - (L - 1) // 2``) that is ``clamp(max(2 (X - p), 2 (p - X + 1)), lmin, lmax)`` for
-    even lengths. Several changes: the shortest of their lengths.
-
-    Parameters
-    ----------
-    n_samples : int
-        Record length.
-    change_samples : sequence of int
-        Sample indices of the changes.
-    lmax, lmin : int
-        Longest and shortest window.
-
-    Returns
-    -------
-    ndarray of int64, shape (n_samples,)
-    """
-    return _oracle_lengths(np.arange(n_samples, dtype=np.int64), change_samples, lmax, lmin)
-
-
-def _oracle_lengths(
-    p: np.ndarray, change_samples: Sequence[int], lmax: int, lmin: int
-) -> np.ndarray:
-    """:func:`oracle_schedule` at the centres ``p`` only (a piece of a long record)."""
-    out = np.full(p.size, lmax, dtype=np.int64)
-    odd = lmax % 2
-    for x in change_samples:
-        x = int(x)
-        ideal = np.maximum(2 * (x - p), 2 * (p - x + 1)) + odd
-        out = np.minimum(out, np.clip(ideal, lmin, lmax))
-    return out
+    def flag_runs(self) -> np.ndarray:
+        """``(first, last)`` centre of every run of ``f``, shape (R, 2) int64."""
+        if self.runs is not None:
+            return self.runs
+        runs = flag_runs(self.f)
+        return np.asarray(self.centre, dtype=np.int64)[runs] if runs.size else runs
 
 
 def window_lengths(
@@ -249,6 +220,7 @@ def adaptive_schedule(
     ici_long_tau: bool = True,
     dependence: Sequence[float] | None = None,
     kurtosis_reference: str | dict = "record",
+    keep: str = "all",
 ) -> Schedule:
     """The window schedule of A-DAVAR, DAVAR-K, the oracle or a fixed window.
 
@@ -282,6 +254,13 @@ def adaptive_schedule(
         :func:`adaptive_davar`.
     dependence, kurtosis_reference
         See :func:`adaptive_davar`.
+    keep : {"all", "runs"}
+        ``"runs"``: keep only the runs of flagged centres (``Schedule.runs``), running the
+        controller over pieces of centres (``chunk_size``, default
+        :data:`adavar.stream.DEFAULT_CHUNK`) and holding no per-centre array: beyond the
+        record (or, out of core, one piece of it) memory is bounded by one piece whatever
+        the record's length (the change times of a fixed window,
+        :func:`adavar.events.run_change_times`). Not for ``method="ici"``.
 
     Returns
     -------
@@ -293,6 +272,9 @@ def adaptive_schedule(
     if edges not in ("mirror", "valid"):
         raise AdavarInputError(f"unknown edges {edges!r}: use 'mirror' or 'valid'")
     dt = resolve_tau0(rate, tau0)
+    if keep not in ("all", "runs") or (keep == "runs" and method == "ici"):
+        raise AdavarInputError(f"keep={keep!r} with method={method!r}: use 'all' (or 'runs' "
+                               "with a kurtosis-controller method)")  # fmt: skip
     chunked = chunk_size is not None or stream.is_chunked(data)
     if lmax is None or lmin is None or l is None:
         lmax, lmin, l = resolve_windows(_record_size(data, chunked), dt, lmax, lmin, l)  # noqa: E741
@@ -369,7 +351,7 @@ def adaptive_schedule(
     def given(q0: int, q1: int) -> np.ndarray:
         """Lengths of centres q0 .. q1 - 1 for the oracle and fixed methods."""
         if method == "oracle":
-            return _oracle_lengths(np.arange(first + q0, first + q1), changes, lmax, lmin)
+            return oracle_lengths(np.arange(first + q0, first + q1), changes, lmax, lmin)
         if method == "fixed":
             return np.full(q1 - q0, lmax, dtype=np.int64)
         return np.zeros(1, dtype=np.int64)
@@ -392,16 +374,25 @@ def adaptive_schedule(
 
     # kept rows: the centres that are multiples of step
     c0 = -(-first // step) * step
-    centres = centre_range(c0, first + n_c, step)  # the surface's centres too (mirror)
-    if not chunked:
+    # the surface's centres too (mirror); none kept with keep="runs"
+    centres = centre_range(c0, first + n_c if keep == "all" else c0, step)
+    # pieces start at multiples of REANCHOR, where the running sums restart anyway
+    piece = -(-chunk // REANCHOR) * REANCHOR
+    runs: list[np.ndarray] = []
+    if not chunked and keep == "runs":  # the record in memory, the outputs piece by piece
+        ext = x if edges == "valid" else np.pad(x, pad, mode="symmetric")
+        out, length = controller_outputs(0), lmax
+        for q0 in range(0, n_c, piece):
+            part, length = run(ext, (first if edges == "valid" else pad) + q0, q0,
+                               min(n_c, q0 + piece), length)  # fmt: skip
+            runs.append(flag_runs(part[5], first + q0))
+    elif not chunked:
         ext = x if edges == "valid" else np.pad(x, pad, mode="symmetric")
         out, _ = run(ext, first if edges == "valid" else pad, 0, n_c, lmax)
         if step > 1:  # copies: the full per-centre arrays are released
             out = tuple(a[c0 - first :: step].copy() for a in out)
     else:
-        out = controller_outputs(centres.size)
-        # pieces start at multiples of REANCHOR, where the running sums restart anyway
-        piece = -(-chunk // REANCHOR) * REANCHOR
+        out = controller_outputs(0 if keep == "runs" else centres.size)
         length = lmax
         kept = 0
         for q0 in range(0, n_c, piece):
@@ -414,6 +405,9 @@ def adaptive_schedule(
                 offset = pad
             part, length = run(ext, offset, q0, q1, length)
             del ext
+            if keep == "runs":
+                runs.append(flag_runs(part[5], first + q0))
+                continue
             rows = slice((-(first + q0)) % step, None, step)
             count = len(range(q1 - q0)[rows])
             for dst, src in zip(out, part, strict=True):
@@ -422,7 +416,7 @@ def adaptive_schedule(
             del part
         if kept != centres.size:  # pragma: no cover - internal consistency
             raise AssertionError("internal: kept rows do not match the centres")
-    if step == 1:
+    if step == 1 and keep == "all":
         centres = centre_range(first, first + n_c)
     window, kurt, scoef, f1, f2, f = out
     parameters = dict(
@@ -442,6 +436,7 @@ def adaptive_schedule(
     return Schedule(
         window=window, kurtosis=kurt, s=scoef, f1=f1, f2=f2, f=f, centre=centres,
         method=method, thresholds=th, parameters=parameters, step=step,
+        runs=join_runs(runs) if keep == "runs" else None,
     )  # fmt: skip
 
 

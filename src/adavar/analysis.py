@@ -537,7 +537,7 @@ class ReportAnalysis:
         """
         if self.surface is None:
             return None
-        from adavar.events import find_events, flag_change_times
+        from adavar.events import find_events, run_change_times
 
         surface = self.adaptive if self.adaptive is not None else self.surface
         time_s = np.asarray(surface.time, dtype=float)
@@ -585,7 +585,7 @@ class ReportAnalysis:
                 "count": len(found), "items": [e.as_dict() for e in found], "runs": runs,
                 "note": None,
             }  # fmt: skip
-        return self._fixed_window_events(find_events, flag_change_times, terms, t0, duration)
+        return self._fixed_window_events(find_events, run_change_times, terms, t0, duration)
 
     def _seconds(self, samples: Any) -> Any:
         """Sample counts as seconds, as the DAVAR times are (``n / rate`` or ``n * tau0``)."""
@@ -595,7 +595,7 @@ class ReportAnalysis:
         return n * float(self.rate_options["tau0"])
 
     def _fixed_window_events(
-        self, find_events: Any, flag_change_times: Any, terms: dict, t0: float,
+        self, find_events: Any, run_change_times: Any, terms: dict, t0: float,
         duration: float,
     ) -> dict[str, Any]:  # fmt: skip
         from adavar.adaptive import adaptive_schedule
@@ -616,16 +616,18 @@ class ReportAnalysis:
             return {"method": "fixed", "rule": rule, "count": None, "items": None,
                     "runs": None, "note": note}  # fmt: skip
         u = self.samples if self.options["data_type"] == "rate" else np.diff(self.samples)
-        sched = adaptive_schedule(u, method="fixed", **settings, **self.rate_options)
-        time_s = t0 + self._seconds(sched.centre)
+        # the runs of flags only: no per-centre array (memory: one piece of the record)
+        sched = adaptive_schedule(u, method="fixed", keep="runs", **settings,
+                                  **self.rate_options)  # fmt: skip
+        flagged = sched.flag_runs()
         runs = [
-            {"beginning_s": float(time_s[a]), "end_node_s": float(time_s[b]),
-             "restore_s": None,
-             "leading_edge_s": float(t0 + self._seconds(sched.centre[a] + length // 2)),
+            {"beginning_s": float(t0 + self._seconds(a)),
+             "end_node_s": float(t0 + self._seconds(b)), "restore_s": None,
+             "leading_edge_s": float(t0 + self._seconds(a + length // 2)),
              "min_window": length}
-            for a, b in _runs(np.asarray(sched.f))
+            for a, b in flagged.tolist()
         ]  # fmt: skip
-        changes = flag_change_times(sched.f, sched.centre, length, self.tau0, t0)
+        changes = run_change_times(flagged, length, self.tau0, t0)
         surface = self.surface
         found = find_events(
             surface.window, surface.centre, surface.time, length, self.tau0, terms, t0=t0,

@@ -343,7 +343,9 @@ def anchored_phase(
         (:mod:`adavar._kernels.window_avar`) and lose nothing.
     cluster_stats : bool
         Also gather, in the same pass, the moments that the lag-1 noise identification
-        needs for ``m = 1, 2, 4, ..., 2**(FUSED_LEVELS-1)`` (see :func:`fused_lag1`).
+        needs for ``m = 1, 2, 4, ..., 2**(FUSED_LEVELS-1)``: of the cluster sums (see
+        :func:`fused_lag1`) and of the decimated phase
+        (:func:`adavar._kernels.decimated_phase.fused_phase_levels`).
     """
     u = np.ascontiguousarray(increments, dtype=np.float64)
     if shift is None:

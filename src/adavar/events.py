@@ -63,6 +63,9 @@ __all__ = [
     "change_times",
     "find_events",
     "flag_change_times",
+    "flag_runs",
+    "join_runs",
+    "run_change_times",
     "stretch_summary",
 ]
 
@@ -147,6 +150,35 @@ def change_times(window: Any, centre: Any, lmax: int, tau0: float, t0: float = 0
     return out
 
 
+def flag_runs(flags: Any, first: int = 0) -> np.ndarray:
+    """``(first, last)`` index of every run of True in ``flags``, shape (R, 2) int64.
+
+    ``first`` is added to both (the index of ``flags[0]``: the centre of the first flag).
+    Runs of consecutive pieces join with :func:`join_runs`.
+    """
+    edges = np.diff(np.concatenate(([0], np.asarray(flags, dtype=np.int8), [0])))
+    starts = np.flatnonzero(edges == 1)
+    stops = np.flatnonzero(edges == -1) - 1
+    return np.stack([starts, stops], axis=1).astype(np.int64) + int(first)
+
+
+def join_runs(runs: list[np.ndarray]) -> np.ndarray:
+    """The runs of consecutive pieces' :func:`flag_runs` as one array: a run that ends on
+    a piece's last centre and one that starts on the next piece's first are one run."""
+    parts = [r for r in runs if r.size]
+    if not parts:
+        return np.empty((0, 2), dtype=np.int64)
+    out = np.concatenate(parts)
+    joined = np.flatnonzero(out[1:, 0] == out[:-1, 1] + 1)  # a run continued
+    if joined.size:
+        keep = np.ones(len(out), dtype=bool)
+        keep[joined + 1] = False
+        # each kept run ends where the last run of its chain ends
+        chain_end = np.flatnonzero(np.append(keep[1:], True))
+        out = np.stack([out[keep, 0], out[chain_end, 1]], axis=1)
+    return out
+
+
 def flag_change_times(
     flags: Any, centre: Any, length: int, tau0: float, t0: float = 0.0
 ) -> list[float]:
@@ -157,15 +189,19 @@ def flag_change_times(
     apart are one: the test fires on and off while the change crosses the window) marks one
     change at the leading edge of its first flagged window, ``centre + length // 2``.
     """
-    flags = np.asarray(flags, dtype=bool)
     centre = np.asarray(centre, dtype=np.int64)
-    edges = np.diff(np.concatenate(([0], flags.astype(np.int8), [0])))
-    starts, stops = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    runs = flag_runs(flags)
+    return run_change_times(centre[runs] if runs.size else runs, length, tau0, t0)
+
+
+def run_change_times(runs: np.ndarray, length: int, tau0: float, t0: float = 0.0) -> list[float]:
+    """:func:`flag_change_times` from the runs' ``(first, last)`` centres (sample indices,
+    ``Schedule.flag_runs()``): no per-centre arrays needed."""
     out: list[float] = []
     last = None
-    for a, b in zip(starts, stops, strict=True):
-        if last is None or centre[a] - centre[last] >= length:
-            out.append(float(t0 + (centre[a] + length // 2) * tau0))
+    for a, b in np.asarray(runs, dtype=np.int64).reshape(-1, 2).tolist():
+        if last is None or a - last >= length:
+            out.append(float(t0 + (a + length // 2) * tau0))
         last = b
     return out
 

@@ -813,7 +813,7 @@ def _rate_noise_kernel(
                     row[0], row[1], count + 1, row[2], row[3], row[4]
                 )
             if decides == 1:  # delta < 0.25 there: alpha >= 2, white PM once clamped
-                out[t] = _clamp_alpha_compiled(2, dmax)
+                out[t] = _clamp_alpha_compiled(2.0, dmax)
                 on_decimated[t] = True
                 continue
             if decides == -1:
@@ -879,7 +879,10 @@ def rate_noise_types(
     The rule of :func:`identify_noise` on the record integrated in ``phase``
     (:func:`adavar.differences.anchored_phase`), every lag-1 tau in one compiled call: with
     at least :data:`MIN_POINTS_LAG1` clusters, ``on_phase`` first the decimated phase
-    (:func:`phase_order0`; a "white PM" there checked by R(n), :func:`pm_with_rn`), then
+    (:func:`phase_order0`; a "white PM" there checked by R(n), :func:`pm_with_rn`; where
+    ``m`` is a fused level, from the integration's moments when their bounds settle the
+    decision the sequential passes would reach, :func:`phase_order0_settled`, else from
+    those passes, :mod:`adavar._kernels.decimated_phase`), then
     the lag-1 rule on the linearly detrended cluster sums (:func:`lag1_decision`; order 0
     from the moments gathered while integrating where ``m`` is a fused level, other orders
     only when order 0 does not decide; up to ``dmax - 1`` differences ``on_phase``, else
@@ -890,7 +893,9 @@ def rate_noise_types(
     ``averaged`` tells FM types apart on the averaged rate as :func:`averaged_rule` says.
     ``avar``, if given, is the overlapping Allan variance at every ``m`` (R(n) then
     reuses it). Each alpha is clamped to the statistic's range; NaN are left for
-    :func:`fill_unidentified`.
+    :func:`fill_unidentified`. The taus run on every thread when the passes over the
+    data read :data:`NOISE_THREADS_MIN` cluster sums or more; the result does not depend
+    on the thread count (each tau is computed the same way on any thread).
     """
     fused = phase.fused if phase.fused is not None else np.empty((0, 4))
     ms = np.ascontiguousarray(ms, dtype=np.int64)

@@ -36,9 +36,11 @@ The test (module notes):
   (1/256 of the record by default); its ratio compares the median log levels inside and
   outside.
 
-Cost: one pass over the record (a difference, a square and block sums), an FFT of its
-first 65536 differences and a rank of ``segments x blocks`` numbers: 15-75 ms for an hour
-at 1 kHz. It does not see a burst much shorter than a block (a 20 s x5 burst in an hour:
+Cost: the record's extremes (its check, and its scale), one pass over it (a difference,
+a square and block sums: compiled, on every thread for a long record in memory), an FFT
+of its first 65536 differences and a rank of ``segments x blocks`` numbers: about 30 ms
+of one core for 1e7 samples (2.8 hours at 1 kHz; 70 ms before the compiled pass). It
+does not see a burst much shorter than a block (a 20 s x5 burst in an hour:
 :func:`adavar.events.find_events` and the adaptive DAVAR do).
 """
 

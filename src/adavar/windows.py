@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import threading
 import weakref
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -33,6 +34,8 @@ __all__ = [
     "WindowSchedule",
     "centre_range",
     "check_window_times",
+    "oracle_lengths",
+    "oracle_schedule",
     "window_classes",
     "window_overhang",
     "window_schedule",
@@ -414,3 +417,45 @@ def check_window_times(time: np.ndarray, centre: np.ndarray, t0: float, dt: floa
             f"interval {dt:g} s; give t0 relative to an origin near the record (0 by "
             "default) and add the offset to the times yourself"
         )
+
+
+def oracle_schedule(
+    n_samples: int, change_samples: Sequence[int], *, lmax: int = 600, lmin: int = 400
+) -> np.ndarray:
+    """The ideal window lengths for changes at known samples (docs/method.md section 8).
+
+    For each change ``X`` the length is ``lmax`` until the window's leading edge reaches
+    ``X``, shrinks with the leading edge pinned on ``X`` to ``lmin``, stays there until the
+    trailing edge reaches ``X``, and regrows with the trailing edge pinned on ``X``; with
+    the window convention of :mod:`adavar.windows` (edges ``p + L // 2`` and
+    ``p - (L - 1) // 2``) that is ``clamp(max(2 (X - p), 2 (p - X + 1)), lmin, lmax)`` for
+    even lengths. Several changes: the shortest of their lengths.
+
+    Parameters
+    ----------
+    n_samples : int
+        Record length.
+    change_samples : sequence of int
+        Sample indices of the changes.
+    lmax, lmin : int
+        Longest and shortest window.
+
+    Returns
+    -------
+    ndarray of int64, shape (n_samples,)
+    """
+    return oracle_lengths(np.arange(n_samples, dtype=np.int64), change_samples, lmax, lmin)
+
+
+def oracle_lengths(
+    p: np.ndarray, change_samples: Sequence[int], lmax: int, lmin: int
+) -> np.ndarray:
+    """:func:`oracle_schedule` at the centres ``p`` only (a piece of a long record)."""
+    p = np.asarray(p, dtype=np.int64)
+    out = np.full(p.size, lmax, dtype=np.int64)
+    odd = lmax % 2
+    for x in change_samples:
+        x = int(x)
+        ideal = np.maximum(2 * (x - p), 2 * (p - x + 1)) + odd
+        out = np.minimum(out, np.clip(ideal, lmin, lmax))
+    return out

@@ -59,9 +59,11 @@ __all__ = [
     "decimated_phase_lag1",
     "decimated_phase_stats",
     "fused_phase_levels",
+    "lag1_of_sums",
     "phase_lag1_result",
     "phase_moments",
     "phase_residual_lag",
+    "quadratic_coefficients",
     "quadratic_fit",
 ]
 
@@ -114,29 +116,41 @@ def phase_residual_lag(zs, nz, k0, count, coef, ps):  # pragma: no cover - compi
     ps[1] = prev
 
 
-def quadratic_fit(count: int, pm: np.ndarray) -> np.ndarray:
-    """Least-squares quadratic ``c0 + c1 u + c2 u^2`` through the ``count + 1`` points."""
+def quadratic_coefficients(count: int, b0: float, b1: float, b2: float) -> tuple:
+    """Least-squares quadratic ``c0 + c1 u + c2 u^2`` through the ``count + 1`` points
+    ``u = -count/2 .. count/2`` from the sums ``b0, b1, b2`` of ``P``, ``u P``, ``u^2 P``."""
     n = count + 1.0
     u2 = n * (n * n - 1.0) / 12.0  # sums of u^2 and u^4 over the symmetric abscissa
     u4 = n * (n * n - 1.0) * (3.0 * n * n - 7.0) / 240.0
-    c1 = pm[2] / u2 if u2 > 0 else 0.0
+    c1 = b1 / u2 if u2 > 0 else 0.0
     det = n * u4 - u2 * u2
     if det > 0:
-        c0 = (pm[1] * u4 - pm[3] * u2) / det
-        c2 = (n * pm[3] - u2 * pm[1]) / det
+        c0 = (b0 * u4 - b2 * u2) / det
+        c2 = (n * b2 - u2 * b0) / det
     else:
-        c0, c2 = pm[1] / n, 0.0
-    return np.array([c0, c1, c2])
+        c0, c2 = b0 / n, 0.0
+    return c0, c1, c2
 
 
-def phase_lag1_result(count: int, pm: np.ndarray, ps: np.ndarray) -> tuple[float, float, float]:
-    """``(r1, den, scale)`` of the detrended decimated phase from the two passes' sums."""
-    n = count + 1
-    s1, s2, s11, first, last = ps[2], ps[3], ps[4], ps[5], ps[1]
+def quadratic_fit(count: int, pm: np.ndarray) -> np.ndarray:
+    """:func:`quadratic_coefficients` from the first pass's sums ``pm``
+    (:func:`phase_moments`), as an array."""
+    return np.array(quadratic_coefficients(count, pm[1], pm[2], pm[3]))
+
+
+def lag1_of_sums(n: int, s1: float, s2: float, s11: float, first: float, last: float):
+    """``(r1, den)`` of ``n`` residuals from their sum, sum of squares, sum of lag
+    products, first and last: the lag-1 autocorrelation about their mean."""
     mean = s1 / n
     den = s2 - n * mean * mean
     num = s11 - mean * ((s1 - last) + (s1 - first)) + (n - 1) * mean * mean
     r1 = num / den if den > 0 else math.nan
+    return r1, den
+
+
+def phase_lag1_result(count: int, pm: np.ndarray, ps: np.ndarray) -> tuple[float, float, float]:
+    """``(r1, den, scale)`` of the detrended decimated phase from the two passes' sums."""
+    r1, den = lag1_of_sums(count + 1, ps[2], ps[3], ps[4], ps[5], ps[1])
     return r1, den, float(pm[4])
 
 
@@ -165,8 +179,8 @@ def decimated_phase_lag1(z: np.ndarray) -> tuple[float, float, int, float]:
     return r1, den, count + 1, scale
 
 
-quadratic_fit_compiled = jit(quadratic_fit)
-phase_lag1_result_compiled = jit(phase_lag1_result)
+quadratic_coefficients_compiled = jit(quadratic_coefficients)
+lag1_of_sums_compiled = jit(lag1_of_sums)
 
 
 @jit
@@ -180,26 +194,19 @@ def decimated_phase_stats(r, hh, hl, m, count):  # pragma: no cover - compiled
     held in registers: the same operations in the same order.
     """
     kc = 0.5 * count
-    pm = np.zeros(5)
     p = 0.0
-    s1 = 0.0
-    s2 = 0.0
-    s3 = 0.0
+    b0 = 0.0
+    b1 = 0.0
+    b2 = 0.0
     big = 0.0
     for q in range(count):
         p += cluster_sum(r, hh, hl, q * m, m)
         u = q + 1 - kc
-        s1 += p
-        s2 += u * p
-        s3 += u * u * p
+        b0 += p
+        b1 += u * p
+        b2 += u * u * p
         big = max(big, abs(p))
-    pm[0] = p
-    pm[1] = s1
-    pm[2] = s2
-    pm[3] = s3
-    pm[4] = big
-    coef = quadratic_fit_compiled(count, pm)
-    c0, c1, c2 = coef[0], coef[1], coef[2]
+    c0, c1, c2 = quadratic_coefficients_compiled(count, b0, b1, b2)
     e = -(c0 - c1 * kc + c2 * kc * kc)  # the point P[0] = 0
     first = e
     prev = e
@@ -215,14 +222,8 @@ def decimated_phase_stats(r, hh, hl, m, count):  # pragma: no cover - compiled
         s2 += e * e
         s11 += prev * e
         prev = e
-    ps = np.zeros(6)
-    ps[0] = p
-    ps[1] = prev
-    ps[2] = s1
-    ps[3] = s2
-    ps[4] = s11
-    ps[5] = first
-    return phase_lag1_result_compiled(count, pm, ps)
+    r1, den = lag1_of_sums_compiled(count + 1, s1, s2, s11, first, prev)
+    return r1, den, big
 
 
 # ---------------------------------------------------------------------------------------
@@ -237,7 +238,8 @@ def _fused_levels(stats, hh, hl, r, n, zmax, out):  # pragma: no cover - compile
     unit = 2.0**-53
     nb = stats.shape[0]
     for lev in range(stats.shape[1]):
-        out[lev, :] = np.nan
+        for k in range(5):
+            out[lev, k] = np.nan
         c = n >> lev
         if c < 8:
             continue
@@ -260,11 +262,14 @@ def _fused_levels(stats, hh, hl, r, n, zmax, out):  # pragma: no cover - compile
             v = ((b << SHIFT) >> lev) - kc  # the abscissa of the block's first point
             q1 = 0.5 * nq * (nq - 1.0)
             q2 = (nq - 1.0) * nq * (2.0 * nq - 1.0) / 6.0
-            r0, r1, r2, rr = stats[b, lev, 8:12]
-            b0 += nq * a + r0
-            b1 += a * (nq * v + q1) + (v * r0 + r1)
-            b2 += a * (nq * v * v + 2.0 * v * q1 + q2) + (v * v * r0 + 2.0 * v * r1 + r2)
-            pp += (nq * a + 2.0 * r0) * a + rr
+            w0 = stats[b, lev, 8]  # the block's sums of rb, q rb, q^2 rb, rb^2
+            w1 = stats[b, lev, 9]
+            w2 = stats[b, lev, 10]
+            rr = stats[b, lev, 11]
+            b0 += nq * a + w0
+            b1 += a * (nq * v + q1) + (v * w0 + w1)
+            b2 += a * (nq * v * v + 2.0 * v * q1 + q2) + (v * v * w0 + 2.0 * v * w1 + w2)
+            pp += (nq * a + 2.0 * w0) * a + rr
             s1 += stats[b, lev, 0]
             st += stats[b, lev, 1]
             s2 += stats[b, lev, 2]
@@ -276,12 +281,7 @@ def _fused_levels(stats, hh, hl, r, n, zmax, out):  # pragma: no cover - compile
         b2 += kc * kc * last
         pp += last * last
         big = max(big, abs(last))
-        pm = np.zeros(5)
-        pm[1] = b0
-        pm[2] = b1
-        pm[3] = b2
-        coef = quadratic_fit_compiled(c, pm)
-        c0, c1, c2 = coef[0], coef[1], coef[2]
+        c0, c1, c2 = quadratic_coefficients_compiled(c, b0, b1, b2)
         # sum e^2 of the least-squares residuals; the lag products from
         # sum e_(k-1) e_k = sum e^2 - (e_0^2 + e_c^2) / 2 - sum (e_k - e_(k-1))^2 / 2, the
         # differences being the cluster sums less the fitted curve's, c1 + 2 c2 t

@@ -255,18 +255,19 @@ def _fixed_events_possible(args: argparse.Namespace, samples: Any) -> bool:
 def _fixed_window_changes(
     args: argparse.Namespace, samples: np.ndarray, common: dict[str, Any], tau0: float
 ) -> list[float]:
-    """Change times flagged by the controller's tests in the fixed window (no adaptation)."""
+    """Change times flagged by the controller's tests in the fixed window (no adaptation);
+    the record in pieces, only the runs of flags kept (memory: one piece)."""
     from adavar.adaptive import adaptive_schedule, record_windows
-    from adavar.events import flag_change_times
+    from adavar.events import run_change_times
 
     length = int(args.window)
     sched = adaptive_schedule(
         samples, method="fixed", lmax=length, lmin=length, l=record_windows(0, length)[2],
         thresholds="calibrated", false_alarm_per_hour=HOURLY_FALSE_ALARMS,
-        rate=common["rate"], tau0=common["tau0"],
+        rate=common["rate"], tau0=common["tau0"], keep="runs",
         **({"chunk_size": common["chunk_size"]} if "chunk_size" in common else {}),
     )  # fmt: skip
-    return flag_change_times(sched.f, sched.centre, length, tau0, float(args.t0))
+    return run_change_times(sched.flag_runs(), length, tau0, float(args.t0))
 
 
 def _schedule_of(result: Any) -> Any:

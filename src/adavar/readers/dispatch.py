@@ -216,10 +216,6 @@ def read_record(
         (SIGBUS). Either way the analyses read them piece by piece. With a time column,
         or ``nan`` other than ``"error"``, ``False`` loads them with file reads.
 
-    A file that changes while it is read (its size, modification time or identity differ
-    after reading; out of core: after each piece) is an error, as is one deleted
-    meanwhile: a record is never analysed half old, half new.
-
     Returns
     -------
     Record
@@ -234,6 +230,12 @@ def read_record(
         no time column, or a declared rate disagreeing with the time stamps; time stamps
         that repeat or go back; a gap, non-uniform sampling or a NaN/infinite sample under
         the ``"error"`` policies (naming the row, time and size); invalid options.
+
+    Notes
+    -----
+    A file that changes while it is read (its size, modification time or identity differ
+    after reading, or out of core after each piece) is an error, as is one deleted
+    meanwhile: a record is never analysed half old, half new.
     """
     if gaps not in GAP_POLICIES:
         raise fail(f"unknown gaps policy {gaps!r}: use one of {', '.join(GAP_POLICIES)}")
