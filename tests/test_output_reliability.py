@@ -54,8 +54,12 @@ def _start_paused(argv, folder):
     """``adavar ARGV`` in a subprocess that pauses once its file is written, before the
     rename; returns when its temporary is in ``folder``."""
     env = {**os.environ, PAUSE_FILE_RENAME_ENV: "120"}
+    # Ctrl-C as a terminal sends it: a test run started in the background (`pytest &`,
+    # `nohup`) ignores SIGINT, and its children would inherit that
     proc = subprocess.Popen([sys.executable, "-m", "adavar.cli", *map(str, argv)], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+                            )  # fmt: skip
     deadline = time.monotonic() + 120
     while not _partials(folder):
         assert proc.poll() is None, proc.communicate()
