@@ -533,47 +533,77 @@ def _fill_second_differences(r, hh, hl, m, lo, hi, out):  # pragma: no cover - c
 
 
 _MOD_CHUNK = 1 << 14
+#: Starts ``j`` of one work item of the modified sums (fixed: the sums do not depend on the
+#: thread count; a record shorter than this is one item, the sequential pass itself)
+MOD_PART = 1 << 21
 
 
 @jit
-def modified_sums_kernel(r, hh, hl, ms, counts):  # pragma: no cover - compiled
+def _modified_part(r, hh, hl, m, j0, j1):  # pragma: no cover - compiled
+    """``sum_{j=j0}^{j1-1} (sum_{i=j}^{j+m-1} d_m[i])^2``, the window sum started afresh
+    at ``j0`` and slid with a compensated running total."""
+    first = np.empty(m)
+    _fill_second_differences(r, hh, hl, m, j0, j0 + m, first)
+    s = 0.0
+    c = 0.0
+    for k in range(m):
+        s, e = two_sum(s, first[k])
+        c += e
+    total = s + c
+    acc = total * total
+    enter = np.empty(min(_MOD_CHUNK, max(j1 - j0 - 1, 0)))  # no more than one chunk needs
+    leave = np.empty(enter.size)
+    j = j0 + 1
+    while j < j1:
+        n = min(_MOD_CHUNK, j1 - j)
+        _fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + n, enter)
+        _fill_second_differences(r, hh, hl, m, j - 1, j - 1 + n, leave)
+        for q in range(n):
+            s, e = two_sum(s, enter[q])
+            c += e
+            s, e = two_sum(s, -leave[q])
+            c += e
+            v = s + c
+            acc += v * v
+        j += n
+    return acc
+
+
+@threaded_jit
+def _modified_partials(
+    r, hh, hl, ms, counts, first_part, size, partial, lo, hi
+):  # pragma: no cover
+    """Items ``lo .. hi - 1``: item ``k`` is part ``k - first_part[t]`` (starts ``size``
+    apart) of tau ``t``, where ``first_part[t] <= k < first_part[t + 1]``."""
+    t = 0
+    for k in range(lo, hi):
+        while first_part[t + 1] <= k:
+            t += 1
+        j0 = (k - first_part[t]) * size
+        partial[k] = _modified_part(r, hh, hl, ms[t], j0, min(counts[t], j0 + size))
+
+
+def modified_sums_kernel(r, hh, hl, ms, counts) -> np.ndarray:
     """``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2`` for ``j = 0..count-1``: the MVAR numerator.
 
     The inner sum slides along ``j`` with a compensated running total, fed by chunks of
     second differences computed exactly (entering and leaving streams), so the cost is
-    O(N) per tau whatever ``m``.
+    O(N) per tau whatever ``m``. Parts of :data:`MOD_PART` starts run on every thread from
+    :data:`RECORD_THREADS_MIN` terms on, each part's sum added in order.
     """
-    nt = ms.size
-    out = np.zeros(nt)
-    for t in prange(nt):
-        m = ms[t]
-        count = counts[t]
-        first = np.empty(m)
-        _fill_second_differences(r, hh, hl, m, 0, m, first)
-        s = 0.0
-        c = 0.0
-        for k in range(m):
-            s, e = two_sum(s, first[k])
-            c += e
-        total = s + c
-        acc = total * total
-        enter = np.empty(min(_MOD_CHUNK, max(count - 1, 0)))  # no more than one chunk needs
-        leave = np.empty(enter.size)
-        j = 1
-        while j < count:
-            n = min(_MOD_CHUNK, count - j)
-            _fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + n, enter)
-            _fill_second_differences(r, hh, hl, m, j - 1, j - 1 + n, leave)
-            for q in range(n):
-                s, e = two_sum(s, enter[q])
-                c += e
-                s, e = two_sum(s, -leave[q])
-                c += e
-                v = s + c
-                acc += v * v
-            j += n
-        out[t] = acc
-    return out
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    counts = np.ascontiguousarray(counts, dtype=np.int64)
+    size = int(MOD_PART)  # an argument: a compiled kernel would freeze the global
+    parts = np.maximum(1, -(-counts // size))
+    first_part = np.concatenate(([0], np.cumsum(parts))).astype(np.int64)
+    partial = np.zeros(int(first_part[-1]))
+    terms = int(counts.sum()) if counts.size else 0
+    work = terms if terms >= RECORD_THREADS_MIN else 0
+    if partial.size:
+        _modified_partials.run(work, partial.size, r, hh, hl, ms, counts, first_part, size,
+                               partial)  # fmt: skip
+    return np.array([partial[first_part[t] : first_part[t + 1]].sum() if parts[t] > 1
+                     else partial[first_part[t]] for t in range(ms.size)])  # fmt: skip
 
 
 @jit
