@@ -23,8 +23,8 @@ docs/benchmarks.md, about 12 minutes).
 ``--large 2e8,1e9``: the records that do not fit comfortably in memory (issue 42): a
 float32 ``.npy`` of that many samples (800 MB, 4 GB; written piece by piece in the
 temporary folder), analysed with no flag by ``davar`` (the issue's command: window 6001,
-step 100000, four taus) and ``avar`` (octave taus); printed: peak RSS and
-``peak / (input file + output)``.
+step 100000, four taus), ``avar`` (octave taus), ``adaptive`` (the paper's 600/400 windows,
+step 100000) and ``report``; printed: peak RSS and ``peak / (input file + output)``.
 """
 
 from __future__ import annotations
@@ -200,6 +200,9 @@ LARGE = {
     "davar": ("davar BIG --rate 1 --units deg/s --window 6001 --step 100000 "
               "--taus 1,10,100,1000 --out out", "out"),
     "avar": ("avar BIG --rate 1 --units deg/s --taus octave --out out", "out"),
+    "adaptive": ("adaptive BIG --rate 1 --units deg/s --lmax 600 --lmin 400 --step 100000 "
+                 "--taus 1,10,100 --out out", "out"),
+    "report": ("report BIG --rate 1 --units deg/s -o out.html", "out.html"),
 }  # fmt: skip
 
 

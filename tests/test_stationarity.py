@@ -80,6 +80,16 @@ def test_deviation_warns_and_says_where():
     )
 
 
+@pytest.mark.parametrize("offset", [0.0, 1e8, -1e-30])
+def test_extremes_given_by_the_caller_give_the_same_result(offset):
+    """deviation hands its input check's range on (issue 42: two passes less)."""
+    x, _ = _step(4, seconds=600.0)
+    x = x * (1e-40 if offset < 0 else 1.0) + offset
+    want = stationarity(x, rate=100.0)
+    got = stationarity(x, rate=100.0, extremes=(float(x.min()), float(x.max())))
+    assert (got.p_value, got.stretch, got.ratio) == (want.p_value, want.stretch, want.ratio)
+
+
 def test_cli_avar_warns_on_stderr_and_in_json(capsys, tmp_path):
     x, _ = _step(4, seconds=1200.0)  # the default stretch lies in the middle of the record
     path = tmp_path / "gyro.npy"

@@ -1,8 +1,7 @@
 """Write the home page (``index.md``) from README.md's introduction (mkdocs-gen-files).
 
 The introduction is README's text between its ``---`` rule and its first section after it
-(``## From your own log to a report``), so the site and the README say the same and only
-README is edited.
+(``## Example``), so the site and the README say the same and only README is edited.
 """
 
 from __future__ import annotations
@@ -35,7 +34,8 @@ NEXT = (
 The equations and every default are in [the method](method.md); the paper's results
 side by side with adavar's in [the paper, reproduced](paper.md); speed and accuracy in
 [the benchmarks](benchmarks.md). Every command and flag: [the command line](reference/cli.md);
-every function: [the API](reference/api/index.md); figures: [the gallery](gallery/index.md).
+every function: [the API](reference/api/index.md); figures: [the gallery](gallery/index.md);
+every feature, command and library call in one page: [using adavar](usage.md).
 
 Install from a checkout, `python3 -m venv .venv && .venv/bin/pip install -e .` (Python 3.11
 or newer; the extra `".[data]"` adds the readers of HDF5, Parquet and ROS bags), or

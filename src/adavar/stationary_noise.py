@@ -159,6 +159,7 @@ def stationarity(
     segments: int | None = None,
     blocks: int | None = None,
     chunk_size: int | None = None,
+    extremes: tuple[float, float] | None = None,
 ) -> StationarityResult:
     """Test whether the short-tau (white) noise level of a record is the same throughout.
 
@@ -185,6 +186,10 @@ def stationarity(
     chunk_size : int, optional
         Samples per read of a chunked record (default :data:`adavar.sources.DEFAULT_CHUNK`);
         giving it reads an array that way too.
+    extremes : (float, float), optional
+        The smallest and largest sample of an in-memory float64 record that the caller has
+        already checked to be finite (:func:`adavar.deviation` has both): the record is
+        then not read twice more for them. Not checked against the record.
 
     Returns
     -------
@@ -211,8 +216,12 @@ def stationarity(
         piece = DEFAULT_CHUNK if chunk_size is None else check_chunk_size(chunk_size)
         powers = functools.partial(_block_powers, read, piece=piece)
     else:
-        x = as_samples(data, min_length=1)
-        big = _max_abs(x)
+        given = extremes is not None and isinstance(data, np.ndarray) and data.ndim == 1
+        if given and data.dtype == np.float64 and data.size:
+            x, big = data, max(float(extremes[1]), -float(extremes[0]))
+        else:
+            x = as_samples(data, min_length=1)
+            big = _max_abs(x)
         # by the largest magnitude, so that the squares neither overflow nor underflow
         # (x / 1 is x: a record of zeros stays as it is)
         scale = big if big > 0.0 else 1.0

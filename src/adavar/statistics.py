@@ -577,6 +577,8 @@ def deviation(
         exponent = _range_exponent(low, high)
         if exponent:
             x = np.ldexp(x, -exponent)  # scaled(x), with the range already known
+        # the stationarity screen needs the range too: not read again (exact: ldexp)
+        extremes = (math.ldexp(low, -exponent), math.ldexp(high, -exponent))
         u = x if dtype == "rate" else np.diff(x)
         n_samples, n_points = x.size, u.size + 1
 
@@ -691,7 +693,7 @@ def deviation(
         result = replace(result, increment_kurtosis=increment_kurtosis(increments, chunk))
         return _with_warnings(result, source, step, dtype, stationarity_check, chunk)
     result = replace(result, increment_kurtosis=increment_kurtosis(u))
-    return _with_warnings(result, x, step, dtype, stationarity_check)
+    return _with_warnings(result, x, step, dtype, stationarity_check, extremes=extremes)
 
 
 #: Rate samples whose first differences :func:`increment_kurtosis` reads at most (from the
@@ -739,11 +741,13 @@ def _with_warnings(
     dtype: str,
     check: bool,
     chunk: int | None = None,
+    extremes: tuple[float, float] | None = None,
 ) -> DeviationResult:
     """``result`` with the stationarity warning of ``record`` if ``check`` finds one."""
     if not check:
         return result
-    text = stationarity(record, tau0=step, data_type=dtype, chunk_size=chunk).warning()
+    text = stationarity(record, tau0=step, data_type=dtype, chunk_size=chunk,
+                        extremes=extremes).warning()  # fmt: skip
     return result if text is None else replace(result, warnings=(*result.warnings, text))
 
 
