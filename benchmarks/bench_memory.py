@@ -218,7 +218,7 @@ def write_large(path: Path, n: int, seed: int = 7) -> None:
     del out
 
 
-def measure_large(sizes: list[int]) -> None:
+def measure_large(sizes: list[int], only: set[str] | None = None) -> None:
     """Peak RSS of each :data:`LARGE` command on float32 files of ``sizes`` samples."""
     mb = 2**20
     print("| command | samples | input file | output | peak | peak / (input + output) | wall |"
@@ -230,6 +230,8 @@ def measure_large(sizes: list[int]) -> None:
             write_large(big, n)
             size = big.stat().st_size
             for label, (text, written) in LARGE.items():
+                if only and label not in only:
+                    continue
                 work = folder / "work"
                 work.mkdir()
                 args = [str(big) if w == "BIG" else w for w in text.split()]
@@ -253,7 +255,8 @@ def main() -> None:
     args = parser.parse_args()
     if args.large:
         print(f"machine: {describe()}", flush=True)
-        measure_large([int(float(v)) for v in args.large.split(",")])
+        only = set(args.only.split(",")) if args.only else None
+        measure_large([int(float(v)) for v in args.large.split(",")], only)
         return
     minutes = [float(v) for v in args.minutes.split(",")]
     only = set(args.only.split(",")) if args.only else None

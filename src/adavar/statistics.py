@@ -21,6 +21,7 @@ from adavar import edf as edf_mod
 from adavar import extended_statistics as ext
 from adavar import stream
 from adavar import stream_statistics as sstat
+from adavar._kernels.moments import difference_moments
 from adavar.errors import AdavarInputError
 from adavar.noise_id import (
     NOISE_ID_RULES,
@@ -719,17 +720,18 @@ def increment_kurtosis(u: Any, chunk: int = KURTOSIS_SAMPLES) -> float:
     read = u.read if hasattr(u, "read") else (lambda a, b: u[a:b])
     spans = [(a, min(stop, a + chunk + 1)) for a in range(start, stop - 1, chunk)]
 
-    def differences():
+    def pieces():
         for a, b in spans:
-            yield np.diff(np.asarray(read(a, b), dtype=np.float64))
+            yield np.ascontiguousarray(read(a, b), dtype=np.float64)
 
     count = stop - start - 1
-    mean = math.fsum(float(d.sum()) for d in differences()) / count
+    # the differences' sum telescopes: each piece's last sample less its first
+    mean = math.fsum(float(p[-1]) - float(p[0]) for p in pieces()) / count
     m2 = m4 = 0.0
-    for d in differences():
-        sq = (d - mean) ** 2
-        m2 += float(sq.sum())
-        m4 += float((sq * sq).sum())
+    for p in pieces():
+        two, four = difference_moments(p, mean)
+        m2 += two
+        m4 += four
     m2, m4 = m2 / count, m4 / count
     return m4 / (m2 * m2) if m2 > 0 else math.nan
 
