@@ -19,7 +19,7 @@ from adavar.simulate import sensor
 from .test_cli_monitor_ends import free_udp_port
 
 RATE = 10_000
-COUNT = 50_000
+COUNT = 30_000  # 3 s at the rate (benchmarks/bench_monitor_udp.py: longer)
 
 
 def one_core() -> None:

@@ -143,12 +143,12 @@ def test_lazy_with_a_time_column_is_refused(capsys, tmp_path):
 def test_davar_of_a_file_holds_pieces_not_the_record(capsys, tmp_path):
     """Issue 42: `adavar davar` on a .npy kept the change test's outputs at every centre
     (35 bytes a sample: 10.7 GB for 2e8 samples). Scaled down with --chunk-size: the traced
-    peak grows by less than a byte a sample from 1 Mi to 3 Mi samples (the correlation
+    peak grows by less than a byte a sample from 1 Mi to 2 Mi samples (the correlation
     estimate on the first 2**20 samples is a constant)."""
     import tracemalloc
 
     peaks = []
-    sizes = (1 << 20, 3 << 20)
+    sizes = (1 << 20, 2 << 20)
     for n in sizes:
         path = tmp_path / f"big{n}.npy"
         np.save(path, np.random.default_rng(4).standard_normal(n).astype(np.float32))

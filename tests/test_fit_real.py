@@ -155,13 +155,13 @@ def test_default_fit_follows_bandwidth_limited_quantised_curves():
     """3-h records: the model stays in the data's 95 % interval (or within 10 %) at every
     fitted tau from 1 s to 1000 s in nearly every record; the old fit in none."""
     follows = old_follows = 0
-    for seed in range(5):
+    for seed in range(3):  # 5 of 5 follow (and 0 of 5 before): 3 here, for time
         w = simulate.sensor(1_080_000, rate=RATE, bandwidth=10.0, lsb=1 / 131, seed=seed,
                             **MEMS)  # fmt: skip
         r = adavar.deviation(w, rate=RATE, taus="octave", units="deg/s")
         follows += _within(r, adavar.fit_noise(r))[0]
         old_follows += _within(r, adavar.fit_noise(r, method="wls"))[0]
-    assert follows >= 4 and old_follows == 0
+    assert follows == 3 and old_follows == 0
 
 
 def test_default_fit_of_a_bandwidth_limited_quantised_curve(mems):
