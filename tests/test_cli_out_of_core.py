@@ -140,6 +140,29 @@ def test_lazy_with_a_time_column_is_refused(capsys, tmp_path):
     assert_one_line_error(code, out, err, "time column", "--lazy")
 
 
+@pytest.mark.parametrize("extra", [[], ["--window", "3001"], ["--adaptive"]])
+def test_report_of_a_file(capsys, tmp_path, signal, monkeypatch, extra):
+    """report reads a .npy piece by piece (issue 42); with a surface (--window,
+    --adaptive), computed in blocks of a record in memory, it loads it (it used to fail
+    for --window when the file was streamed)."""
+    np.save(tmp_path / "x.npy", signal)
+    sizes = []
+    original = stream.ChunkedSource.read
+
+    def counting(self, start, stop):
+        sizes.append(stop - start)
+        return original(self, start, stop)
+
+    monkeypatch.setattr(stream.ChunkedSource, "read", counting)
+    code, _, err = run(capsys, ["report", str(tmp_path / "x.npy"), "--rate", "10",
+                                  "--units", "deg/s", *extra,
+                                  "-o", str(tmp_path / "r.html")])  # fmt: skip
+    assert code == 0, err
+    assert (tmp_path / "r.html").stat().st_size > 100_000
+    # streamed, the analyses read the file again and again; loaded, once
+    assert (len(sizes) > 1) == (not extra), sizes
+
+
 def test_davar_of_a_file_holds_pieces_not_the_record(capsys, tmp_path):
     """Issue 42: `adavar davar` on a .npy kept the change test's outputs at every centre
     (35 bytes a sample: 10.7 GB for 2e8 samples). Scaled down with --chunk-size: the traced

@@ -61,10 +61,11 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
     status = Status()
     status(f"reading {args.file}")
     chosen = args.column is not None  # several channels only when --column names them
-    # a file is read piece by piece (a record larger than memory), except for the
-    # adaptive window's surface, which is computed in blocks of a record in memory
+    # a file is read piece by piece (a record larger than memory), except for a surface
+    # (--window, --adaptive), which the report computes in blocks of a record in memory
+    in_memory = args.adaptive or args.window is not None
     loaded, meta, units_of, tau0 = load_input(
-        args, several=chosen, pieces=False, out_of_core=not args.adaptive
+        args, several=chosen, pieces=False, out_of_core=not in_memory
     )
     if not chosen:
         loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
