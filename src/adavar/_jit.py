@@ -9,16 +9,13 @@ while it waits, and a thread that a busy core slows down takes fewer parts.
   thread count, the number of cores; ``NUMBA_NUM_THREADS`` caps it).
   ``ADAVAR_THREADS=1`` runs everything on one thread; so does
   ``ADAVAR_SERIAL_KERNELS=1``.
-- ``OMP_WAIT_POLICY=PASSIVE`` (set here unless the environment sets it) still applies to
-  any Numba ``parallel=True`` code of the same process: a worker thread that has finished
-  its share sleeps instead of spinning.
+- No kernel uses Numba's ``parallel=True`` (OpenMP): nothing here depends on
+  ``OMP_WAIT_POLICY``, and importing adavar changes no environment variable.
 
-Compilation. ``NUMBA_OPT=2`` (set here unless the environment sets it) has LLVM optimise
-at -O2 rather than Numba's -O3: the kernels compile about 18 % faster on a first run
-(an empty cache: 27.4 -> 22.5 s for every kernel of ``adavar demo`` in one process) and
-ran as fast in every benchmark measured (``docs/benchmarks.md``, ninth pass). Numba reads
-the setting at each compilation, so it applies to other Numba code of the same process
-too; ``NUMBA_OPT=3`` in the environment restores Numba's default.
+Compilation. The ``adavar`` command sets ``NUMBA_OPT=2`` for its own process (unless the
+environment sets it, :func:`adavar.cli.run`): LLVM optimises at -O2 rather than Numba's
+-O3, and the kernels compile about 18 % faster on a first run and ran as fast in every
+benchmark measured. The library leaves Numba's setting as the user's process has it.
 
 Loading. A kernel found in the cache loads without setting Numba's compiler up (about 0.5
 s a process; :func:`_lazy_cache_loads`); ``ADAVAR_NUMBA_FULL_REFRESH=1`` restores Numba's
@@ -32,10 +29,6 @@ import os
 import threading
 from collections.abc import Callable, Iterator
 from typing import Any
-
-# before the OpenMP runtime starts (it reads the policy once, when Numba loads it)
-os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-os.environ.setdefault("NUMBA_OPT", "2")
 
 import numba
 
