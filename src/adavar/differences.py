@@ -43,6 +43,7 @@ __all__ = [
     "fused_lag1_levels",
     "modified_sums",
     "overlapping_sums",
+    "slide_window_sum",
     "strided_sums",
     "window_avar",
 ]
@@ -539,6 +540,21 @@ MOD_PART = 1 << 21
 
 
 @jit
+def slide_window_sum(enter, leave, n, s, c, acc):  # pragma: no cover - compiled
+    """Slide a window sum kept as ``s + c`` (compensated) ``n`` starts on: each start adds
+    ``enter[q]``, drops ``leave[q]`` and adds the new sum's square to ``acc``; returns
+    ``(s, c, acc)``. The MVAR numerator's step, in memory and out of core."""
+    for q in range(n):
+        s, e = two_sum(s, enter[q])
+        c += e
+        s, e = two_sum(s, -leave[q])
+        c += e
+        v = s + c
+        acc += v * v
+    return s, c, acc
+
+
+@jit
 def _modified_part(r, hh, hl, m, j0, j1):  # pragma: no cover - compiled
     """``sum_{j=j0}^{j1-1} (sum_{i=j}^{j+m-1} d_m[i])^2``, the window sum started afresh
     at ``j0`` and slid with a compensated running total."""
@@ -558,13 +574,7 @@ def _modified_part(r, hh, hl, m, j0, j1):  # pragma: no cover - compiled
         n = min(_MOD_CHUNK, j1 - j)
         _fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + n, enter)
         _fill_second_differences(r, hh, hl, m, j - 1, j - 1 + n, leave)
-        for q in range(n):
-            s, e = two_sum(s, enter[q])
-            c += e
-            s, e = two_sum(s, -leave[q])
-            c += e
-            v = s + c
-            acc += v * v
+        s, c, acc = slide_window_sum(enter, leave, n, s, c, acc)
         j += n
     return acc
 

@@ -29,7 +29,7 @@ import numpy as np
 from adavar import differences as diff
 from adavar._jit import grouped_items, jit, threaded_jit
 from adavar._kernels.double_double import dd_add, two_sum
-from adavar.differences import anchor_combo, segment_end
+from adavar.differences import anchor_combo, segment_end, slide_window_sum
 from adavar.stream import DEFAULT_CHUNK, ChunkedSource, read_extended
 
 __all__ = [
@@ -502,19 +502,6 @@ def _accumulate(d, n, s, c):  # pragma: no cover - compiled
     return s, c
 
 
-@jit
-def _slide(enter, leave, n, s, c, acc):  # pragma: no cover - compiled
-    """The sliding step of :func:`adavar.differences.modified_sums_kernel`, for ``n`` starts."""
-    for q in range(n):
-        s, e = two_sum(s, enter[q])
-        c += e
-        s, e = two_sum(s, -leave[q])
-        c += e
-        v = s + c
-        acc += v * v
-    return s, c, acc
-
-
 def modified_sums(phase: StreamedPhase, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """MVAR numerators ``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2``; returns (sums, counts).
 
@@ -558,7 +545,7 @@ def modified_sums(phase: StreamedPhase, ms: np.ndarray) -> tuple[np.ndarray, np.
                 xs = [x[k * m : k * m + n] for k in range(4)]
                 _fill2(xs[0], xs[1], xs[2], a - 1, bt - 1, m, hh, hl, leave)
                 _fill2(xs[1], xs[2], xs[3], a + m - 1, bt + m - 1, m, hh, hl, enter)
-                s, c, sums[t] = _slide(enter, leave, n, state[t, 0], state[t, 1], sums[t])
+                s, c, sums[t] = slide_window_sum(enter, leave, n, state[t, 0], state[t, 1], sums[t])
                 state[t] = s, c
 
     piece = max(1, chunk // 4)
@@ -578,7 +565,7 @@ def modified_sums(phase: StreamedPhase, ms: np.ndarray) -> tuple[np.ndarray, np.
             xs = [w.get(a - 1 + k * m, b - 1 + k * m) for k, w in enumerate(windows)]
             _fill2(xs[0], xs[1], xs[2], a - 1, b - 1, m, hh, hl, leave)
             _fill2(xs[1], xs[2], xs[3], a + m - 1, b + m - 1, m, hh, hl, enter)
-            s, c, acc = _slide(enter, leave, b - a, s, c, acc)
+            s, c, acc = slide_window_sum(enter, leave, b - a, s, c, acc)
         sums[t] = acc
     return sums, counts
 
