@@ -244,14 +244,19 @@ def parse_taus(text: str) -> str | list[float]:
     return values
 
 
-def _fraction(text: str) -> float:
+def _between(text: str, low: float, high: float, what: str) -> float:
+    """``text`` as a number strictly between ``low`` and ``high``, or ``what`` as the error."""
     try:
         value = float(text)
     except ValueError:
         value = math.nan
-    if not 0.0 < value < 1.0:
-        raise argparse.ArgumentTypeError(f"must be a fraction between 0 and 1, got {text!r}")
+    if not low < value < high:
+        raise argparse.ArgumentTypeError(f"{what}, got {text!r}")
     return value
+
+
+def _fraction(text: str) -> float:
+    return _between(text, 0.0, 1.0, "must be a fraction between 0 and 1")
 
 
 def parse_seed(text: str) -> int:
@@ -709,13 +714,7 @@ def _tau_range(text: str) -> tuple[float | None, float | None]:
 
 def _probability(text: str) -> float:
     """A one-sided confidence level strictly between 0.5 and 1."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.5 < value < 1.0:
-        raise argparse.ArgumentTypeError(f"takes a probability between 0.5 and 1, got {text!r}")
-    return value
+    return _between(text, 0.5, 1.0, "takes a probability between 0.5 and 1")
 
 
 def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
