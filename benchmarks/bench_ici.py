@@ -1,6 +1,6 @@
 """The ICI adaptive window (issue 18) against fixed windows, A-DAVAR and DAVAR-K.
 
-Two benchmarks, with the ground-truth metrics of :mod:`adavar.compare` (``N(t) / N_true - 1``
+Two benchmarks, with the ground-truth metrics of :mod:`adavar.comparison` (``N(t) / N_true - 1``
 over the stationary centres, farther than ``Lmax / 2`` from every change: ``std`` and the
 robust ``mad``; tracking: the mean ``|N - N_true| / N_true`` within ``Lmax`` of each change):
 
@@ -45,7 +45,7 @@ from bench_adaptive_real import NOISE, _record
 
 import adavar
 from adavar.adaptive import record_windows
-from adavar.compare import EdfCache, run_comparison, tracking_metrics
+from adavar.comparison import EdfCache, run_comparison, tracking_metrics
 from adavar.paper.scenarios import paper_scenario
 from adavar.settings import CONTROLLER
 

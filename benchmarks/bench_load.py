@@ -15,15 +15,12 @@
   and (``--only first-large``) the same calls on 20,000 samples and then on the hour, with
   an empty Numba cache: the first run of a user whose record is large (it compiles the
   kernels' paths for small and for large inputs);
-* first commands (``--only first-commands``): ``adavar davar`` and ``adavar adaptive`` on
-  30 minutes of a simulated MEMS gyro at 200 Hz (50 Hz bandwidth, quantised), and ``adavar
-  compare --scenario 1`` (the paper's four methods), each with an empty Numba cache,
-  with the first-run helper process (``adavar._compile_ahead``) and without it
-  (``ADAVAR_COMPILE_AHEAD=0``, the peer), alternated, quiet and with another process busy
-  on one core.
+* cold and warm (``--only cold-warm [--baseline OTHER/src]``): ``adavar avar --fit`` on
+  an hour at 100 Hz and ``adavar demo``, with an empty Numba cache, warm, and after
+  ``adavar precompile``; the baseline tree (the previous main) in the same run.
 
 Run: ``python benchmarks/bench_load.py [--max-n 10000000] [--skip-demo]
-[--only memory|threaded|first-large|first-commands]``.
+[--only memory|threaded|first-large|cold-warm] [--baseline SRC]``.
 """
 
 from __future__ import annotations
@@ -143,7 +140,8 @@ def memory() -> list[str]:
         path = os.path.join(tmp, "gyro.csv")
         np.savetxt(path, rng.standard_normal(n) * 0.01, fmt="%.9g", header="gz", comments="")
         cli = [sys.executable, "-m", "adavar.cli"]
-        base = _peak_rss_mb([sys.executable, "-c", "import adavar.cli, adavar.davar, adavar.plots"])
+        imports = "import adavar.cli, adavar.surface, adavar.plots"
+        base = _peak_rss_mb([sys.executable, "-c", imports])
         runs = {
             "avar --taus all": ["avar", path, "--rate", "200", "--units", "deg/s", "--taus", "all"],
             "davar (window 60 s)": ["davar", path, "--rate", "200", "--units", "deg/s",
@@ -318,52 +316,51 @@ def first_run_large() -> list[str]:
             f"{compiling:.1f} s |"]  # fmt: skip
 
 
-def _cold_seconds(cmd: list[str], ahead: str) -> float:
-    with tempfile.TemporaryDirectory() as cache:
-        env = {**os.environ, "NUMBA_CACHE_DIR": cache, "ADAVAR_COMPILE_AHEAD": ahead}
-        start = time.perf_counter()
-        subprocess.run(cmd, check=True, capture_output=True, env=env)
-        return time.perf_counter() - start
+def _timed(cmd: list[str], env: dict) -> float:
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, capture_output=True, env=env)
+    return time.perf_counter() - start
 
 
-def first_commands(repeats: int = 3) -> list[str]:
-    """``davar`` and ``adaptive`` with an empty cache, with and without the helper."""
+def cold_warm(baseline: str | None, repeats: int = 3) -> list[str]:
+    """``adavar avar --fit`` (one hour at 100 Hz) and ``adavar demo`` on an empty Numba
+    cache (cold), then warm (best of ``repeats``), then on a fresh cache filled by
+    ``adavar precompile``; for this tree and, with ``baseline`` (the ``src`` folder of
+    another checkout, e.g. the previous main), for that one in the same run."""
     lines = []
+    trees = {"this tree": None}
+    if baseline:
+        trees["baseline"] = baseline
     with tempfile.TemporaryDirectory() as folder:
-        csv = f"{folder}/gyro.csv"
-        subprocess.run([sys.executable, "-m", "adavar.cli", "simulate", "-o", csv, "--n",
-                        "360000", "--rate", "200", "--arw", "0.003", "--bias-instability",
-                        "0.0005", "--rrw", "0.0001", "--bandwidth", "50", "--lsb", "0.0001",
-                        "--units", "deg/s", "--seed", "3"],
-                       check=True, capture_output=True)  # fmt: skip
+        data = f"{folder}/gyro.txt"
+        rng = np.random.default_rng(1)
+        x = 1e-3 * rng.standard_normal(360_000) + np.cumsum(1e-6 * rng.standard_normal(360_000))
+        np.savetxt(data, x, fmt="%.9e")
         commands = {
-            "adavar davar --window 60s": ["davar", csv, "--units", "deg/s", "--window", "60s"],
-            "adavar adaptive": ["adaptive", csv, "--units", "deg/s"],
-            "adavar compare --scenario 1": ["compare", "--scenario", "1"],
+            "avar --fit": ["avar", data, "--rate", "100", "--units", "deg/s", "--fit"],
+            "demo": ["demo", "--out", f"{folder}/demo", "--force"],
         }
-        for busy in (False, True):
-            stop = mp.Event()
-            spinner = mp.Process(target=_spin, args=(stop,)) if busy else None
-            if spinner is not None:
-                spinner.start()
-            try:
-                for name, argv in commands.items():
-                    times: dict[str, list[float]] = {"1": [], "0": []}
-                    for _ in range(repeats):
-                        for ahead in ("1", "0"):
-                            cmd = [sys.executable, "-m", "adavar.cli", *argv, "--out",
-                                   f"{folder}/out", "--force"]  # fmt: skip
-                            times[ahead].append(_cold_seconds(cmd, ahead))
-                    with_, without = np.median(times["1"]), np.median(times["0"])
-                    where = "one core busy" if busy else "quiet"
-                    lines.append(f"| {name}, empty cache, {where} | {with_:.1f} s "
-                                 f"({', '.join(f'{t:.1f}' for t in times['1'])}) | "
-                                 f"{without:.1f} s ({', '.join(f'{t:.1f}' for t in times['0'])})"
-                                 f" | {without / with_:.2f} |")  # fmt: skip
-            finally:
-                if spinner is not None:
-                    stop.set()
-                    spinner.join()
+        for tree, src in trees.items():
+            base_env = dict(os.environ)
+            if src is not None:
+                base_env["PYTHONPATH"] = src
+            for name, argv in commands.items():
+                cmd = [sys.executable, "-m", "adavar.cli", *argv]
+                with tempfile.TemporaryDirectory() as cache:
+                    env = {**base_env, "NUMBA_CACHE_DIR": cache}
+                    cold = _timed(cmd, env)
+                    warm = min(_timed(cmd, env) for _ in range(repeats))
+                after = float("nan")
+                if src is None:
+                    with tempfile.TemporaryDirectory() as cache:
+                        env = {**base_env, "NUMBA_CACHE_DIR": cache}
+                        pre = _timed([sys.executable, "-m", "adavar.cli", "precompile"], env)
+                        after = _timed(cmd, env)
+                    after_text = f"{after:.1f} s (precompile {pre:.0f} s)"
+                else:
+                    after_text = "-"
+                lines.append(f"| {tree} | {name} | {cold:.1f} s | {warm:.2f} s | "
+                             f"{cold / warm:.1f} | {after_text} |")  # fmt: skip
     return lines
 
 
@@ -383,8 +380,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--max-n", type=int, default=10**7)
     parser.add_argument("--skip-demo", action="store_true")
-    parser.add_argument("--only", choices=("memory", "threaded", "first-large", "first-commands"),
+    parser.add_argument("--only", choices=("memory", "threaded", "first-large", "cold-warm"),
                         help="run one section")  # fmt: skip
+    parser.add_argument("--baseline", metavar="SRC",
+                        help="cold-warm: also the adavar of this src folder (a checkout of the "
+                        "previous main), in the same run")  # fmt: skip
     args = parser.parse_args()
     print(f"machine: {describe()}")
     print(f"at the start, {speed_probe()}", flush=True)
@@ -405,10 +405,10 @@ def _sections(args: argparse.Namespace) -> None:
         for line in first_run_large():
             print(line, flush=True)
         return
-    if args.only == "first-commands":
-        print("| command | with the helper (median; runs) | without (peer) | ratio |")
-        print("|---|---|---|---|")
-        for line in first_commands():
+    if args.only == "cold-warm":
+        print("| adavar | command | cold | warm | cold / warm | after precompile |")
+        print("|---|---|---|---|---|---|")
+        for line in cold_warm(args.baseline):
             print(line, flush=True)
         return
     if args.only == "threaded":

@@ -46,10 +46,10 @@ RATE = 200.0
 DEFAULT_MINUTES = "4,12"
 UNITS = ["--rate", "200", "--units", "deg/s"]
 
-# run the command in-process through adavar.cli.main, then list the modules it loaded
+# run the command in-process through adavar.cli.entry.main, then list the modules it loaded
 _DRIVER = (
     "import sys, gc\n"
-    "from adavar.cli.main import main\n"
+    "from adavar.cli.entry import main\n"
     "code = main(sys.argv[2:])\n"
     "open(sys.argv[1], 'w').write('\\n'.join(sorted(sys.modules)))\n"
     "gc.freeze()\n"

@@ -27,7 +27,7 @@ def assert_one_line_error(code, out, err, *fragments):
 #: The library modules whose functions the commands import when they run (the command
 #: modules import them inside their functions, so that ``adavar --help`` stays light).
 LIBRARY = ("adavar.analysis", "adavar.statistics", "adavar.noise_model", "adavar.adaptive",
-           "adavar.davar", "adavar.export", "adavar.simulate")  # fmt: skip
+           "adavar.surface", "adavar.export", "adavar.simulate")  # fmt: skip
 
 
 def patch_cli(monkeypatch, name, value):

@@ -40,7 +40,7 @@ from adavar.batch import (
     run_batch,
 )
 from adavar.batch_state import BATCH_LOCK, BATCH_STATE, folder_name
-from adavar.compare import schedule_nodes
+from adavar.comparison import schedule_nodes
 from adavar.writers import OUTPUT_MARKER
 
 from .cli_helpers import assert_one_line_error, run
@@ -697,7 +697,7 @@ def test_fixed_window_events_follow_the_controller_flags(records):
 def test_keep_figures_gives_the_same_report_and_events(records, options, monkeypatch):
     """``keep="figures"`` (what adavar report and batch use) fits the surface a block at a
     time and keeps its drawn rows: the same page, events and shape as the whole surface."""
-    monkeypatch.setattr(sys.modules["adavar.davar"], "BLOCK_VALUES", 4096)  # many blocks
+    monkeypatch.setattr(sys.modules["adavar.surface"], "BLOCK_VALUES", 4096)  # many blocks
     options = {"units": "deg/s", "rate": RATE, **options}
     whole = analyse_file(records["g2"], options)
     blocks = analyse_file(records["g2"], options, keep="figures")

@@ -191,7 +191,7 @@ _SCRIPT = """
 import importlib, os, sys
 from adavar.cli import main
 
-module = importlib.import_module("adavar.{module}")  # adavar.davar is also a function
+module = importlib.import_module("adavar.{module}")
 
 path, argv = sys.argv[1], sys.argv[2:]
 original = module.{function}
@@ -208,7 +208,7 @@ sys.exit(main([argv[0], path, *argv[1:]]))
 #: (module, function after which the file is cut short, command)
 _SIGBUS_RUNS = {
     # the events' check of a fixed window read the map: davar --chunk-size (the issue)
-    "davar": ("davar", "davar", ["davar", "--rate", "10", "--units", "deg/s", "--window",
+    "davar": ("surface", "davar", ["davar", "--rate", "10", "--units", "deg/s", "--window",
                                  "2001", "--step", "997", "--chunk-size", "4096"]),
     # preprocessing loaded the record through the map
     "preprocess": ("readers", "read_record", ["avar", "--rate", "10", "--units", "deg/s",

@@ -163,9 +163,7 @@ def test_every_keyword_has_a_flag():
     from adavar.cli import build_parser
 
     parser = build_parser()
-    sub = next(a for a in parser._actions if hasattr(a, "choices") and a.choices
-               and "monitor" in a.choices)  # fmt: skip
-    flags = {o for a in sub.choices["monitor"]._actions for o in a.option_strings}
+    flags = {o for _, _, a in parser.commands["monitor"].options for o in a.option_strings}
     not_flags = {"fit_options": "--bandwidth", "keep": "the command keeps recent rows",
                  "l": "--l", "thresholds": "--thresholds",
                  "pairing": "the command pairs by level (the default)"}  # fmt: skip

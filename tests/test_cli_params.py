@@ -9,7 +9,6 @@ A new keyword in the library fails this file until the CLI passes it on.
 
 from __future__ import annotations
 
-import argparse
 import importlib
 import inspect
 import math
@@ -21,11 +20,10 @@ import pytest
 
 import adavar
 from adavar import cli, readers, simulate
+from adavar import comparison as compare_module
 from adavar.plots import rate_unit
 
 from .cli_helpers import patch_cli, run
-
-compare_module = importlib.import_module("adavar.compare")  # adavar.compare is the function
 
 #: Library keyword -> CLI flag, where the flag is not the keyword with dashes.
 RENAMED = {
@@ -90,9 +88,8 @@ FUNCTIONS = [
 def flags_of(command: str) -> set[str]:
     """The long options of ``adavar COMMAND`` (and FILE if it takes one)."""
     parser = cli.build_parser()
-    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     flags = set()
-    for action in sub.choices[command]._actions:
+    for _, _, action in parser.commands[command].options:
         flags.update(opt for opt in action.option_strings if opt.startswith("--"))
         if action.dest == "file":
             flags.add("FILE")
@@ -155,7 +152,6 @@ def test_chunk_size_flag_on_the_commands_that_read_records():
 
 def _cli_function(name: str) -> Any:
     """The library function ``name`` as the command modules import it."""
-    import importlib
     import pkgutil
 
     for info in pkgutil.iter_modules(cli.__path__):

@@ -10,7 +10,7 @@ import pytest
 
 import adavar
 from adavar.adaptive import adaptive_schedule, oracle_schedule
-from adavar.compare import (
+from adavar.comparison import (
     PAPER_TABLE1_NODES,
     Comparison,
     EdfCache,

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import math
 
 import numpy as np
@@ -12,13 +11,12 @@ from hypothesis import strategies as st
 
 import adavar
 from adavar import edf as edf_mod
-from adavar.davar import EDF_EXACT_LENGTHS, davar, edf_table
+from adavar import surface as davar_mod
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
+from adavar.surface import EDF_EXACT_LENGTHS, davar, edf_table
 
 from . import reference
-
-davar_mod = importlib.import_module("adavar.davar")  # the package's `davar` is the function
 
 RTOL = 1e-9
 

@@ -22,14 +22,14 @@ from hypothesis import strategies as st
 
 import adavar
 from adavar import _jit, stream
-from adavar.davar import _edf_of_counts, davar
 from adavar.errors import AdavarInputError
 from adavar.gaps import effective_points
+from adavar.surface import davar, edf_of_counts
 from adavar.windows import window_overhang
 
 from .cli_helpers import assert_one_line_error, run
 
-davar_mod = importlib.import_module("adavar.davar")
+davar_mod = importlib.import_module("adavar.surface")
 gaps_kernel = importlib.import_module("adavar._kernels.window_gaps")
 
 #: worst relative error of a kept cell against the exact reference (measured: see the
@@ -281,7 +281,7 @@ def test_each_cell_gets_the_edf_of_its_kept_count():
         counts = np.unique(r.terms[:, t])
         counts = counts[counts > 0]
         assert np.all(effective_points("oadev", m, counts) == counts + 2 * m)
-        want = dict(zip(counts.tolist(), _edf_of_counts(counts, a, m), strict=True))
+        want = dict(zip(counts.tolist(), edf_of_counts(counts, a, m), strict=True))
         got = r.edf[:, t]
         np.testing.assert_array_equal(got, [want[int(c)] for c in r.terms[:, t]])
     # where every term is kept, the gap-free window's EDF (to the interpolation, 1e-3)

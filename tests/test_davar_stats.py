@@ -9,7 +9,6 @@ exact to an ulp whatever the offset, step or drift of the data.
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 
@@ -22,14 +21,12 @@ from scipy.stats import chi2
 
 from adavar import _jit, stream
 from adavar import edf as edf_mod
-from adavar.davar import DavarStatResult, davar
 from adavar.errors import AdavarInputError
 from adavar.noise_model import fit_noise
 from adavar.statistics import deviation
+from adavar.surface import DavarStatResult, davar
 
 from .cli_helpers import assert_one_line_error, run
-
-davar_mod = importlib.import_module("adavar.davar")  # the package's `davar` is the function
 
 #: worst relative error of a kernel cell against the exact reference (measured: 3.3e-16
 #: over 1500 random cases)

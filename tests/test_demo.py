@@ -176,17 +176,16 @@ def test_compilations_records_compiles_not_cache_loads():
     assert not compiled  # warm: the demo goes straight to the comparison
 
 
-def test_worker_pool_starts_now_and_can_leave_the_collector_off():
-    import gc
-
+def test_worker_pool_starts_now_and_preloads():
     from adavar import _workers
 
-    pool = _workers.worker_pool(2, start=True, collect=False)
+    pool = _workers.worker_pool(2, ("adavar.units",), start=True)
     if pool is None:
         pytest.skip("this machine cannot start a second process")
     with pool:
         assert len(pool._processes) == 1  # started before any work was submitted
-        assert pool.submit(gc.isenabled).result(timeout=120) is False
+        loaded = pool.submit(eval, "'adavar.units' in __import__('sys').modules")
+        assert loaded.result(timeout=120) is True
     assert _workers.worker_pool(1) is None
 
 

@@ -597,7 +597,7 @@ def test_lag1_errors():
 @pytest.mark.parametrize("mu", [-2, -1, 0, 1, 2, 3])
 @pytest.mark.parametrize("n", [3, 10, 29, 1000])
 def test_b1_theory_matches_allantools(mu, n):
-    assert edf_mod._b1_theory(n, mu) == pytest.approx(at.ci.b1_theory(n, mu), rel=1e-12)
+    assert edf_mod.b1_theory(n, mu) == pytest.approx(at.ci.b1_theory(n, mu), rel=1e-12)
 
 
 @pytest.mark.parametrize("alpha", ALPHAS)

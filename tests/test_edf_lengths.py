@@ -11,7 +11,6 @@ here).
 
 from __future__ import annotations
 
-import importlib
 import math
 import re
 from typing import Any
@@ -23,11 +22,10 @@ from hypothesis import strategies as st
 from scipy.interpolate import PchipInterpolator
 
 from adavar import edf as edf_mod
+from adavar import surface as davar_mod
 from adavar.edf import EDF_FLOOR, STAT_ALPHA_RANGE, TOTDEV_EDF_METHODS, edf, edf_lengths
 
 from .test_edf import STATS
-
-davar_mod = importlib.import_module("adavar.davar")  # the module, not adavar.davar()
 
 # (d, overlapping, modified) of the Greenhall estimator behind each statistic (test_edf's
 # table); totdev's Greenhall cases (PM noise, m = 1) are those of oadev
@@ -200,14 +198,14 @@ def test_case_names_are_sound():
 def _old_grid(stat: str, alpha: int, m: int, k_lo: int, k_hi: int) -> tuple[Any, Any, Any]:
     k = np.arange(k_lo, k_hi)
     nodes = np.unique(np.round(64 * 2.0 ** (k / 8))).astype(np.int64)
-    width = davar_mod._term_width(stat, m)
+    width = davar_mod.term_width(stat, m)
     values = np.array([edf(stat, alpha, m, int(g) + width) for g in nodes])
     return nodes, values, PchipInterpolator(np.log(nodes), np.log(values))
 
 
 def _old_edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str) -> np.ndarray:
     counts = np.asarray(counts, dtype=np.int64)
-    width = davar_mod._term_width(stat, m)
+    width = davar_mod.term_width(stat, m)
     exact = counts <= 64
     out = np.empty(counts.size)
     out[exact] = [edf(stat, alpha, m, int(c) + width) for c in counts[exact]]
@@ -235,7 +233,7 @@ def _old_edf_table(lengths, ms, alpha, overhang=None, stat="oadev", exact_pairs=
             rows = np.flatnonzero(3 * m <= lengths)
             if rows.size == 0:
                 continue
-            width = davar_mod._term_width(stat, m)
+            width = davar_mod.term_width(stat, m)
             terms = lengths[rows] + 1 - width
             repeats = np.maximum(0, overhang[rows] - width // 2)
             effective = np.maximum(1, np.round(terms * terms / (terms + 2 * repeats)))
@@ -310,7 +308,7 @@ def test_edf_of_counts_as_before():
     counts = np.unique(np.geomspace(1, 10**6, 200).astype(np.int64))
     for stat in ("oadev", "ohdev", "mdev"):
         for alpha, m in ((-2, 1), (0, 7), (1, 40), (2, 300), (-1, 2000)):
-            got = davar_mod._edf_of_counts(counts, alpha, m, stat)
+            got = davar_mod.edf_of_counts(counts, alpha, m, stat)
             want = _old_edf_of_counts(counts, alpha, m, stat)
             np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
             assert math.isfinite(got.sum())
@@ -323,8 +321,8 @@ def test_edf_of_counts_do_not_depend_on_the_grid_a_call_finds():
     large = np.array([100, 5_000, 300_000])
     for stat, alpha, m in (("oadev", 0, 3), ("mdev", 1, 17), ("ohdev", -2, 5)):
         davar_mod._EDF_GRIDS.clear()
-        alone = davar_mod._edf_of_counts(large, alpha, m, stat)
+        alone = davar_mod.edf_of_counts(large, alpha, m, stat)
         davar_mod._EDF_GRIDS.clear()
-        davar_mod._edf_of_counts(small, alpha, m, stat)  # a small grid first
-        after = davar_mod._edf_of_counts(large, alpha, m, stat)  # then extended
+        davar_mod.edf_of_counts(small, alpha, m, stat)  # a small grid first
+        after = davar_mod.edf_of_counts(large, alpha, m, stat)  # then extended
         np.testing.assert_array_equal(after, alone)

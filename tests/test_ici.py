@@ -21,7 +21,7 @@ from scipy.stats import chi2
 import adavar
 from adavar import simulate
 from adavar.adaptive import adaptive_davar, adaptive_schedule
-from adavar.compare import compare
+from adavar.comparison import compare
 from adavar.errors import AdavarInputError
 from adavar.ici import (
     CENTRED,

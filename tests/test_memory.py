@@ -7,7 +7,6 @@ bounds below, in surfaces (8 bytes a cell), hold on a record that takes a second
 
 from __future__ import annotations
 
-import importlib
 import os
 import sys
 import threading
@@ -19,9 +18,8 @@ import pytest
 import adavar
 import adavar.stack_fit as stack_fit
 from adavar import simulate
-from adavar.compare import FIGURE_WINDOWS, compare
-
-davar_module = importlib.import_module("adavar.davar")  # the package's `davar` is the function
+from adavar import surface as davar_module
+from adavar.comparison import FIGURE_WINDOWS, compare
 
 
 @pytest.fixture

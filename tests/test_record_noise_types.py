@@ -137,7 +137,7 @@ def _reference_noise_types(u, ms, dmax, noise_id):
         a = math.nan
         try:
             if z.size >= nid.MIN_POINTS_LAG1 and on_phase:
-                x = nid._detrend(np.concatenate([[0.0], np.cumsum(z)]), 2)
+                x = nid.detrend_poly(np.concatenate([[0.0], np.cumsum(z)]), 2)
                 c = x - x.mean()
                 den = float(np.dot(c, c))
                 r1 = float(np.dot(c[:-1], c[1:])) / den if den > 0 else math.nan
@@ -295,15 +295,15 @@ def test_b1_alpha_is_the_numpy_ratio(n, seed, scale, offset, walk):
     avar = 0.5 * float(np.mean(np.diff(y) ** 2))
     if not avar > 0:
         with pytest.raises(nid.NoiseIdError):
-            nid._b1_alpha(y)
+            nid.b1_alpha(y)
         return
     ratio = float(np.var(y, ddof=1)) / avar
     want = 1
     for a_hi, (mu_lo, mu_hi) in zip((0, -1, -2), ((-2, -1), (-1, 0), (0, 1)), strict=True):
-        if ratio <= math.sqrt(nid._b1_theory(n, mu_lo) * nid._b1_theory(n, mu_hi)):
+        if ratio <= math.sqrt(nid.b1_theory(n, mu_lo) * nid.b1_theory(n, mu_hi)):
             break
         want = a_hi
-    assert nid._b1_alpha(y) == want
+    assert nid.b1_alpha(y) == want
 
 
 def test_compiled_rules_are_the_python_rules():

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import tracemalloc
 
 import numpy as np
@@ -14,11 +13,10 @@ from hypothesis import strategies as st
 from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import simulate, stream
-from adavar.davar import davar
+from adavar import surface as davar_mod
 from adavar.errors import AdavarInputError
 from adavar.statistics import record_noise_types
-
-davar_mod = importlib.import_module("adavar.davar")  # the package's `davar` is the function
+from adavar.surface import davar
 
 RTOL = 1e-12
 

@@ -372,7 +372,7 @@ def test_mtot_and_htot_edf_formulas():
         assert tf.edf("htotdev", a, 20, n) == pytest.approx(r / (b0 + b1 / r))
     for a in (2, 1):
         assert tf.edf("htotdev", a, 20, n) == edf_mod.edf("ohdev", a, 20, n)
-        want = edf_mod._edf_simple_avar(a, 20, n)
+        want = edf_mod.edf_simple_avar(a, 20, n)
         assert tf.edf("htotdev", a, 20, n, total_edf="stable32") == want
     for a in range(-4, 3):
         assert tf.edf("htotdev", a, 1, n) == edf_mod.edf("ohdev", a, 1, n)

@@ -57,13 +57,13 @@ def _default(action: argparse.Action) -> str:
 
 def _rows(parser: argparse.ArgumentParser) -> list[str]:
     rows = ["| option | default | description |", "|---|---|---|"]
-    for action in parser._actions:
-        if isinstance(action, (argparse._HelpAction, argparse._SubParsersAction)):
+    for _, _, action in parser.options:
+        if action.dest == "help":
             continue
         if action.help is argparse.SUPPRESS:
             continue
         text = _escape(_help(action, parser))
-        if action.choices and not isinstance(action, argparse._SubParsersAction):
+        if action.choices:
             choices = ", ".join(f"`{c}`" for c in action.choices)
             text = f"{text}<br>choices: {choices}" if text else f"choices: {choices}"
         if action.required and action.option_strings:
@@ -73,17 +73,11 @@ def _rows(parser: argparse.ArgumentParser) -> list[str]:
 
 
 def _usage(parser: argparse.ArgumentParser) -> str:
-    formatter = argparse.HelpFormatter(parser.prog, width=WIDTH)
-    formatter.add_usage(parser.usage, parser._actions, parser._mutually_exclusive_groups)
-    return formatter.format_help().strip()
+    return parser.format_usage().strip()
 
 
 def _subcommands(parser: argparse.ArgumentParser) -> tuple[dict, dict]:
-    for action in parser._actions:
-        if isinstance(action, argparse._SubParsersAction):
-            summaries = {a.dest: a.help or "" for a in action._choices_actions}
-            return action.choices, summaries
-    return {}, {}
+    return parser.commands, parser.summaries
 
 
 def page() -> str:

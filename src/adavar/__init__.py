@@ -26,8 +26,6 @@ The public entry points:
 from __future__ import annotations
 
 import importlib
-import sys
-import types
 from typing import TYPE_CHECKING, Any
 
 # public names -> the module that defines them, imported on first use (PEP 562), so that
@@ -36,12 +34,12 @@ _LAZY = {
     "AdaptiveResult": "adavar.adaptive",
     "adaptive_davar": "adavar.adaptive",
     "adaptive_schedule": "adavar.adaptive",
-    "compare": "adavar.compare",
+    "compare": "adavar.comparison",
     "CodeviationResult": "adavar.cornered_hat",
     "CorneredHatResult": "adavar.cornered_hat",
     "cornered_hat": "adavar.cornered_hat",
     "gcodev": "adavar.cornered_hat",
-    "davar": "adavar.davar",
+    "davar": "adavar.surface",
     "Duration": "adavar.durations",
     "seconds": "adavar.durations",
     "AdavarInputError": "adavar.errors",
@@ -69,9 +67,8 @@ _SUBMODULES = ("simulate",)
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from adavar import simulate
     from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
-    from adavar.compare import compare
+    from adavar.comparison import compare
     from adavar.cornered_hat import CodeviationResult, CorneredHatResult, cornered_hat, gcodev
-    from adavar.davar import davar
     from adavar.durations import Duration, seconds
     from adavar.errors import AdavarInputError
     from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
@@ -83,6 +80,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from adavar.results import DavarResult, DeviationResult, MarkovTerm
     from adavar.stationary_noise import StationarityResult, stationarity
     from adavar.statistics import deviation
+    from adavar.surface import davar
 
 
 def __getattr__(name: str) -> Any:
@@ -98,19 +96,6 @@ def __getattr__(name: str) -> Any:
 
 def __dir__() -> list[str]:
     return sorted(set(globals()) | set(__all__))
-
-
-class _Package(types.ModuleType):
-    """``adavar.compare`` and ``adavar.davar`` are functions (as they always were), though
-    modules of those names exist: importing the module must not rebind the name."""
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name in _LAZY and isinstance(value, types.ModuleType):
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
 
 
 __all__ = [

@@ -17,9 +17,9 @@ environment sets it, :func:`adavar.cli.run`): LLVM optimises at -O2 rather than 
 -O3, and the kernels compile about 18 % faster on a first run and ran as fast in every
 benchmark measured. The library leaves Numba's setting as the user's process has it.
 
-Loading. A kernel found in the cache loads without setting Numba's compiler up (about 0.5
-s a process; :func:`_lazy_cache_loads`); ``ADAVAR_NUMBA_FULL_REFRESH=1`` restores Numba's
-own loading.
+Caching. Every kernel is compiled with ``cache=True`` and only through Numba's public API:
+a first run compiles what it reaches and stores it on disk; ``adavar precompile``
+compiles every kernel ahead of a first analysis (:mod:`adavar.precompile`).
 """
 
 from __future__ import annotations
@@ -27,8 +27,7 @@ from __future__ import annotations
 import contextlib
 import os
 import threading
-from collections.abc import Callable, Iterator
-from typing import Any
+from collections.abc import Iterator
 
 import numba
 
@@ -76,89 +75,16 @@ def compilations() -> Iterator[list]:
         yield recorder.buffer
 
 
-def _one_signature_per_type(dispatcher):
-    """Compile calls from other kernels for plain types, not for the constants passed.
-
-    A kernel that calls ``f(a, 0)`` makes Numba compile ``f`` for ``Literal[int](0)`` as
-    well as for ``int64``: a second copy of the same machine code, and first-run time for
-    nothing. The argument types of such calls are widened to their non-literal types
-    (every kernel here takes plain numbers), so each callee compiles once per array layout.
-    """
-    base = type(dispatcher).get_call_template
-
-    def get_call_template(args, kws):
-        args = tuple(numba.types.unliteral(a) for a in args)
-        kws = {k: numba.types.unliteral(v) for k, v in kws.items()}
-        return base(dispatcher, args, kws)
-
-    dispatcher.get_call_template = get_call_template
-    return dispatcher
-
-
-def _load_overload_lazily(self, sig, target_context):
-    """``numba.core.caching.Cache.load_overload`` without Numba's compiler set-up.
-
-    Numba's own version first ``refresh``-es the target context: it imports and registers
-    every typing and lowering implementation of the compiler (about 0.5 s, once per
-    process), which only compiling needs. Loading machine code from the cache needs the
-    runtime (NRT) initialised and nothing else; a kernel not in the cache is compiled,
-    and the compiler then refreshes the context itself.
-    """
-    from numba.core.runtime import rtsys
-
-    rtsys.initialize(target_context)
-    with self._guard_against_spurious_io_errors():
-        found = self._load_overload(sig, target_context)
-        if found is None and BEFORE_COMPILING is not None and BEFORE_COMPILING(self._py_func):
-            found = self._load_overload(sig, target_context)  # compiled by the helper
-        return found
-    return None  # an I/O error the guard swallowed: compiled instead
-
-
-#: set by :mod:`adavar._compile_ahead` while its helper process runs: called with a
-#: kernel's Python function when it is about to be compiled, it waits while the helper
-#: compiles that kernel and returns True when the cache may now hold it
-BEFORE_COMPILING: Callable[[Any], bool] | None = None
-
-
-def _lazy_cache_loads(dispatcher):
-    """Have ``dispatcher`` load its cached versions with :func:`_load_overload_lazily`.
-
-    ``ADAVAR_NUMBA_FULL_REFRESH=1`` keeps Numba's own loading (which sets the whole
-    compiler up first), as does a Numba whose cache lacks the methods used.
-    """
-    cache = getattr(dispatcher, "_cache", None)
-    if os.environ.get("ADAVAR_NUMBA_FULL_REFRESH", "") != "1" and all(
-        hasattr(cache, name) for name in _CACHE_METHODS
-    ):
-        cache.load_overload = _load_overload_lazily.__get__(cache)
-    return dispatcher
-
-
-#: what :func:`_load_overload_lazily` uses of a Numba function cache
-_CACHE_METHODS = ("load_overload", "_load_overload", "_guard_against_spurious_io_errors")
-
-
 def jit(*args, **kwargs):
-    """``numba.njit`` with ``cache=True`` so compiled kernels persist between runs.
+    """``numba.njit`` with ``cache=True``: compiled kernels persist between runs.
 
-    Calls from other kernels compile for plain argument types only
-    (:func:`_one_signature_per_type`). ``no_cfunc_wrapper=True`` by default: no kernel is
-    passed as a first-class function value, the only use of that wrapper. A cached
-    kernel loads without setting Numba's compiler up (:func:`_lazy_cache_loads`).
+    Only Numba's documented options are used. ``adavar precompile`` (or any first call)
+    fills the on-disk cache; later processes load the machine code from there.
     """
     kwargs.setdefault("cache", True)
-    # the C-ABI wrapper serves only first-class function values (none here): 4-5 % of a
-    # first run's compilation
-    kwargs.setdefault("no_cfunc_wrapper", True)
-
-    def finish(dispatcher):
-        return _lazy_cache_loads(_one_signature_per_type(dispatcher))
-
     if args and callable(args[0]):
-        return finish(numba.njit(**kwargs)(args[0]))
-    decorate = numba.njit(*args, **kwargs)
-    return lambda func: finish(decorate(func))
+        return numba.njit(**kwargs)(args[0])
+    return numba.njit(*args, **kwargs)
 
 
 def read_only(values, dtype=None):

@@ -6,8 +6,6 @@ imports the modules the work needs, so both processes import at the same time.
 
 from __future__ import annotations
 
-import atexit
-import gc
 import importlib
 import multiprocessing as mp
 import os
@@ -18,18 +16,17 @@ from concurrent.futures.process import BrokenProcessPool
 from typing import Any
 
 
-def _prepare(modules: tuple[str, ...], collect: bool) -> None:
-    """In the worker: import ``modules`` now, and exit without the final collection.
-
-    The interpreter's last garbage collection walks every object of the imported
-    libraries (0.5 s after a demo); the process's memory is released on exit anyway.
-    ``collect=False`` turns the automatic collection off for the process's life.
-    """
-    if not collect:
-        gc.disable()
+def _prepare(modules: tuple[str, ...]) -> None:
+    """In the worker: import ``modules`` now, before any work arrives."""
     for name in modules:
         importlib.import_module(name)
-    atexit.register(gc.freeze)
+
+
+def free_cores() -> int:
+    """2 where two cores are free to this process, else 1 (a second process's worth)."""
+    affinity = getattr(os, "sched_getaffinity", None)  # Linux; elsewhere every core
+    cores = len(affinity(0)) if affinity is not None else os.cpu_count() or 1
+    return 2 if cores >= 2 else 1
 
 
 def worker_pool(
@@ -37,7 +34,6 @@ def worker_pool(
     preload: Sequence[str] = (),
     *,
     start: bool = False,
-    collect: bool = True,
 ) -> ProcessPoolExecutor | None:
     """One worker process, or None.
 
@@ -50,10 +46,6 @@ def worker_pool(
         Modules the worker imports as it starts, before any work arrives.
     start : bool
         Start the process now (it is otherwise started by the first ``submit``).
-    collect : bool
-        False turns the worker's automatic garbage collection off (:func:`gc.disable`):
-        for a bounded piece of work, where the collector's passes over every object of
-        NumPy, SciPy, Numba and Matplotlib cost more than the few cycles they free.
 
     Returns
     -------
@@ -63,16 +55,14 @@ def worker_pool(
         runs in the caller's process.
     """
     if workers is None:
-        affinity = getattr(os, "sched_getaffinity", None)  # Linux; elsewhere every core
-        cores = len(affinity(0)) if affinity is not None else os.cpu_count() or 1
-        workers = 2 if cores >= 2 else 1
+        workers = free_cores()
     if workers < 2:
         return None
     try:
         # spawn: a fresh interpreter, safe whatever threads (Numba's, OpenMP's) this one runs
         pool = ProcessPoolExecutor(
             max_workers=1, mp_context=mp.get_context("spawn"), initializer=_prepare,
-            initargs=(tuple(preload), bool(collect)),
+            initargs=(tuple(preload),),
         )  # fmt: skip
         if start:
             pool.submit(int)  # the process is started by a first task: a trivial one

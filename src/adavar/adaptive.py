@@ -40,7 +40,6 @@ import numpy as np
 
 from adavar import stream
 from adavar.controller import REANCHOR, check_whole, controller_outputs, make_controller
-from adavar.davar import davar, davar_blocks
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
 from adavar.events import Event, flag_runs, join_runs
@@ -58,6 +57,7 @@ from adavar.statistics import (
     scaled_source,
 )
 from adavar.stream import ChunkedSource
+from adavar.surface import davar, davar_blocks
 from adavar.thresholds import Thresholds, calibrated_thresholds, threshold_summary
 from adavar.window_defaults import (
     dependence_stages,
@@ -778,7 +778,7 @@ def adaptive_blocks(
     """:func:`adaptive_davar` a block of consecutive windows at a time.
 
     The controller runs once over the whole record; its surface is then computed a block
-    of windows at a time (:func:`adavar.davar.davar_blocks`), for a record whose surface
+    of windows at a time (:func:`adavar.surface.davar_blocks`), for a record whose surface
     is too large to hold while its per-window results are not.
 
     Parameters
@@ -787,7 +787,7 @@ def adaptive_blocks(
         The record, in memory (a memory map, a dask array or a source: use
         ``adaptive_davar(..., chunk_size=)``, which holds ``N / step`` rows).
     block_values : int, optional
-        Surface values per block (default :data:`adavar.davar.BLOCK_VALUES`).
+        Surface values per block (default :data:`adavar.surface.BLOCK_VALUES`).
     **options
         Keywords of :func:`adaptive_davar` but ``chunk_size``.
 

@@ -35,12 +35,12 @@ from adavar.adaptive import (
     surface_resolution,
     window_lengths,
 )
-from adavar.davar import davar
 from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, fit_noise
 from adavar.settings import ControllerSettings, FitSettings
 from adavar.statistics import deviation
+from adavar.surface import davar
 
 __all__ = [
     "ReportAnalysis",

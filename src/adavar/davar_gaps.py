@@ -27,10 +27,10 @@ EDF and intervals
 The noise type per tau is identified on the whole record's kept data
 (:func:`adavar.gaps.gap_noise_types`). A cell's EDF is the Greenhall-Riley EDF of a
 gap-free window giving as many terms as were kept: ``gaps.effective_points(stat, m,
-kept)`` phase points (:func:`adavar.davar._edf_of_counts`: exact up to 64 terms, a fixed
+kept)`` phase points (:func:`adavar.surface.edf_of_counts`: exact up to 64 terms, a fixed
 interpolation grid beyond, 1e-3). With ``edge_edf="distinct"`` a window reaching into the
 mirror has its kept count scaled by the gap-free ratio ``M / (M + 2 D)`` of
-:func:`adavar.davar.edf_table`. The per-cell EDFs are stored as an ``edf_table`` of one
+:func:`adavar.surface.edf_table`. The per-cell EDFs are stored as an ``edf_table`` of one
 row per centre (``window_class = arange(T)``).
 
 Out of core: a chunked record (a source, a memory map) is scanned for NaN first; without
@@ -47,29 +47,29 @@ import numpy as np
 from adavar import differences as diff
 from adavar import stream
 from adavar._kernels.window_gaps import window_gaps
-from adavar.davar import (
-    DavarStatResult,
-    _bound_factors,
-    _check_memory,
-    _chunk_size,
-    _edf_of_counts,
-    _noise_alpha,
-    _plural,
-    _term_width,
-)
 from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
 from adavar.gaps import (
     GAP_RULES,
     GapLayout,
-    _read_whole,
-    _samples,
     effective_points,
     filled_increments,
     gap_noise_types,
+    read_whole,
+    samples_with_gaps,
 )
 from adavar.results import DavarResult
 from adavar.statistics import data_exponent, tau_factors, unscale
+from adavar.surface import (
+    DavarStatResult,
+    bound_factors,
+    centre_chunk_size,
+    check_surface_memory,
+    edf_of_counts,
+    noise_alpha,
+    plural_name,
+    term_width,
+)
 from adavar.windows import check_window_times, window_overhang, window_schedule
 
 __all__ = ["extended_layout", "gap_davar", "missing_record"]
@@ -104,10 +104,10 @@ def missing_record(
             return None
         if chunk_size is not None:
             raise AdavarInputError(_IN_MEMORY)
-        x = _samples(_read_whole(source))
+        x = samples_with_gaps(read_whole(source))
         notes: tuple[str, ...] = (f"{source.name} holds missing samples: it was read into memory",)
     else:
-        x = _samples(data)
+        x = samples_with_gaps(data)
         notes = ()
     missing = np.isnan(x)
     if not missing.any():
@@ -159,7 +159,7 @@ def _cell_edf(
     for t, m in enumerate(ms):
         m = int(m)
         count = by_tau[t]
-        width = _term_width(stat, m)
+        width = term_width(stat, m)
         edge_count = None
         if edge.size:
             # the mirrored repeats of edf_table, in proportion to the terms kept
@@ -177,10 +177,10 @@ def _cell_edf(
         lut = np.full((3, seen.size), np.nan)
         lut[1:, 0] = 0.0  # no term: bound factors 0, as where 3m > L
         if values.size:
-            # effective_points(stat, m, c) == c + width: the points _edf_of_counts hands on
+            # effective_points(stat, m, c) == c + width: the points edf_of_counts hands on
             assert int(effective_points(stat, m, values[0])) == int(values[0]) + width
-            lut[0, values] = _edf_of_counts(values, int(alpha[t]), m, stat)
-            lut[1, values], lut[2, values] = _bound_factors(lut[0, values], confidence)
+            lut[0, values] = edf_of_counts(values, int(alpha[t]), m, stat)
+            lut[1, values], lut[2, values] = bound_factors(lut[0, values], confidence)
         out[:, t] = lut[:, count]
         if edge_count is not None:
             out[:, t, edge] = lut[:, edge_count]
@@ -232,15 +232,15 @@ def gap_davar(
     longest = int(sched.length.max())
     ms, tau_notes = tau_factors(taus, longest // 3, dt, points_per_decade)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
-    _check_memory(sched.centre.size, ms.size, 2 if confidence is None else 5)
+    check_surface_memory(sched.centre.size, ms.size, 2 if confidence is None else 5)
 
     cnt, pm = extended_layout(missing, data_type, sched.pad_before, sched.pad_after)
     avar, kept = window_gaps(
         sched.extend(u), ms, sched.centre, sched.length, stat=stat, cnt=cnt, pm=pm,
         ws=layout.windows(stat, ms), offset=sched.pad_before, scale=scale,
-        chunk=_chunk_size(sched.centre.size, longest, sched.step),
+        chunk=centre_chunk_size(sched.centre.size, longest, sched.step),
     )  # fmt: skip
-    avar = unscale(avar, 2 * k + exponent, _plural(stat), underflow=False)
+    avar = unscale(avar, 2 * k + exponent, plural_name(stat), underflow=False)
     runs = layout.runs()
     valid = 3 * ms[None, :] <= sched.length[:, None]
     empty = int(np.count_nonzero(valid & (kept == 0)))
@@ -264,7 +264,7 @@ def gap_davar(
         def identify() -> tuple[np.ndarray, tuple[str, ...]]:
             return gap_noise_types(diff.anchored_phase(u), layout, ms, dmax, data_type=data_type)
 
-        alpha, id_notes = _noise_alpha(noise_type, ms, identify, stat)
+        alpha, id_notes = noise_alpha(noise_type, ms, identify, stat)
         notes = notes + id_notes
         table, bounds = _cell_edf(kept, sched, n, ms, alpha, stat, float(confidence), edge_edf)
         window_class = np.arange(sched.centre.size, dtype=np.int64)

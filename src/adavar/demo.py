@@ -13,7 +13,7 @@ Three parts:
 
 3. The A-DAVAR paper's scenario 1 (:func:`adavar.paper.scenarios.paper_scenario`):
    DAVAR-400, DAVAR-600, DAVAR-K and A-DAVAR on one realisation
-   (:func:`adavar.compare.compare`, with the kurtosis studies of the paper's Figs. 6-8,
+   (:func:`adavar.comparison.compare`, with the kurtosis studies of the paper's Figs. 6-8,
    :mod:`adavar.paper.studies`), and the node times over :data:`PAPER_SEEDS` realisations
    next to the paper's Table 1 (:func:`adavar.paper.studies.compare_seeds`).
 
@@ -31,7 +31,7 @@ import numpy as np
 
 from adavar import _workers, simulate
 from adavar._jit import compilations
-from adavar.compare import Comparison, compare
+from adavar.comparison import Comparison, compare
 from adavar.datasets import nist_1000
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_noise
 from adavar.paper.scenarios import paper_scenario
@@ -383,7 +383,7 @@ def run_demo(
         A pool of one worker (:func:`worker_pool`) to use instead of ``workers``; left
         running, for the caller's further work (the command line draws figures in it).
     keep : {"all", "figures"}
-        What the paper's comparison keeps (:func:`adavar.compare.compare`): every
+        What the paper's comparison keeps (:func:`adavar.comparison.compare`): every
         method's whole surface (default), or the windows its figures draw and no per-cell
         residuals (what the command line writes; faster, every other value the same).
 

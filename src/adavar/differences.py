@@ -384,7 +384,7 @@ def anchor_combo(hh, hl, i, m, coefs):  # pragma: no cover - compiled
 
 
 @jit
-def _difference(r, hh, hl, i, m, coefs):  # pragma: no cover - compiled
+def difference_combo(r, hh, hl, i, m, coefs):  # pragma: no cover - compiled
     """``sum_k coefs[k] * S[i + k m]`` to a few ulps."""
     local = 0.0
     for k in range(coefs.size):
@@ -515,14 +515,14 @@ def _strided_sums(r, hh, hl, ms, counts, coefs):  # pragma: no cover - compiled
         m = ms[t]
         acc = 0.0
         for q in range(counts[t]):
-            v = _difference(r, hh, hl, q * m, m, coefs)
+            v = difference_combo(r, hh, hl, q * m, m, coefs)
             acc += v * v
         out[t] = acc
     return out
 
 
 @jit
-def _fill_second_differences(r, hh, hl, m, lo, hi, out):  # pragma: no cover - compiled
+def fill_second_differences(r, hh, hl, m, lo, hi, out):  # pragma: no cover - compiled
     """``out[i - lo] = S[i] - 2 S[i+m] + S[i+2m]`` for ``i`` in ``[lo, hi)``."""
     coefs = SECOND
     i = lo
@@ -559,7 +559,7 @@ def _modified_part(r, hh, hl, m, j0, j1):  # pragma: no cover - compiled
     """``sum_{j=j0}^{j1-1} (sum_{i=j}^{j+m-1} d_m[i])^2``, the window sum started afresh
     at ``j0`` and slid with a compensated running total."""
     first = np.empty(m)
-    _fill_second_differences(r, hh, hl, m, j0, j0 + m, first)
+    fill_second_differences(r, hh, hl, m, j0, j0 + m, first)
     s = 0.0
     c = 0.0
     for k in range(m):
@@ -572,8 +572,8 @@ def _modified_part(r, hh, hl, m, j0, j1):  # pragma: no cover - compiled
     j = j0 + 1
     while j < j1:
         n = min(_MOD_CHUNK, j1 - j)
-        _fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + n, enter)
-        _fill_second_differences(r, hh, hl, m, j - 1, j - 1 + n, leave)
+        fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + n, enter)
+        fill_second_differences(r, hh, hl, m, j - 1, j - 1 + n, leave)
         s, c, acc = slide_window_sum(enter, leave, n, s, c, acc)
         j += n
     return acc

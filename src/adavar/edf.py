@@ -44,13 +44,13 @@ from adavar.noise_id import (  # noqa: F401
     MIN_POINTS_LAG1,
     RN_WHITE_FM,
     NoiseIdError,
-    _b1_alpha,
-    _b1_theory,
-    _detrend,
     alpha_from_lag1,
     alpha_from_phase_lag1,
+    b1_alpha,
+    b1_theory,
     clamp_alpha,
     decimated_phase_lag1,
+    detrend_poly,
     fill_unidentified,
     identify_noise,
     identify_noise_b1,
@@ -145,7 +145,7 @@ _J_MAX: Final[int] = 100
 # ---------------------------------------------------------------------------------------------
 
 
-def _sw(t: np.ndarray, alpha: int) -> np.ndarray:
+def greenhall_sw(t: np.ndarray, alpha: int) -> np.ndarray:
     """Generalized autocovariance sw(t, alpha) of the phase integral (Greenhall Eq. 7).
 
     Only the shape matters: every EDF formula uses ratios of squares of one alpha's sw
@@ -177,7 +177,8 @@ def _sx_flicker_pm(t: np.ndarray, f: float | np.ndarray) -> np.ndarray:
     near = a <= h  # includes t = 0; here the direct formula has no cancellation problem
     if near.any():
         tn, hn, fn = t[near], h[near], fb[near]
-        out[near] = fn * fn * (2.0 * _sw(tn, 1) - _sw(tn - hn, 1) - _sw(tn + hn, 1))
+        sw = greenhall_sw
+        out[near] = fn * fn * (2.0 * sw(tn, 1) - sw(tn - hn, 1) - sw(tn + hn, 1))
     far = ~near
     if far.any():
         af = a[far]
@@ -209,13 +210,15 @@ def _sx(t: np.ndarray, f: float | np.ndarray, alpha: int) -> np.ndarray:
         if alpha == 1:
             return _sx_flicker_pm(t, f)
         h = 1.0 / f
-        return f * f * (2.0 * _sw(t, alpha) - _sw(t - h, alpha) - _sw(t + h, alpha))
+        sw = greenhall_sw
+        return f * f * (2.0 * sw(t, alpha) - sw(t - h, alpha) - sw(t + h, alpha))
     if math.isinf(f):
-        return _sw(t, alpha + 2)
+        return greenhall_sw(t, alpha + 2)
     if alpha == 1 and f > 1:
         return _sx_flicker_pm(t, f)
     h = 1.0 / f
-    return f * f * (2.0 * _sw(t, alpha) - _sw(t - h, alpha) - _sw(t + h, alpha))
+    sw = greenhall_sw
+    return f * f * (2.0 * sw(t, alpha) - sw(t - h, alpha) - sw(t + h, alpha))
 
 
 def _sz(t: np.ndarray, f: float | np.ndarray, alpha: int, d: int) -> np.ndarray:
@@ -588,7 +591,7 @@ TOTDEV_EDF_METHODS: Final[tuple[str, ...]] = ("sp1065", "stable32", "legacy")
 TOTVAR_WPM_END_FACTOR: Final[float] = 0.45
 
 
-def _edf_simple_avar(alpha: int, m: int, n_phase: int) -> float:
+def edf_simple_avar(alpha: int, m: int, n_phase: int) -> float:
     """SP 1065 Table 5 simple AVAR EDF for PM noise (``N`` = phase points), as Stable32."""
     n = float(n_phase)
     if alpha == 2:
@@ -679,7 +682,7 @@ def _edf_cached(stat: str, alpha: int, m: int, n_phase: int, method: str = "sp10
                 b, c = _TOTVAR_BC[a]
                 value = b * n_phase / m - c
             else:
-                value = _edf_simple_avar(a, m, n_phase)
+                value = edf_simple_avar(a, m, n_phase)
         elif a in _TOTVAR_BC and (m > 1 or method == "legacy"):
             b, c = _TOTVAR_BC[a]
             value = b * (n_phase - 1) / m - c
@@ -769,7 +772,7 @@ def _totdev_lengths(alpha: int, m: int, n_phase: np.ndarray, method: str) -> np.
         if alpha in _TOTVAR_BC:
             b, c = _TOTVAR_BC[alpha]
             return b * n / m - c
-        if alpha == 2:  # SP 1065 Table 5, as _edf_simple_avar
+        if alpha == 2:  # SP 1065 Table 5, as edf_simple_avar
             return (n + 1.0) * (n - 2.0 * m) / (2.0 * (n - m))
         spans = np.log((n - 1.0) / (2.0 * m))
         return np.exp(np.sqrt(spans * np.log((2.0 * m + 1.0) * (n - 1.0) / 4.0)))

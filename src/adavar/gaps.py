@@ -63,7 +63,7 @@ the record is streamed as usual, and on the first NaN it meets it is read into m
 computed here (a ``chunk_size`` given explicitly then is an error: the gap path needs the
 record in memory).
 
-What a DAVAR (:mod:`adavar.davar`) would need from here: :class:`GapLayout` (the prefix
+What a DAVAR (:mod:`adavar.surface`) would need from here: :class:`GapLayout` (the prefix
 count and missing-point mask of the whole record, built once), its keep tests and
 :func:`effective_points`; a window of the surface is then a slice of ``cnt`` / ``pm``, the
 kept count of a window is a difference of prefix sums of the keep flags, and the EDF of a
@@ -462,7 +462,7 @@ class _WatchedSource(stream.ChunkedSource):
         return raw
 
 
-def _read_whole(source: stream.ChunkedSource) -> np.ndarray:
+def read_whole(source: stream.ChunkedSource) -> np.ndarray:
     out = np.empty(source.size)
     for start in range(0, source.size, stream.DEFAULT_CHUNK):
         stop = min(source.size, start + stream.DEFAULT_CHUNK)
@@ -470,7 +470,7 @@ def _read_whole(source: stream.ChunkedSource) -> np.ndarray:
     return out
 
 
-def _samples(data: Any) -> np.ndarray:
+def samples_with_gaps(data: Any) -> np.ndarray:
     """The record as a 1-D float64 array with NaN where missing (masked samples become
     NaN); everything else is checked as :func:`adavar.statistics.as_samples` does."""
     if isinstance(data, np.ma.MaskedArray) and np.ma.getmaskarray(data).any():
@@ -510,10 +510,10 @@ def deviation_omitting_gaps(data: Any, *, gaps: str, **options: Any) -> Deviatio
             if chunk_size is not None:
                 raise AdavarInputError(_IN_MEMORY) from None
         source = stream.as_source(data)
-        x = _samples(_read_whole(source))  # Inf: the one-line error
+        x = samples_with_gaps(read_whole(source))  # Inf: the one-line error
         notes = (f"{source.name} holds missing samples: it was read into memory",)
     else:
-        x = _samples(data)
+        x = samples_with_gaps(data)
     missing = np.isnan(x)
     if not missing.any():
         return st.deviation(x, gaps="error", **options)
@@ -569,7 +569,7 @@ def _gap_deviation(
     scale = 1.0 if dtype == "rate" else 1.0 / step_mantissa**2
     if dtype == "phase":
         exponent -= step_exponent
-    ms, tau_notes = st.tau_factors(taus, st._m_max(stat, n_points), step, points_per_decade)
+    ms, tau_notes = st.tau_factors(taus, st.largest_factor(stat, n_points), step, points_per_decade)
     phase = diff.anchored_phase(u)
     sums, kept = kept_sums(phase, layout, stat, ms)
     empty = kept == 0

@@ -157,7 +157,7 @@ def _as_series(z: np.ndarray) -> np.ndarray:
     return z
 
 
-def _detrend(z: np.ndarray, deg: int) -> np.ndarray:
+def detrend_poly(z: np.ndarray, deg: int) -> np.ndarray:
     """Residual of a least-squares polynomial fit (on a [-1, 1] abscissa, well conditioned)."""
     t = np.linspace(-1.0, 1.0, z.size)
     coef = np.polynomial.polynomial.polyfit(t, z, deg)
@@ -228,7 +228,7 @@ def identify_noise_lag1(
         raise NoiseIdError(f"lag-1 ACF noise identification needs >= {need} points, got {x.size}")
     scale = float(np.max(np.abs(x)))
     sizes = x.size - np.arange(dmax + 1)
-    x = _detrend(x, 2 if kind == "phase" else 1)
+    x = detrend_poly(x, 2 if kind == "phase" else 1)
     r1 = np.full(dmax + 1, np.nan)
     den = np.zeros(dmax + 1)
     for d in range(dmax + 1):
@@ -356,7 +356,7 @@ def fill_unidentified(alpha: np.ndarray) -> tuple[np.ndarray, tuple[str, ...]]:
     return alpha[nearest].astype(np.int64), ()
 
 
-def _b1_theory(n: int, mu: float) -> float:
+def b1_theory(n: int, mu: float) -> float:
     """Barnes B1(N, r=1, mu): expected N-sample over 2-sample variance for AVAR ~ tau^mu.
 
     B1 = N (1 - N^mu) / (2 (N - 1) (1 - 2^mu)), with the limit N ln N / (2 (N-1) ln 2)
@@ -422,11 +422,11 @@ def _b1_series_alpha(y: np.ndarray, dmax: int) -> int:
 def _b1_boundaries(n: int) -> tuple[float, ...]:
     """The B1 ratios between adjacent noise types at ``n`` values: the geometric means of
     their B1(n, mu)."""
-    theory = [_b1_theory(n, mu) for mu in _B1_MUS]
+    theory = [b1_theory(n, mu) for mu in _B1_MUS]
     return tuple(math.sqrt(lo * hi) for lo, hi in itertools.pairwise(theory))
 
 
-def _b1_alpha(y: np.ndarray) -> int:
+def b1_alpha(y: np.ndarray) -> int:
     """alpha in {1 (PM), 0, -1, -2} whose B1(N, mu) is nearest (geometrically) to the data's."""
     alpha = _b1_series_alpha(np.array(y, dtype=np.float64), 0)
     if alpha == _CONSTANT_SERIES:

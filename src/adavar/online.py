@@ -82,7 +82,6 @@ import numpy as np
 from adavar._jit import get_num_threads
 from adavar.adaptive import window_lengths
 from adavar.controller import REANCHOR, Controller, needs_head
-from adavar.davar import edf_table
 from adavar.differences import window_avar
 from adavar.durations import Length
 from adavar.errors import AdavarInputError
@@ -98,6 +97,7 @@ from adavar.statistics import (
     tau_factors,
     unscale,
 )
+from adavar.surface import edf_table
 from adavar.terms import TERM_NAMES
 from adavar.window_defaults import dependence_stages, resolve_windows, stage_controller
 

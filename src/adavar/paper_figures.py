@@ -19,7 +19,7 @@ if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI star
     from matplotlib.figure import Figure
 
     from adavar.adaptive import Schedule
-    from adavar.compare import Comparison, KurtosisStudy, ThresholdStudy
+    from adavar.comparison import Comparison, KurtosisStudy, ThresholdStudy
 
 __all__ = [
     "arw_comparison_figure",
@@ -60,7 +60,7 @@ def kurtosis_windows_figure(
     Parameters
     ----------
     study : KurtosisStudy
-        From :func:`adavar.compare.kurtosis_study`.
+        From :func:`adavar.comparison.kurtosis_study`.
     units : str, optional
         Unit of the samples, for the first panel's label.
     title : str, optional
@@ -99,7 +99,7 @@ def contribution_figure(
     Parameters
     ----------
     study : KurtosisStudy
-        From :func:`adavar.compare.kurtosis_study`.
+        From :func:`adavar.comparison.kurtosis_study`.
     units : str, optional
         Unit of the samples.
     title : str, optional
@@ -141,7 +141,7 @@ def threshold_figure(study: ThresholdStudy, *, title: str | None = None) -> Figu
     Parameters
     ----------
     study : ThresholdStudy
-        From :func:`adavar.compare.threshold_study`.
+        From :func:`adavar.comparison.threshold_study`.
     title : str, optional
         Figure title.
 
@@ -253,7 +253,7 @@ def arw_comparison_figure(
     Parameters
     ----------
     comparison : Comparison
-        From :func:`adavar.compare.compare`.
+        From :func:`adavar.comparison.compare`.
     units : str, optional
         Unit of the rate samples; defaults to ``comparison.units``.
     title : str, optional

@@ -66,7 +66,7 @@ from adavar.writers import partial_name
 if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI start-up)
     from matplotlib.figure import Figure
 
-    from adavar.compare import Comparison, KurtosisStudy, ThresholdStudy
+    from adavar.comparison import Comparison, KurtosisStudy, ThresholdStudy
     from adavar.noise_model import NoiseFit
 
 __all__ = [
@@ -643,7 +643,7 @@ def _save_one(fig: Figure, base: Path, folder: Path, fmt: str, dpi: int) -> Path
 
 
 # --------------------------------------------------------------------------------------
-# The A-DAVAR paper's figures (adavar.compare): drawn by adavar.paper_figures
+# The A-DAVAR paper's figures (adavar.comparison): drawn by adavar.paper_figures
 # --------------------------------------------------------------------------------------
 
 
@@ -726,12 +726,12 @@ def comparison_figures(
     thresholds: ThresholdStudy | None = None,
     units: str | None = None,
 ) -> dict[str, Figure]:
-    """The paper's figures for one :class:`~adavar.compare.Comparison`, by file stem.
+    """The paper's figures for one :class:`~adavar.comparison.Comparison`, by file stem.
 
     Parameters
     ----------
     comparison : Comparison
-        From :func:`adavar.compare.compare`.
+        From :func:`adavar.comparison.compare`.
     kurtosis : KurtosisStudy, optional
         Adds ``fig06_kurtosis_windows`` and ``fig07_contribution``.
     thresholds : ThresholdStudy, optional

@@ -148,7 +148,7 @@ def build_report(
         From :func:`adavar.adaptive_davar`: the controller's kurtosis, S, flags f1, f2, f and
         window length over time.
     comparison : Comparison, optional
-        From :func:`adavar.compare.compare`: N(t) and the window of every method, the node
+        From :func:`adavar.comparison.compare`: N(t) and the window of every method, the node
         table (with the paper's values for its scenarios), the ARW(a~b) intervals and the
         ground-truth metrics when known.
     parameters : mapping, optional

@@ -487,8 +487,12 @@ def _memmap_file(data: Any) -> NpyFileSource | None:
     """
     if not isinstance(data, np.memmap) or getattr(data, "filename", None) is None:
         return None
-    mm = getattr(data, "_mmap", None)
-    if mm is None or data.ndim != 1 or data.size == 0:
+    import mmap
+
+    mm = data.base  # a view's base is the map it was taken from; the map's, the mmap
+    while isinstance(mm, np.ndarray):
+        mm = mm.base
+    if not isinstance(mm, mmap.mmap) or data.ndim != 1 or data.size == 0:
         return None
     itemsize = data.dtype.itemsize
     stride = data.strides[0]
@@ -499,8 +503,6 @@ def _memmap_file(data: Any) -> NpyFileSource | None:
     except (TypeError, ValueError):  # pragma: no cover - a closed or exotic map
         return None
     # np.memmap maps from the allocation-granularity boundary below its offset
-    import mmap
-
     start = int(data.offset) - int(data.offset) % mmap.ALLOCATIONGRANULARITY
     position = start + data.__array_interface__["data"][0] - base
     src = NpyFileSource.__new__(NpyFileSource)

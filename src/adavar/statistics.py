@@ -291,7 +291,7 @@ def tau_factors(
     return ms, notes
 
 
-def _m_max(stat: str, n_points: int) -> int:
+def largest_factor(stat: str, n_points: int) -> int:
     if stat in ("adev", "oadev", "totdev"):
         return (n_points - 1) // 2
     if stat in ("mdev", "tdev"):
@@ -383,7 +383,7 @@ def record_noise_types(
 
 
 TOTVAR_BIAS: dict[int, float] = {-1: 1.0 / (3.0 * np.log(2.0)), -2: 0.75}
-_OMIT_HINT = "pass gaps='omit' (--gaps omit) to leave out the terms that touch missing samples, or "
+OMIT_HINT = "pass gaps='omit' (--gaps omit) to leave out the terms that touch missing samples, or "
 
 
 def deviation(
@@ -574,7 +574,7 @@ def deviation(
         increments = source if dtype == "rate" else stream.DifferencedSource(source)
         n_samples, n_points = source.size, increments.size + 1
     else:
-        x, low, high = _samples_and_range(data, min_length, _OMIT_HINT)
+        x, low, high = _samples_and_range(data, min_length, OMIT_HINT)
         exponent = _range_exponent(low, high)
         if exponent:
             x = np.ldexp(x, -exponent)  # scaled(x), with the range already known
@@ -611,7 +611,7 @@ def deviation(
             spec, u, x.size, dtype, step, exponent, taus, points_per_decade, confidence,
             noise_id, units, options,
         ), x, step, dtype, stationarity_check)  # fmt: skip
-    ms, notes = tau_factors(taus, _m_max(stat, n_points), step, points_per_decade)
+    ms, notes = tau_factors(taus, largest_factor(stat, n_points), step, points_per_decade)
     if not chunked:
         phase = diff.anchored_phase(u, cluster_stats=confidence is not None)
         kernels = diff
@@ -806,7 +806,7 @@ def _extended_deviation(
         edf_values, low, high = nan, nan.copy(), nan.copy()
     else:
         phase = diff.anchored_phase(u, cluster_stats=True)
-        id_ms = np.minimum(ms, max(1, _m_max("oadev", n_points)))
+        id_ms = np.minimum(ms, max(1, largest_factor("oadev", n_points)))
         alpha, id_notes = record_noise_types(
             phase, id_ms, spec.dmax, data_type=dtype, noise_id=noise_id
         )

@@ -205,14 +205,14 @@ def fit_davar_in_blocks(
     Parameters
     ----------
     data : array_like
-        The record, in memory, without missing samples (:func:`adavar.davar.davar_blocks`).
+        The record, in memory, without missing samples (:func:`adavar.surface.davar_blocks`).
     fit_options : dict, optional
         Keywords of :func:`adavar.fit_noise` (``terms``, ``cells``...).
     drawn : int
         Windows kept in :attr:`BlockFit.drawn`, evenly spread over the record (first and
         last included).
     block_values : int, optional
-        Surface values per block (default :data:`adavar.davar.BLOCK_VALUES`).
+        Surface values per block (default :data:`adavar.surface.BLOCK_VALUES`).
     fit_rows : {"all", "drawn"} or callable
         The windows whose whole fit :attr:`BlockFit.fit` keeps (:func:`fit_blocks`).
     spill : bool
@@ -226,7 +226,7 @@ def fit_davar_in_blocks(
     BlockFit
         The same numbers as fitting the whole surface, bit for bit.
     """
-    from adavar.davar import davar_blocks
+    from adavar.surface import davar_blocks
 
     blocks = davar_blocks(data, block_values=block_values, **davar_options)
     return fit_blocks(blocks, fit_options=fit_options, drawn=drawn, fit_rows=fit_rows, spill=spill)
@@ -280,7 +280,7 @@ def fit_blocks(
     Parameters
     ----------
     blocks : iterable of DavarResult
-        The blocks, in order (:func:`adavar.davar.davar_blocks`,
+        The blocks, in order (:func:`adavar.surface.davar_blocks`,
         :func:`adavar.adaptive.adaptive_blocks`), with ``edges="mirror"``.
     fit_options : dict, optional
         Keywords of :func:`adavar.fit_noise`.

@@ -362,7 +362,7 @@ def _mtot_edf(alpha: int, m: int, n_points: int, method: str) -> float:
 def _htot_edf(alpha: int, m: int, n_points: int, method: str) -> float:
     a = min(max(alpha, -4), 2)
     if a > 0 and method == "stable32":
-        return edf_mod._edf_simple_avar(a, m, n_points)
+        return edf_mod.edf_simple_avar(a, m, n_points)
     if m == 1 or a > 0:
         return edf_mod.edf("ohdev", a, m, n_points)
     ratio = (n_points if method == "stable32" else n_points - 1) / m
@@ -400,14 +400,15 @@ def filter_edf(c: np.ndarray, alpha: int, terms: int, lags: int) -> float:
     correlation of outputs ``j`` samples apart under power-law noise ``alpha``, from the
     phase autocovariance ``sx(k) = 2 sw(k) - sw(k - 1) - sw(k + 1)`` (phase averaged over
     ``tau0``, Greenhall's model for unmodified variances; ``sw`` of
-    :func:`adavar.edf._sw`). With the Allan filter ``[1, -2, 1]`` at lag ``m`` it is
+    :func:`adavar.edf.greenhall_sw`). With the Allan filter ``[1, -2, 1]`` at lag ``m`` it is
     :func:`adavar.edf.greenhall_edf` for the overlapping ADEV whenever that sums explicitly.
     """
     c = np.asarray(c, dtype=np.float64)
     size = c.size
     auto = np.correlate(c, c, "full")  # lags -(size-1) .. size-1
     k = np.arange(-size, lags + size + 1, dtype=np.float64)
-    sx = 2.0 * edf_mod._sw(k, alpha) - edf_mod._sw(k - 1.0, alpha) - edf_mod._sw(k + 1.0, alpha)
+    sw = edf_mod.greenhall_sw
+    sx = 2.0 * sw(k, alpha) - sw(k - 1.0, alpha) - sw(k + 1.0, alpha)
     # cov(j) = sum_d auto(d) sx(j + d): a sliding dot product over the lags
     cov = np.correlate(sx, auto, "valid")[1 : lags + 2]
     rho2 = (cov / cov[0]) ** 2

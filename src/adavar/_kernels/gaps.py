@@ -23,9 +23,9 @@ from adavar._jit import jit
 from adavar._kernels.double_double import two_sum
 from adavar.differences import (
     SUPERBLOCK,
-    _difference,
-    _fill_second_differences,
     anchor_combo,
+    difference_combo,
+    fill_second_differences,
     segment_end,
 )
 
@@ -180,7 +180,7 @@ def kept_strided_sums(r, hh, hl, ms, counts, coefs, cnt, ws, pm):  # pragma: no 
             for k in range(kp):
                 bad += pm[i + k * m]
             if bad == 0:
-                v = _difference(r, hh, hl, i, m, coefs)
+                v = difference_combo(r, hh, hl, i, m, coefs)
                 acc += v * v
                 n += 1
         sums[t] = acc
@@ -204,7 +204,7 @@ def kept_modified_sums(r, hh, hl, ms, counts, cnt, ws):  # pragma: no cover - co
         w = ws[t]
         count = counts[t]
         first = np.empty(m)
-        _fill_second_differences(r, hh, hl, m, 0, m, first)
+        fill_second_differences(r, hh, hl, m, 0, m, first)
         s = 0.0
         c = 0.0
         for k in range(m):
@@ -221,8 +221,8 @@ def kept_modified_sums(r, hh, hl, ms, counts, cnt, ws):  # pragma: no cover - co
         j = 1
         while j < count:
             size = min(_MOD_CHUNK, count - j)
-            _fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + size, enter)
-            _fill_second_differences(r, hh, hl, m, j - 1, j - 1 + size, leave)
+            fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + size, enter)
+            fill_second_differences(r, hh, hl, m, j - 1, j - 1 + size, leave)
             for q in range(size):
                 s, e = two_sum(s, enter[q])
                 c += e

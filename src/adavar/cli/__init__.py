@@ -32,51 +32,17 @@ one line ``adavar: error: ...`` on stderr. 130 when interrupted.
 
 Only this module prints; the library functions it calls return data."""
 
-import sys
-import types
 from typing import Any
 
 __all__ = ["build_parser", "main", "run"]
 
 
-class _Package(types.ModuleType):
-    """``adavar.cli.main`` is the entry-point function, though a module of that name exists:
-    importing the module must not rebind the name."""
-
-    def __setattr__(self, name: str, value: Any) -> None:
-        if name == "main" and isinstance(value, types.ModuleType):
-            return
-        super().__setattr__(name, value)
-
-
-sys.modules[__name__].__class__ = _Package
-
-
-def _load() -> Any:
-    """Import ``adavar.cli.main`` and bind :func:`build_parser` and :func:`main` here."""
-    import gc
-    import importlib
-
-    # imports make no cyclic garbage: the collector's passes over the new modules'
-    # objects are wasted time (a tenth of a second on the console script's start)
-    collecting = gc.isenabled()
-    gc.disable()
-    try:
-        module = importlib.import_module("adavar.cli.main")
-    finally:
-        if collecting:
-            gc.enable()
-    # the function, not the module of the same name (the import bound that)
-    globals().update(build_parser=module.build_parser, main=module.main)
-    return module
-
-
 def run() -> None:
     """The console script ``adavar``: :func:`main`, then exit with its code.
 
-    Defined here rather than imported from ``adavar.cli.main``: a ``spawn`` worker
+    Defined here rather than imported from :mod:`adavar.cli.entry`: a ``spawn`` worker
     process imports the parent's main module, the script, and with it this name, which
-    then costs no import of the command line. See ``adavar.cli.main.run``.
+    then costs no import of the command line.
 
     The command is a process of its own: it has Numba compile at LLVM's -O2
     (``NUMBA_OPT=2`` unless the environment says otherwise; a first run compiles about a
@@ -86,11 +52,16 @@ def run() -> None:
     import os
 
     os.environ.setdefault("NUMBA_OPT", "2")
-    _load().run()
+    from adavar.cli.entry import run as run_entry
+
+    run_entry()
 
 
 def __getattr__(name: str) -> Any:  # PEP 562: ``adavar.cli.options`` alone stays light
-    if name in __all__:
-        _load()
-        return globals()[name]
+    if name in ("build_parser", "main"):
+        from adavar.cli import entry
+
+        value = getattr(entry, name)
+        globals()[name] = value
+        return value
     raise AttributeError(f"module 'adavar.cli' has no attribute {name!r}")

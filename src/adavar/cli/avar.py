@@ -63,7 +63,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
 
     status = Status()
     status(f"reading {args.file}")
-    channels, meta, units_of, tau0 = load_input(_reader_arguments(args), several=True,
+    channels, meta, units_of, tau0 = load_input(reader_arguments(args), several=True,
                                                 out_of_core=True)  # fmt: skip
     _check_columns(args, meta["columns"])
     runs = []
@@ -124,7 +124,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _reader_arguments(args: argparse.Namespace) -> argparse.Namespace:
+def reader_arguments(args: argparse.Namespace) -> argparse.Namespace:
     """``--gaps omit`` for the reader: missing time stamps become NaN rows
     (``gaps="nan"``) and NaN / empty cells stay in place (``nan="keep"``, unless --nan
     drop or interpolate is given), for the deviation to leave out."""
@@ -137,7 +137,7 @@ def _reader_arguments(args: argparse.Namespace) -> argparse.Namespace:
 def allow_gaps_omit(parser: argparse.ArgumentParser, split: str = "") -> None:
     """``--gaps omit`` on ``parser`` (avar, davar): NaN rows whose terms are left out;
     ``split`` describes ``--gaps split`` where the command has it."""
-    gaps = next(a for a in parser._actions if a.dest == "gaps")
+    gaps = parser.option("--gaps")
     gaps.choices = (*gaps.choices, "omit")
     gaps.help = (
         f"a gap in the time stamps is an error (default), {split}is filled by linear "

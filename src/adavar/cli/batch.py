@@ -205,10 +205,8 @@ def add_batch_parser(sub: Any, report: argparse.ArgumentParser) -> argparse.Argu
                      help="also the files listed in this text file, one path per line "
                      "(relative to its folder; # comments)")  # fmt: skip
     # the analysis options are those of adavar report (the same objects: they cannot drift)
-    for action in report._actions:
-        if action.dest not in ("help", "file", "output", "json", "force", "title", "debug",
-                               "config"):  # fmt: skip
-            bat._add_action(action)
+    bat.copy_options(report, skip=("help", "file", "output", "json", "force", "title",
+                                   "debug", "config"))  # fmt: skip
     bat.add_argument("--out", metavar="DIR", required=True,
                      help="output folder (created; an earlier batch's folder is reused and "
                      "its finished files skipped)")  # fmt: skip

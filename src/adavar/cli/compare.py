@@ -456,21 +456,13 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if args.out is not None:
         check_output_directory(args.out, replace=args.force)
         guard_replacement(args.out, [Path(args.file)] if args.file is not None else [])
-    from adavar._compile_ahead import ahead_of, start, stop
-
-    # on a first run a second process compiles the stages reached last (the methods'
-    # surfaces first, then their fit, the adaptive ones' controller, the kurtosis studies)
-    helper = start(ahead_of(["deviation", "surface", "fit", "controller", "kurtosis"]))
-    try:
-        return _run_compare(args)
-    finally:
-        stop(helper)
+    return _run_compare(args)
 
 
 def _run_compare(args: argparse.Namespace) -> int:
     from adavar import simulate
     from adavar.analysis import load_input, resolve_lengths
-    from adavar.compare import compare, compare_seeds, kurtosis_study, threshold_study
+    from adavar.comparison import compare, compare_seeds, kurtosis_study, threshold_study
     from adavar.paper.reference import PAPER_FIG6_WINDOWS, PAPER_FIG8_THRESHOLDS
 
     units: str | None = None

@@ -53,15 +53,12 @@ def with_config(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
     if not isinstance(section, dict):
         raise UsageError(f"--config {path}: [{command}] must be a table")
     settings.update(section)
-    sub = next(
-        (a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None
-    )  # fmt: skip
-    cmd_parser = None if sub is None else sub.choices.get(command)
+    cmd_parser = getattr(parser, "commands", {}).get(command)
     if cmd_parser is None:
         return rest  # argparse reports the unknown command
     options = {
         opt[2:]: action
-        for action in cmd_parser._actions
+        for _, _, action in cmd_parser.options
         for opt in action.option_strings
         if opt.startswith("--")
     }
@@ -74,7 +71,7 @@ def with_config(parser: argparse.ArgumentParser, argv: list[str]) -> list[str]:
                 f"--config {path}: {key!r} is not an option of 'adavar {command}' (see "
                 f"'adavar {command} --help')"
             )
-        if isinstance(action, argparse._StoreTrueAction):
+        if action.nargs == 0 and action.const is True:  # store_true
             if not isinstance(value, bool):
                 raise UsageError(f"--config {path}: {key} takes true or false")
             if value:

@@ -15,7 +15,7 @@ from adavar.terms import TERM_NAMES
 
 if _TYPE_CHECKING:  # pragma: no cover - annotations only
     from adavar.noise_model import NoiseFit
-from adavar.cli.avar import _reader_arguments, allow_gaps_omit
+from adavar.cli.avar import allow_gaps_omit, reader_arguments
 from adavar.cli.options import (
     EXIT_OK,
     TERM_FILES,
@@ -321,26 +321,7 @@ def _cmd_davar(args: argparse.Namespace) -> int:
     adaptive = args.command == "adaptive"
     if adaptive and args.method == "oracle" and not args.change_times:
         raise UsageError("--method oracle needs --change-times T,... (seconds)")
-    helper = _start_compile_helper(args, adaptive)
-    try:
-        return _run_davar(args, adaptive, fmt)
-    finally:
-        from adavar._compile_ahead import stop
-
-        stop(helper)
-
-
-def _start_compile_helper(args: argparse.Namespace, adaptive: bool) -> Any:
-    """On a first run, a second process compiles the stages this command reaches last."""
-    from adavar._compile_ahead import ahead_of, start
-
-    fits = args.confidence is not None and getattr(args, "stat", "oavar") == "oavar"
-    plain = getattr(args, "stat", "oavar") == "oavar" and getattr(args, "gaps", None) != "omit"
-    if adaptive:  # the controller first (the schedule), the fit of the windows last
-        order = ["controller", "deviation", "surface"] + ["fit"] * fits
-    else:  # the events' controller (after the fit) last
-        order = ["deviation"] + ["surface"] * plain + ["fit", "controller"] * fits
-    return start(ahead_of(order))
+    return _run_davar(args, adaptive, fmt)
 
 
 def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
@@ -351,7 +332,7 @@ def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
     # several channels only when --column names them: a surface of every numeric column
     # (a temperature too) is too costly to be a default
     chosen = args.column is not None
-    reader = _reader_arguments(args)  # --gaps omit: NaN rows for davar(gaps="omit")
+    reader = reader_arguments(args)  # --gaps omit: NaN rows for davar(gaps="omit")
     loaded, meta, units_of, tau0 = load_input(reader, several=chosen, pieces=False,
                                               out_of_core=True)  # fmt: skip
     args.rate, args.tau0 = reader.rate, reader.tau0
@@ -455,8 +436,8 @@ def _davar_channel(
     from adavar.adaptive import adaptive_davar
     from adavar.analysis import chunk_keywords, controller_settings, window_fit_keywords
     from adavar.cli.options import check_change_times
-    from adavar.davar import davar
     from adavar.noise_model import fit_noise
+    from adavar.surface import davar
     from adavar.units import rate_unit
 
     if args.command == "adaptive":

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import gc
 import sys
 import time
 from pathlib import Path
@@ -220,12 +219,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     _check_demo_out(args.out, args.force)
     status = Status()
     status("NIST check values, a simulated gyro and the paper's scenario 1")
-    # the demo is bounded work: the garbage collector's passes over every object of the
-    # libraries it imports cost 0.2-0.3 s in each process and free almost nothing
-    collecting = gc.isenabled()
-    gc.disable()
     # the worker starts before this process imports the demo: both import at once
-    pool = worker_pool(args.workers, ("adavar.demo",), start=True, collect=False)
+    pool = worker_pool(args.workers, ("adavar.demo",), start=True)
     try:
         from adavar.demo import GYRO_BANDWIDTH, GYRO_BIAS, GYRO_LSB, run_demo
 
@@ -237,8 +232,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             # as long): Python 3.11's exit handler otherwise races with the pool closing
             # its wake-up pipe and may print "OSError: [Errno 9] Bad file descriptor"
             pool.shutdown(wait=True, cancel_futures=True)
-        if collecting and not getattr(args, "process_exits", False):
-            gc.enable()
     status.close()
     elapsed = time.perf_counter() - start
     gyro = demo.gyro

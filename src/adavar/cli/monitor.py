@@ -123,7 +123,7 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
         f"{ICI_EDF_SAMPLES}); no row before they have arrived. 'adavar adaptive --method ici "
         "--ici-edf-samples K' gives the same windows"
     )
-    for action in cmd._actions:
+    for _, _, action in cmd.options:
         if action.dest in defaults:
             action.help = defaults[action.dest]
     add_dependence_argument(cmd)

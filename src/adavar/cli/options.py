@@ -7,7 +7,6 @@ import argparse
 import math
 import sys
 from collections.abc import Callable
-from typing import NoReturn
 
 from adavar._figures import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
 from adavar.durations import parse_duration
@@ -58,14 +57,6 @@ TERM_FILES = {t.name: t.short for t in TERMS}
 
 class UsageError(Exception):
     """A mistake on the command line (exit code 2)."""
-
-
-class Parser(argparse.ArgumentParser):
-    """ArgumentParser that raises :class:`UsageError` instead of printing usage and exiting."""
-
-    def error(self, message: str) -> NoReturn:
-        """Raise a one-line :class:`UsageError` pointing at this parser's ``--help``."""
-        raise UsageError(f"{message} (see '{self.prog} --help')")
 
 
 #: The attribute of a parsed namespace that lists the flags given (destination -> the flag
@@ -893,7 +884,7 @@ def add_kurtosis_reference_argument(cmd: argparse.ArgumentParser) -> None:
 def add_ici_arguments(cmd: argparse.ArgumentParser, live: bool = False) -> None:
     """The options of ``--method ici`` (:func:`adavar.ici.ici_schedule`); ``live``: without
     ``--ici-long-tau`` (the long-tau scan needs the whole record)."""
-    group = cmd.add_argument_group("ICI window (--method ici)")
+    group = cmd.group("ICI window (--method ici)")
     group.add_argument(
         "--ici-gamma", action=Given, type=positive_float("standard deviations"),
         default=ICI_GAMMA,

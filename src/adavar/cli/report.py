@@ -29,27 +29,7 @@ from adavar.writers import dumps, fit_json
 def _cmd_report(args: argparse.Namespace) -> int:
     check_arguments(args)
     output = check_output_file(args.output, args.force, (".html", ".htm"))
-    helper = _start_compile_helper(args)
-    try:
-        return _run_report(args, output)
-    finally:
-        from adavar._compile_ahead import stop
-
-        stop(helper)
-
-
-def _start_compile_helper(args: argparse.Namespace) -> Any:
-    """On a first run, a second process compiles the stages this command reaches last."""
-    from adavar._compile_ahead import ahead_of, start
-
-    surface = ["surface"] if getattr(args, "gaps", None) != "omit" else []
-    if args.adaptive:
-        order = ["deviation", "controller", *surface, "fit"]
-    elif args.window is not None:
-        order = ["deviation", *surface, "fit", "controller"]
-    else:  # the whole record's deviation and fit only: nothing to share
-        return None
-    return start(ahead_of(order))
+    return _run_report(args, output)
 
 
 def _run_report(args: argparse.Namespace, output: Any) -> int:

@@ -12,10 +12,10 @@ Modules
   :func:`threshold_study`) and many realisations of a scenario beside its tables
   (:func:`compare_seeds`).
 
-The methods side by side on one record (:func:`adavar.compare.compare`) and the generic noise
+The methods side by side on one record (:func:`adavar.comparison.compare`) and the generic noise
 generators (:mod:`adavar.simulate`) are not the paper's and live outside this package;
 ``adavar compare`` and ``adavar demo`` print the tables. The studies are imported on first
-use (:mod:`adavar.paper.studies` imports :mod:`adavar.compare`, which imports the node rules
+use (:mod:`adavar.paper.studies` imports :mod:`adavar.comparison`, which imports the node rules
 and reference values from here).
 """
 

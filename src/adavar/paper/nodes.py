@@ -1,7 +1,7 @@
 """The node times of a window around a change: the paper's Beginning, End and Restore.
 
 :func:`fixed_nodes` gives them for a fixed window, :func:`schedule_nodes` for a window
-schedule (A-DAVAR, DAVAR-K, the oracle); :func:`adavar.compare.compare` applies them to
+schedule (A-DAVAR, DAVAR-K, the oracle); :func:`adavar.comparison.compare` applies them to
 every method and :mod:`adavar.paper.reference` holds the paper's values
 (docs/method.md section 9).
 

@@ -2,7 +2,7 @@
 
 Every number in this module is copied from Micromachines 2018, 9(8), 373
 (:data:`PAPER_REFERENCE`); the code that reproduces them is :mod:`adavar.paper.studies`
-(and :func:`adavar.compare.compare` for one record), the tables that set them beside the
+(and :func:`adavar.comparison.compare` for one record), the tables that set them beside the
 computed ones are drawn by ``adavar compare``, ``adavar demo`` and
 ``benchmarks/bench_paper.py``. docs/method.md section 9 says how to read them.
 

@@ -3,10 +3,10 @@
 :func:`kurtosis_study` computes the paper's Figs. 6-7 (the kurtosis of fixed windows and the
 record-form contribution coefficient S), :func:`threshold_study` its Fig. 8 (where the
 kurtosis of a fixed window crosses a threshold), and :func:`compare_seeds` repeats
-:func:`adavar.compare.compare` over many realisations of a scenario
+:func:`adavar.comparison.compare` over many realisations of a scenario
 (:func:`adavar.paper.scenarios.paper_scenario`) and sets the node medians beside the paper's
 Table 1 (:data:`adavar.paper.reference.PAPER_TABLE1_NODES`). :func:`compare_seeds` takes the
-fast path described in :mod:`adavar.compare` ("Speed"): one numba thread, surfaces without
+fast path described in :mod:`adavar.comparison` ("Speed"): one numba thread, surfaces without
 bounds, EDFs for white noise computed once, octave taus by default.
 """
 
@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar.compare import EdfCache, as_record, check_rate, run_comparison, threads_for
+from adavar.comparison import EdfCache, as_record, check_rate, run_comparison, threads_for
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES
 from adavar.paper.nodes import NODE_NAMES
@@ -280,7 +280,7 @@ def threshold_study(
 
 @dataclass(frozen=True, eq=False)
 class SeedStudy:
-    """:func:`~adavar.compare.compare` over many realisations of a paper scenario.
+    """:func:`~adavar.comparison.compare` over many realisations of a paper scenario.
 
     Attributes
     ----------
@@ -547,12 +547,12 @@ def compare_seeds(
     false_alarm: float = CONTROLLER.false_alarm,
     progress: Callable[[int, int], None] | None = None,
 ) -> SeedStudy:
-    """:func:`~adavar.compare.compare` on many realisations of a paper scenario, and Fig. 8.
+    """:func:`~adavar.comparison.compare` on many realisations of a paper scenario, and Fig. 8.
 
     Per seed: the scenario (:func:`adavar.paper.scenarios.paper_scenario`), every method's
     schedule, surface and ``N(t)``, its nodes, ``ARW(a~b)`` and ground-truth metrics, and
     the crossings of the fixed window's kurtosis (:func:`threshold_study`). See the notes
-    of :mod:`adavar.compare` ("Speed") for what is done differently from ``compare`` to
+    of :mod:`adavar.comparison` ("Speed") for what is done differently from ``compare`` to
     keep 100 seeds
     within seconds: one numba thread, surfaces without bounds, EDFs for white noise
     computed once, octave taus by default. ``thresholds="calibrated"`` is much slower
@@ -568,7 +568,7 @@ def compare_seeds(
     variance_reading : bool
         Disturbance of variance 3 instead of standard deviation 3.
     methods : sequence of str, optional
-        As in :func:`adavar.compare.compare`.
+        As in :func:`adavar.comparison.compare`.
     taus : str or sequence of float
         Taus of the surfaces (``"octave"`` by default).
     terms : sequence of str
@@ -578,7 +578,7 @@ def compare_seeds(
     crossing_thresholds : sequence of float
         Its thresholds.
     lmax, lmin, k1, k2, s1, s2, l, dl0, dl1, s_test, combine, thresholds, false_alarm
-        Controller settings, as in :func:`adavar.compare.compare`.
+        Controller settings, as in :func:`adavar.comparison.compare`.
 
     progress : callable, optional
         Called as ``progress(done, total)`` before each realisation (the command line draws

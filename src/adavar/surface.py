@@ -49,8 +49,8 @@ from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.sampling import RATE_DEFAULT, resolve_rate
 from adavar.statistics import (
-    _OMIT_HINT,  # the way out the error about a NaN names
     DATA_TYPE_ALIASES,
+    OMIT_HINT,  # the way out the error about a NaN names
     as_samples,
     check_confidence,
     deviation,
@@ -75,12 +75,12 @@ STAT_TITLES = {
 }
 
 
-def _plural(stat: str) -> str:
+def plural_name(stat: str) -> str:
     """The variances of ``stat`` in an error message."""
     return "Allan variances" if stat == "oadev" else f"{STAT_TITLES[stat]}s"
 
 
-def _term_width(stat: str, m: Any) -> Any:
+def term_width(stat: str, m: Any) -> Any:
     """Phase steps one term of ``stat`` spans: a window of ``L`` samples has
     ``L + 1 - width`` terms (``L - 2m + 1``, ``L - 3m + 1``, ``L - 3m + 2``)."""
     return {"oadev": 2 * m, "ohdev": 3 * m, "mdev": 3 * m - 1}[stat]
@@ -103,7 +103,7 @@ class DavarStatResult(DavarResult):
         """Number of squared terms in each cell (0 where undefined; with gaps, the kept)."""
         if self.terms is not None:
             return self.terms
-        n = self.window[:, None] + 1 - _term_width(self.stat, self.m[None, :])
+        n = self.window[:, None] + 1 - term_width(self.stat, self.m[None, :])
         return np.where(3 * self.m[None, :] <= self.window[:, None], n, 0)
 
     def to_xarray(self) -> Any:
@@ -176,7 +176,7 @@ def edf_table(
             rows = np.flatnonzero(3 * m <= lengths)
             if rows.size == 0:
                 continue
-            width = _term_width(stat, m)
+            width = term_width(stat, m)
             terms = lengths[rows] + 1 - width
             repeats = np.maximum(0, overhang[rows] - width // 2)
             effective = np.maximum(1, np.round(terms * terms / (terms + 2 * repeats)))
@@ -186,7 +186,7 @@ def edf_table(
             )
             if (~inner).any():
                 counts, where = np.unique(effective[~inner].astype(np.int64), return_inverse=True)
-                table[rows[~inner], t] = _edf_of_counts(counts, int(a), m, stat)[where.ravel()]
+                table[rows[~inner], t] = edf_of_counts(counts, int(a), m, stat)[where.ravel()]
         return table
     table = np.full((lengths.size, ms.size), np.nan)
     valid = 3 * ms[None, :] <= lengths[:, None]
@@ -236,13 +236,13 @@ def _cached_edf_table(lengths: bytes, ms: bytes, alpha: bytes, stat: str) -> np.
     )  # fmt: skip
 
 
-#: Term counts up to this get exact EDFs in :func:`_edf_of_counts`; beyond, a fixed
+#: Term counts up to this get exact EDFs in :func:`edf_of_counts`; beyond, a fixed
 #: geometric grid with :data:`EDF_GRID_PER_OCTAVE` nodes an octave (9 % apart).
 EDF_GRID_START = 64
 EDF_GRID_PER_OCTAVE = 8
 
 
-def _edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str = "oadev") -> np.ndarray:
+def edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str = "oadev") -> np.ndarray:
     """EDF of overlapping AVARs (or ``stat``) with ``counts`` terms (sorted, distinct) at ``m``.
 
     Exact up to :data:`EDF_GRID_START` terms and at the nodes of a fixed geometric grid
@@ -251,7 +251,7 @@ def _edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str = "oadev") 
     other counts asked for. Against exact values: below 1e-3 relative (tests/test_davar.py).
     """
     counts = np.asarray(counts, dtype=np.int64)
-    width = _term_width(stat, m)
+    width = term_width(stat, m)
     exact = counts <= EDF_GRID_START
     out = np.empty(counts.size)
     out[exact] = edf_mod.edf_lengths(stat, alpha, m, counts[exact] + width)
@@ -290,7 +290,7 @@ def _edf_grid(stat: str, alpha: int, m: int, k_hi: int) -> tuple[Any, Any, Any]:
     k = np.arange(k_hi)
     nodes = np.unique(np.round(EDF_GRID_START * 2.0 ** (k / EDF_GRID_PER_OCTAVE)))
     nodes = nodes.astype(np.int64)
-    width = _term_width(stat, m)
+    width = term_width(stat, m)
     values = edf_mod.edf_lengths(stat, alpha, m, nodes + width)
     from scipy.interpolate import PchipInterpolator  # lazy: 0.3 s to import
 
@@ -301,7 +301,7 @@ def _edf_grid(stat: str, alpha: int, m: int, k_hi: int) -> tuple[Any, Any, Any]:
     return nodes, values, curve
 
 
-def _bound_factors(table: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
+def bound_factors(table: np.ndarray, confidence: float) -> tuple[np.ndarray, np.ndarray]:
     """``edf / chi2.ppf`` factors of the lower and upper bounds (0 where undefined)."""
     ok = np.isfinite(table)
     k = np.where(ok, table, 1.0)
@@ -314,7 +314,7 @@ def _bound_factors(table: np.ndarray, confidence: float) -> tuple[np.ndarray, np
     return flo, fhi
 
 
-def _check_memory(n_centres: int, n_taus: int, n_arrays: int) -> None:
+def check_surface_memory(n_centres: int, n_taus: int, n_arrays: int) -> None:
     need = n_centres * n_taus * n_arrays * 8  # the bounds are made only when read
     free = stream.available_memory()
     if free is not None and need > 0.8 * free:
@@ -325,7 +325,7 @@ def _check_memory(n_centres: int, n_taus: int, n_arrays: int) -> None:
         )
 
 
-def _noise_alpha(
+def noise_alpha(
     noise_type: str | int | Sequence[int],
     ms: np.ndarray,
     identify: Callable[[], tuple[np.ndarray, tuple[str, ...]]],
@@ -356,7 +356,7 @@ def _noise_alpha(
     return alpha.astype(np.int64), ()
 
 
-def _chunk_size(n_centres: int, longest: int, step: int) -> int:
+def centre_chunk_size(n_centres: int, longest: int, step: int) -> int:
     """Centres per work item: spans of a few windows, and enough items for every thread."""
     chunk = max(64, min(1 << 16, math.ceil(8 * longest / step)))
     per_thread = math.ceil(n_centres / (4 * max(1, numba.get_num_threads())))
@@ -444,7 +444,7 @@ def _chunked_avar(
             _window_surface(
                 stat, stream.read_extended(source, lo, hi, pad), ms, centre[c0:c1], lengths,
                 offset=pad - lo, scale=scale, out=out[c0:c1],
-                chunk=_chunk_size(c1 - c0, int(lengths.max()), sched.step),
+                chunk=centre_chunk_size(c1 - c0, int(lengths.max()), sched.step),
             )  # fmt: skip
     return out
 
@@ -467,13 +467,13 @@ def _group_rows(
     if not finite.all():
         raise AdavarInputError(
             f"the record holds a non-finite value ({piece[np.argmin(finite)]!r}): "
-            f"{_OMIT_HINT if np.isnan(piece).any() else ''}remove or interpolate non-finite "
+            f"{OMIT_HINT if np.isnan(piece).any() else ''}remove or interpolate non-finite "
             "samples first"
         )
     piece, k = scaled(piece)
-    per = _chunk_size(centres.size, int(lengths.max()), step)
+    per = centre_chunk_size(centres.size, int(lengths.max()), step)
     rows = _window_surface(stat, piece, ms, centres, lengths, offset=offset, scale=scale, chunk=per)
-    return unscale(rows, 2 * k + exponent, _plural(stat), underflow=False)
+    return unscale(rows, 2 * k + exponent, plural_name(stat), underflow=False)
 
 
 def _lazy_avar(
@@ -858,7 +858,7 @@ def _surfaces(
             return scaled_increments[0]
 
     else:
-        x, k = scaled(as_samples(data, min_length=min_length, missing_hint=_OMIT_HINT))
+        x, k = scaled(as_samples(data, min_length=min_length, missing_hint=OMIT_HINT))
         u = x if dtype == "rate" else np.diff(x)
         n_samples, n = x.size, u.size
 
@@ -891,9 +891,12 @@ def _surfaces(
         if block_values is not None:
             held = min(
                 n_rows,
-                max(block_values // max(1, ms.size), _chunk_size(n_rows, longest, sched.step)),
+                max(
+                    block_values // max(1, ms.size),
+                    centre_chunk_size(n_rows, longest, sched.step),
+                ),
             )
-        _check_memory(held, ms.size, 1)
+        check_surface_memory(held, ms.size, 1)
 
     dmax = 3 if name == "ohdev" else 2  # differences of the statistic, as deviation()
 
@@ -908,7 +911,7 @@ def _surfaces(
     if confidence is None:
         alpha = np.full(ms.size, -1, dtype=np.int64)
     else:
-        alpha, id_notes = _noise_alpha(noise_type, ms, identify, name)
+        alpha, id_notes = noise_alpha(noise_type, ms, identify, name)
         notes = notes + id_notes
         # the windows near the two ends that hold mirrored samples get rows of their own;
         # each block's classes are found when it is made (none for every window at once)
@@ -919,7 +922,7 @@ def _surfaces(
             table = np.vstack([table, edf_table(pairs[:, 0], ms, alpha, overhang=pairs[:, 1],
                                                 stat=name)])  # fmt: skip
         if bounds:
-            bound_table = np.stack(_bound_factors(table, float(confidence)))
+            bound_table = np.stack(bound_factors(table, float(confidence)))
 
     with np.errstate(over="ignore"):
         # dividing by an integral rate rounds once: 3999 / 10 is 399.9, 3999 * 0.1 is not
@@ -927,7 +930,7 @@ def _surfaces(
     check_window_times(time, sched.centre, t0, dt)  # overflow, or too coarse for dt
     # the kernel computes chunks of centres each on its own: a block that starts and ends
     # on them (or is cut from whole ones) has the whole surface's rows
-    chunk_rows = _chunk_size(n_rows, longest, sched.step)
+    chunk_rows = centre_chunk_size(n_rows, longest, sched.step)
     extended = None if lazy or chunked else sched.extend(u)
 
     def block(start: int, stop: int) -> DavarResult:
@@ -949,7 +952,7 @@ def _surfaces(
             if (a, b) != (start, stop):  # the block's rows alone, not a view of the chunks
                 avar = avar[start - a : stop - a].copy()
         if not lazy:
-            avar = unscale(avar, 2 * power + exponent, _plural(name), underflow=False)
+            avar = unscale(avar, 2 * power + exponent, plural_name(name), underflow=False)
 
         def rows_of(values: np.ndarray | None) -> np.ndarray | None:
             """A block's rows: for ``rows=``, arrays of their own (a view would hold the

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import gc
 import io as _stdio
 import os
 import sys
@@ -24,10 +23,11 @@ from adavar.cli.options import (
     EXIT_INTERRUPTED,
     EXIT_OK,
     EXIT_USAGE,
-    Parser,
     UsageError,
 )
 from adavar.cli.output import clear_status_line, one_line
+from adavar.cli.parser import Parser
+from adavar.cli.precompile import add_precompile_parser
 from adavar.cli.report import add_report_parser
 from adavar.cli.simulate import add_simulate_parser
 from adavar.errors import AdavarInputError
@@ -65,6 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     add_monitor_parser(sub)
     add_simulate_parser(sub)
     add_demo_parser(sub)
+    add_precompile_parser(sub)
     for cmd in sub.choices.values():  # read by with_config before parsing; listed for --help
         cmd.add_argument(
             "--config", metavar="FILE.toml",
@@ -82,9 +83,8 @@ def main(argv: Sequence[str] | None = None, *, process_exits: bool = False) -> i
     argv : sequence of str, optional
         The arguments after the program name; ``sys.argv[1:]`` by default.
     process_exits : bool
-        The process ends as soon as this returns (:func:`run`, the console script): a
-        command that turned the garbage collector off may leave it off (``demo``: turning
-        it back on collects every object the command made, 0.1 s, for nothing).
+        Accepted for scripts written against 0.1.0, without effect: no command turns the
+        garbage collector off any more.
 
     Returns
     -------
@@ -97,14 +97,13 @@ def main(argv: Sequence[str] | None = None, *, process_exits: bool = False) -> i
         parser = build_parser()
         argv = with_config(parser, argv)
         args = parser.parse_args(argv)
-        args.process_exits = process_exits
         if args.command is None:
             raise UsageError(
                 "choose a command: avar (deviation of a data file), davar (dynamic Allan "
                 "variance of a data file), adaptive (A-DAVAR), compare (fixed and adaptive "
                 "windows side by side), report (HTML report), batch (many files, on a "
-                "cluster), kalibr (imu.yaml), monitor (a live stream), simulate or demo (see "
-                "'adavar --help')"
+                "cluster), kalibr (imu.yaml), monitor (a live stream), simulate, demo or "
+                "precompile (see 'adavar --help')"
             )
         return int(args.handler(args))
     except SystemExit as exc:  # --help, --version
@@ -137,13 +136,5 @@ def main(argv: Sequence[str] | None = None, *, process_exits: bool = False) -> i
 
 
 def run() -> None:
-    """The console script ``adavar``: :func:`main`, then exit with its code.
-
-    The process ends right after, so the interpreter's final garbage collection, which
-    walks every object left (half a second after a demo), is skipped: the operating
-    system frees the memory. Library callers use :func:`main`, which leaves the
-    collector alone.
-    """
-    code = main(process_exits=True)
-    gc.freeze()
-    sys.exit(code)
+    """The console script ``adavar``: :func:`main`, then exit with its code."""
+    sys.exit(main())

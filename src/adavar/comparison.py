@@ -63,7 +63,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from adavar.adaptive import Schedule, adaptive_schedule
-from adavar.davar import davar, edf_table
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
 from adavar.paper.nodes import NODE_NAMES, Nodes, change_index, fixed_nodes, schedule_nodes
@@ -79,6 +78,7 @@ from adavar.paper.reference import (
 from adavar.results import DavarResult
 from adavar.settings import CONTROLLER
 from adavar.statistics import as_samples
+from adavar.surface import davar, edf_table
 from adavar.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows
 from adavar.windows import window_overhang
 from adavar.writers import jsonable

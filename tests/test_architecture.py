@@ -1,0 +1,190 @@
+"""The rules of docs/architecture.md that a machine can check, on the source tree itself."""
+
+from __future__ import annotations
+
+import ast
+from functools import cache
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "adavar"
+
+#: attribute names that start with an underscore by a file format's convention, not
+#: because they are a library's private attribute (a netCDF variable's CF attribute)
+_FORMAT_NAMES = {"_FillValue"}
+
+
+@cache
+def _modules() -> dict[Path, ast.Module]:
+    return {path: ast.parse(path.read_text(), str(path)) for path in sorted(SRC.rglob("*.py"))}
+
+
+@cache
+def _own_private_names() -> frozenset[str]:
+    """Every ``_name`` adavar itself defines: functions, classes, assigned names and
+    attributes, parameters."""
+    names: set[str] = set()
+    for tree in _modules().values():
+        for node in ast.walk(tree):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                names.add(node.name)
+            elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+                names.add(node.id)
+            elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+                names.add(node.attr)
+            elif isinstance(node, ast.arg):
+                names.add(node.arg)
+            elif isinstance(node, ast.alias):
+                names.add(node.asname or node.name.split(".")[-1])
+    return frozenset(n for n in names if n.startswith("_"))
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__") and name not in _FORMAT_NAMES
+
+
+def test_no_private_attribute_of_another_library_is_used():
+    """``x._name`` (or ``getattr(x, "_name")``) only for names adavar defines itself; no
+    import of another package's private module or name."""
+    own = _own_private_names()
+    found = []
+    for path, tree in _modules().items():
+        where = path.relative_to(SRC.parent)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and _private(node.attr) and node.attr not in own:
+                found.append(f"{where}:{node.lineno}: {ast.unparse(node)}")
+            elif (
+                isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                and node.func.id in ("getattr", "setattr", "hasattr") and len(node.args) >= 2
+                and isinstance(node.args[1], ast.Constant) and isinstance(node.args[1].value, str)
+                and _private(node.args[1].value) and node.args[1].value not in own
+            ):  # fmt: skip
+                found.append(f"{where}:{node.lineno}: {ast.unparse(node)}")
+            elif isinstance(node, (ast.Import, ast.ImportFrom)):
+                module = getattr(node, "module", None) or ""
+                if getattr(node, "level", 0) or module.startswith("adavar"):
+                    continue
+                paths = [module] if module else []
+                paths += [a.name if not module else f"{module}.{a.name}" for a in node.names]
+                for dotted in paths:
+                    if any(_private(part) for part in dotted.split(".")):
+                        found.append(f"{where}:{node.lineno}: import of {dotted}")
+    assert found == []
+
+
+def _calls(tree: ast.Module, owner: str, names: set[str]) -> list[int]:
+    return [
+        node.lineno for node in ast.walk(tree)
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+        and isinstance(node.func.value, ast.Name) and node.func.value.id == owner
+        and node.func.attr in names
+    ]  # fmt: skip
+
+
+_ENVIRONMENT_SETTERS = {"os.environ.setdefault", "os.environ.update", "os.putenv"}
+
+
+def _runs_on_import(tree: ast.Module):
+    """The nodes a module runs as it is imported (not the bodies of its functions)."""
+    todo = list(tree.body)
+    while todo:
+        node = todo.pop()
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            continue
+        yield node
+        todo.extend(ast.iter_child_nodes(node))
+
+
+def test_no_process_wide_tricks():
+    """No garbage-collector switches, no module class swapped, no environment variable set
+    at import (the console script's own ``NUMBA_OPT`` is set in a function it calls)."""
+    found = []
+    for path, tree in _modules().items():
+        where = path.relative_to(SRC.parent)
+        for line in _calls(tree, "gc", {"freeze", "disable", "set_threshold"}):
+            found.append(f"{where}:{line}: gc")
+        for node in ast.walk(tree):
+            if (
+                isinstance(node, ast.Attribute)
+                and node.attr == "__class__"
+                and isinstance(node.ctx, ast.Store)
+            ):
+                found.append(f"{where}:{node.lineno}: a module's class replaced")
+        for sub in _runs_on_import(tree):
+            if isinstance(sub, ast.Call) and ast.unparse(sub.func) in _ENVIRONMENT_SETTERS:
+                found.append(f"{where}:{sub.lineno}: environment set on import")
+            elif (
+                isinstance(sub, ast.Subscript)
+                and isinstance(sub.ctx, ast.Store)
+                and (ast.unparse(sub.value) == "os.environ")
+            ):
+                found.append(f"{where}:{sub.lineno}: environment set on import")
+    assert found == []
+
+
+@pytest.mark.parametrize("limit", [1000])
+def test_no_file_over_the_line_limit(limit):
+    long = {
+        str(path.relative_to(SRC.parent)): n
+        for path in _modules()
+        if (n := len(path.read_text().splitlines())) > limit
+    }
+    assert long == {}
+
+
+def test_functions_keep_their_names_whatever_is_imported():
+    """``adavar.davar`` and ``adavar.compare`` stay the functions after their modules are
+    imported: the modules have other names, so no module's class has to be swapped."""
+    import adavar
+    import adavar.comparison
+    import adavar.surface
+
+    assert adavar.davar is adavar.surface.davar
+    assert adavar.compare is adavar.comparison.compare
+    from adavar import cli
+    from adavar.cli import entry
+
+    assert cli.main is entry.main and callable(cli.main)
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(SRC.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _public_module(dotted: str) -> bool:
+    return not any(_private(part) for part in dotted.split("."))
+
+
+def test_no_module_takes_another_public_modules_private_names():
+    """A name another module needs is not private: ``from adavar.x import _y`` and
+    ``x._y`` of a public module ``adavar.x`` are refused (private modules such as
+    ``adavar._kernels`` or ``adavar._jit`` are internal as a whole)."""
+    found = []
+    for path, tree in _modules().items():
+        here = _module_name(path)
+        aliases: dict[str, str] = {}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("adavar"):
+                for alias in node.names:
+                    target = f"{node.module}.{alias.name}"
+                    aliases[alias.asname or alias.name] = target
+                    if (
+                        _private(alias.name) and _public_module(node.module)
+                        and node.module not in (here, "adavar")
+                    ):  # fmt: skip
+                        found.append(f"{here}: from {node.module} import {alias.name}")
+            elif isinstance(node, ast.Import):
+                for alias in node.names:
+                    if alias.name.startswith("adavar") and alias.asname:
+                        aliases[alias.asname] = alias.name
+        for node in ast.walk(tree):
+            if (
+                isinstance(node, ast.Attribute) and _private(node.attr)
+                and isinstance(node.value, ast.Name) and node.value.id in aliases
+            ):  # fmt: skip
+                target = aliases[node.value.id]
+                if _public_module(target) and target != here:
+                    found.append(f"{here}: {target}.{node.attr}")
+    assert found == []
