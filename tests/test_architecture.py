@@ -188,3 +188,53 @@ def test_no_module_takes_another_public_modules_private_names():
                 if _public_module(target) and target != here:
                     found.append(f"{here}: {target}.{node.attr}")
     assert found == []
+
+
+def _imports(path: Path, tree: ast.Module, modules: set[str]) -> set[str]:
+    """The adavar modules ``path`` imports, inside functions too (not under
+    ``if TYPE_CHECKING:``, which never runs)."""
+    here = _module_name(path)
+    skipped = {
+        id(sub)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
+        for sub in ast.walk(node)
+    }
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if id(node) in skipped:
+            continue
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name in modules}
+        elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+            subs = {f"{node.module}.{a.name}" for a in node.names} & modules
+            if subs:
+                found |= subs
+            elif node.module in modules and not (
+                node.module == "adavar" and all(a.name == "__version__" for a in node.names)
+            ):
+                found.add(node.module)
+    return found - {here}
+
+
+def test_no_import_cycles_even_inside_functions():
+    """The modules form layers: no module reaches itself through imports, whether they
+    run at import time or in a function (a function-level import is still a cycle)."""
+    modules = {_module_name(path) for path in _modules()}
+    graph = {_module_name(p): _imports(p, t, modules) for p, t in _modules().items()}
+    cycles = []
+    state: dict[str, int] = {}  # 1 on the path, 2 done
+
+    def visit(node: str, path: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(graph[node]):
+            if state.get(nxt) == 1:
+                cycles.append([*path[path.index(nxt) :], nxt])
+            elif nxt not in state:
+                visit(nxt, [*path, nxt])
+        state[node] = 2
+
+    for start in sorted(graph):
+        if start not in state:
+            visit(start, [start])
+    assert cycles == []

@@ -19,8 +19,10 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar import cli, readers, simulate
+from adavar import cli, generators, readers, simulate
 from adavar import comparison as compare_module
+from adavar.paper import scenarios as paper_scenarios
+from adavar.paper import studies as paper_studies
 from adavar.plots import rate_unit
 
 from .cli_helpers import patch_cli, run
@@ -78,7 +80,7 @@ FUNCTIONS = [
     (adavar.adaptive_davar, ("adaptive",)),
     (adavar.adaptive_schedule, ("adaptive",)),  # called by adaptive_davar with its settings
     (compare_module.compare, ("compare",)),
-    (compare_module.compare_seeds, ("compare",)),
+    (adavar.compare_seeds, ("compare",)),
     (readers.read_record, ("avar", "davar", "adaptive", "report", "compare")),
     (simulate.sensor, ("simulate",)),
     (simulate.paper_scenario, ("simulate", "compare")),
@@ -414,16 +416,16 @@ def test_compare_seeds_gets_every_flag(capsys, monkeypatch):
     from types import SimpleNamespace
 
     recorder(monkeypatch, compare_module, "compare", returns=SimpleNamespace(change_times=()))
-    scenario = recorder(monkeypatch, simulate, "paper_scenario", returns=SimpleNamespace(
+    scenario = recorder(monkeypatch, paper_scenarios, "paper_scenario", returns=SimpleNamespace(
         description="scenario"))  # fmt: skip
-    seen = recorder(monkeypatch, compare_module, "compare_seeds")
+    seen = recorder(monkeypatch, paper_studies, "compare_seeds")
     code, _, err = run(capsys, ["compare", "--scenario", "2", "--seed", "5", "--seeds", "3",
                                 "--variance-reading", "--methods", "davar-400,a-davar",
                                 *CONTROLLER_FLAGS, "--taus", "decade", "--terms", "N",
                                 "--crossing-window", "500", "--crossing-thresholds",
                                 "4,3.5"])  # fmt: skip
     assert code == 1 and "Stop" in err
-    check(seen, compare_module.compare_seeds, {
+    check(seen, adavar.compare_seeds, {
         "scenario": 2, "seeds": range(5, 8), "variance_reading": True,
         "methods": ["davar-400", "a-davar"], **COMPARE, "taus": "decade",
         "terms": ("angle_random_walk",), "crossing_window": 500,
@@ -469,7 +471,7 @@ def test_lazy_is_three_way_and_settable_in_a_config(capsys, monkeypatch, record,
 
 
 def test_simulate_gets_every_flag(capsys, monkeypatch, tmp_path):
-    seen = recorder(monkeypatch, simulate, "sensor")
+    seen = recorder(monkeypatch, generators, "sensor")
     code, _, err = run(capsys, ["simulate", "-o", str(tmp_path / "s.csv"), "--n", "500",
                                 "--rate", "50", "--quantization", "1", "--arw", "2",
                                 "--bias-instability", "3", "--rrw", "4", "--rate-ramp", "5",
@@ -483,7 +485,7 @@ def test_simulate_gets_every_flag(capsys, monkeypatch, tmp_path):
         "markov": (0.1, 10.0), "sinusoid": (1.0, 2.0, 0.5), "seed": 9, "bandwidth": 12.0,
         "filter_order": 3, "lsb": 0.01,
     })  # fmt: skip
-    scenario = recorder(monkeypatch, simulate, "paper_scenario")
+    scenario = recorder(monkeypatch, paper_scenarios, "paper_scenario")
     code, _, _ = run(capsys, ["simulate", "-o", str(tmp_path / "s.csv"), "--scenario", "1",
                               "--seed", "3", "--variance-reading"])  # fmt: skip
     assert code == 1

@@ -16,18 +16,16 @@ from adavar.comparison import (
     EdfCache,
     Nodes,
     compare,
-    compare_seeds,
     default_methods,
     fixed_nodes,
     interval_means,
-    kurtosis_study,
     run_comparison,
     schedule_nodes,
-    threshold_study,
     tracking_metrics,
 )
 from adavar.errors import AdavarInputError
 from adavar.kurtosis import sliding_kurtosis
+from adavar.paper.studies import compare_seeds, kurtosis_study, threshold_study
 from adavar.settings import PAPER
 from adavar.simulate import paper_scenario
 

@@ -11,10 +11,11 @@ from hypothesis import strategies as st
 
 import adavar
 from adavar import edf as edf_mod
-from adavar import surface as davar_mod
+from adavar import surface_common
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
-from adavar.surface import EDF_EXACT_LENGTHS, davar, edf_table
+from adavar.surface import davar
+from adavar.surface_common import EDF_EXACT_LENGTHS, edf_table
 
 from . import reference
 
@@ -576,7 +577,7 @@ LENGTH_SETS = [
 @pytest.mark.parametrize("lengths", LENGTH_SETS, ids=["5-40", "3-199", "400-600", "geom-3-5000"])
 def test_edf_table_interpolation_accuracy(lengths, monkeypatch):
     """Interpolated (forced here): < 1e-3 except flicker PM (< 2 %), as documented."""
-    monkeypatch.setattr(davar_mod, "EDF_EXACT_PAIRS", 0)
+    monkeypatch.setattr(surface_common, "EDF_EXACT_PAIRS", 0)
     assert lengths.size > EDF_EXACT_LENGTHS
     ms = np.array([1, 2, 3, 4, 5, 7, 10, 16, 20, 33, 50, 66, 100, 133])
     assert _edf_interpolation_error(lengths, ms, [-2, -1, 0, 2]) < 1e-3

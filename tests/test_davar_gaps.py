@@ -24,7 +24,8 @@ import adavar
 from adavar import _jit, stream
 from adavar.errors import AdavarInputError
 from adavar.gaps import effective_points
-from adavar.surface import davar, edf_of_counts
+from adavar.surface import davar
+from adavar.surface_common import edf_of_counts
 from adavar.windows import window_overhang
 
 from .cli_helpers import assert_one_line_error, run

@@ -24,7 +24,8 @@ from adavar import edf as edf_mod
 from adavar.errors import AdavarInputError
 from adavar.noise_model import fit_noise
 from adavar.statistics import deviation
-from adavar.surface import DavarStatResult, davar
+from adavar.surface import davar
+from adavar.surface_common import DavarStatResult
 
 from .cli_helpers import assert_one_line_error, run
 

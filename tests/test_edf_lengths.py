@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from scipy.interpolate import PchipInterpolator
 
 from adavar import edf as edf_mod
-from adavar import surface as davar_mod
+from adavar import surface_common
 from adavar.edf import EDF_FLOOR, STAT_ALPHA_RANGE, TOTDEV_EDF_METHODS, edf, edf_lengths
 
 from .test_edf import STATS
@@ -198,14 +198,14 @@ def test_case_names_are_sound():
 def _old_grid(stat: str, alpha: int, m: int, k_lo: int, k_hi: int) -> tuple[Any, Any, Any]:
     k = np.arange(k_lo, k_hi)
     nodes = np.unique(np.round(64 * 2.0 ** (k / 8))).astype(np.int64)
-    width = davar_mod.term_width(stat, m)
+    width = surface_common.term_width(stat, m)
     values = np.array([edf(stat, alpha, m, int(g) + width) for g in nodes])
     return nodes, values, PchipInterpolator(np.log(nodes), np.log(values))
 
 
 def _old_edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str) -> np.ndarray:
     counts = np.asarray(counts, dtype=np.int64)
-    width = davar_mod.term_width(stat, m)
+    width = surface_common.term_width(stat, m)
     exact = counts <= 64
     out = np.empty(counts.size)
     out[exact] = [edf(stat, alpha, m, int(c) + width) for c in counts[exact]]
@@ -233,7 +233,7 @@ def _old_edf_table(lengths, ms, alpha, overhang=None, stat="oadev", exact_pairs=
             rows = np.flatnonzero(3 * m <= lengths)
             if rows.size == 0:
                 continue
-            width = davar_mod.term_width(stat, m)
+            width = surface_common.term_width(stat, m)
             terms = lengths[rows] + 1 - width
             repeats = np.maximum(0, overhang[rows] - width // 2)
             effective = np.maximum(1, np.round(terms * terms / (terms + 2 * repeats)))
@@ -283,10 +283,10 @@ TABLE_LENGTHS = [
 def test_edf_table_plain_as_before(stat, interpolated, which, monkeypatch):
     lengths = TABLE_LENGTHS[which]
     exact_pairs = 0 if interpolated else 10**9
-    monkeypatch.setattr(davar_mod, "EDF_EXACT_PAIRS", exact_pairs)
+    monkeypatch.setattr(surface_common, "EDF_EXACT_PAIRS", exact_pairs)
     lo, hi = STAT_ALPHA_RANGE[stat]
     alpha = np.resize(np.arange(lo, hi + 1), TABLE_MS.size)  # every alpha, at several m
-    got = davar_mod.edf_table(lengths, TABLE_MS, alpha, stat=stat)
+    got = surface_common.edf_table(lengths, TABLE_MS, alpha, stat=stat)
     _same_table(got, _old_edf_table(lengths, TABLE_MS, alpha, stat=stat, exact_pairs=exact_pairs))
 
 
@@ -299,7 +299,7 @@ def test_edf_table_overhang_as_before(stat):
     lo, hi = STAT_ALPHA_RANGE[stat]
     for shift in range(hi - lo + 1):
         alpha = np.resize(np.roll(np.arange(lo, hi + 1), shift), TABLE_MS.size)
-        got = davar_mod.edf_table(lengths, TABLE_MS, alpha, overhang=overhang, stat=stat)
+        got = surface_common.edf_table(lengths, TABLE_MS, alpha, overhang=overhang, stat=stat)
         want = _old_edf_table(lengths, TABLE_MS, alpha, overhang=overhang, stat=stat)
         _same_table(got, want)
 
@@ -308,7 +308,7 @@ def test_edf_of_counts_as_before():
     counts = np.unique(np.geomspace(1, 10**6, 200).astype(np.int64))
     for stat in ("oadev", "ohdev", "mdev"):
         for alpha, m in ((-2, 1), (0, 7), (1, 40), (2, 300), (-1, 2000)):
-            got = davar_mod.edf_of_counts(counts, alpha, m, stat)
+            got = surface_common.edf_of_counts(counts, alpha, m, stat)
             want = _old_edf_of_counts(counts, alpha, m, stat)
             np.testing.assert_allclose(got, want, rtol=1e-12, atol=0)
             assert math.isfinite(got.sum())
@@ -320,9 +320,9 @@ def test_edf_of_counts_do_not_depend_on_the_grid_a_call_finds():
     small = np.array([70, 90, 130])
     large = np.array([100, 5_000, 300_000])
     for stat, alpha, m in (("oadev", 0, 3), ("mdev", 1, 17), ("ohdev", -2, 5)):
-        davar_mod._EDF_GRIDS.clear()
-        alone = davar_mod.edf_of_counts(large, alpha, m, stat)
-        davar_mod._EDF_GRIDS.clear()
-        davar_mod.edf_of_counts(small, alpha, m, stat)  # a small grid first
-        after = davar_mod.edf_of_counts(large, alpha, m, stat)  # then extended
+        surface_common._EDF_GRIDS.clear()
+        alone = surface_common.edf_of_counts(large, alpha, m, stat)
+        surface_common._EDF_GRIDS.clear()
+        surface_common.edf_of_counts(small, alpha, m, stat)  # a small grid first
+        after = surface_common.edf_of_counts(large, alpha, m, stat)  # then extended
         np.testing.assert_array_equal(after, alone)

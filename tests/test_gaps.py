@@ -145,7 +145,7 @@ def test_property_matches_reference(n, seed, stat, data_type, offset, drift, lev
         with pytest.raises(AdavarInputError, match="not missing"):
             adavar.deviation(y, stat=stat, data_type=data_type, gaps="omit")
         return
-    max_m = gaps.st.largest_factor(stat, n if phase else n + 1)
+    max_m = gaps.inputs.largest_factor(stat, n if phase else n + 1)
     want = {m: reference_variance(base, m, stat, phase) for m in range(1, max_m + 1)}
     try:
         r = adavar.deviation(y, stat=stat, data_type=data_type, taus="all",

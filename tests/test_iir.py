@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import signal
 
-from adavar import iir
+from adavar import generators, iir
 from adavar import simulate as sim
 
 RTOL = 1e-12
@@ -207,7 +207,7 @@ def test_filter_rejects_bad_arguments(sos: np.ndarray, x: np.ndarray, zi: object
 @pytest.mark.parametrize("n", [2, 3, 17, 1000, 65_537])
 def test_flicker_is_scipy_fftconvolve(n: int) -> None:
     w = math.sqrt(math.pi * 2.0) * np.random.default_rng(n).standard_normal(n)
-    want = signal.fftconvolve(w, sim._kasdin_walter_coefficients(n, 1.0))[:n]
+    want = signal.fftconvolve(w, generators._kasdin_walter_coefficients(n, 1.0))[:n]
     got = sim.flicker(n, h_minus1=2.0, seed=n)
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-15 * np.max(np.abs(want)))
 

@@ -14,7 +14,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from adavar import adaptive, controller, stream
+from adavar import adaptive, controller, sources, stream
 from adavar.adaptive import adaptive_davar, adaptive_schedule
 from adavar.errors import AdavarInputError
 from adavar.simulate import paper_scenario
@@ -176,7 +176,7 @@ def test_chunked_inputs_go_out_of_core(tmp_path, monkeypatch):
     np.save(path, x)
     reads = []
     read = stream.ChunkedSource.read
-    monkeypatch.setattr(stream, "DEFAULT_CHUNK", 10_000)
+    monkeypatch.setattr(sources, "DEFAULT_CHUNK", 10_000)
     monkeypatch.setattr(
         stream.ChunkedSource, "read", lambda self, a, b: reads.append(b - a) or read(self, a, b)
     )

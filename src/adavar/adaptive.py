@@ -38,25 +38,18 @@ from typing import Any
 
 import numpy as np
 
-from adavar import stream
+from adavar import sources
 from adavar.controller import REANCHOR, check_whole, controller_outputs, make_controller
 from adavar.durations import Length, is_duration, to_samples
 from adavar.errors import AdavarInputError
 from adavar.events import Event, flag_runs, join_runs
 from adavar.ici import ici_schedule
+from adavar.inputs import DATA_TYPE_ALIASES, as_samples, refuse_masked, scaled, scaled_source
 from adavar.long_tau import LONG_TAU_SAMPLES, long_tau_changes
 from adavar.results import DavarResult
-from adavar.sampling import RATE_DEFAULT, resolve_rate
+from adavar.sampling import RATE_DEFAULT, resolve_rate, resolve_tau0
 from adavar.settings import CONTROLLER, HOURLY_FALSE_ALARMS, ICI_GAMMA, THRESHOLDS, threshold_mode
-from adavar.statistics import (
-    DATA_TYPE_ALIASES,
-    as_samples,
-    refuse_masked,
-    resolve_tau0,
-    scaled,
-    scaled_source,
-)
-from adavar.stream import ChunkedSource
+from adavar.sources import ChunkedSource
 from adavar.surface import davar, davar_blocks
 from adavar.thresholds import Thresholds, calibrated_thresholds, threshold_summary
 from adavar.window_defaults import (
@@ -180,7 +173,7 @@ def window_lengths(
 def _record_size(data: Any, chunked: bool) -> int:
     """Samples of the record (before it is checked: 0 for what is not a 1-D record)."""
     if chunked:
-        return int(stream.as_source(data).size)
+        return int(sources.as_source(data).size)
     shape = np.shape(data)
     return int(shape[0]) if len(shape) == 1 else 0
 
@@ -275,7 +268,7 @@ def adaptive_schedule(
     if keep not in ("all", "runs") or (keep == "runs" and method == "ici"):
         raise AdavarInputError(f"keep={keep!r} with method={method!r}: use 'all' (or 'runs' "
                                "with a kurtosis-controller method)")  # fmt: skip
-    chunked = chunk_size is not None or stream.is_chunked(data)
+    chunked = chunk_size is not None or sources.is_chunked(data)
     if lmax is None or lmin is None or l is None:
         lmax, lmin, l = resolve_windows(_record_size(data, chunked), dt, lmax, lmin, l)  # noqa: E741
     lmax, lmin, seg, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)
@@ -283,8 +276,8 @@ def adaptive_schedule(
         thresholds, false_alarm, false_alarm_per_hour
     )
     if method == "ici":  # not a kurtosis controller: its own module, in memory
-        if chunk_size is None and stream.is_chunked(data):  # a memory map, a lazy channel
-            source = stream.as_source(data)
+        if chunk_size is None and sources.is_chunked(data):  # a memory map, a lazy channel
+            source = sources.as_source(data)
             data, chunked = source.read(0, source.size), False
         if chunked:
             raise AdavarInputError(
@@ -296,9 +289,9 @@ def adaptive_schedule(
                    episodes=ici_episodes)  # fmt: skip
         return _ici(data, lmax=lmax, lmin=lmin, seg=seg, edges=edges, step=step, dt=dt,
                     options=ici, long_tau=ici_long_tau)  # fmt: skip
-    chunk = stream.DEFAULT_CHUNK
+    chunk = sources.DEFAULT_CHUNK
     if chunk_size is not None:
-        chunk = stream.check_chunk_size(chunk_size)
+        chunk = sources.check_chunk_size(chunk_size)
     settings = dict(
         method=method, lmax=lmax, lmin=lmin, seg=seg, dl0=dl0, dl1=dl1, k1=k1, k2=k2, s1=s1,
         s2=s2, s_test=s_test, combine=combine, thresholds=thresholds, false_alarm=false_alarm,
@@ -312,7 +305,7 @@ def adaptive_schedule(
     # its fourth powers neither overflow (data near 1e80) nor underflow (near 1e-80)
     refuse_masked(data)
     if chunked:
-        source, _ = scaled_source(stream.as_source(data))
+        source, _ = scaled_source(sources.as_source(data))
         n = source.size
         if n < lmax:
             raise AdavarInputError(f"the record has {n} samples; at least {lmax} are needed")
@@ -401,7 +394,7 @@ def adaptive_schedule(
                 ext = source.read(q0, q1 + lmax - 1)
                 offset = first
             else:
-                ext = stream.read_extended(source, q0, q1 + 2 * pad, pad)
+                ext = sources.read_extended(source, q0, q1 + 2 * pad, pad)
                 offset = pad
             part, length = run(ext, offset, q0, q1, length)
             del ext
@@ -802,7 +795,7 @@ def adaptive_blocks(
     arguments = inspect.signature(adaptive_davar).bind(data, **options)
     arguments.apply_defaults()
     given = dict(arguments.arguments)
-    if given.pop("chunk_size") is not None or stream.is_chunked(data):
+    if given.pop("chunk_size") is not None or sources.is_chunked(data):
         raise AdavarInputError(
             "adaptive_blocks takes a record in memory: for a memory map, a dask array or "
             "a source use adaptive_davar(..., chunk_size=), which holds N / step rows"
@@ -834,7 +827,7 @@ def _adaptive_surfaces(
     rate, tau0, dt = resolve_rate(data, rate, tau0)  # a time index gives it, or 1 Hz
     if None in (lmax, lmin, l, taus, step):  # the defaults follow the record
         # the record's length, as the command line counts it (phase: its samples)
-        size = _record_size(data, chunk_size is not None or stream.is_chunked(data))
+        size = _record_size(data, chunk_size is not None or sources.is_chunked(data))
         lmax, lmin, l = resolve_windows(size, dt, lmax, lmin, l)  # noqa: E741
         taus, step, _ = surface_resolution(
             check_whole("lmax", to_samples(lmax, dt, "lmax"), 5), size, dt, taus=taus,
@@ -860,16 +853,16 @@ def _adaptive_surfaces(
     if step < 1:
         raise AdavarInputError("step must be a positive integer")
     min_length = 4 if dtype == "phase" else 3
-    if method == "ici" and chunk_size is None and stream.is_chunked(data):
-        source = stream.as_source(data)  # ICI runs in memory: read the record once
+    if method == "ici" and chunk_size is None and sources.is_chunked(data):
+        source = sources.as_source(data)  # ICI runs in memory: read the record once
         data = source.read(0, source.size)
-    if chunk_size is not None or stream.is_chunked(data):
-        source = stream.as_source(data)
+    if chunk_size is not None or sources.is_chunked(data):
+        source = sources.as_source(data)
         if source.size < min_length:
             raise AdavarInputError(
                 f"the record has {source.size} samples; at least {min_length} are needed"
             )
-        u = source if dtype == "rate" else stream.DifferencedSource(source)
+        u = source if dtype == "rate" else sources.DifferencedSource(source)
         # the step-th centres only: O(N / step) memory, the schedule davar computes
         sched = adaptive_schedule(u, **controller, step=step, chunk_size=chunk_size)
         if edges == "valid":

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar import stream
+from adavar import sources
 from adavar.adaptive import (
     adaptive_davar,
     record_windows,
@@ -128,7 +128,7 @@ def load_input(
         pieces = record.pieces(name) if split else [record.channel(name)]
         for k, piece in enumerate(pieces):
             preprocessing = bool(getattr(args, "preprocess", None))
-            if out_of_core and not preprocessing and stream.is_chunked(piece):
+            if out_of_core and not preprocessing and sources.is_chunked(piece):
                 x = piece
             else:
                 x = np.asarray(piece, dtype=np.float64)

@@ -14,8 +14,7 @@ The paper's part lives in :mod:`adavar.paper`: its published values
 (:mod:`adavar.paper.studies`: :func:`~adavar.paper.studies.compare_seeds`, which sets the
 node medians over many realisations beside the paper's Table 1,
 :func:`~adavar.paper.studies.threshold_study`, the paper's Fig. 8, and
-:func:`~adavar.paper.studies.kurtosis_study`, its Figs. 6-7). Their names are importable from
-here too.
+:func:`~adavar.paper.studies.kurtosis_study`, its Figs. 6-7), which build on this module.
 
 Ground-truth metrics
 --------------------
@@ -58,12 +57,13 @@ import itertools
 import math
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from adavar.adaptive import Schedule, adaptive_schedule
 from adavar.errors import AdavarInputError
+from adavar.inputs import as_samples
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
 from adavar.paper.nodes import NODE_NAMES, Nodes, change_index, fixed_nodes, schedule_nodes
 from adavar.paper.reference import (
@@ -77,21 +77,11 @@ from adavar.paper.reference import (
 )
 from adavar.results import DavarResult
 from adavar.settings import CONTROLLER
-from adavar.statistics import as_samples
-from adavar.surface import davar, edf_table
+from adavar.surface import davar
+from adavar.surface_common import edf_table
 from adavar.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows
 from adavar.windows import window_overhang
 from adavar.writers import jsonable
-
-if TYPE_CHECKING:  # defined in adavar.paper.studies, re-exported by __getattr__ below
-    from adavar.paper.studies import (
-        KurtosisStudy,
-        SeedStudy,
-        ThresholdStudy,
-        compare_seeds,
-        kurtosis_study,
-        threshold_study,
-    )
 
 __all__ = [
     "FIGURE_WINDOWS",
@@ -105,20 +95,14 @@ __all__ = [
     "SMALL_RECORD",
     "ChangeMetrics",
     "Comparison",
-    "KurtosisStudy",
     "MethodRun",
     "Metrics",
     "Nodes",
-    "SeedStudy",
-    "ThresholdStudy",
     "compare",
-    "compare_seeds",
     "default_methods",
     "fixed_nodes",
     "interval_means",
-    "kurtosis_study",
     "schedule_nodes",
-    "threshold_study",
     "tracking_metrics",
 ]
 
@@ -977,23 +961,3 @@ def run_comparison(
         scenario=known.get("scenario"),
         units=units,
     )
-
-
-# ---------------------------------------------------------------------------------------
-# the paper's studies, defined in adavar.paper.studies (which imports this module)
-
-_STUDY_NAMES = frozenset({"KurtosisStudy", "SeedStudy", "ThresholdStudy", "compare_seeds",
-                          "kurtosis_study", "threshold_study"})  # fmt: skip
-
-
-def __getattr__(name: str) -> Any:
-    """The studies of :mod:`adavar.paper.studies`, imported on first use."""
-    if name in _STUDY_NAMES:
-        from adavar.paper import studies
-
-        return getattr(studies, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_STUDY_NAMES})

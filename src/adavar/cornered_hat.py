@@ -49,8 +49,9 @@ import numpy as np
 from scipy.special import gammaincinv, ndtri
 
 from adavar.errors import AdavarInputError
+from adavar.inputs import as_samples, check_confidence
 from adavar.results import DeviationResult
-from adavar.statistics import as_samples, check_confidence, deviation
+from adavar.statistics import deviation
 
 __all__ = ["CodeviationResult", "CorneredHatResult", "cornered_hat", "gcodev"]
 

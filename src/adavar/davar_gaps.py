@@ -27,10 +27,10 @@ EDF and intervals
 The noise type per tau is identified on the whole record's kept data
 (:func:`adavar.gaps.gap_noise_types`). A cell's EDF is the Greenhall-Riley EDF of a
 gap-free window giving as many terms as were kept: ``gaps.effective_points(stat, m,
-kept)`` phase points (:func:`adavar.surface.edf_of_counts`: exact up to 64 terms, a fixed
+kept)`` phase points (:func:`adavar.surface_common.edf_of_counts`: exact up to 64 terms, a fixed
 interpolation grid beyond, 1e-3). With ``edge_edf="distinct"`` a window reaching into the
 mirror has its kept count scaled by the gap-free ratio ``M / (M + 2 D)`` of
-:func:`adavar.surface.edf_table`. The per-cell EDFs are stored as an ``edf_table`` of one
+:func:`adavar.surface_common.edf_table`. The per-cell EDFs are stored as an ``edf_table`` of one
 row per centre (``window_class = arange(T)``).
 
 Out of core: a chunked record (a source, a memory map) is scanned for NaN first; without
@@ -45,7 +45,7 @@ from typing import Any
 import numpy as np
 
 from adavar import differences as diff
-from adavar import stream
+from adavar import sources
 from adavar._kernels.window_gaps import window_gaps
 from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
@@ -58,9 +58,9 @@ from adavar.gaps import (
     read_whole,
     samples_with_gaps,
 )
+from adavar.inputs import data_exponent, tau_factors, unscale
 from adavar.results import DavarResult
-from adavar.statistics import data_exponent, tau_factors, unscale
-from adavar.surface import (
+from adavar.surface_common import (
     DavarStatResult,
     bound_factors,
     centre_chunk_size,
@@ -87,17 +87,17 @@ def missing_record(
     none (the gap-free path then takes ``data`` as it is: the same result bit for bit)."""
     if gaps not in GAP_RULES:
         raise AdavarInputError(f"unknown gaps {gaps!r}: use one of {', '.join(GAP_RULES)}")
-    if gaps == "error" or (lazy and not stream.is_dask(data)):  # davar names the latter
+    if gaps == "error" or (lazy and not sources.is_dask(data)):  # davar names the latter
         return None
-    if stream.is_dask(data) and lazy is not False:
+    if sources.is_dask(data) and lazy is not False:
         raise AdavarInputError(
             "davar(gaps='omit') does not compute a lazy surface: pass lazy=False (the record "
             "is scanned, and read into memory if it has missing samples) or numpy.asarray(data)"
         )
-    if stream.is_chunked(data):
-        source = stream.as_source(data)
-        for start in range(0, source.size, stream.DEFAULT_CHUNK):
-            raw = source.read_unchecked(start, min(source.size, start + stream.DEFAULT_CHUNK))
+    if sources.is_chunked(data):
+        source = sources.as_source(data)
+        for start in range(0, source.size, sources.DEFAULT_CHUNK):
+            raw = source.read_unchecked(start, min(source.size, start + sources.DEFAULT_CHUNK))
             if raw.dtype.kind in "fc" and np.isnan(raw).any():
                 break
         else:

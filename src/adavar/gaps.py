@@ -73,7 +73,7 @@ window follows from its kept count the same way.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -82,8 +82,7 @@ import numpy as np
 from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import extended_statistics as ext
-from adavar import statistics as st
-from adavar import stream
+from adavar import inputs, sources
 from adavar._jit import read_only
 from adavar._kernels.gaps import (
     fill_missing,
@@ -111,6 +110,7 @@ from adavar.noise_id import (
     starts_on_phase,
 )
 from adavar.results import DeviationResult
+from adavar.sampling import resolve_tau0
 
 __all__ = [
     "GAP_RULES",
@@ -446,10 +446,10 @@ class _MissingFound(Exception):
     """A streamed record holds a NaN: it is computed in memory instead."""
 
 
-class _WatchedSource(stream.ChunkedSource):
+class _WatchedSource(sources.ChunkedSource):
     """A source that raises :class:`_MissingFound` on the first NaN it reads."""
 
-    def __init__(self, source: stream.ChunkedSource) -> None:
+    def __init__(self, source: sources.ChunkedSource) -> None:
         self.source = source
         self.size = source.size
         self.name = source.name
@@ -462,10 +462,10 @@ class _WatchedSource(stream.ChunkedSource):
         return raw
 
 
-def read_whole(source: stream.ChunkedSource) -> np.ndarray:
+def read_whole(source: sources.ChunkedSource) -> np.ndarray:
     out = np.empty(source.size)
-    for start in range(0, source.size, stream.DEFAULT_CHUNK):
-        stop = min(source.size, start + stream.DEFAULT_CHUNK)
+    for start in range(0, source.size, sources.DEFAULT_CHUNK):
+        stop = min(source.size, start + sources.DEFAULT_CHUNK)
         out[start:stop] = source.read_unchecked(start, stop)
     return out
 
@@ -483,40 +483,43 @@ def samples_with_gaps(data: Any) -> np.ndarray:
     except Exception as exc:  # pragma: no cover - exotic containers
         raise AdavarInputError(f"cannot read the data as an array: {exc}") from None
     if x.dtype.kind != "f":
-        return st.as_samples(data, min_length=0)  # no NaN possible; its checks and errors
+        return inputs.as_samples(data, min_length=0)  # no NaN possible; its checks and errors
     missing = np.isnan(x)
     if not missing.any():
-        return st.as_samples(x, min_length=0)
-    st.as_samples(np.where(missing, 0.0, x), min_length=0)  # shape, Inf: its errors
+        return inputs.as_samples(x, min_length=0)
+    inputs.as_samples(np.where(missing, 0.0, x), min_length=0)  # shape, Inf: its errors
     return np.asarray(np.squeeze(x) if x.ndim != 1 else x, dtype=np.float64)
 
 
-def deviation_omitting_gaps(data: Any, *, gaps: str, **options: Any) -> DeviationResult:
+def deviation_omitting_gaps(
+    data: Any, *, whole: Callable[..., DeviationResult], gaps: str, **options: Any
+) -> DeviationResult:
     """:func:`adavar.deviation` with ``gaps="omit"`` (see the module notes).
 
-    A record without NaN goes to the gap-free path unchanged (identical result); one with
+    A record without NaN goes to the gap-free path ``whole`` (:func:`adavar.deviation`
+    with ``gaps="error"``, passed by its caller) unchanged: an identical result; one with
     NaN is computed here.
     """
     if gaps not in GAP_RULES:
         raise AdavarInputError(f"unknown gaps {gaps!r}: use one of {', '.join(GAP_RULES)}")
     if gaps == "error":
-        return st.deviation(data, gaps="error", **options)
+        return whole(data, gaps="error", **options)
     chunk_size = options.get("chunk_size")
     notes: tuple[str, ...] = ()
-    if stream.is_chunked(data):
+    if sources.is_chunked(data):
         try:
-            return st.deviation(_WatchedSource(stream.as_source(data)), gaps="error", **options)
+            return whole(_WatchedSource(sources.as_source(data)), gaps="error", **options)
         except _MissingFound:
             if chunk_size is not None:
                 raise AdavarInputError(_IN_MEMORY) from None
-        source = stream.as_source(data)
+        source = sources.as_source(data)
         x = samples_with_gaps(read_whole(source))  # Inf: the one-line error
         notes = (f"{source.name} holds missing samples: it was read into memory",)
     else:
         x = samples_with_gaps(data)
     missing = np.isnan(x)
     if not missing.any():
-        return st.deviation(x, gaps="error", **options)
+        return whole(x, gaps="error", **options)
     if chunk_size is not None and not notes:
         raise AdavarInputError(_IN_MEMORY)
     return _gap_deviation(x, missing, notes=notes, **options)
@@ -544,8 +547,8 @@ def _gap_deviation(
     :mod:`adavar.extended_statistics`, which must be None), and ``chunk_size`` (there is
     no out-of-core gap path).
     """
-    dtype = st.DATA_TYPE_ALIASES[str(data_type).lower()]
-    step = st.resolve_tau0(rate, tau0)
+    dtype = inputs.DATA_TYPE_ALIASES[str(data_type).lower()]
+    step = resolve_tau0(rate, tau0)
     n_missing = int(missing.sum())
     _refuse_ungappable(stat, n_missing)
     extended = {name for spec in ext.SPECS.values() for name in spec.options}
@@ -559,7 +562,7 @@ def _gap_deviation(
             f"the record has {n_valid} samples that are not missing (of {x.size}); at least "
             f"{min_length} are needed"
         )
-    exponent = st.data_exponent(x[~missing])
+    exponent = inputs.data_exponent(x[~missing])
     if exponent:
         x = np.ldexp(x, -exponent)
     layout = GapLayout.of(missing, dtype)
@@ -569,7 +572,8 @@ def _gap_deviation(
     scale = 1.0 if dtype == "rate" else 1.0 / step_mantissa**2
     if dtype == "phase":
         exponent -= step_exponent
-    ms, tau_notes = st.tau_factors(taus, st.largest_factor(stat, n_points), step, points_per_decade)
+    most = inputs.largest_factor(stat, n_points)
+    ms, tau_notes = inputs.tau_factors(taus, most, step, points_per_decade)
     phase = diff.anchored_phase(u)
     sums, kept = kept_sums(phase, layout, stat, ms)
     empty = kept == 0
@@ -620,12 +624,12 @@ def _gap_deviation(
             ]
         )
         var_low, var_high = edf_mod.chi2_interval(var, edf_values, float(confidence))
-        low = st.unscale(np.sqrt(var_low), exponent, "deviations")
-        high = st.unscale(np.sqrt(var_high), exponent, "deviations")
+        low = inputs.unscale(np.sqrt(var_low), exponent, "deviations")
+        high = inputs.unscale(np.sqrt(var_high), exponent, "deviations")
 
     return DeviationResult(
         tau=ms * step,
-        dev=st.unscale(np.sqrt(var), exponent, "deviations"),
+        dev=inputs.unscale(np.sqrt(var), exponent, "deviations"),
         dev_low=low,
         dev_high=high,
         edf=edf_values,

@@ -39,7 +39,7 @@ of freedom; ``rho`` is measured on the whole record (lags up to ``2m + 64``; on 
 ``edf_samples`` with that option, what a live pass knows). On white rate
 noise at ``m = 1`` that is ``nu = 2n/3`` (267 for ``L = 400`` in simulation, where the
 Greenhall EDF of the engine gives 312); on a sensor's band-limited noise it is smaller
-still. ``edf="engine"`` uses :func:`adavar.surface.edf_table` with the record's noise type.
+still. ``edf="engine"`` uses :func:`adavar.surface_common.edf_table` with the record's noise type.
 With ``kurtosis`` (default) either is scaled by the record's robust excess kurtosis ``e``,
 ``nu = 2n / (2n / nu_G + e)`` (:mod:`adavar.ici_episodes`): heavy tails widen the intervals.
 
@@ -67,9 +67,10 @@ from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import ici_episodes as episodes_mod
 from adavar.errors import AdavarInputError
+from adavar.inputs import as_samples
 from adavar.settings import ICI_EDF, ICI_GAMMA, ICI_SIDES
-from adavar.statistics import as_samples, record_noise_types
-from adavar.surface import edf_table
+from adavar.statistics import record_noise_types
+from adavar.surface_common import edf_table
 
 __all__ = [
     "ICI_EDF",
@@ -662,7 +663,8 @@ def ici_schedule(
         windows only.
     edf : {"correlation", "engine"}
         Degrees of freedom of each estimate: from the record's correlation (default) or the
-        engine's Greenhall EDF for the record's noise type (:func:`adavar.surface.edf_table`).
+        engine's Greenhall EDF for the record's noise type
+        (:func:`adavar.surface_common.edf_table`).
     edges : {"mirror", "valid"}
         ``"mirror"``: every centre, windows reaching into the time-reversed ends;
         ``"valid"``: the centres whose centred ``lmax`` window fits, and only candidate

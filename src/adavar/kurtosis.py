@@ -69,7 +69,7 @@ from adavar._kernels.double_double import (
 )
 from adavar._kernels.window_avar import sample_median
 from adavar.errors import AdavarInputError
-from adavar.statistics import as_samples, scaled
+from adavar.inputs import as_samples, scaled
 from adavar.windows import window_schedule
 
 __all__ = ["MIN_COMPLEMENT", "REFERENCES", "kurtosis_contribution", "sliding_kurtosis"]

@@ -43,8 +43,9 @@ from scipy.special import ndtr, ndtri
 
 from adavar import ici_episodes
 from adavar.errors import AdavarInputError
+from adavar.inputs import as_samples
+from adavar.sampling import resolve_tau0
 from adavar.settings import ICI_GAMMA
-from adavar.statistics import as_samples, resolve_tau0
 
 __all__ = [
     "LONG_TAU_MIN_M",

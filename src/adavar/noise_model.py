@@ -94,6 +94,7 @@ import numpy as np
 
 from adavar import gls_core, gls_fit
 from adavar.errors import AdavarInputError
+from adavar.inputs import SAFE_EXPONENT, unscale
 from adavar.results import ADEQUATE_P, MarkovTerm, NoiseFit, NoiseTerm
 from adavar.settings import FitSettings
 from adavar.slopes import read_slopes
@@ -106,7 +107,6 @@ from adavar.stack_fit import (
     row_blocks,
     stack_edf,
 )
-from adavar.statistics import SAFE_EXPONENT, unscale
 from adavar.taus import tau_bounds
 from adavar.terms import AVAR_FACTORS as _K
 from adavar.terms import TERM_NAMES

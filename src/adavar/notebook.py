@@ -16,7 +16,16 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["html_of", "plot_of"]
+__all__ = [
+    "deviation_html",
+    "deviation_plot",
+    "fit_html",
+    "fit_plot",
+    "html_of",
+    "plot_of",
+    "surface_html",
+    "surface_plot",
+]
 
 #: thumbnail size in inches and its resolution
 _THUMB = (4.2, 2.8)
@@ -99,50 +108,99 @@ def _fit_rows(fit: Any) -> list[tuple[str, str]]:
     return rows
 
 
+def deviation_html(result: Any) -> str:
+    """The notebook view of a :class:`~adavar.results.DeviationResult`: its table and
+    a small figure of the curve."""
+    from adavar import plots
+
+    table = _table(_deviation_rows(result), "DeviationResult")
+    return _side_by_side(table, _thumbnail(plots.deviation_figure(result)))
+
+
+def fit_html(fit: Any) -> str:
+    """The notebook view of a :class:`~adavar.results.NoiseFit`: its coefficients."""
+    rows = _fit_rows(fit)
+    red = float(np.nanmedian(np.asarray(fit.reduced_chi2, dtype=float)))
+    rows.append(("reduced chi2", _fmt(red)))
+    rows += [("warning", html.escape(w)) for w in fit.warnings]
+    return _table(rows, f"NoiseFit ({fit.method})")
+
+
+def surface_html(surface: Any) -> str:
+    """The notebook view of a :class:`~adavar.results.DavarResult` (or an adaptive
+    one): its shape and a small heat map."""
+    from adavar import plots
+
+    time, tau = np.asarray(surface.time), np.asarray(surface.tau)
+    window = np.asarray(surface.window)
+    rows = [
+        ("windows", f"{time.size}, every {surface.step} samples, {_fmt(time[0])} .. "
+                    f"{_fmt(time[-1])} s" if time.size else "none"),
+        ("window length", f"{int(window.min())} .. {int(window.max())} samples"
+                          if window.size else "none"),
+        ("taus", f"{tau.size}: {_fmt(tau[0])} .. {_fmt(tau[-1])} s" if tau.size else "none"),
+        ("statistic per window", html.escape(str(surface.stat))),
+        ("edges", html.escape(surface.edges)),
+    ]  # fmt: skip
+    rows += [("note", html.escape(n)) for n in surface.notes]
+    name = type(surface).__name__
+    if time.size and tau.size:
+        image = _thumbnail(plots.davar_heatmap_figure(surface, max_times=400, max_taus=100))
+        return _side_by_side(_table(rows, name), image)
+    return _table(rows, name)
+
+
+def _drawn(draw: Any, ax: Any, kwargs: dict[str, Any]) -> Any:
+    from adavar._figures import pyplot_figures
+
+    with pyplot_figures():
+        fig = draw(ax=ax, **kwargs)
+    return fig.axes[0] if ax is None else ax
+
+
+def deviation_plot(result: Any, ax: Any = None, **kwargs: Any) -> Any:
+    """:func:`adavar.plots.deviation_figure` of ``result`` (``fit=`` adds its noise fit);
+    the axes drawn on (see :func:`plot_of`)."""
+    from adavar import plots
+
+    return _drawn(lambda **kw: plots.deviation_figure(result, **kw), ax, kwargs)
+
+
+def surface_plot(surface: Any, ax: Any = None, **kwargs: Any) -> Any:
+    """:func:`adavar.plots.davar_heatmap_figure` of ``surface``; the axes drawn on."""
+    from adavar import plots
+
+    return _drawn(lambda **kw: plots.davar_heatmap_figure(surface, **kw), ax, kwargs)
+
+
+def fit_plot(fit: Any, ax: Any = None, **kwargs: Any) -> Any:
+    """:func:`adavar.plots.coefficient_figure` of a DAVAR stack's fit (``term=``); the
+    axes drawn on. A whole-record fit is drawn with its curve instead."""
+    from adavar import plots
+
+    if fit.time is None:
+        raise TypeError("a whole-record fit is drawn with its curve: result.plot(fit=fit)")
+    return _drawn(lambda **kw: plots.coefficient_figure(fit, **kw), ax, kwargs)
+
+
 def html_of(obj: Any) -> str:
     """The notebook view of a result: a compact table and, where it helps, a small figure.
 
     Parameters
     ----------
     obj : DeviationResult, NoiseFit, DavarResult or AdaptiveResult
-        The result to show.
+        The result to show (its ``_repr_html_``: :func:`deviation_html`,
+        :func:`fit_html` or :func:`surface_html`).
 
     Returns
     -------
     str
         HTML (a table next to an inline PNG).
     """
-    from adavar import plots
-    from adavar.results import DavarResult, DeviationResult, NoiseFit
-
-    if isinstance(obj, DeviationResult):
-        table = _table(_deviation_rows(obj), "DeviationResult")
-        return _side_by_side(table, _thumbnail(plots.deviation_figure(obj)))
-    if isinstance(obj, NoiseFit):
-        rows = _fit_rows(obj)
-        red = float(np.nanmedian(np.asarray(obj.reduced_chi2, dtype=float)))
-        rows.append(("reduced chi2", _fmt(red)))
-        rows += [("warning", html.escape(w)) for w in obj.warnings]
-        return _table(rows, f"NoiseFit ({obj.method})")
-    if isinstance(obj, DavarResult):
-        time, tau = np.asarray(obj.time), np.asarray(obj.tau)
-        window = np.asarray(obj.window)
-        rows = [
-            ("windows", f"{time.size}, every {obj.step} samples, {_fmt(time[0])} .. "
-                        f"{_fmt(time[-1])} s" if time.size else "none"),
-            ("window length", f"{int(window.min())} .. {int(window.max())} samples"
-                              if window.size else "none"),
-            ("taus", f"{tau.size}: {_fmt(tau[0])} .. {_fmt(tau[-1])} s" if tau.size else "none"),
-            ("statistic per window", html.escape(str(obj.stat))),
-            ("edges", html.escape(obj.edges)),
-        ]  # fmt: skip
-        rows += [("note", html.escape(n)) for n in obj.notes]
-        name = type(obj).__name__
-        if time.size and tau.size:
-            image = _thumbnail(plots.davar_heatmap_figure(obj, max_times=400, max_taus=100))
-            return _side_by_side(_table(rows, name), image)
-        return _table(rows, name)
-    raise TypeError(f"no notebook view for {type(obj).__name__}")
+    view = getattr(obj, "_repr_html_", None)
+    if view is None:
+        raise TypeError(f"no notebook view for {type(obj).__name__}")
+    return view()
 
 
 def plot_of(obj: Any, ax: Any = None, **kwargs: Any) -> Any:
@@ -152,7 +210,8 @@ def plot_of(obj: Any, ax: Any = None, **kwargs: Any) -> Any:
     ----------
     obj : DeviationResult, NoiseFit, DavarResult or AdaptiveResult
         A deviation curve (with ``fit=`` for its noise fit), a DAVAR surface (heat map) or
-        a DAVAR stack's fit (one coefficient over time, ``term=``).
+        a DAVAR stack's fit (one coefficient over time, ``term=``): its ``plot`` method
+        (:func:`deviation_plot`, :func:`surface_plot` or :func:`fit_plot`).
     ax : matplotlib.axes.Axes, optional
         Draw on these axes. Default: a new figure, made by pyplot (``plt.figure()``, the
         current figure: ``plt.savefig`` and ``plt.show`` see it) when the caller has
@@ -168,19 +227,7 @@ def plot_of(obj: Any, ax: Any = None, **kwargs: Any) -> Any:
     matplotlib.axes.Axes
         ``ax``, or the axes of the new figure (``ax.figure`` is the figure).
     """
-    from adavar import plots
-    from adavar._figures import pyplot_figures
-    from adavar.results import DavarResult, DeviationResult, NoiseFit
-
-    with pyplot_figures():
-        if isinstance(obj, DeviationResult):
-            fig = plots.deviation_figure(obj, ax=ax, **kwargs)
-        elif isinstance(obj, DavarResult):
-            fig = plots.davar_heatmap_figure(obj, ax=ax, **kwargs)
-        elif isinstance(obj, NoiseFit):
-            if obj.time is None:
-                raise TypeError("a whole-record fit is drawn with its curve: result.plot(fit=fit)")
-            fig = plots.coefficient_figure(obj, ax=ax, **kwargs)
-        else:
-            raise TypeError(f"no figure for {type(obj).__name__}")
-    return fig.axes[0] if ax is None else ax
+    draw = getattr(obj, "plot", None)
+    if draw is None:
+        raise TypeError(f"no figure for {type(obj).__name__}")
+    return draw(ax=ax, **kwargs)

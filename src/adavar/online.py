@@ -86,18 +86,13 @@ from adavar.differences import window_avar
 from adavar.durations import Length
 from adavar.errors import AdavarInputError
 from adavar.events import Event, EventTracker, stretch_summary
+from adavar.inputs import data_exponent, refuse_masked, tau_factors, unscale
 from adavar.noise_model import fit_avar
 from adavar.online_ici import ICI_EDF_SAMPLES, IciTracker
 from adavar.online_rows import Rows, check_noise_type
+from adavar.sampling import resolve_tau0
 from adavar.settings import CONTROLLER, HOURLY_FALSE_ALARMS, ICI_GAMMA, THRESHOLDS, threshold_mode
-from adavar.statistics import (
-    data_exponent,
-    refuse_masked,
-    resolve_tau0,
-    tau_factors,
-    unscale,
-)
-from adavar.surface import edf_table
+from adavar.surface_common import edf_table
 from adavar.terms import TERM_NAMES
 from adavar.window_defaults import dependence_stages, resolve_windows, stage_controller
 

@@ -19,7 +19,8 @@ if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI star
     from matplotlib.figure import Figure
 
     from adavar.adaptive import Schedule
-    from adavar.comparison import Comparison, KurtosisStudy, ThresholdStudy
+    from adavar.comparison import Comparison
+    from adavar.paper.studies import KurtosisStudy, ThresholdStudy
 
 __all__ = [
     "arw_comparison_figure",
@@ -60,7 +61,7 @@ def kurtosis_windows_figure(
     Parameters
     ----------
     study : KurtosisStudy
-        From :func:`adavar.comparison.kurtosis_study`.
+        From :func:`adavar.paper.studies.kurtosis_study`.
     units : str, optional
         Unit of the samples, for the first panel's label.
     title : str, optional
@@ -99,7 +100,7 @@ def contribution_figure(
     Parameters
     ----------
     study : KurtosisStudy
-        From :func:`adavar.comparison.kurtosis_study`.
+        From :func:`adavar.paper.studies.kurtosis_study`.
     units : str, optional
         Unit of the samples.
     title : str, optional
@@ -141,7 +142,7 @@ def threshold_figure(study: ThresholdStudy, *, title: str | None = None) -> Figu
     Parameters
     ----------
     study : ThresholdStudy
-        From :func:`adavar.comparison.threshold_study`.
+        From :func:`adavar.paper.studies.threshold_study`.
     title : str, optional
         Figure title.
 

@@ -43,7 +43,7 @@ from adavar._figures import (
     spread_indices,
     spread_log,
 )
-from adavar.noise_model import TERM_NAMES
+from adavar.atomic import partial_name
 from adavar.paper_figures import (
     arw_comparison_figure,
     contribution_figure,
@@ -51,8 +51,7 @@ from adavar.paper_figures import (
     kurtosis_windows_figure,
     threshold_figure,
 )
-from adavar.results import DavarResult, DeviationResult
-from adavar.terms import TERMS
+from adavar.terms import TERM_NAMES, TERMS
 from adavar.units import (
     conventional_units,
     convert_coefficient,
@@ -61,13 +60,13 @@ from adavar.units import (
     rate_unit,
     term_unit,
 )
-from adavar.writers import partial_name
 
 if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI start-up)
     from matplotlib.figure import Figure
 
-    from adavar.comparison import Comparison, KurtosisStudy, ThresholdStudy
-    from adavar.noise_model import NoiseFit
+    from adavar.comparison import Comparison
+    from adavar.paper.studies import KurtosisStudy, ThresholdStudy
+    from adavar.results import DavarResult, DeviationResult, NoiseFit
 
 __all__ = [
     "STAT_NAMES",
@@ -462,7 +461,7 @@ def coefficient_figure(
         From :func:`adavar.fit_noise` applied to a :class:`DavarResult` (one curve per
         window, ``fit.time`` set).
     term : str
-        One of :data:`adavar.noise_model.TERM_NAMES` (default: N, the angle random walk);
+        One of :data:`adavar.terms.TERM_NAMES` (default: N, the angle random walk);
         it must be in the fit's model.
     units : str, optional
         Unit of the rate; defaults to ``fit.units``.

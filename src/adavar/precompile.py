@@ -92,9 +92,9 @@ def _streamed() -> None:
 
 
 def _simulate() -> None:
-    from adavar import simulate
+    from adavar.generators import sensor
 
-    simulate.sensor(
+    sensor(
         3000,
         rate=200.0,
         bandwidth=50.0,

@@ -105,17 +105,17 @@ class DeviationResult:
 
     def _repr_html_(self) -> str:
         """Notebook view: a compact table and a small figure (:mod:`adavar.notebook`)."""
-        from adavar.notebook import html_of
+        from adavar.notebook import deviation_html
 
-        return html_of(self)
+        return deviation_html(self)
 
     def plot(self, **kwargs: Any) -> Any:
-        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`:
+        """The standard figure; returns its matplotlib axes (:mod:`adavar.notebook`:
         ``ax=`` draws on given axes; with :mod:`matplotlib.pyplot` imported the figure is
         pyplot's, so ``plt.savefig`` writes it)."""
-        from adavar.notebook import plot_of
+        from adavar.notebook import deviation_plot
 
-        return plot_of(self, **kwargs)
+        return deviation_plot(self, **kwargs)
 
     @property
     def rate(self) -> float:
@@ -255,17 +255,17 @@ class DavarResult:
 
     def _repr_html_(self) -> str:
         """Notebook view: a compact table and a small figure (:mod:`adavar.notebook`)."""
-        from adavar.notebook import html_of
+        from adavar.notebook import surface_html
 
-        return html_of(self)
+        return surface_html(self)
 
     def plot(self, **kwargs: Any) -> Any:
-        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`:
+        """The standard figure; returns its matplotlib axes (:mod:`adavar.notebook`:
         ``ax=`` draws on given axes; with :mod:`matplotlib.pyplot` imported the figure is
         pyplot's, so ``plt.savefig`` writes it)."""
-        from adavar.notebook import plot_of
+        from adavar.notebook import surface_plot
 
-        return plot_of(self, **kwargs)
+        return surface_plot(self, **kwargs)
 
     @property
     def rate(self) -> float:
@@ -772,15 +772,15 @@ class NoiseFit:
 
     def _repr_html_(self) -> str:
         """Notebook view: a compact table and a small figure (:mod:`adavar.notebook`)."""
-        from adavar.notebook import html_of
+        from adavar.notebook import fit_html
 
-        return html_of(self)
+        return fit_html(self)
 
     def plot(self, **kwargs: Any) -> Any:
-        """The standard figure; returns its matplotlib axes (:func:`adavar.notebook.plot_of`)."""
-        from adavar.notebook import plot_of
+        """The standard figure; returns its matplotlib axes (:mod:`adavar.notebook`)."""
+        from adavar.notebook import fit_plot
 
-        return plot_of(self, **kwargs)
+        return fit_plot(self, **kwargs)
 
     def term(self, name: str) -> NoiseTerm:
         """The :class:`NoiseTerm` called ``name``."""

@@ -57,6 +57,8 @@ from scipy.special import gammaincc
 from adavar import differences
 from adavar._jit import grouped_items, jit, read_only, threaded_jit
 from adavar.errors import AdavarInputError
+from adavar.inputs import DATA_TYPE_ALIASES, as_samples, scaled_source
+from adavar.sampling import resolve_tau0
 from adavar.sources import DEFAULT_CHUNK, check_chunk_size, is_chunked, open_record
 
 __all__ = ["DEFAULT_LEVEL", "MIN_BLOCK", "StationarityResult", "stationarity"]
@@ -202,7 +204,6 @@ def stationarity(
         Non-finite samples, a bad ``data_type``, ``level`` outside (0, 1), fewer than 2
         segments or blocks.
     """
-    from adavar.statistics import DATA_TYPE_ALIASES, as_samples, resolve_tau0, scaled_source
 
     step = resolve_tau0(rate, tau0)
     dtype = DATA_TYPE_ALIASES.get(str(data_type).lower())

@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 
 from adavar import differences as diff
-from adavar import edf as edf_mod
+from adavar import noise_id as nid
+from adavar import stream_statistics as sstat
 from adavar._jit import jit
 from adavar._kernels.double_double import dd_add
 from adavar.differences import SHIFT, cluster_sum
@@ -318,7 +319,7 @@ def _cluster_statistics_all(
     counts = n // ms
     # the shift of the in-memory integration: the median of the first block
     shift = float(np.median(source.read(0, min(diff.BLOCK, n)))) if n else 0.0
-    lag1 = counts >= edf_mod.MIN_POINTS_LAG1
+    lag1 = counts >= nid.MIN_POINTS_LAG1
     mode = np.where(lag1, _LINE, _COLLECT).astype(np.int64)
     budget = max(int(chunk_size), SMALL_SERIES)
     held = int(counts[~lag1].sum())
@@ -447,7 +448,6 @@ def noise_types(
     ``max(chunk_size, SMALL_SERIES)`` values beyond the B1 ones). R(n) for the few B1
     taus that read "PM" costs one more streamed pass (overlapping and modified sums).
     """
-    from adavar import stream_statistics as sstat
     from adavar.noise_id import (
         avar_of_sum,
         averaged_rule,
@@ -489,7 +489,7 @@ def noise_types(
         try:
             if isinstance(st, tuple):
                 if on_phase:
-                    got = edf_mod.alpha_from_phase_lag1(pst, None, dmax=int(dmax))
+                    got = nid.alpha_from_phase_lag1(pst, None, dmax=int(dmax))
                     if got is not None:
                         got = pm_with_rn(got, m, lambda m=m: rn(m))
                     else:
@@ -498,14 +498,14 @@ def noise_types(
                         if r1[0] / (1.0 + r1[0]) < 0.25:
                             k = 1
                         sub = (r1[:k], den[:k], sizes[:k], zmax)
-                        got = edf_mod.alpha_from_phase_lag1(
+                        got = nid.alpha_from_phase_lag1(
                             pst, sub, dmax=int(dmax), averaged=averaged_rule(noise_id, m)
                         )
                     alpha[t] = got
                 else:
                     r1, den, sizes, zmax = st
-                    alpha[t] = edf_mod.clamp_alpha(
-                        edf_mod.alpha_from_lag1(
+                    alpha[t] = nid.clamp_alpha(
+                        nid.alpha_from_lag1(
                             r1,
                             den,
                             sizes,
@@ -519,6 +519,6 @@ def noise_types(
             else:
                 z = (st + shift * m) / m
                 alpha[t] = b1_with_rn(z, m, int(dmax), lambda m=m: rn(m), strict=strict)
-        except edf_mod.NoiseIdError:
+        except nid.NoiseIdError:
             continue
-    return edf_mod.fill_unidentified(alpha)
+    return nid.fill_unidentified(alpha)

@@ -30,7 +30,7 @@ from adavar import differences as diff
 from adavar._jit import grouped_items, jit, threaded_jit
 from adavar._kernels.double_double import dd_add, two_sum
 from adavar.differences import anchor_combo, segment_end, slide_window_sum
-from adavar.stream import DEFAULT_CHUNK, ChunkedSource, read_extended
+from adavar.sources import DEFAULT_CHUNK, ChunkedSource, read_extended
 
 __all__ = [
     "ReflectedSource",

@@ -427,7 +427,7 @@ def conventional(fit: NoiseFit) -> Any:
 
 def fit_json(fit: NoiseFit) -> dict[str, Any]:
     """The ``fit`` object of the JSON output: every term in data and conventional units."""
-    from adavar.noise_model import TERM_NAMES
+    from adavar.terms import TERM_NAMES
     from adavar.units import term_unit
 
     out: dict[str, Any] = {}

@@ -460,10 +460,11 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 
 def _run_compare(args: argparse.Namespace) -> int:
-    from adavar import simulate
     from adavar.analysis import load_input, resolve_lengths
-    from adavar.comparison import compare, compare_seeds, kurtosis_study, threshold_study
+    from adavar.comparison import compare
     from adavar.paper.reference import PAPER_FIG6_WINDOWS, PAPER_FIG8_THRESHOLDS
+    from adavar.paper.scenarios import paper_scenario
+    from adavar.paper.studies import compare_seeds, kurtosis_study, threshold_study
 
     units: str | None = None
     tau0 = 1.0
@@ -478,7 +479,7 @@ def _run_compare(args: argparse.Namespace) -> int:
     if args.scenario is not None:
         resolve_lengths(args, 1.0)  # the paper's scenarios are at 1 Hz
         status(f"simulating scenario {args.scenario}")
-        data: Any = simulate.paper_scenario(
+        data: Any = paper_scenario(
             args.scenario, seed=args.seed, variance_reading=args.variance_reading
         )
         rate = None

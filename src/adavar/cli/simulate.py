@@ -58,7 +58,8 @@ def _check_finite(x: np.ndarray, what: str) -> None:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from adavar import simulate
+    from adavar.generators import sensor
+    from adavar.paper.scenarios import paper_scenario
 
     output = check_output_file(args.output, args.force, (".csv",))
     status = Status()
@@ -72,7 +73,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                 "--markov, ...) describe another one: drop them or --scenario"
             )
         status(f"simulating scenario {args.scenario}")
-        sc = simulate.paper_scenario(
+        sc = paper_scenario(
             args.scenario, seed=args.seed, variance_reading=args.variance_reading
         )
         x, rate, what = np.asarray(sc.data), float(sc.rate), sc.description
@@ -90,7 +91,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         status(f"simulating {args.n} samples")
         try:  # an overflow is the one-line error of _check_finite, not numpy's warning
             with np.errstate(over="ignore", invalid="ignore"):
-                x = simulate.sensor(args.n, rate=args.rate, seed=args.seed, bias=args.bias,
+                x = sensor(args.n, rate=args.rate, seed=args.seed, bias=args.bias,
                                     markov=args.markov, sinusoid=args.sinusoid,
                                     bandwidth=args.bandwidth, filter_order=args.filter_order,
                                     lsb=args.lsb, **terms)  # fmt: skip

@@ -13,7 +13,7 @@ from typing import Any
 
 from adavar.errors import AdavarInputError
 from adavar.readers.errors import fail
-from adavar.stream import available_memory
+from adavar.sources import available_memory
 
 #: auto ``lazy``: read a file column piece by piece from this size (bytes) or a quarter
 #: of the available memory, whichever is smaller
