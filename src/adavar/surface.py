@@ -129,7 +129,7 @@ _KERNEL_STAT = {"ohdev": "ohvar", "mdev": "mvar"}
 
 def _chunked_avar(
     source: sources.ChunkedSource, sched: Any, ms: np.ndarray, scale: float, chunk: int,
-    stat: str = "oadev",
+    stat: str = "oadev", start: int = 0, stop: int | None = None,
 ) -> np.ndarray:  # fmt: skip
     """:func:`adavar.differences.window_avar` over groups of centres read piece by piece.
 
@@ -137,10 +137,10 @@ def _chunked_avar(
     kernel, which writes the group's rows of the output in place. The kernel re-centres
     every chunk of windows on its own reference and keeps its span in double-double, so a
     cell does not depend on where a piece starts: the result is the in-memory one to an ulp
-    or so.
+    or so. ``start``, ``stop``: those rows only (a block of :func:`davar_blocks`).
     """
     pad = sched.pad_before
-    centre, length = sched.window_centre, sched.length
+    centre, length = sched.window_centre[start:stop], sched.length[start:stop]
     bounds, los, his = _centre_groups(
         read_only(centre), read_only(length), pad, int(chunk), GROUP_GAP
     )
@@ -428,18 +428,22 @@ def davar(
 
 def with_record_curve(
     result: DavarResult, data: Any, *, chunk_size: int | None = None,
-    lazy: bool | None = None, gaps: str = "error",
+    lazy: bool | None = None, gaps: str = "error", out_of_core: bool = False,
 ) -> DavarResult:  # fmt: skip
     """``result`` with the whole record's octave OADEV (:attr:`DavarResult.record_curve`),
     the reference of its windows' fit; unchanged out of core or lazily, where the curve
-    would read the whole file once more (``adavar davar`` gives ``reference=`` there)."""
+    would read the whole file once more (``adavar davar`` gives ``reference=`` there),
+    unless ``out_of_core`` (the blocks of :func:`davar_blocks`, which read it many times:
+    one more streamed pass gives their fit the in-memory one's reference)."""
     elsewhere = chunk_size is not None or sources.is_chunked(data) or sources.is_dask(data)
-    if getattr(result, "stat", "oadev") != "oadev" or result.n_samples < 8 or lazy or elsewhere:
+    if getattr(result, "stat", "oadev") != "oadev" or result.n_samples < 8 or lazy:
+        return result
+    if elsewhere and not out_of_core:
         return result
     try:
         curve = deviation(data, tau0=result.tau0, data_type=result.data_type, taus="octave",
                           units=result.units, gaps="error" if gaps == "error" else "omit",
-                          stationarity_check=False)  # fmt: skip
+                          stationarity_check=False, chunk_size=chunk_size)  # fmt: skip
     except (ValueError, AdavarInputError):  # too short for a curve: the windows go without
         return result
     return dataclasses.replace(result, record_curve=curve)
@@ -452,8 +456,10 @@ def davar_blocks(
 
     Parameters
     ----------
-    data : array_like
-        The record, in memory, without missing samples.
+    data : array_like or source
+        The record without missing samples: in memory, or read piece by piece (a file
+        memory map, a :class:`~adavar.sources.ChunkedSource`; ``chunk_size=`` too), a
+        block's span at a time (each row then equals the whole surface's to an ulp or so).
     block_values : int, optional
         Values per block (default :data:`BLOCK_VALUES`): whole rows, a multiple of the
         window kernel's chunk of centres (at least one chunk).
@@ -478,13 +484,19 @@ def davar_blocks(
     values = BLOCK_VALUES if block_values is None else int(block_values)
     if values < 1:
         raise AdavarInputError(f"block_values must be a positive number, got {block_values!r}")
-    return _blocks_with_curve(_surfaces(**arguments.arguments, block_values=values), data)
+    blocks = _surfaces(**arguments.arguments, block_values=values)
+    return _blocks_with_curve(blocks, data, arguments.arguments["chunk_size"])
 
 
-def _blocks_with_curve(blocks: Iterator[DavarResult], data: Any) -> Iterator[DavarResult]:
+def _blocks_with_curve(
+    blocks: Iterator[DavarResult], data: Any, chunk_size: int | None
+) -> Iterator[DavarResult]:
     """The blocks, each with the whole record's curve (computed once, with the first)."""
     first = next(blocks, None)
-    curve = None if first is None else with_record_curve(first, data).record_curve
+    curve = None
+    if first is not None:
+        curve = with_record_curve(first, data, chunk_size=chunk_size, out_of_core=True)
+        curve = curve.record_curve
     for block in itertools.chain(() if first is None else (first,), blocks):
         yield dataclasses.replace(block, record_curve=curve)
 
@@ -517,7 +529,7 @@ def _surfaces(
         raise AdavarInputError(f"t0 must be a number of seconds, got {t0!r}") from None
     rate, tau0, dt = resolve_rate(data, rate, tau0)  # a time index gives it, or 1 Hz
     min_length = 4 if dtype == "phase" else 3
-    if gaps != "error":  # adavar.davar_gaps imports this module: loaded on first use
+    if gaps != "error":  # loaded on first use
         from adavar.davar_gaps import gap_davar, missing_record
 
         found = missing_record(data, gaps=gaps, chunk_size=chunk_size, lazy=lazy)
@@ -526,7 +538,7 @@ def _surfaces(
                 "shifted windows (shift=) are not supported on a record with missing "
                 "samples: fill the gaps first, or use centred windows"
             )
-        if found is not None and (rows is not None or block_values is not None):
+        if found is not None and (rows is not None or block_values is not None):  # in memory
             raise AdavarInputError(
                 "rows of a surface (rows=, davar_blocks) are for records without missing "
                 "samples: compute the whole surface"
@@ -579,12 +591,11 @@ def _surfaces(
     ms, notes = tau_factors(taus, longest // 3, dt, points_per_decade)
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     n_rows = sched.centre.size
-    if rows is not None or block_values is not None:
-        if chunked or lazy:
-            raise AdavarInputError(
-                "rows of a surface (rows=, davar_blocks) are for a record in memory: pass "
-                "an array (not chunk_size or lazy)"
-            )
+    if (rows is not None or block_values is not None) and lazy:
+        raise AdavarInputError(
+            "rows of a surface (rows=, davar_blocks) are for an array or a file read piece "
+            "by piece, not a lazy (dask) surface: leave lazy out"
+        )
     if rows is not None:
         start, stop = (int(r) for r in rows)
         if not 0 <= start < min(stop, n_rows):
@@ -650,7 +661,7 @@ def _surfaces(
             avar = _lazy_avar(data, dtype, sched, ms, scale, chunk, exponent, name)
         elif chunked:
             inc, power = increments()
-            avar = _chunked_avar(inc, sched, ms, scale, chunk, name)
+            avar = _chunked_avar(inc, sched, ms, scale, chunk, name, start, stop)
         else:
             a = start - start % chunk_rows
             b = min(n_rows, -(-stop // chunk_rows) * chunk_rows)

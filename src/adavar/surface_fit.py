@@ -205,7 +205,8 @@ def fit_davar_in_blocks(
     Parameters
     ----------
     data : array_like
-        The record, in memory, without missing samples (:func:`adavar.surface.davar_blocks`).
+        The record without missing samples, in memory or read piece by piece
+        (:func:`adavar.surface.davar_blocks`).
     fit_options : dict, optional
         Keywords of :func:`adavar.fit_noise` (``terms``, ``cells``...).
     drawn : int
