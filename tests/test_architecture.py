@@ -238,3 +238,68 @@ def test_no_import_cycles_even_inside_functions():
         if start not in state:
             visit(start, [start])
     assert cycles == []
+
+
+#: The layers, lowest first: a module imports from its own layer and those below, never
+#: from above (docs/architecture.md). ``name.*``: a package and everything in it.
+LAYERS = [
+    ("core", ["adavar.errors", "adavar.settings", "adavar.units", "adavar.durations",
+              "adavar.terms", "adavar.taus", "adavar.extended_statistics", "adavar.thinning",
+              "adavar.results", "adavar.fit_checks", "adavar.atomic", "adavar.csv_tables",
+              "adavar.datasets"]),
+    ("kernels", ["adavar._jit", "adavar._kernels.*", "adavar._nnls", "adavar._heap",
+                 "adavar._workers", "adavar.differences"]),
+    ("files", ["adavar.sources", "adavar.sampling", "adavar.readers.*", "adavar.preprocess",
+               "adavar.inputs", "adavar.writers", "adavar.io", "adavar.iir",
+               "adavar.generators"]),
+    ("statistics", ["adavar.noise_id", "adavar.edf", "adavar.stream_statistics",
+                    "adavar.stream", "adavar.gaps", "adavar.theo_family",
+                    "adavar.total_family", "adavar.time_error", "adavar.stationary_noise",
+                    "adavar.statistics", "adavar.cornered_hat", "adavar.slopes",
+                    "adavar.avar_covariance"]),
+    ("fit", ["adavar.gls_core", "adavar.gls_select", "adavar.gls_fit", "adavar.stack_fit",
+             "adavar.noise_model", "adavar.power_law"]),
+    ("dynamic", ["adavar.windows", "adavar.window_defaults", "adavar.surface_common",
+                 "adavar.surface", "adavar.davar_gaps", "adavar.kurtosis",
+                 "adavar.kurtosis_reference", "adavar.thresholds", "adavar.controller",
+                 "adavar.events", "adavar.adaptive", "adavar.ici", "adavar.ici_episodes",
+                 "adavar.ici_events", "adavar.long_tau", "adavar.online", "adavar.online_ici",
+                 "adavar.online_rows", "adavar.surface_fit"]),
+    ("paper", ["adavar.paper.*", "adavar.comparison", "adavar.simulate"]),
+    ("output", ["adavar.export", "adavar._figures", "adavar.paper_figures", "adavar.plots",
+                "adavar.notebook", "adavar.report_parts", "adavar.report"]),
+    ("pipeline", ["adavar.analysis", "adavar.batch_state", "adavar.batch_cluster",
+                  "adavar.batch", "adavar.demo", "adavar.precompile"]),
+    ("cli", ["adavar.cli.*"]),
+    ("package", ["adavar"]),
+]  # fmt: skip
+
+#: Calls upward that run only when a user asks for them, each with its reason
+UPWARD = {
+    # a result's notebook view and .plot() draw it: the figures are the output layer's,
+    # reached at call time (notebook and plots import no result class at run time)
+    ("adavar.results", "adavar.notebook"),
+}
+
+
+def _layer(module: str) -> int | None:
+    for k, (_, members) in enumerate(LAYERS):
+        for member in members:
+            if module == member or (
+                member.endswith(".*") and (module == member[:-2] or module.startswith(member[:-1]))
+            ):
+                return k
+    return None
+
+
+def test_every_module_has_a_layer_and_imports_only_downwards():
+    modules = {_module_name(path) for path in _modules()}
+    assert [m for m in sorted(modules) if _layer(m) is None] == []
+    upward = []
+    for path, tree in _modules().items():
+        here = _module_name(path)
+        for target in sorted(_imports(path, tree, modules)):
+            if _layer(target) > _layer(here) and (here, target) not in UPWARD:
+                upward.append(f"{here} ({LAYERS[_layer(here)][0]}) imports {target} "
+                              f"({LAYERS[_layer(target)][0]})")  # fmt: skip
+    assert upward == []

@@ -12,7 +12,6 @@ from matplotlib.figure import Figure
 
 import adavar
 from adavar import simulate
-from adavar._figures import spread_log as _spread_log
 from adavar.plots import (
     coefficient_figure,
     davar_heatmap_figure,
@@ -23,6 +22,7 @@ from adavar.plots import (
     spread_indices as _spread,
 )
 from adavar.results import DavarResult
+from adavar.thinning import spread_log as _spread_log
 
 RATE = 10.0
 STD = 0.5

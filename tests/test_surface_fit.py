@@ -9,10 +9,10 @@ from hypothesis import strategies as st
 
 import adavar
 from adavar import simulate
-from adavar._figures import spread_indices
 from adavar.errors import AdavarInputError
 from adavar.surface import davar_blocks
 from adavar.surface_fit import concatenate_fits, drawn_rows, fit_davar_in_blocks
+from adavar.thinning import spread_indices
 
 RATE = 200.0
 

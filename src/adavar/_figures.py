@@ -119,30 +119,6 @@ def log_scale(ax: Any, which: str = "xy") -> None:
         axis.set_minor_formatter(formatter(10.0, labelOnlyBase=False))
 
 
-def spread_indices(n: int, most: int) -> np.ndarray:
-    """Indices of at most ``most`` of ``n`` rows, evenly spread, first and last included."""
-    if most < 2:
-        raise ValueError(f"need room for at least 2 rows, got {most}")
-    if n <= most:
-        return np.arange(n)
-    return np.unique(np.round(np.linspace(0.0, n - 1, most)).astype(np.int64))
-
-
-def spread_log(values: np.ndarray, most: int) -> np.ndarray:
-    """Indices of at most ``most`` of the sorted positive ``values``, evenly spread in log
-    (the nearest value to each of ``most`` log-spaced targets), first and last included."""
-    n = values.size
-    if most < 2:
-        raise ValueError(f"need room for at least 2 taus, got {most}")
-    if n <= most:
-        return np.arange(n)
-    logs = np.log(values)
-    targets = np.linspace(logs[0], logs[-1], most)
-    right = np.clip(np.searchsorted(logs, targets), 1, n - 1)
-    nearer_left = (targets - logs[right - 1]) < (logs[right] - targets)
-    return np.unique(np.where(nearer_left, right - 1, right))
-
-
 def colour_limits(z: np.ndarray) -> tuple[float, float] | tuple[None, None]:
     """Colour-scale limits of the finite values of ``z`` (None, None if there is none)."""
     finite = z[np.isfinite(z)]

@@ -40,8 +40,6 @@ from adavar._figures import (
     figure_axes,
     log_scale,
     new_figure,
-    spread_indices,
-    spread_log,
 )
 from adavar.atomic import partial_name
 from adavar.paper_figures import (
@@ -52,6 +50,7 @@ from adavar.paper_figures import (
     threshold_figure,
 )
 from adavar.terms import TERM_NAMES, TERMS
+from adavar.thinning import spread_indices, spread_log
 from adavar.units import (
     conventional_units,
     convert_coefficient,

@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from adavar._figures import spread_indices, spread_log
 from adavar.noise_model import TERM_NAMES
 from adavar.plots import STAT_NAMES, TERM_LABELS, term_label
+from adavar.thinning import spread_indices, spread_log
 from adavar.units import (
     conventional_units,
     convert_coefficient,

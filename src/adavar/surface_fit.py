@@ -22,9 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from adavar._figures import spread_indices
 from adavar.errors import AdavarInputError
 from adavar.results import DavarResult, NoiseFit, coefficient_value
+from adavar.thinning import spread_indices
 
 __all__ = [
     "FIT_ROWS",
