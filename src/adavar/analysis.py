@@ -444,8 +444,9 @@ class ReportAnalysis:
         The file as given.
     title : str
         Title of the report.
-    samples : ndarray
-        The samples analysed (after preprocessing).
+    samples : ndarray or source
+        The samples analysed (after preprocessing); a file read piece by piece (a
+        :class:`~adavar.sources.ChunkedSource`) for a fixed window or none.
     meta : dict
         How they were read (``path``, ``column``, ``kind``, ``rate_from``, ``reader``,
         ``preprocessing``, ...).
@@ -482,7 +483,7 @@ class ReportAnalysis:
 
     path: str
     title: str
-    samples: np.ndarray
+    samples: Any  # ndarray, or a source read piece by piece
     meta: dict[str, Any]
     units: str
     rate_units: str
@@ -615,7 +616,10 @@ class ReportAnalysis:
             )
             return {"method": "fixed", "rule": rule, "count": None, "items": None,
                     "runs": None, "note": note}  # fmt: skip
-        u = self.samples if self.options["data_type"] == "rate" else np.diff(self.samples)
+        u = self.samples
+        if self.options["data_type"] != "rate":  # the phase's increments
+            u = (sources.DifferencedSource(sources.as_source(u)) if sources.is_chunked(u)
+                 else np.diff(u))  # fmt: skip
         # the runs of flags only: no per-centre array (memory: one piece of the record)
         sched = adaptive_schedule(u, method="fixed", keep="runs", **settings,
                                   **self.rate_options)  # fmt: skip
@@ -689,7 +693,10 @@ def analyse_file(
     # as adavar report: read (sets args.rate / args.tau0 as every command does), then the
     # channel's deviation, fit and surface by the report's own function
     chosen = args.column is not None
-    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False)
+    # as adavar report: a file is read piece by piece, except for the adaptive window
+    loaded, meta, units_of, tau0 = load_input(
+        args, several=chosen, pieces=False, out_of_core=not args.adaptive
+    )
     if chosen:
         if len(loaded) != 1:
             raise AdavarInputError(

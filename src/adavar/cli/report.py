@@ -6,8 +6,6 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from adavar import __version__
 from adavar.cli.options import (
     EXIT_OK,
@@ -158,7 +156,7 @@ def _events(
     if run["surface"] is None:
         return None
     analysis = ReportAnalysis(
-        path=str(args.file), title="", samples=np.asarray(samples), meta={},
+        path=str(args.file), title="", samples=samples, meta={},
         units=run["units"], rate_units=run["rate_units"], tau0=float(tau0),
         rate_options=dict(rate=args.rate if args.rate is not None else 1.0,
                           tau0=None if args.rate is not None else tau0),
