@@ -48,11 +48,10 @@ UNITS = ["--rate", "200", "--units", "deg/s"]
 
 # run the command in-process through adavar.cli.entry.main, then list the modules it loaded
 _DRIVER = (
-    "import sys, gc\n"
+    "import sys\n"
     "from adavar.cli.entry import main\n"
     "code = main(sys.argv[2:])\n"
     "open(sys.argv[1], 'w').write('\\n'.join(sorted(sys.modules)))\n"
-    "gc.freeze()\n"
     "sys.exit(code)\n"
 )
 _IMPORTER = (

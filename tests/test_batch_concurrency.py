@@ -220,3 +220,19 @@ def test_a_dead_scheduler_gives_one_line_per_file_and_no_traceback(tmp_path):
     lost = [line for line in stdout.splitlines() if line.startswith("  error in ")]
     assert lost and all("connection to the dask scheduler was lost" in line for line in lost)
     assert re.search(r"\d+ failed", stdout)
+
+
+def test_a_task_cancelled_without_its_scheduler_was_lost_with_it():
+    """dask sometimes cancels the futures of a dead scheduler "for reason: unknown" before
+    the client notices the lost connection (seen once in the test above): those rows say
+    the scheduler was lost, as the others do; a cancellation while connected does not."""
+    from concurrent.futures import CancelledError
+
+    from adavar.batch_cluster import _task_failure
+
+    class FutureCancelledError(CancelledError):
+        pass
+
+    exc = FutureCancelledError("_process_file-5f12 cancelled for reason: unknown.")
+    assert "connection to the dask scheduler was lost" in _task_failure(exc, connected=False)
+    assert "connection to the dask scheduler was lost" not in _task_failure(exc)

@@ -196,10 +196,16 @@ def n_workers(client: Any) -> int:
         return 0
 
 
-def _task_failure(exc: Any) -> str:
-    """The row's message of a task the cluster gave up on (one line, no task key)."""
+def _task_failure(exc: Any, connected: bool = True) -> str:
+    """The row's message of a task the cluster gave up on (one line, no task key).
+
+    ``connected``: whether the client still had its scheduler. A task cancelled while it
+    had none was lost with the scheduler, whatever reason dask gives (it sometimes says
+    "unknown" when the cancellation arrives before the lost connection is noticed).
+    """
     text = _one_line(exc)
-    if "scheduler-connection-lost" in text or "lost the connection to the scheduler" in text:
+    lost = "scheduler-connection-lost" in text or "lost the connection to the scheduler" in text
+    if lost or (not connected and "Cancelled" in type(exc).__name__):
         return (
             "not analysed: the connection to the dask scheduler was lost (it stopped, or "
             "the network failed): restart it and rerun with the same --out (the finished "
@@ -258,7 +264,8 @@ def gather(
             if future.status == "error" or not isinstance(result, dict):
                 # a lost worker, a task the cluster gave up on
                 exc = result[1] if isinstance(result, tuple) and len(result) > 1 else result
-                row = failed(i, _task_failure(exc))
+                connected = getattr(client, "status", "running") == "running"
+                row = failed(i, _task_failure(exc, connected))
             else:
                 row = result
             pending.discard(future)
