@@ -18,7 +18,7 @@ import sys
 # PYTHONDONTWRITEBYTECODE (set on some CI images) would make every process of the run
 # compile the same sources again: each worker's assertion rewriting of every test module
 # (2 s), and every interpreter the tests start (commands, the demo's and Dask's workers,
-# the first-run helper: 0.15-0.5 s each, 40-50 of them). Writing bytecode into
+# 0.15-0.5 s each, 40-50 of them). Writing bytecode into
 # __pycache__ is Python's default, and Numba's cache lives there anyway.
 sys.dont_write_bytecode = False
 os.environ.pop("PYTHONDONTWRITEBYTECODE", None)

@@ -281,15 +281,36 @@ def test_adaptive_fit_in_blocks_is_the_fit_of_the_whole_surface(step_gyro, optio
     assert got.drawn.avar_low is None  # bounds=False: none made
 
 
-def test_adaptive_blocks_refuse_a_record_out_of_core(step_gyro, tmp_path):
+@pytest.mark.parametrize("options", [{}, {"step": 7}, {"data_type": "phase"}],
+                         ids=["adaptive", "step", "phase"])  # fmt: skip
+def test_adaptive_blocks_of_a_record_read_piece_by_piece(step_gyro, tmp_path, options):
+    """The controller streams the file and each block reads its windows' span: every row
+    equals the record in memory's, on a memory map and with chunk_size."""
     from adavar.adaptive import adaptive_blocks
 
+    x = np.cumsum(step_gyro) / RATE if options.get("data_type") == "phase" else step_gyro
     path = tmp_path / "x.npy"
-    np.save(path, step_gyro)
-    with pytest.raises(AdavarInputError, match="chunk_size"):
-        next(adaptive_blocks(np.load(path, mmap_mode="r"), rate=RATE))
-    with pytest.raises(AdavarInputError, match="chunk_size"):
-        next(adaptive_blocks(step_gyro, rate=RATE, chunk_size=1000))
+    np.save(path, x)
+    common = dict(rate=RATE, taus="octave", lmax=300, lmin=100, l=50, block_values=3000,
+                  **options)  # fmt: skip
+    memory = list(adaptive_blocks(x, **common))
+    for pieces in (list(adaptive_blocks(np.load(path, mmap_mode="r"), **common)),
+                   list(adaptive_blocks(x, chunk_size=1000, **common))):  # fmt: skip
+        assert len(pieces) == len(memory) > 1
+        for name in (*FIELDS, "kurtosis", "s", "f"):
+            np.testing.assert_array_equal(
+                np.concatenate([getattr(b, name) for b in pieces]),
+                np.concatenate([getattr(b, name) for b in memory]), err_msg=name,
+            )  # fmt: skip
+
+
+def test_adaptive_blocks_refuse_what_they_cannot_block(step_gyro):
+    import dask.array as da
+
+    from adavar.adaptive import adaptive_blocks
+
+    with pytest.raises(AdavarInputError, match="dask"):
+        next(adaptive_blocks(da.from_array(step_gyro, chunks=1000), rate=RATE))
     with pytest.raises(AdavarInputError, match="block_values"):
         next(adaptive_blocks(step_gyro, rate=RATE, block_values=0))
     with pytest.raises(TypeError):

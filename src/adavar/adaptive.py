@@ -776,13 +776,15 @@ def adaptive_blocks(
 
     Parameters
     ----------
-    data : array_like
-        The record, in memory (a memory map, a dask array or a source: use
-        ``adaptive_davar(..., chunk_size=)``, which holds ``N / step`` rows).
+    data : array_like or source
+        The record: in memory, or read piece by piece (a file memory map, a
+        :class:`~adavar.sources.ChunkedSource`, ``chunk_size=``): the controller streams
+        it, and each block reads its windows' span (not a dask array: use
+        ``adaptive_davar``).
     block_values : int, optional
         Surface values per block (default :data:`adavar.surface.BLOCK_VALUES`).
     **options
-        Keywords of :func:`adaptive_davar` but ``chunk_size``.
+        Keywords of :func:`adaptive_davar`.
 
     Yields
     ------
@@ -795,14 +797,14 @@ def adaptive_blocks(
     arguments = inspect.signature(adaptive_davar).bind(data, **options)
     arguments.apply_defaults()
     given = dict(arguments.arguments)
-    if given.pop("chunk_size") is not None or sources.is_chunked(data):
+    if sources.is_dask(data):
         raise AdavarInputError(
-            "adaptive_blocks takes a record in memory: for a memory map, a dask array or "
-            "a source use adaptive_davar(..., chunk_size=), which holds N / step rows"
+            "adaptive_blocks takes an array or a file read piece by piece, not a dask array: "
+            "use adaptive_davar(..., chunk_size=), which holds N / step rows"
         )
     if block_values is not None and int(block_values) < 1:
         raise AdavarInputError(f"block_values must be a positive number, got {block_values!r}")
-    return _adaptive_surfaces(given.pop("data"), **given, chunk_size=None, in_blocks=True,
+    return _adaptive_surfaces(given.pop("data"), **given, in_blocks=True,
                               block_values=block_values)  # fmt: skip
 
 
@@ -873,8 +875,17 @@ def _adaptive_surfaces(
         else:
             window = sched.window
             window.flags.writeable = False  # shared with the surface, not copied
-        surface = davar(source, window=window, step=step, chunk_size=chunk_size, **surface_options)
-        yield _with_record(surface, sched, method)
+        if not in_blocks:
+            surface = davar(source, window=window, step=step, chunk_size=chunk_size,
+                            **surface_options)  # fmt: skip
+            yield _with_record(surface, sched, method)
+            return
+        for block in davar_blocks(source, window=window, step=step, chunk_size=chunk_size,
+                                  block_values=block_values, **surface_options):  # fmt: skip
+            rows = _with_record(block, sched, method)
+            del block
+            yield rows
+            del rows
         return
     x = as_samples(data, min_length=min_length)
     u = x if dtype == "rate" else np.diff(x)

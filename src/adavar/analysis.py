@@ -446,7 +446,7 @@ class ReportAnalysis:
         Title of the report.
     samples : ndarray or source
         The samples analysed (after preprocessing); a file read piece by piece (a
-        :class:`~adavar.sources.ChunkedSource`) for a fixed window or none.
+        :class:`~adavar.sources.ChunkedSource`).
     meta : dict
         How they were read (``path``, ``column``, ``kind``, ``rate_from``, ``reader``,
         ``preprocessing``, ...).
@@ -693,10 +693,9 @@ def analyse_file(
     # as adavar report: read (sets args.rate / args.tau0 as every command does), then the
     # channel's deviation, fit and surface by the report's own function
     chosen = args.column is not None
-    # as adavar report: a file is read piece by piece, except for the adaptive window
-    loaded, meta, units_of, tau0 = load_input(
-        args, several=chosen, pieces=False, out_of_core=not args.adaptive
-    )
+    # as adavar report: a file is read piece by piece
+    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False,
+                                              out_of_core=True)  # fmt: skip
     if chosen:
         if len(loaded) != 1:
             raise AdavarInputError(

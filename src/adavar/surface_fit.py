@@ -249,11 +249,11 @@ def fit_adaptive_in_blocks(
     Parameters
     ----------
     data : array_like
-        The record, in memory.
+        The record, in memory or read piece by piece (:func:`adavar.adaptive.adaptive_blocks`).
     fit_options, drawn, block_values, fit_rows, spill
         As in :func:`fit_davar_in_blocks`.
     **adaptive_options
-        Keywords of :func:`adavar.adaptive_davar` but ``chunk_size``.
+        Keywords of :func:`adavar.adaptive_davar`.
 
     Returns
     -------

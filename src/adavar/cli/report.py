@@ -39,13 +39,10 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
     status = Status()
     status(f"reading {args.file}")
     chosen = args.column is not None  # several channels only when --column names them
-    # a file is read piece by piece (a record larger than memory), the fixed window's
-    # surface too (a block of windows at a time); the adaptive window's blocks need the
-    # record in memory
-    in_memory = bool(args.adaptive)
-    loaded, meta, units_of, tau0 = load_input(
-        args, several=chosen, pieces=False, out_of_core=not in_memory
-    )
+    # a file is read piece by piece (a record larger than memory), the surfaces too (a
+    # block of windows at a time)
+    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False,
+                                              out_of_core=True)  # fmt: skip
     if not chosen:
         loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
     names = list(loaded)
