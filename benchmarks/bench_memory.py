@@ -202,6 +202,10 @@ LARGE = {
     "adaptive": ("adaptive BIG --rate 1 --units deg/s --lmax 600 --lmin 400 --step 100000 "
                  "--taus 1,10,100 --out out", "out"),
     "report": ("report BIG --rate 1 --units deg/s -o out.html", "out.html"),
+    "report --window": ("report BIG --rate 1 --units deg/s --window 6001 --step 100000 "
+                        "-o out.html", "out.html"),
+    "report --adaptive": ("report BIG --rate 1 --units deg/s --adaptive --lmax 600 --lmin 400 "
+                          "--step 100000 -o out.html", "out.html"),
 }  # fmt: skip
 
 
