@@ -162,31 +162,39 @@ def test_report_of_a_file(capsys, tmp_path, signal, monkeypatch, extra):
     assert len(sizes) > 1, sizes
 
 
-def test_davar_of_a_file_holds_pieces_not_the_record(capsys, tmp_path):
-    """Issue 42: `adavar davar` on a .npy kept the change test's outputs at every centre
-    (35 bytes a sample: 10.7 GB for 2e8 samples). Scaled down with --chunk-size: the traced
-    peak grows by less than a byte a sample from 1 Mi to 2 Mi samples (the correlation
-    estimate on the first 2**20 samples is a constant)."""
+def _traced_growth(capsys, tmp_path, argv, out_flag, seed, suffix=""):
+    """Bytes a sample by which the traced peak of ``adavar ARGV FILE ... OUT_FLAG OUT``
+    grows from a 1 Mi- to a 2 Mi-sample float32 ``.npy`` (``FILE`` in ``argv``: the file;
+    ``suffix``: of the output's name)."""
     import tracemalloc
 
     peaks = []
     sizes = (1 << 20, 2 << 20)
     for n in sizes:
         path = tmp_path / f"big{n}.npy"
-        np.save(path, np.random.default_rng(4).standard_normal(n).astype(np.float32))
-        argv = ["davar", str(path), "--rate", "1", "--units", "deg/s", "--window", "6001",
-                "--step", "100000", "--taus", "1,10,100", "--chunk-size", "65536",
-                "--figures", "none"]  # fmt: skip
+        np.save(path, np.random.default_rng(seed).standard_normal(n).astype(np.float32))
+        command = [str(path) if a == "FILE" else a for a in argv]
         if not peaks:  # the kernels compiled before anything is traced
-            assert run(capsys, [*argv, "--out", str(tmp_path / "warm")])[0] == 0
+            assert run(capsys, [*command, out_flag, str(tmp_path / f"warm{suffix}")])[0] == 0
         tracemalloc.start()
         try:
-            code, _, err = run(capsys, [*argv, "--out", str(tmp_path / f"out{n}")])
+            code, _, err = run(capsys, [*command, out_flag, str(tmp_path / f"out{n}{suffix}")])
             peaks.append(tracemalloc.get_traced_memory()[1])
         finally:
             tracemalloc.stop()
         assert code == 0, err
-    growth = (peaks[1] - peaks[0]) / (sizes[1] - sizes[0])
+    return (peaks[1] - peaks[0]) / (sizes[1] - sizes[0]), peaks
+
+
+def test_davar_of_a_file_holds_pieces_not_the_record(capsys, tmp_path):
+    """Issue 42: `adavar davar` on a .npy kept the change test's outputs at every centre
+    (35 bytes a sample: 10.7 GB for 2e8 samples). Scaled down with --chunk-size: the traced
+    peak grows by less than a byte a sample from 1 Mi to 2 Mi samples (the correlation
+    estimate on the first 2**20 samples is a constant)."""
+    argv = ["davar", "FILE", "--rate", "1", "--units", "deg/s", "--window", "6001",
+            "--step", "100000", "--taus", "1,10,100", "--chunk-size", "65536",
+            "--figures", "none"]  # fmt: skip
+    growth, peaks = _traced_growth(capsys, tmp_path, argv, "--out", seed=4)
     assert growth < 1.0, (growth, peaks)  # before: more than 35 bytes a sample
 
 
@@ -195,29 +203,12 @@ def test_report_with_a_window_holds_pieces_not_the_record(capsys, tmp_path, monk
     samples), then, streamed, its events read it whole again. With few windows and pieces
     of 64 Ki samples (the default is 4 Mi), the traced peak grows by less than two bytes a
     sample from 1 Mi to 2 Mi samples (the record in memory: 8 and more)."""
-    import tracemalloc
-
     from adavar import sources, stationary_noise, stream
     from adavar.readers import record
 
     for module in (sources, stream, stationary_noise, record):
         monkeypatch.setattr(module, "DEFAULT_CHUNK", 1 << 16)
-
-    peaks = []
-    sizes = (1 << 20, 2 << 20)
-    for n in sizes:
-        path = tmp_path / f"big{n}.npy"
-        np.save(path, np.random.default_rng(5).standard_normal(n).astype(np.float32))
-        argv = ["report", str(path), "--rate", "1", "--units", "deg/s", "--window", "6001",
-                "--step", "50000"]  # fmt: skip
-        if not peaks:  # the kernels compiled before anything is traced
-            assert run(capsys, [*argv, "-o", str(tmp_path / "warm.html")])[0] == 0
-        tracemalloc.start()
-        try:
-            code, _, err = run(capsys, [*argv, "-o", str(tmp_path / f"r{n}.html")])
-            peaks.append(tracemalloc.get_traced_memory()[1])
-        finally:
-            tracemalloc.stop()
-        assert code == 0, err
-    growth = (peaks[1] - peaks[0]) / (sizes[1] - sizes[0])
+    argv = ["report", "FILE", "--rate", "1", "--units", "deg/s", "--window", "6001",
+            "--step", "50000"]  # fmt: skip
+    growth, peaks = _traced_growth(capsys, tmp_path, argv, "-o", seed=5, suffix=".html")
     assert growth < 2.0, (growth, peaks)
