@@ -252,7 +252,7 @@ LAYERS = [
     ("files", ["adavar.sources", "adavar.sampling", "adavar.readers.*", "adavar.preprocess",
                "adavar.inputs", "adavar.writers", "adavar.io", "adavar.iir",
                "adavar.generators"]),
-    ("statistics", ["adavar.noise_id", "adavar.edf", "adavar.stream_statistics",
+    ("statistics", ["adavar.noise_id", "adavar.edf", "adavar.record_sums",
                     "adavar.stream", "adavar.gaps", "adavar.theo_family",
                     "adavar.total_family", "adavar.time_error", "adavar.stationary_noise",
                     "adavar.statistics", "adavar.cornered_hat", "adavar.slopes",

@@ -17,7 +17,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from adavar import differences as diff
-from adavar import edf, simulate
+from adavar import edf, record_sums, simulate
 from adavar import noise_id as nid
 from adavar import statistics as stats
 from adavar.taus import averaging_factors
@@ -195,7 +195,7 @@ def test_record_noise_types_match_the_plain_rule(n, seed, kind, taus, dmax, nois
     assert got[1] == want[1]
     # the OADEV passed in for R(n) changes nothing
     n_avar = phase.n_points - 2 * ms
-    oavar = diff.overlapping_sums(phase, ms, 2) / (2.0 * ms.astype(float) ** 2 * n_avar)
+    oavar = record_sums.overlapping_sums(phase, ms, 2) / (2.0 * ms.astype(float) ** 2 * n_avar)
     again = stats.record_noise_types(phase, ms, dmax, noise_id=noise_id, avar=oavar)
     np.testing.assert_array_equal(again[0], got[0])
     # without the fused moments (streaming kernels only) the answer is the same

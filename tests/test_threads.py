@@ -135,12 +135,13 @@ def test_threaded_modified_sums_are_bit_identical_and_exact(force, monkeypatch):
     """The MVAR numerators in parts of MOD_PART starts (issue 42): the same bits on one
     thread and several, each part's sliding sum exact against a direct sum."""
     from adavar import differences as diff
+    from adavar import record_sums
 
     monkeypatch.setattr(diff, "MOD_PART", 5000)  # many parts on a short record
     x = _record(40_000, seed=9)
     phase = diff.anchored_phase(x)
     ms = np.array([1, 7, 64, 1000], dtype=np.int64)
-    (a, counts), (b, _) = _both(force, lambda: diff.modified_sums(phase, ms))
+    (a, counts), (b, _) = _both(force, lambda: record_sums.modified_sums(phase, ms))
     np.testing.assert_array_equal(a, b)
     s = np.concatenate(([0.0], np.cumsum(x - x.mean())))  # the phase, centred: no offset
     for t, m in enumerate(ms.tolist()):
@@ -148,7 +149,7 @@ def test_threaded_modified_sums_are_bit_identical_and_exact(force, monkeypatch):
         inner = np.convolve(d, np.ones(m), mode="valid")[: counts[t]]
         assert a[t] == pytest.approx(float(np.sum(inner**2)), rel=1e-9)
     monkeypatch.setattr(diff, "MOD_PART", 1 << 62)  # one part: the sequential pass
-    np.testing.assert_allclose(diff.modified_sums(phase, ms)[0], a, rtol=1e-13)
+    np.testing.assert_allclose(record_sums.modified_sums(phase, ms)[0], a, rtol=1e-13)
 
 
 def test_threaded_kurtosis_kernels_are_bit_identical(force):

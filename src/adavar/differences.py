@@ -29,7 +29,16 @@ import numpy as np
 # 1e7 (issue 42). Each block is computed the same way on any thread and the partial sums
 # are added in block order, so the result does not depend on the thread count.
 from adavar._jit import grouped_items, jit, prange, read_only, threaded_jit
-from adavar._kernels.double_double import dd_add, dd_scaled_add, two_sum
+from adavar._kernels.difference_runs import (
+    BLOCK,
+    SHIFT,
+    accumulate,
+    fill2,
+    slide_window_sum,
+    squares,
+    strided_run,
+)
+from adavar._kernels.double_double import dd_add, two_sum
 from adavar._kernels.window_avar import window_avar
 
 __all__ = [
@@ -41,17 +50,12 @@ __all__ = [
     "cluster_sums",
     "fused_lag1",
     "fused_lag1_levels",
-    "modified_sums",
-    "overlapping_sums",
-    "slide_window_sum",
-    "strided_sums",
+    "modified_sums_kernel",
+    "overlapping_sums_kernel",
+    "strided_sums_kernel",
     "window_avar",
 ]
 
-SHIFT = 10
-SECOND = read_only(np.array([1, -2, 1], dtype=np.int64))  # coefficients of the Allan difference
-THIRD = read_only(np.array([-1, 3, -3, 1], dtype=np.int64))  # and of the Hadamard one
-BLOCK = 1 << SHIFT  # anchor spacing, samples
 SUPERBLOCK = 1 << 14  # terms per parallel work item; each touches a few 128 KiB chunks
 #: Samples (or terms) from which the whole-record kernels use every thread.
 RECORD_THREADS_MIN = 1 << 21
@@ -369,89 +373,19 @@ def anchored_phase(
 
 
 # ---------------------------------------------------------------------------------------
-# one difference, exactly (used off the hot path and by the strided statistics)
-
-
-@jit
-def anchor_combo(hh, hl, i, m, coefs):  # pragma: no cover - compiled
-    """Round-to-double of ``sum_k coefs[k] * H[(i + k m) // BLOCK]`` computed in double-double."""
-    ah = 0.0
-    al = 0.0
-    for k in range(coefs.size):
-        b = (i + k * m) >> SHIFT
-        ah, al = dd_scaled_add(ah, al, coefs[k], hh[b], hl[b])
-    return ah + al
-
-
-@jit
-def difference_combo(r, hh, hl, i, m, coefs):  # pragma: no cover - compiled
-    """``sum_k coefs[k] * S[i + k m]`` to a few ulps."""
-    local = 0.0
-    for k in range(coefs.size):
-        local += coefs[k] * r[i + k * m]
-    return anchor_combo(hh, hl, i, m, coefs) + local
-
-
-@jit
-def segment_end(i, hi, m, npts_k):  # pragma: no cover - compiled
-    """First index after ``i`` (capped at ``hi``) where some ``i + k m`` enters a new block."""
-    end = hi
-    for k in range(npts_k):
-        j = i + k * m
-        e = i + ((((j >> SHIFT) + 1) << SHIFT) - j)
-        end = min(end, e)
-    return end
-
-
-# ---------------------------------------------------------------------------------------
-# hot loops: vectorised sums over a run of i with a constant anchor part
-
-
-# Slices and a 0-based counter let LLVM drop numba's negative-index checks and vectorise.
-
-
-@jit(fastmath=True)
-def _run_sq2(r, c, lo, hi, m):  # pragma: no cover - compiled
-    x0 = r[lo:hi]
-    x1 = r[lo + m : hi + m]
-    x2 = r[lo + 2 * m : hi + 2 * m]
-    acc = 0.0
-    for k in range(hi - lo):
-        v = c + ((x0[k] + x2[k]) - 2.0 * x1[k])
-        acc += v * v
-    return acc
-
-
-@jit(fastmath=True)
-def _run_sq3(r, c, lo, hi, m):  # pragma: no cover - compiled
-    x0 = r[lo:hi]
-    x1 = r[lo + m : hi + m]
-    x2 = r[lo + 2 * m : hi + 2 * m]
-    x3 = r[lo + 3 * m : hi + 3 * m]
-    acc = 0.0
-    for k in range(hi - lo):
-        v = c + ((x3[k] - x0[k]) + 3.0 * (x1[k] - x2[k]))
-        acc += v * v
-    return acc
-
-
-@jit(fastmath=True)
-def _run_fill2(r, c, lo, hi, m, out):  # pragma: no cover - compiled
-    x0 = r[lo:hi]
-    x1 = r[lo + m : hi + m]
-    x2 = r[lo + 2 * m : hi + 2 * m]
-    for k in range(hi - lo):
-        out[k] = c + ((x0[k] + x2[k]) - 2.0 * x1[k])
+# drivers: the whole record's sums, from the inner kernels of adavar._kernels.difference_runs.
+# ``gaps`` is None, or ``(cnt, ws, pm)`` (adavar.gaps.GapLayout: prefix counts of missing
+# samples, the keep test's window per tau, missing phase points) to leave out the terms
+# that touch a missing sample and count those kept.
 
 
 @threaded_jit
 def _overlap_partials(
-    r, hh, hl, ms, starts, counts, coefs, partial, per, lo, hi
+    r, hh, hl, ms, starts, counts, coefs, gaps, partial, kept, per, lo, hi
 ):  # pragma: no cover
     """Superblocks ``lo * per .. hi * per - 1`` of :func:`overlapping_sums_kernel`: every
-    tau's sum over each, into ``partial[sb * nt + t]``."""
+    tau's sum over each, into ``partial[sb * nt + t]`` (terms summed: ``kept``)."""
     nt = ms.size
-    kp = coefs.size
     nsb = partial.size // nt
     for sb in range(lo * per, min(hi * per, nsb)):
         b0 = sb * SUPERBLOCK
@@ -462,34 +396,37 @@ def _overlap_partials(
             if lo_t >= hi_t:
                 continue
             m = ms[t]
-            acc = 0.0
-            i = lo_t
-            while i < hi_t:
-                e = segment_end(i, hi_t, m, kp)
-                c = anchor_combo(hh, hl, i, m, coefs)
-                if kp == 3:
-                    acc += _run_sq2(r, c, i, e, m)
-                else:
-                    acc += _run_sq3(r, c, i, e, m)
-                i = e
+            if gaps is None:
+                acc, n = squares(r, m, 0, lo_t, hi_t, m, hh, hl, coefs, None)
+            else:
+                cnt, ws, pm = gaps
+                acc, n = squares(r, m, 0, lo_t, hi_t, m, hh, hl, coefs, (cnt, ws[t], pm))
             partial[sb * nt + t] = acc
+            kept[sb * nt + t] = n
 
 
 @jit
-def _superblock_totals(partial, nt):  # pragma: no cover - compiled
-    """Each tau's sum of its superblocks' partial sums, in superblock order."""
+def _superblock_totals(partial, kept, nt):  # pragma: no cover - compiled
+    """Each tau's sum of its superblocks' partial sums, in superblock order, and terms."""
     nsb = partial.size // nt
     out = np.zeros(nt)
+    terms = np.zeros(nt, dtype=np.int64)
     for t in range(nt):
         total = 0.0
+        n = 0
         for sb in range(nsb):
             total += partial[sb * nt + t]
+            n += kept[sb * nt + t]
         out[t] = total
-    return out
+        terms[t] = n
+    return out, terms
 
 
-def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs) -> np.ndarray:
-    """``sum_{i=start}^{start+count-1} (sum_k coefs[k] S[i + k m])^2`` for every tau.
+def overlapping_sums_kernel(
+    r, hh, hl, ms, starts, counts, coefs, gaps=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """``sum_{i=start}^{start+count-1} (sum_k coefs[k] S[i + k m])^2`` for every tau, and
+    the number of terms summed (``counts`` without ``gaps``).
 
     Fused over taus: each work item takes superblocks of ``i`` and runs every tau over
     them, so the chunks of ``r`` that neighbouring octaves share stay in cache; from
@@ -499,38 +436,31 @@ def overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs) -> np.ndarray:
     imax = int(np.max(starts + counts)) if nt else 0
     nsb = (imax + SUPERBLOCK - 1) // SUPERBLOCK
     partial = np.zeros(nsb * nt)
+    kept = np.zeros(nsb * nt, dtype=np.int64)
     per, items = grouped_items(nsb)
     work = imax if imax >= RECORD_THREADS_MIN else 0
-    _overlap_partials.run(work, max(items, 1), r, hh, hl, ms, starts, counts, coefs,
-                          partial, per)  # fmt: skip
-    return _superblock_totals(partial, nt)
+    _overlap_partials.run(work, max(items, 1), r, hh, hl, ms, starts, counts, coefs, gaps,
+                          partial, kept, per)  # fmt: skip
+    return _superblock_totals(partial, kept, nt)
 
 
 @jit
-def _strided_sums(r, hh, hl, ms, counts, coefs):  # pragma: no cover - compiled
-    """Non-overlapping version: terms at ``i = 0, m, 2m, ...`` (``counts[t]`` of them)."""
+def strided_sums_kernel(r, hh, hl, ms, counts, coefs, gaps):  # pragma: no cover - compiled
+    """Non-overlapping version: terms at ``i = 0, m, 2m, ...`` (``counts[t]`` of them);
+    returns the sums and the terms summed."""
     nt = ms.size
     out = np.zeros(nt)
-    for t in prange(nt):
+    kept = np.zeros(nt, dtype=np.int64)
+    for t in range(nt):
         m = ms[t]
-        acc = 0.0
-        for q in range(counts[t]):
-            v = difference_combo(r, hh, hl, q * m, m, coefs)
-            acc += v * v
-        out[t] = acc
-    return out
-
-
-@jit
-def fill_second_differences(r, hh, hl, m, lo, hi, out):  # pragma: no cover - compiled
-    """``out[i - lo] = S[i] - 2 S[i+m] + S[i+2m]`` for ``i`` in ``[lo, hi)``."""
-    coefs = SECOND
-    i = lo
-    while i < hi:
-        e = segment_end(i, hi, m, 3)
-        c = anchor_combo(hh, hl, i, m, coefs)
-        _run_fill2(r, c, i, e, m, out[i - lo :])
-        i = e
+        if gaps is None:
+            out[t], kept[t] = strided_run(r[::m], 0, counts[t], m, hh, hl, coefs, 0.0, 0, None)
+        else:
+            cnt, ws, pm = gaps
+            missing = (cnt[::m], cnt[ws[t] :: m], pm[::m])
+            out[t], kept[t] = strided_run(r[::m], 0, counts[t], m, hh, hl, coefs, 0.0, 0,
+                                          missing)  # fmt: skip
+    return out, kept
 
 
 _MOD_CHUNK = 1 << 14
@@ -540,48 +470,43 @@ MOD_PART = 1 << 21
 
 
 @jit
-def slide_window_sum(enter, leave, n, s, c, acc):  # pragma: no cover - compiled
-    """Slide a window sum kept as ``s + c`` (compensated) ``n`` starts on: each start adds
-    ``enter[q]``, drops ``leave[q]`` and adds the new sum's square to ``acc``; returns
-    ``(s, c, acc)``. The MVAR numerator's step, in memory and out of core."""
-    for q in range(n):
-        s, e = two_sum(s, enter[q])
-        c += e
-        s, e = two_sum(s, -leave[q])
-        c += e
-        v = s + c
-        acc += v * v
-    return s, c, acc
-
-
-@jit
-def _modified_part(r, hh, hl, m, j0, j1):  # pragma: no cover - compiled
+def _modified_part(r, hh, hl, m, j0, j1, cnt, w):  # pragma: no cover - compiled
     """``sum_{j=j0}^{j1-1} (sum_{i=j}^{j+m-1} d_m[i])^2``, the window sum started afresh
-    at ``j0`` and slid with a compensated running total."""
+    at ``j0`` and slid with a compensated running total, and the terms summed (with prefix
+    counts ``cnt``, only the starts ``j`` with ``cnt[j + w] == cnt[j]``)."""
     first = np.empty(m)
-    fill_second_differences(r, hh, hl, m, j0, j0 + m, first)
-    s = 0.0
-    c = 0.0
-    for k in range(m):
-        s, e = two_sum(s, first[k])
-        c += e
+    fill2(r[j0:], r[j0 + m :], r[j0 + 2 * m :], j0, j0 + m, m, hh, hl, first)
+    s, c = accumulate(first, m, 0.0, 0.0)
     total = s + c
-    acc = total * total
+    acc = 0.0
+    n = 0
+    keep_first = True
+    if cnt is not None:
+        keep_first = cnt[j0 + w] == cnt[j0]
+    if keep_first:
+        acc = total * total
+        n = 1
     enter = np.empty(min(_MOD_CHUNK, max(j1 - j0 - 1, 0)))  # no more than one chunk needs
     leave = np.empty(enter.size)
     j = j0 + 1
     while j < j1:
-        n = min(_MOD_CHUNK, j1 - j)
-        fill_second_differences(r, hh, hl, m, j + m - 1, j + m - 1 + n, enter)
-        fill_second_differences(r, hh, hl, m, j - 1, j - 1 + n, leave)
-        s, c, acc = slide_window_sum(enter, leave, n, s, c, acc)
-        j += n
-    return acc
+        size = min(_MOD_CHUNK, j1 - j)
+        a = j + m - 1  # d[a] enters, d[j - 1] leaves
+        fill2(r[a:], r[a + m :], r[a + 2 * m :], a, a + size, m, hh, hl, enter)
+        fill2(r[j - 1 :], r[j - 1 + m :], r[j - 1 + 2 * m :], j - 1, j - 1 + size, m, hh, hl,
+              leave)  # fmt: skip
+        if cnt is None:
+            s, c, acc, n = slide_window_sum(enter, leave, size, s, c, acc, n, None)
+        else:
+            s, c, acc, n = slide_window_sum(enter, leave, size, s, c, acc, n,
+                                            (cnt[j:], cnt[j + w :]))  # fmt: skip
+        j += size
+    return acc, n
 
 
 @threaded_jit
 def _modified_partials(
-    r, hh, hl, ms, counts, first_part, size, partial, lo, hi
+    r, hh, hl, ms, counts, first_part, size, cnt, ws, partial, kept, lo, hi
 ):  # pragma: no cover
     """Items ``lo .. hi - 1``: item ``k`` is part ``k - first_part[t]`` (starts ``size``
     apart) of tau ``t``, where ``first_part[t] <= k < first_part[t + 1]``."""
@@ -590,30 +515,41 @@ def _modified_partials(
         while first_part[t + 1] <= k:
             t += 1
         j0 = (k - first_part[t]) * size
-        partial[k] = _modified_part(r, hh, hl, ms[t], j0, min(counts[t], j0 + size))
+        partial[k], kept[k] = _modified_part(r, hh, hl, ms[t], j0, min(counts[t], j0 + size),
+                                             cnt, ws[t])  # fmt: skip
 
 
-def modified_sums_kernel(r, hh, hl, ms, counts) -> np.ndarray:
-    """``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2`` for ``j = 0..count-1``: the MVAR numerator.
+def modified_sums_kernel(
+    r, hh, hl, ms, counts, gaps=None, part=None
+) -> tuple[np.ndarray, np.ndarray]:
+    """``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2`` for ``j = 0..count-1``: the MVAR numerator,
+    and the number of terms summed.
 
     The inner sum slides along ``j`` with a compensated running total, fed by chunks of
     second differences computed exactly (entering and leaving streams), so the cost is
-    O(N) per tau whatever ``m``. Parts of :data:`MOD_PART` starts run on every thread from
-    :data:`RECORD_THREADS_MIN` terms on, each part's sum added in order.
+    O(N) per tau whatever ``m``. Parts of ``part`` starts (default :data:`MOD_PART`) run
+    on every thread from :data:`RECORD_THREADS_MIN` terms on, each part's sum added in
+    order. ``gaps`` is ``None`` or ``(cnt, ws)`` (prefix counts of missing samples, the
+    window of the keep test per tau).
     """
     ms = np.ascontiguousarray(ms, dtype=np.int64)
     counts = np.ascontiguousarray(counts, dtype=np.int64)
-    size = int(MOD_PART)  # an argument: a compiled kernel would freeze the global
+    size = int(MOD_PART if part is None else part)  # an argument: compiled, a global freezes
     parts = np.maximum(1, -(-counts // size))
     first_part = np.concatenate(([0], np.cumsum(parts))).astype(np.int64)
     partial = np.zeros(int(first_part[-1]))
+    kept = np.zeros(partial.size, dtype=np.int64)
     terms = int(counts.sum()) if counts.size else 0
     work = terms if terms >= RECORD_THREADS_MIN else 0
+    cnt, ws = gaps if gaps is not None else (None, np.zeros(ms.size, dtype=np.int64))
     if partial.size:
         _modified_partials.run(work, partial.size, r, hh, hl, ms, counts, first_part, size,
-                               partial)  # fmt: skip
-    return np.array([partial[first_part[t] : first_part[t + 1]].sum() if parts[t] > 1
+                               cnt, ws, partial, kept)  # fmt: skip
+    sums = np.array([partial[first_part[t] : first_part[t + 1]].sum() if parts[t] > 1
                      else partial[first_part[t]] for t in range(ms.size)])  # fmt: skip
+    terms_kept = np.array([kept[first_part[t] : first_part[t + 1]].sum()
+                           for t in range(ms.size)], dtype=np.int64)  # fmt: skip
+    return sums, terms_kept
 
 
 @jit
@@ -772,58 +708,7 @@ def cluster_lag1_sums(r, hh, hl, m, count, dmax):  # pragma: no cover - compiled
 
 
 # ---------------------------------------------------------------------------------------
-# public wrappers
-
-
-def overlapping_sums(
-    phase: AnchoredPhase,
-    ms: np.ndarray,
-    order: int,
-    starts: np.ndarray | None = None,
-    counts: np.ndarray | None = None,
-) -> np.ndarray:
-    """Sums of squared overlapping differences of ``order`` 2 or 3 at each ``m``.
-
-    By default ``i`` runs over every start that keeps ``i + order * m`` inside the data.
-    """
-    ms = np.ascontiguousarray(ms, dtype=np.int64)
-    coefs = SECOND if order == 2 else THIRD
-    if starts is None and counts is None:  # every start: only an empty sum can go wrong
-        counts = phase.n_points - order * ms
-        starts = np.zeros(ms.size, dtype=np.int64)
-        if ms.size and counts.min() < 1:
-            raise ValueError("internal: empty or out-of-range difference sum")
-    else:
-        if starts is None:
-            starts = np.zeros_like(ms)
-        if counts is None:
-            counts = phase.n_points - order * ms
-        starts = np.ascontiguousarray(starts, dtype=np.int64)
-        counts = np.ascontiguousarray(counts, dtype=np.int64)
-        if np.any(counts < 1) or np.any(starts < 0):
-            raise ValueError("internal: empty or out-of-range difference sum")
-        if np.any(starts + counts - 1 + order * ms >= phase.n_points):
-            raise ValueError("internal: difference sum runs past the data")
-    return overlapping_sums_kernel(phase.r, phase.hh, phase.hl, ms, starts, counts, coefs)
-
-
-def strided_sums(phase: AnchoredPhase, ms: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
-    """Sums of squared non-overlapping differences (stride ``m``); returns (sums, counts)."""
-    ms = np.asarray(ms, dtype=np.int64)
-    coefs = SECOND if order == 2 else THIRD
-    counts = (phase.n_points - 1) // ms - order + 1
-    if np.any(counts < 1):
-        raise ValueError("internal: empty difference sum")
-    return _strided_sums(phase.r, phase.hh, phase.hl, ms, counts, coefs), counts
-
-
-def modified_sums(phase: AnchoredPhase, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """MVAR numerators ``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2``; returns (sums, counts)."""
-    ms = np.ascontiguousarray(ms, dtype=np.int64)
-    counts = (phase.n_points + 1) - 3 * ms
-    if ms.size and counts.min() < 1:
-        raise ValueError("internal: empty difference sum")
-    return modified_sums_kernel(phase.r, phase.hh, phase.hl, ms, counts), counts
+# the noise identification's cluster statistics
 
 
 def cluster_lag1(phase: AnchoredPhase, m: int, dmax: int):

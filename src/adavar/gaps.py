@@ -84,12 +84,10 @@ from adavar import edf as edf_mod
 from adavar import extended_statistics as ext
 from adavar import inputs, sources
 from adavar._jit import read_only
+from adavar._kernels.difference_runs import SECOND, THIRD
 from adavar._kernels.gaps import (
     fill_missing,
     fit_moments,
-    kept_modified_sums,
-    kept_overlapping_sums,
-    kept_strided_sums,
     lag1_moments,
 )
 from adavar.errors import AdavarInputError
@@ -235,19 +233,24 @@ def kept_sums(
     ws = read_only(layout.windows(stat, ms), np.int64)
     n_points = phase.n_points
     order = _ORDER[stat]
-    coefs = diff.SECOND if order == 2 else diff.THIRD
+    coefs = SECOND if order == 2 else THIRD
+    r, hh, hl = phase.r, phase.hh, phase.hl
     if stat in ("mdev", "tdev"):
         counts = read_only(n_points - 3 * ms + 1, np.int64)
-        return kept_modified_sums(phase.r, phase.hh, phase.hl, ms, counts, layout.cnt, ws)
+        # one part per tau: the running window sum slides over the whole record
+        part = max(int(counts.max()), 1) if counts.size else 1
+        return diff.modified_sums_kernel(r, hh, hl, ms, counts, (layout.cnt, ws), part=part)
+    gaps = (layout.cnt, ws, layout.pm)
     if stat in ("oadev", "ohdev"):
         counts = read_only(n_points - order * ms, np.int64)
-        kernel = kept_overlapping_sums
-    else:
-        counts = read_only((n_points - 1) // ms - order + 1, np.int64)
-        kernel = kept_strided_sums
+        if np.any(counts < 1):
+            raise ValueError("internal: empty difference sum")
+        starts = np.zeros(ms.size, dtype=np.int64)
+        return diff.overlapping_sums_kernel(r, hh, hl, ms, starts, counts, coefs, gaps)
+    counts = read_only((n_points - 1) // ms - order + 1, np.int64)
     if np.any(counts < 1):
         raise ValueError("internal: empty difference sum")
-    return kernel(phase.r, phase.hh, phase.hl, ms, counts, coefs, layout.cnt, ws, layout.pm)
+    return diff.strided_sums_kernel(r, hh, hl, ms, counts, coefs, gaps)
 
 
 def effective_points(stat: str, m: int | np.ndarray, kept: int | np.ndarray) -> Any:

@@ -41,13 +41,8 @@ from adavar._kernels.decimated_phase import (  # noqa: F401 - phase_* re-exporte
     phase_residual_lag,
     quadratic_fit,
 )
-from adavar.differences import (
-    AnchoredPhase,
-    cluster_differences,
-    cluster_lag1_sums,
-    modified_sums,
-    overlapping_sums,
-)
+from adavar.differences import AnchoredPhase, cluster_differences, cluster_lag1_sums
+from adavar.record_sums import modified_sums, overlapping_sums
 
 __all__ = [
     "AVERAGED_FM_BOUNDS",

@@ -19,8 +19,7 @@ import numpy as np
 from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import extended_statistics as ext
-from adavar import sources, stream
-from adavar import stream_statistics as sstat
+from adavar import record_sums, sources, stream
 from adavar._kernels.moments import difference_moments
 from adavar.errors import AdavarInputError
 from adavar.inputs import (
@@ -88,12 +87,12 @@ def _rn_in_memory(
     avar = {} if avar is None else avar
     need = [m for m in ms if m not in avar]
     if need:
-        sums = diff.overlapping_sums(phase, np.array(need, dtype=np.int64), 2).tolist()
+        sums = record_sums.overlapping_sums(phase, np.array(need, dtype=np.int64), 2).tolist()
         avar = avar | {
             m: avar_of_sum(total, m, phase.n_points - 2 * m)
             for m, total in zip(need, sums, strict=True)
         }
-    mod_sums, counts = diff.modified_sums(phase, np.array(ms, dtype=np.int64))
+    mod_sums, counts = record_sums.modified_sums(phase, np.array(ms, dtype=np.int64))
     return {
         m: rn_ratio(avar[m], mvar_of_sum(mod_sum, m, count))
         for m, mod_sum, count in zip(ms, mod_sums.tolist(), counts.tolist(), strict=True)
@@ -309,7 +308,7 @@ def deviation(
     :data:`MAX_POINTS_PER_DECADE` points per decade.
 
     Out of core (chunked ``data`` or ``chunk_size`` given): the same anchored form is built
-    by :mod:`adavar.stream_statistics` in one pass, keeping only its double-double anchors
+    by :mod:`adavar.record_sums` in one pass, keeping only its double-double anchors
     (16 bytes per 1024 samples); the local sums are recomputed over windows that slide
     along the record, so every difference is the one the in-memory path computes and the
     result equals it (a few ulps; every field: ``n``, ``m``, ``edf``, ``alpha``, ``notes``)
@@ -393,43 +392,41 @@ def deviation(
     ms, notes = tau_factors(taus, largest_factor(stat, n_points), step, points_per_decade)
     if not chunked:
         phase = diff.anchored_phase(u, cluster_stats=confidence is not None)
-        kernels = diff
     elif stat != "totdev":
-        phase = sstat.streamed_phase(increments, chunk)
-        kernels = sstat
+        phase = record_sums.streamed_phase(increments, chunk)
+    sums_of = record_sums  # either phase: in memory it is one chunk
     m2 = ms.astype(np.float64) ** 2
 
     oavar = None  # the overlapping AVAR of the phase, for R(n), when it is computed anyway
     if stat == "oadev":
         n = n_points - 2 * ms
-        var = oavar = kernels.overlapping_sums(phase, ms, 2) / (2.0 * m2 * n)
+        var = oavar = sums_of.overlapping_sums(phase, ms, 2) / (2.0 * m2 * n)
     elif stat == "adev":
-        sums, n = kernels.strided_sums(phase, ms, 2)
+        sums, n = sums_of.strided_sums(phase, ms, 2)
         var = sums / (2.0 * m2 * n)
     elif stat in ("mdev", "tdev"):
-        sums, n = kernels.modified_sums(phase, ms)
+        sums, n = sums_of.modified_sums(phase, ms)
         var = sums / (2.0 * m2 * m2 * n)
     elif stat == "hdev":
-        sums, n = kernels.strided_sums(phase, ms, 3)
+        sums, n = sums_of.strided_sums(phase, ms, 3)
         var = sums / (6.0 * m2 * n)
     elif stat == "ohdev":
         n = n_points - 3 * ms
-        var = kernels.overlapping_sums(phase, ms, 3) / (6.0 * m2 * n)
+        var = sums_of.overlapping_sums(phase, ms, 3) / (6.0 * m2 * n)
     else:  # totdev: reflect the record at both ends (SP 1065), i.e. time-reverse the rate
         pad = n_points - 2
         n = np.full(ms.size, n_points - 2, dtype=np.int64)
         starts = pad + 1 - ms
         if chunked:
             # the reflected record is read through index arithmetic, never built
-            extended = sstat.streamed_phase(
-                sstat.ReflectedSource(increments, pad),
+            extended = record_sums.streamed_phase(
+                record_sums.ReflectedSource(increments, pad),
                 chunk,
-                shift=sstat.initial_shift(increments),
+                shift=record_sums.initial_shift(increments),
             )
-            sums = sstat.overlapping_sums(extended, ms, 2, starts=starts, counts=n)
         else:
             extended = diff.anchored_phase(np.pad(u, pad, mode="symmetric"), shift=phase.shift)
-            sums = diff.overlapping_sums(extended, ms, 2, starts=starts, counts=n)
+        sums = record_sums.overlapping_sums(extended, ms, 2, starts=starts, counts=n)
         var = sums / (2.0 * m2 * n)
     if scale != 1.0:
         var = var * scale

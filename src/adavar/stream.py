@@ -15,7 +15,7 @@ import numpy as np
 
 from adavar import differences as diff
 from adavar import noise_id as nid
-from adavar import stream_statistics as sstat
+from adavar import record_sums
 from adavar._jit import jit
 from adavar._kernels.double_double import dd_add
 from adavar.differences import SHIFT, cluster_sum
@@ -473,11 +473,11 @@ def noise_types(
     def rn(m: int) -> float | None:
         if m not in rn_cache:
             if not phase_src:
-                phase_src.append(sstat.streamed_phase(src, chunk))
+                phase_src.append(record_sums.streamed_phase(src, chunk))
             ph = phase_src[0]
             one = np.array([m], dtype=np.int64)
-            total = float(sstat.overlapping_sums(ph, one, 2)[0])
-            sums, n = sstat.modified_sums(ph, one)
+            total = float(record_sums.overlapping_sums(ph, one, 2)[0])
+            sums, n = record_sums.modified_sums(ph, one)
             rn_cache[m] = rn_ratio(
                 avar_of_sum(total, m, src.size + 1 - 2 * m),
                 mvar_of_sum(float(sums[0]), m, int(n[0])),

@@ -332,5 +332,3 @@ def centre_chunk_size(n_centres: int, longest: int, step: int) -> int:
     chunk = max(64, min(1 << 16, math.ceil(8 * longest / step)))
     per_thread = math.ceil(n_centres / (4 * max(1, numba.get_num_threads())))
     return int(max(64, min(chunk, per_thread)))
-
-

@@ -90,6 +90,7 @@ import numpy as np
 
 from adavar import differences as diff
 from adavar import edf as edf_mod
+from adavar import record_sums
 from adavar._jit import read_only
 from adavar._kernels.theo_family import centred_phase, theo1_fast_sums, theo1_sums
 from adavar.errors import AdavarInputError
@@ -274,7 +275,7 @@ def _oavar(phase: diff.AnchoredPhase, ms: np.ndarray) -> np.ndarray:
     """Overlapping Allan variances (sample interval 1) at ``ms`` (each ``2m < N``)."""
     m = ms.astype(np.float64)
     counts = phase.n_points - 2 * ms
-    return diff.overlapping_sums(phase, ms, 2) / (2.0 * m * m * counts)
+    return record_sums.overlapping_sums(phase, ms, 2) / (2.0 * m * m * counts)
 
 
 def ratio_factors(n_points: int, terms: int | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -3,7 +3,7 @@ function relies on exact IEEE rounding).
 
 A double-double is a pair ``(high, low)`` with ``|low| <= ulp(high) / 2`` that represents
 ``high + low`` exactly: about 32 significant digits. The anchored phase of
-:mod:`adavar.differences`, its streamed twin in :mod:`adavar.stream_statistics`, the running
+:mod:`adavar.differences`, the whole-record sums of :mod:`adavar.record_sums`, the running
 moments of :mod:`adavar.kurtosis` and the controller of :mod:`adavar.adaptive` all build on
 these few operations (Knuth's two-sum, Dekker's fast two-sum, and products through a fused
 multiply-add).

@@ -73,9 +73,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                 "--markov, ...) describe another one: drop them or --scenario"
             )
         status(f"simulating scenario {args.scenario}")
-        sc = paper_scenario(
-            args.scenario, seed=args.seed, variance_reading=args.variance_reading
-        )
+        sc = paper_scenario(args.scenario, seed=args.seed, variance_reading=args.variance_reading)
         x, rate, what = np.asarray(sc.data), float(sc.rate), sc.description
     else:
         if args.variance_reading:

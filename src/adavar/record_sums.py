@@ -1,12 +1,20 @@
-"""Whole-record Allan-family sums of a record read piece by piece (out of core).
+"""The whole record's Allan-family sums, chunk by chunk: the one entry to every engine.
 
-The twin of the sum kernels of :mod:`adavar.differences` for a
-:class:`~adavar.stream.ChunkedSource`. The integrated signal is the same anchored form
-(double-double anchors ``H[b]`` every ``BLOCK`` samples, a compensated local sum ``r`` inside
-each block, the same shift), but only the anchors (16 bytes per 1024 samples) are kept for
-the whole record: the local part is recomputed on demand over windows that slide along the
-record. Every difference is computed from the same ``H`` and ``r`` values as in memory, so
-the sums agree with :mod:`adavar.differences` to a few ulps whatever the chunk size.
+:func:`overlapping_sums`, :func:`strided_sums` and :func:`modified_sums` take the anchored
+phase of a record in memory (:class:`adavar.differences.AnchoredPhase`: one chunk, the
+kernels run over it at once, on every thread) or of a record read piece by piece
+(:class:`StreamedPhase`, built by :func:`streamed_phase` from a
+:class:`~adavar.sources.ChunkedSource`). Both run the inner kernels of
+:mod:`adavar._kernels.difference_runs`; records with missing samples run them too, with
+the missing samples as an argument (:mod:`adavar.gaps`).
+
+Out of core, the integrated signal is the same anchored form
+(double-double anchors ``H[b]`` every ``BLOCK`` samples, a compensated local sum ``r``
+inside each block, the same shift), but only the anchors (16 bytes per 1024 samples) are
+kept for the whole record: the local part is recomputed on demand over windows that slide
+along the record. Every difference is computed from the same ``H`` and ``r`` values, by the
+same kernels, as in memory, so the sums agree with :mod:`adavar.differences` to a few ulps
+whatever the chunk size (only the order of the additions between pieces differs).
 
 Passes over the record (``C`` the chunk size, ``K`` the difference order, ``N`` the length):
 
@@ -28,11 +36,20 @@ import numpy as np
 
 from adavar import differences as diff
 from adavar._jit import grouped_items, jit, threaded_jit
+from adavar._kernels.difference_runs import (
+    SECOND,
+    THIRD,
+    accumulate,
+    fill2,
+    slide_window_sum,
+    squares,
+    strided_run,
+)
 from adavar._kernels.double_double import dd_add, two_sum
-from adavar.differences import anchor_combo, segment_end, slide_window_sum
 from adavar.sources import DEFAULT_CHUNK, ChunkedSource, read_extended
 
 __all__ = [
+    "Phase",
     "ReflectedSource",
     "StreamedPhase",
     "initial_shift",
@@ -207,14 +224,18 @@ def streamed_phase(
     return StreamedPhase(source, float(shift), hh, hl, chunk)
 
 
+#: the anchored phase of a record, in memory (one chunk) or read piece by piece
+Phase = diff.AnchoredPhase | StreamedPhase
+
+
 class _Window:
     """Local phase ``r[lo:hi]`` over ranges that slide forward; the overlap is kept, not re-read."""
 
     __slots__ = ("buf", "c", "lo", "p", "phase", "s")
 
-    def __init__(self, phase: StreamedPhase) -> None:
+    def __init__(self, phase: StreamedPhase, buf: np.ndarray | None = None) -> None:
         self.phase = phase
-        self.buf = np.empty(0)
+        self.buf = np.empty(0) if buf is None else buf  # a caller's row: filled in place
         self.lo = 0  # buf[k] holds r[lo + k] for lo + k < p
         self.p = -1  # next point to compute; -1: nothing yet
         self.s = 0.0  # compensated state at p - 1
@@ -254,103 +275,30 @@ class _Window:
 # overlapping differences: x_k[q] = r[lo + q + k m], k = 0..order
 
 
-@jit(fastmath=True)
-def _run_sq2(x0, x1, x2, c, a, b):  # pragma: no cover - compiled
-    y0 = x0[a:b]
-    y1 = x1[a:b]
-    y2 = x2[a:b]
-    acc = 0.0
-    for k in range(b - a):
-        v = c + ((y0[k] + y2[k]) - 2.0 * y1[k])
-        acc += v * v
-    return acc
-
-
-@jit(fastmath=True)
-def _run_sq3(x0, x1, x2, x3, c, a, b):  # pragma: no cover - compiled
-    y0 = x0[a:b]
-    y1 = x1[a:b]
-    y2 = x2[a:b]
-    y3 = x3[a:b]
-    acc = 0.0
-    for k in range(b - a):
-        v = c + ((y3[k] - y0[k]) + 3.0 * (y1[k] - y2[k]))
-        acc += v * v
-    return acc
-
-
-@jit(fastmath=True)
-def _run_fill2(x0, x1, x2, c, a, b, out):  # pragma: no cover - compiled
-    y0 = x0[a:b]
-    y1 = x1[a:b]
-    y2 = x2[a:b]
-    o = out[a:b]
-    for k in range(b - a):
-        o[k] = c + ((y0[k] + y2[k]) - 2.0 * y1[k])
-
-
-@jit
-def _sq_range(x0, x1, x2, x3, lo, hi, q0, q1, m, hh, hl, coefs):  # pragma: no cover - compiled
-    """Sum of squared differences at ``i = lo + q0 .. lo + q1 - 1``."""
-    acc = 0.0
-    i = lo + q0
-    end = lo + q1
-    while i < end:
-        e = segment_end(i, end, m, coefs.size)
-        c = anchor_combo(hh, hl, i, m, coefs)
-        if coefs.size == 3:
-            acc += _run_sq2(x0, x1, x2, c, i - lo, e - lo)
-        else:
-            acc += _run_sq3(x0, x1, x2, x3, c, i - lo, e - lo)
-        i = e
-    return acc
-
-
-@jit
-def _sq_sum(x0, x1, x2, x3, lo, hi, m, hh, hl, coefs):  # pragma: no cover - compiled
-    return _sq_range(x0, x1, x2, x3, lo, hi, 0, hi - lo, m, hh, hl, coefs)
-
-
 @threaded_jit
-def _sq_partials(
-    x0, x1, x2, x3, lo, hi, m, hh, hl, coefs, partial, sb_lo, sb_hi
-):  # pragma: no cover - compiled
-    """:func:`_sq_sum` of superblocks ``sb_lo .. sb_hi - 1`` into ``partial``."""
+def _sq_partials(x, s, lo, hi, m, hh, hl, coefs, partial, sb_lo, sb_hi):  # pragma: no cover
+    """The squared differences of superblocks ``sb_lo .. sb_hi - 1`` into ``partial``."""
     n = hi - lo
     for sb in range(sb_lo, sb_hi):
         q0 = sb * _SUPERBLOCK
-        partial[sb] = _sq_range(
-            x0, x1, x2, x3, lo, hi, q0, min(q0 + _SUPERBLOCK, n), m, hh, hl, coefs
-        )
+        partial[sb] = squares(x, s, lo, q0, min(q0 + _SUPERBLOCK, n), m, hh, hl, coefs, None)[0]
 
 
-@jit
-def _fill2(x0, x1, x2, lo, hi, m, hh, hl, out):  # pragma: no cover - compiled
-    """``out[i - lo] = S[i] - 2 S[i+m] + S[i+2m]`` for ``i`` in ``[lo, hi)``."""
-    coefs = diff.SECOND
-    i = lo
-    while i < hi:
-        e = segment_end(i, hi, m, 3)
-        c = anchor_combo(hh, hl, i, m, coefs)
-        _run_fill2(x0, x1, x2, c, i - lo, e - lo, out)
-        i = e
-
-
-def _squares(xs, lo, hi, m, phase, coefs) -> float:
-    x3 = xs[3] if len(xs) > 3 else xs[2]
-    args = (xs[0], xs[1], xs[2], x3, lo, hi, m, phase.hh, phase.hl, coefs)
+def _squares(x, s, lo, hi, m, phase, coefs) -> float:
+    """Sum of the squared differences ``i = lo .. hi - 1``, ``x[j + k s] = r[lo + j + k m]``."""
+    hh, hl = phase.hh, phase.hl
     if hi - lo >= _PARALLEL_MIN:
         partial = np.zeros(-(-(hi - lo) // _SUPERBLOCK))
-        _sq_partials.run(hi - lo, partial.size, *args, partial)
+        _sq_partials.run(hi - lo, partial.size, x, s, lo, hi, m, hh, hl, coefs, partial)
         total = 0.0
         for value in partial.tolist():  # in order, whichever thread summed which part
             total += value
         return total
-    return float(_sq_sum(*args))
+    return float(squares(x, s, lo, 0, hi - lo, m, hh, hl, coefs, None)[0])
 
 
 def overlapping_sums(
-    phase: StreamedPhase,
+    phase: Phase,
     ms: np.ndarray,
     order: int,
     starts: np.ndarray | None = None,
@@ -358,17 +306,21 @@ def overlapping_sums(
 ) -> np.ndarray:
     """Sums of squared overlapping differences of ``order`` 2 or 3 at each ``m``.
 
-    Same contract as :func:`adavar.differences.overlapping_sums`.
+    ``i`` runs over ``starts[t] .. starts[t] + counts[t] - 1``; by default over every start
+    that keeps ``i + order * m`` inside the data.
     """
-    ms = np.asarray(ms, dtype=np.int64)
-    coefs = diff.SECOND if order == 2 else diff.THIRD
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
+    coefs = SECOND if order == 2 else THIRD
     npts = phase.n_points
-    starts = np.zeros_like(ms) if starts is None else np.asarray(starts, dtype=np.int64)
-    counts = npts - order * ms if counts is None else np.asarray(counts, dtype=np.int64)
+    starts = np.zeros_like(ms) if starts is None else np.ascontiguousarray(starts, np.int64)
+    counts = npts - order * ms if counts is None else np.ascontiguousarray(counts, np.int64)
     if np.any(counts < 1) or np.any(starts < 0):
         raise ValueError("internal: empty or out-of-range difference sum")
     if np.any(starts + counts - 1 + order * ms >= npts):
         raise ValueError("internal: difference sum runs past the data")
+    if isinstance(phase, diff.AnchoredPhase):  # one chunk: every tau over it at once
+        return diff.overlapping_sums_kernel(phase.r, phase.hh, phase.hl, ms, starts, counts,
+                                            coefs)[0]  # fmt: skip
     chunk = phase.chunk_size
     sums = np.zeros(ms.size)
     ends = starts + counts
@@ -394,42 +346,29 @@ def overlapping_sums(
                 sums[small[live]] += diff.overlapping_sums_kernel(
                     x, phase.hh[blk:], phase.hl[blk:], ms[small][live],
                     i0[live] - base, (i1 - i0)[live], coefs,
-                )  # fmt: skip
+                )[0]  # fmt: skip
                 continue
             # short pieces: tau by tau, without waking the thread pool
             for t, lo, hi in zip(small[live], i0[live], i1[live], strict=True):
                 m = int(ms[t])
-                xs = [x[lo - base + k * m : hi - base + k * m] for k in range(order + 1)]
-                sums[t] += _squares(xs, int(lo), int(hi), m, phase, coefs)
+                sums[t] += _squares(x[lo - base :], m, int(lo), int(hi), m, phase, coefs)
     piece = max(1, chunk // (order + 1))
     for t in np.flatnonzero(order * ms > chunk):
         # order + 1 streams side by side, one per point of the difference
         m = int(ms[t])
-        windows = [_Window(phase) for _ in range(order + 1)]
+        # each point's window fills a row of x: the rows are the kernel's strides
+        x = np.empty((order + 1) * piece)
+        windows = [_Window(phase, x[k * piece : (k + 1) * piece]) for k in range(order + 1)]
         for a in range(int(starts[t]), int(ends[t]), piece):
             b = min(a + piece, int(ends[t]))
-            xs = [w.get(a + k * m, b + k * m) for k, w in enumerate(windows)]
-            sums[t] += _squares(xs, a, b, m, phase, coefs)
+            for k, w in enumerate(windows):
+                w.get(a + k * m, b + k * m)
+            sums[t] += _squares(x, piece, a, b, m, phase, coefs)
     return sums
 
 
 # ---------------------------------------------------------------------------------------
 # non-overlapping differences: points q m only
-
-
-@jit
-def _strided_run(vals, q_first, q_end, m, hh, hl, coefs, acc):  # pragma: no cover - compiled
-    """Add the squared differences ``q_first .. q_end - 1``; ``vals[k] = r[(q_first + k) m]``.
-
-    Term by term as :func:`adavar.differences._strided_sums` (same order, same rounding).
-    """
-    for q in range(q_first, q_end):
-        local = 0.0
-        for k in range(coefs.size):
-            local += coefs[k] * vals[q - q_first + k]
-        v = anchor_combo(hh, hl, q * m, m, coefs) + local
-        acc += v * v
-    return acc
 
 
 class _StridedSum:
@@ -448,21 +387,24 @@ class _StridedSum:
         q_end = min(self.count, self.q_next + vals.size - self.coefs.size + 1)
         if q_end > self.q_next:
             ph = self.phase
-            self.acc = _strided_run(
-                vals, self.q_next, q_end, self.m, ph.hh, ph.hl, self.coefs, self.acc
-            )
+            self.acc = strided_run(
+                vals, self.q_next, q_end, self.m, ph.hh, ph.hl, self.coefs, self.acc, 0, None
+            )[0]
         self.tail = vals[max(0, q_end - self.q_next) :]
         self.q_next = max(self.q_next, q_end)
 
 
-def strided_sums(phase: StreamedPhase, ms: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
+def strided_sums(phase: Phase, ms: np.ndarray, order: int) -> tuple[np.ndarray, np.ndarray]:
     """Sums of squared non-overlapping differences (stride ``m``); returns (sums, counts)."""
     ms = np.asarray(ms, dtype=np.int64)
-    coefs = diff.SECOND if order == 2 else diff.THIRD
+    coefs = SECOND if order == 2 else THIRD
     npts = phase.n_points
     counts = (npts - 1) // ms - order + 1
     if np.any(counts < 1):
         raise ValueError("internal: empty difference sum")
+    if isinstance(phase, diff.AnchoredPhase):
+        sums = diff.strided_sums_kernel(phase.r, phase.hh, phase.hl, ms, counts, coefs, None)
+        return sums[0], counts
     chunk = phase.chunk_size
     acc = [_StridedSum(phase, int(m), int(c), coefs) for m, c in zip(ms, counts, strict=True)]
     last_point = ((npts - 1) // ms) * ms  # the last point each m needs
@@ -494,26 +436,21 @@ def strided_sums(phase: StreamedPhase, ms: np.ndarray, order: int) -> tuple[np.n
 # modified Allan: sliding m-term sums of second differences
 
 
-@jit
-def _accumulate(d, n, s, c):  # pragma: no cover - compiled
-    for k in range(n):
-        s, e = two_sum(s, d[k])
-        c += e
-    return s, c
-
-
-def modified_sums(phase: StreamedPhase, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def modified_sums(phase: Phase, ms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """MVAR numerators ``sum_j (sum_{i=j}^{j+m-1} d_m[i])^2``; returns (sums, counts).
 
     Window sum ``j`` is built from ``j - 1`` by adding ``d[j + m - 1]`` and removing
-    ``d[j - 1]`` with a compensated running total carried from piece to piece, the same
-    sequence of operations as :func:`adavar.differences.modified_sums`.
+    ``d[j - 1]`` with a compensated running total carried from piece to piece. In memory
+    the running total restarts every :data:`adavar.differences.MOD_PART` starts, and the
+    parts run on every thread (:func:`adavar.differences.modified_sums_kernel`).
     """
-    ms = np.asarray(ms, dtype=np.int64)
+    ms = np.ascontiguousarray(ms, dtype=np.int64)
     npts = phase.n_points
     counts = npts - 3 * ms + 1
     if np.any(counts < 1):
         raise ValueError("internal: empty difference sum")
+    if isinstance(phase, diff.AnchoredPhase):
+        return diff.modified_sums_kernel(phase.r, phase.hh, phase.hl, ms, counts)[0], counts
     chunk = phase.chunk_size
     hh, hl = phase.hh, phase.hl
     sums = np.zeros(ms.size)
@@ -527,8 +464,8 @@ def modified_sums(phase: StreamedPhase, ms: np.ndarray) -> tuple[np.ndarray, np.
         x = window.get(0, min(chunk + reach, npts))
         for t in small:  # window sum j = 0
             m = int(ms[t])
-            _fill2(x[:m], x[m : 2 * m], x[2 * m : 3 * m], 0, m, m, hh, hl, leave)
-            s, c = _accumulate(leave, m, 0.0, 0.0)
+            fill2(x[:m], x[m : 2 * m], x[2 * m : 3 * m], 0, m, m, hh, hl, leave)
+            s, c = accumulate(leave, m, 0.0, 0.0)
             state[t] = s, c
             sums[t] = (s + c) ** 2
         last = int(counts[small].max())
@@ -543,9 +480,11 @@ def modified_sums(phase: StreamedPhase, ms: np.ndarray) -> tuple[np.ndarray, np.
                     continue
                 n = bt - a
                 xs = [x[k * m : k * m + n] for k in range(4)]
-                _fill2(xs[0], xs[1], xs[2], a - 1, bt - 1, m, hh, hl, leave)
-                _fill2(xs[1], xs[2], xs[3], a + m - 1, bt + m - 1, m, hh, hl, enter)
-                s, c, sums[t] = slide_window_sum(enter, leave, n, state[t, 0], state[t, 1], sums[t])
+                fill2(xs[0], xs[1], xs[2], a - 1, bt - 1, m, hh, hl, leave)
+                fill2(xs[1], xs[2], xs[3], a + m - 1, bt + m - 1, m, hh, hl, enter)
+                s, c, sums[t], _ = slide_window_sum(
+                    enter, leave, n, state[t, 0], state[t, 1], sums[t], 0, None
+                )
                 state[t] = s, c
 
     piece = max(1, chunk // 4)
@@ -557,15 +496,15 @@ def modified_sums(phase: StreamedPhase, ms: np.ndarray) -> tuple[np.ndarray, np.
         for a in range(0, m, piece):  # window sum j = 0, streamed
             b = min(a + piece, m)
             xs = [w.get(a + k * m, b + k * m) for k, w in enumerate(windows[:3])]
-            _fill2(xs[0], xs[1], xs[2], a, b, m, hh, hl, leave)
-            s, c = _accumulate(leave, b - a, s, c)
+            fill2(xs[0], xs[1], xs[2], a, b, m, hh, hl, leave)
+            s, c = accumulate(leave, b - a, s, c)
         acc = (s + c) ** 2
         for a in range(1, count, piece):
             b = min(a + piece, count)
             xs = [w.get(a - 1 + k * m, b - 1 + k * m) for k, w in enumerate(windows)]
-            _fill2(xs[0], xs[1], xs[2], a - 1, b - 1, m, hh, hl, leave)
-            _fill2(xs[1], xs[2], xs[3], a + m - 1, b + m - 1, m, hh, hl, enter)
-            s, c, acc = slide_window_sum(enter, leave, b - a, s, c, acc)
+            fill2(xs[0], xs[1], xs[2], a - 1, b - 1, m, hh, hl, leave)
+            fill2(xs[1], xs[2], xs[3], a + m - 1, b + m - 1, m, hh, hl, enter)
+            s, c, acc, _ = slide_window_sum(enter, leave, b - a, s, c, acc, 0, None)
         sums[t] = acc
     return sums, counts
 

@@ -11,8 +11,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from adavar import differences as diff
+from adavar import record_sums as sstat
 from adavar import stream
-from adavar import stream_statistics as sstat
 from adavar.errors import AdavarInputError
 from adavar.statistics import STATISTICS, deviation
 
