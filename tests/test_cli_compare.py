@@ -175,3 +175,22 @@ def test_existing_out_is_refused(capsys, tmp_path):
     code, out, err = run(capsys, ["compare", "--scenario", "1", "--out", str(out_dir)])
     assert_one_line_error(code, out, err, "exists already", "--force")
     assert [p.name for p in out_dir.iterdir()] == ["keep.txt"]
+
+
+def test_step_and_max_memory(capsys, scenario_csv):
+    base = ["compare", str(scenario_csv), "--rate", "1", "--units", "deg/h", "--taus", "octave",
+            "--column", "gyro", "--change-times", "3000,4000"]  # fmt: skip
+    code, out, err = run(capsys, [*base, "--max-memory", "0.5", "--json"])
+    assert code == 0, err
+    payload = json.loads(out)
+    step = payload["comparison"]["parameters"]["step"]
+    assert step > 1 and payload["input"]["resolution"].startswith("resolution: one centre in")
+    code, out, err = run(capsys, [*base, "--max-memory", "0.5"])
+    assert code == 0 and f"resolution: one centre in {step}" in out
+    code, out, err = run(capsys, [*base, "--step", "3", "--json"])
+    assert code == 0, err
+    payload = json.loads(out)
+    assert payload["comparison"]["parameters"]["step"] == 3
+    assert payload["input"]["resolution"] is None
+    code, out, err = run(capsys, [*base, "--step", "0"])
+    assert_one_line_error(code, out, err, "step")

@@ -417,3 +417,71 @@ def test_comparison_figures(scenario, comparison):
     assert thr_ax.get_ylabel() == "kurtosis"
     only_fixed = compare(scenario, methods=["davar-600"], taus="octave")
     assert list(comparison_figures(only_fixed)) == ["fig12_arw"]
+
+
+def _gyro_with_bursts(n: int, seed: int) -> np.ndarray:
+    """Band-limited gyro noise with two bursts and a level step, written here (not
+    adavar.simulate): what a long comparison meets."""
+    rng = np.random.default_rng(seed)
+    w = rng.standard_normal(n + 8)
+    x = np.convolve(w, np.ones(8) / np.sqrt(8), mode="valid")[:n]  # a moving-average filter
+    x[n // 3 : n // 3 + n // 20] *= 3.0
+    x[2 * n // 3 :] += 0.5
+    x[n // 2 : n // 2 + 200] += rng.standard_t(3, 200) * 4.0
+    return np.round(x * 64.0) / 64.0  # quantised
+
+
+def test_a_step_keeps_every_kth_window_of_the_full_comparison():
+    x = _gyro_with_bursts(9000, seed=11)
+    opts = dict(rate=1.0, change_times=[3000.0], lmax=600, lmin=400, taus="octave",
+                methods=["davar-400", "davar-k", "a-davar"])  # fmt: skip
+    full = compare(x, step=1, **opts)
+    every = compare(x, step=7, **opts)
+    assert full.parameters["step"] == 1 and every.parameters["step"] == 7
+    np.testing.assert_array_equal(every.time, full.time[::7])
+    for name, run in every.methods.items():
+        np.testing.assert_array_equal(run.window, full.methods[name].window[::7])
+        np.testing.assert_array_equal(run.arw, full.methods[name].arw[::7])
+        if run.schedule is not None:
+            np.testing.assert_array_equal(run.schedule.kurtosis,
+                                          full.methods[name].schedule.kurtosis[::7])  # fmt: skip
+        # nodes are read on the coarser grid: within a step of the full ones
+        for a, b in zip(run.nodes, full.methods[name].nodes, strict=True):
+            for node in ("beginning", "end", "restore"):
+                va, vb = getattr(a, node), getattr(b, node)
+                assert (math.isnan(va) and math.isnan(vb)) or abs(va - vb) <= 7.0
+
+
+def test_a_long_record_takes_the_step_that_fits_the_budget():
+    x = _gyro_with_bursts(40_000, seed=3)
+    opts = dict(rate=100.0, lmax=600, lmin=400, taus="octave", keep="figures")
+    small = compare(x[:5000], **opts)
+    assert small.parameters["step"] == 1  # short records: every centre, as the paper
+    c = compare(x, max_memory=1.0, **opts)  # 1 MB: 40 000 centres of 4 methods do not fit
+    step = c.parameters["step"]
+    assert step == math.ceil(40_000 * (16 + 4 * 48) / 2**20)
+    assert c.time.size == math.ceil(40_000 / step)
+    assert all(run.arw.size == c.time.size for run in c.methods.values())
+    with pytest.raises(AdavarInputError, match="step"):
+        compare(x, step=0, **opts)
+
+
+def test_the_comparisons_memory_stops_growing_with_the_record():
+    """Peak traced memory per sample: with the budget, a record 4x longer costs well under
+    4x (the per-centre series are capped; the record's own copies remain)."""
+    import tracemalloc
+
+    opts = dict(rate=100.0, lmax=600, lmin=400, taus="octave", keep="figures",
+                max_memory=0.5, methods=["davar-400", "a-davar"])  # fmt: skip
+    x = _gyro_with_bursts(200_000, seed=5)
+    compare(x[:20_000], **opts)  # compiled, caches warm
+    peaks = []
+    for n in (50_000, 200_000):
+        y = x[:n].copy()
+        tracemalloc.start()
+        compare(y, **opts)
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    # the record's copies (float64 and its mirror extension: 16 bytes a sample) and the
+    # capped series; without the cap the series alone are about 100 bytes a sample
+    assert (peaks[1] - peaks[0]) / 150_000 < 60, peaks

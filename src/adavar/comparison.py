@@ -76,10 +76,12 @@ from adavar.paper.reference import (
     paper_nodes,
 )
 from adavar.results import DavarResult
-from adavar.settings import CONTROLLER
+from adavar.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
+from adavar.sources import DEFAULT_CHUNK
 from adavar.surface import davar
 from adavar.surface_common import edf_table
 from adavar.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows
+from adavar.window_defaults import comparison_step
 from adavar.windows import window_overhang
 from adavar.writers import jsonable
 
@@ -676,6 +678,8 @@ def compare(
     units: str | None = None,
     description: str | None = None,
     keep: str = "all",
+    step: int | None = None,
+    max_memory: float = DEFAULT_MAX_MEMORY_MB,
 ) -> Comparison:
     """Run DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR (or other methods) on one record.
 
@@ -729,6 +733,15 @@ def compare(
         ``avar_high`` and ``bound_table`` None; ``davar(..., bounds=False)``); every other
         value is the same, and each surface is computed and fitted a block of windows at a
         time (:mod:`adavar.surface_fit`; ``adavar compare`` uses it).
+    step : int, optional
+        Windows at every ``step``-th centre only (the controllers still visit every
+        sample; node times and metrics are then read on that grid). Default: every centre
+        while the per-centre series of all methods fit ``max_memory`` MB
+        (:func:`adavar.window_defaults.comparison_step`), else the smallest step that fits;
+        ``Comparison.parameters["step"]`` says which. ``step=1``: every centre, whatever
+        the memory.
+    max_memory : float
+        Budget in MB of the per-centre series when ``step`` is left to adavar.
 
     Returns
     -------
@@ -747,7 +760,7 @@ def compare(
             s_test=s_test, combine=combine, thresholds=thresholds, false_alarm=false_alarm,
         ), taus=taus, terms=terms, confidence=confidence, noise_type=noise_type,
         points_per_decade=points_per_decade, units=units, description=description,
-        edf_cache=None, keep=keep,
+        edf_cache=None, keep=keep, step=step, max_memory=max_memory,
     )  # fmt: skip
 
 
@@ -774,7 +787,7 @@ def _check_memory(
     if free is not None and need > 0.8 * free:
         one = "" if keep == "all" else " (one at a time)"
         raise AdavarInputError(
-            f"comparing {n_methods} methods on {n} samples at {ms.size} taus keeps "
+            f"comparing {n_methods} methods on {n} windows at {ms.size} taus keeps "
             f"{need / 2**30:.1f} GiB of surfaces{one} but {free / 2**30:.1f} GiB is free: use "
             "taus='octave' (--taus octave), fewer methods, or a shorter record"
         )
@@ -798,6 +811,8 @@ def run_comparison(
     description: str | None,
     edf_cache: EdfCache | None,
     keep: str = "all",
+    step: int | None = None,
+    max_memory: float = DEFAULT_MAX_MEMORY_MB,
 ) -> Comparison:
     """:func:`compare` with the controller settings as one dict, and an optional fast path.
 
@@ -813,7 +828,7 @@ def run_comparison(
         None: every surface with its confidence bounds and a fit weighted by their EDF (what
         :func:`compare` does). An :class:`EdfCache`: surfaces without bounds, the fit
         weighted by the cached EDF of noise exponent ``noise_type`` (the many-seed study).
-    keep : {"all", "figures"}
+    keep, step, max_memory
         As in :func:`compare`.
 
     Returns
@@ -872,9 +887,16 @@ def run_comparison(
                 f"{s.label}: a window of {s.window} samples is longer than the record ({n})"
             )
 
-    _check_memory(len(specs), n, taus, max(lmax, *(s.window or 0 for s in specs)), tau0,
+    if step is not None and (isinstance(step, bool) or not isinstance(step, (int, np.integer))
+                             or step < 1):  # fmt: skip
+        raise AdavarInputError(f"step must be a whole number of samples >= 1, got {step!r}")
+    step, _ = comparison_step(n, len(specs), step, max_memory)
+    _check_memory(len(specs), -(-n // step), taus, max(lmax, *(s.window or 0 for s in specs)), tau0,
                   points_per_decade, keep)  # fmt: skip
     runs: dict[str, MethodRun] = {}
+    # with a step, the controllers' per-sample record is kept a piece at a time (the same
+    # windows bit for bit): the transient is a piece, not 40 bytes a sample of the record
+    piece = {"chunk_size": DEFAULT_CHUNK} if step > 1 and n > DEFAULT_CHUNK else {}
     centres: tuple[np.ndarray, np.ndarray] | None = None  # the first run's times, centres
     with threads_for(n):
         for spec in specs:
@@ -884,14 +906,14 @@ def run_comparison(
             else:
                 sched = adaptive_schedule(
                     x, method=spec.kind, rate=fs,
-                    change_times=changes if spec.kind == "oracle" else None, **controller,
-                    **dict(spec.options),
+                    change_times=changes if spec.kind == "oracle" else None, step=step,
+                    **controller, **dict(spec.options), **({} if spec.kind == "ici" else piece),
                 )  # fmt: skip
                 window = sched.window
             shift = None if sched is None else sched.shift  # ICI's one-sided windows
             surface = dict(window=window, rate=fs, taus=taus, confidence=confidence,
                            noise_type=noise_type, points_per_decade=points_per_decade,
-                           units=units, shift=shift)  # fmt: skip
+                           units=units, shift=shift, step=step)  # fmt: skip
             blocks = None
             try:
                 if edf_cache is None and keep == "all":
@@ -908,7 +930,7 @@ def run_comparison(
             if edf_cache is not None:
                 result = davar(x, window=window, rate=fs, taus=taus, confidence=None,
                                points_per_decade=points_per_decade, units=units,
-                               shift=shift)  # fmt: skip
+                               shift=shift, step=step)  # fmt: skip
                 alpha = np.broadcast_to(np.asarray(noise_type, dtype=np.int64), result.m.shape)
                 fit = fit_avar(result.tau, result.avar, edf_cache.cells(result, alpha),
                                terms=terms, cells=keep == "all")  # fmt: skip
@@ -945,7 +967,7 @@ def run_comparison(
     assert centres is not None  # at least one method ran
     parameters = dict(
         methods=names, rate=fs, taus=taus if isinstance(taus, str) else list(map(float, taus)),
-        terms=list(terms), confidence=confidence, noise_type=noise_type,
+        terms=list(terms), confidence=confidence, noise_type=noise_type, step=step,
         **{k: v for k, v in controller.items()},
     )  # fmt: skip
     return Comparison(

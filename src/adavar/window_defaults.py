@@ -36,6 +36,8 @@ from adavar.thresholds import DEPENDENCE_SAMPLES
 
 __all__ = [
     "CELL_BYTES",
+    "COMPARISON_CENTRE_BYTES",
+    "comparison_step",
     "dependence_stages",
     "record_windows",
     "resolve_windows",
@@ -142,6 +144,32 @@ def surface_resolution(
 
 #: Bytes per surface cell a command holds: the variance, its two bounds and the fit's arrays.
 CELL_BYTES = 8 * 4
+
+#: Bytes a comparison (:func:`adavar.compare`) holds per computed centre: the centres'
+#: times and indices, and per method its N(t), window lengths and the controller's record
+#: (kurtosis, S, flags; measured 150 bytes a centre for four methods, two of them adaptive)
+COMPARISON_CENTRE_BYTES = (16, 48)
+
+
+def comparison_step(
+    n_samples: int, n_methods: int, step: int | None = None,
+    max_memory: float = DEFAULT_MAX_MEMORY_MB,
+) -> tuple[int, list[str]]:  # fmt: skip
+    """The centres of a comparison left to adavar (``step`` None), and why.
+
+    Every centre (the paper's) while the per-centre series of the ``n_methods`` methods
+    fit ``max_memory`` MB at :data:`COMPARISON_CENTRE_BYTES`, else every ``step``-th: the
+    series of a long record stay within the budget instead of growing with it. Returns
+    ``(step, why)``, ``why`` empty when nothing was chosen.
+    """
+    if step is not None:
+        return int(step), []
+    shared, per_method = COMPARISON_CENTRE_BYTES
+    need = int(n_samples) * (shared + per_method * max(1, int(n_methods)))
+    chosen = max(1, math.ceil(need / (float(max_memory) * 2**20)))
+    if chosen == 1:
+        return 1, []
+    return chosen, [f"one centre in {chosen} ({math.ceil(n_samples / chosen)} windows)"]
 
 
 def dependence_stages(n_samples: int | None, lmax: int) -> list[tuple[int, int]]:

@@ -20,6 +20,7 @@ from adavar.cli.options import (
     add_input_arguments,
     add_output_arguments,
     check_arguments,
+    length_arg,
     parse_confidence,
     parse_intervals,
     parse_names,
@@ -28,6 +29,7 @@ from adavar.cli.options import (
     parse_taus,
     parse_terms,
     points_per_decade,
+    positive_float,
     positive_int,
     seconds_list,
     threshold_list,
@@ -41,7 +43,7 @@ from adavar.cli.output import (
     text_table,
 )
 from adavar.errors import AdavarInputError
-from adavar.settings import CONTROLLER
+from adavar.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
 from adavar.terms import TERM_NAMES
 from adavar.writers import (
     atomic_directory,
@@ -515,8 +517,16 @@ def _run_compare(args: argparse.Namespace) -> int:
         data, methods=args.methods, rate=rate, change_times=changes, taus=args.taus or "all",
         terms=terms, units=units, description=description, truth=truth,
         intervals=args.intervals, confidence=args.confidence, noise_type=args.noise_type,
-        points_per_decade=args.points_per_decade, keep="figures", **controller,
+        points_per_decade=args.points_per_decade, keep="figures", step=args.step,
+        max_memory=args.max_memory, **controller,
     )  # fmt: skip
+    chosen = comp.parameters["step"]
+    resolution = None
+    if args.step is None and chosen > 1:
+        resolution = (f"resolution: one centre in {chosen} ({comp.time.size} windows), to keep "
+                      f"the methods' series within --max-memory {args.max_memory:g} MB (give "
+                      "--step to choose)")  # fmt: skip
+    input_json["resolution"] = resolution
     thr = None
     if comp.change_times:
         status("kurtosis threshold crossings")
@@ -586,6 +596,8 @@ def _run_compare(args: argparse.Namespace) -> int:
             print(f"adavar: wrote {args.out}/ ({', '.join(written)})", file=sys.stderr)
         return EXIT_OK
     lines = compare_report(comp, study, thr)
+    if resolution:
+        lines += ["", resolution]
     if written:
         lines += ["", f"wrote {args.out}/ ({', '.join(written)})"]
     lines.append(f"done in {elapsed:.1f} s of computation")
@@ -663,6 +675,17 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
     cmp_.add_argument(
         "--points-per-decade", default=10, type=points_per_decade, metavar="K",
         help="density of --taus log (default: 10)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--step", metavar="S", type=length_arg(1),
+        help="centre the windows on every S-th sample only; samples or a duration such as "
+        "10s (default: every sample, or as few as keep every method's series of N(t), "
+        "window and controller record within --max-memory)",
+    )  # fmt: skip
+    cmp_.add_argument(
+        "--max-memory", type=positive_float("MB"), default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
+        help="budget of the methods' per-centre series when --step is not given: every "
+        f"centre while they fit, else every S-th (default: {DEFAULT_MAX_MEMORY_MB} MB)",
     )  # fmt: skip
     cmp_.add_argument(
         "--intervals", type=parse_intervals, metavar="A:B,...",
