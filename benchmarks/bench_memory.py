@@ -206,6 +206,8 @@ LARGE = {
                         "-o out.html", "out.html"),
     "report --adaptive": ("report BIG --rate 1 --units deg/s --adaptive --lmax 600 --lmin 400 "
                           "--step 100000 -o out.html", "out.html"),
+    "compare": ("compare BIG --rate 1 --units deg/s --lmax 600 --lmin 400 --taus octave "
+                "--out out --figures none", "out"),
 }  # fmt: skip
 
 

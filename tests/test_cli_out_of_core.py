@@ -212,3 +212,46 @@ def test_report_with_a_window_holds_pieces_not_the_record(capsys, tmp_path, monk
             "--step", "50000"]  # fmt: skip
     growth, peaks = _traced_growth(capsys, tmp_path, argv, "-o", seed=5, suffix=".html")
     assert growth < 2.0, (growth, peaks)
+
+
+def test_compare_of_a_file_holds_pieces_not_the_record(tmp_path, monkeypatch, capsys):
+    """Issue 42: `adavar compare` loaded its record and kept every method's series at every
+    centre (150 bytes a sample: 1.78 GB for 1e7 samples). It now hands the file on as a
+    source, and on a source with a step and pieces of 64 Ki samples the traced peak of the
+    four methods grows by under a byte a sample from 1 Mi to 2 Mi samples."""
+    import tracemalloc
+
+    from adavar import comparison
+    from adavar.cli import compare as compare_command
+    from adavar.sources import ChunkedSource
+
+    opts = dict(rate=100.0, lmax=600, lmin=400, taus=[0.01, 0.02], keep="figures",
+                step=50_000, chunk_size=65536)  # fmt: skip
+    peaks = []
+    sizes = (1 << 20, 2 << 20)
+    for n in sizes:
+        path = tmp_path / f"big{n}.npy"
+        np.save(path, np.random.default_rng(6).standard_normal(n).astype(np.float32))
+        mapped = np.load(path, mmap_mode="r")
+        if not peaks:
+            comparison.compare(mapped, **opts)  # compiled before anything is traced
+        tracemalloc.start()
+        try:
+            comparison.compare(mapped, **opts)
+            peaks.append(tracemalloc.get_traced_memory()[1])
+        finally:
+            tracemalloc.stop()
+    growth = (peaks[1] - peaks[0]) / (sizes[1] - sizes[0])
+    assert growth < 1.0, (growth, peaks)  # before: 150 bytes a sample
+
+    seen = {}
+
+    def record(data, **kwargs):
+        seen["data"] = data
+        raise RuntimeError("Stop")
+
+    monkeypatch.setattr(comparison, "compare", record)
+    monkeypatch.setattr(compare_command, "_in_memory", None)  # no study may load it
+    code, _, err = run(capsys, ["compare", str(path), "--rate", "100", "--units", "deg/s"])
+    assert code == 1 and "Stop" in err
+    assert isinstance(seen["data"], ChunkedSource) and seen["data"].size == sizes[1]

@@ -402,14 +402,14 @@ def test_compare_gets_every_flag(capsys, monkeypatch, record):
                                 "0:50,50:100", *CONTROLLER_FLAGS, "--taus", "octave",
                                 "--terms", "N", "--confidence", "0.9", "--noise-type", "0",
                                 "--points-per-decade", "7", "--step", "5",
-                                "--max-memory", "300"])  # fmt: skip
+                                "--max-memory", "300", "--chunk-size", "4096"])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, compare_module.compare, {
         "methods": ["davar-100", "a-davar"], "change_times": [50.0],
         "truth": np.full(400, 0.5), "intervals": [(0.0, 50.0), (50.0, 100.0)], **COMPARE,
         "taus": "octave", "terms": ("angle_random_walk",), "confidence": 0.9,
         "noise_type": 0, "points_per_decade": 7, "units": "deg/s", "step": 5,
-        "max_memory": 300.0,
+        "max_memory": 300.0, "chunk_size": 4096,
     })  # fmt: skip
     assert seen["rate"] == pytest.approx(4.0)
 

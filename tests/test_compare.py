@@ -18,13 +18,12 @@ from adavar.comparison import (
     compare,
     default_methods,
     fixed_nodes,
-    interval_means,
     run_comparison,
     schedule_nodes,
-    tracking_metrics,
 )
 from adavar.errors import AdavarInputError
 from adavar.kurtosis import sliding_kurtosis
+from adavar.paper.metrics import interval_means, tracking_metrics
 from adavar.paper.studies import compare_seeds, kurtosis_study, threshold_study
 from adavar.settings import PAPER
 from adavar.simulate import paper_scenario
@@ -485,3 +484,21 @@ def test_the_comparisons_memory_stops_growing_with_the_record():
     # the record's copies (float64 and its mirror extension: 16 bytes a sample) and the
     # capped series; without the cap the series alone are about 100 bytes a sample
     assert (peaks[1] - peaks[0]) / 150_000 < 60, peaks
+
+
+def test_a_record_read_piece_by_piece_gives_the_same_comparison(tmp_path):
+    from adavar.sources import ChunkedSource
+
+    x = _gyro_with_bursts(30_000, seed=8)
+    np.save(tmp_path / "x.npy", x)
+    mapped = np.load(tmp_path / "x.npy", mmap_mode="r")
+    opts = dict(rate=10.0, change_times=[1000.0], lmax=600, lmin=400, taus="octave",
+                keep="figures", step=3, methods=["davar-400", "davar-k", "a-davar"])  # fmt: skip
+    loaded, streamed = compare(x, **opts), compare(mapped, **opts)
+    assert isinstance(streamed.data, ChunkedSource) and streamed.data.size == x.size
+    np.testing.assert_array_equal(streamed.time, loaded.time)
+    for name, run in streamed.methods.items():
+        np.testing.assert_array_equal(run.window, loaded.methods[name].window)
+        # the windows' fit reads the whole record's reference curve streamed: 1e-9
+        np.testing.assert_allclose(run.arw, loaded.methods[name].arw, rtol=1e-9)
+        assert run.nodes == loaded.methods[name].nodes

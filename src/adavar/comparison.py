@@ -55,7 +55,7 @@ from __future__ import annotations
 import contextlib
 import itertools
 import math
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -65,7 +65,8 @@ from adavar.adaptive import Schedule, adaptive_schedule
 from adavar.errors import AdavarInputError
 from adavar.inputs import as_samples
 from adavar.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
-from adavar.paper.nodes import NODE_NAMES, Nodes, change_index, fixed_nodes, schedule_nodes
+from adavar.paper.metrics import ChangeMetrics, Metrics, interval_means, tracking_metrics
+from adavar.paper.nodes import NODE_NAMES, Nodes, fixed_nodes, schedule_nodes
 from adavar.paper.reference import (
     PAPER_FIG8_CROSSINGS,
     PAPER_LABELS,
@@ -77,7 +78,7 @@ from adavar.paper.reference import (
 )
 from adavar.results import DavarResult
 from adavar.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
-from adavar.sources import DEFAULT_CHUNK
+from adavar.sources import DEFAULT_CHUNK, check_chunk_size, is_chunked, open_record
 from adavar.surface import davar
 from adavar.surface_common import edf_table
 from adavar.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows
@@ -110,8 +111,6 @@ __all__ = [
 
 #: Records shorter than this run the numba kernels on one thread here (see "Speed").
 SMALL_RECORD = 100_000
-
-_MAD_TO_STD = 1.482602218505602  # 1 / Phi^-1(3/4)
 
 
 # ---------------------------------------------------------------------------------------
@@ -169,186 +168,6 @@ def _parse_method(name: str, k2: float, thresholds: str = "paper") -> _Method:
         f"unknown method {name!r}: use davar-<L> (a fixed window of L >= 3 samples), davar-k, "
         "a-davar, oracle, ici or ici-centred"
     )
-
-
-# ---------------------------------------------------------------------------------------
-# interval means and ground-truth metrics
-
-
-def interval_means(
-    time: Sequence[float] | np.ndarray,
-    values: Sequence[float] | np.ndarray,
-    intervals: Iterable[tuple[float, float]],
-) -> dict[tuple[float, float], float]:
-    """``ARW(a~b)``: the mean of ``values`` over the centres with ``a <= time <= b``.
-
-    Parameters
-    ----------
-    time, values : array_like, shape (T,)
-        Centre times (s) and the per-window values (e.g. ``N(t)``); NaN values are skipped.
-    intervals : iterable of (float, float)
-        ``(a, b)`` in seconds.
-
-    Returns
-    -------
-    dict
-        ``(a, b) -> mean`` (NaN when no finite value lies in the interval).
-    """
-    t = np.asarray(time, dtype=float)
-    v = np.asarray(values, dtype=float)
-    out = {}
-    for a, b in intervals:
-        sel = (t >= a) & (t <= b) & np.isfinite(v)
-        out[(float(a), float(b))] = float(v[sel].mean()) if sel.any() else math.nan
-    return out
-
-
-@dataclass(frozen=True)
-class ChangeMetrics:
-    """How one method's ``N(t)`` follows one change of the true level.
-
-    Attributes
-    ----------
-    change : float
-        Change time ``X``, seconds.
-    before, after : float
-        True ``N`` just before and at ``X``.
-    error : float
-        Mean of ``|N - N_true| / N_true`` over the centres within ``span`` of ``X``.
-    delay : float
-        First centre at which ``N`` is past the midpoint of the two levels (in the
-        direction of the change), minus ``X``, seconds (negative: ahead of the change).
-    rise : float
-        Seconds from 10 % of the step to 90 %: from the centre after the last one short of
-        10 % (before the first passage of 90 %) to the first passage of 90 %.
-    span : float
-        Half-width of the evaluation window, seconds (``Lmax tau0``).
-    """
-
-    change: float
-    before: float
-    after: float
-    error: float
-    delay: float
-    rise: float
-    span: float
-
-
-@dataclass(frozen=True)
-class Metrics:
-    """Ground-truth confidence and tracking metrics of one method (see the module notes).
-
-    Attributes
-    ----------
-    bias, std, mad : float
-        Mean, standard deviation and robust spread (1.4826 x MAD) of ``N / N_true - 1``
-        over the stationary centres.
-    n_stationary : int
-        Number of those centres.
-    changes : tuple of ChangeMetrics
-        One per change.
-    """
-
-    bias: float
-    std: float
-    mad: float
-    n_stationary: int
-    changes: tuple[ChangeMetrics, ...]
-
-    @property
-    def error(self) -> float:
-        """Mean tracking error over the changes."""
-        return float(np.mean([c.error for c in self.changes])) if self.changes else math.nan
-
-    @property
-    def abs_delay(self) -> float:
-        """Mean ``|delay|`` over the changes, seconds."""
-        return float(np.mean([abs(c.delay) for c in self.changes])) if self.changes else math.nan
-
-    @property
-    def rise(self) -> float:
-        """Mean 10-90 % rise time over the changes, seconds."""
-        return float(np.mean([c.rise for c in self.changes])) if self.changes else math.nan
-
-
-def _first_past(values: np.ndarray, level: float, direction: float) -> int:
-    hits = np.flatnonzero(direction * (values - level) > 0)
-    return int(hits[0]) if hits.size else -1
-
-
-def tracking_metrics(
-    time: Sequence[float] | np.ndarray,
-    arw: Sequence[float] | np.ndarray,
-    truth: Sequence[float] | np.ndarray,
-    change_times: Sequence[float],
-    *,
-    margin: float,
-    span: float,
-) -> Metrics:
-    """Confidence and tracking of ``N(t)`` against the true ``N`` (module notes).
-
-    Parameters
-    ----------
-    time : array_like, shape (T,)
-        Centre times, seconds (increasing).
-    arw : array_like, shape (T,)
-        The estimate ``N(t)`` of every window.
-    truth : array_like, shape (T,)
-        The true ``N`` at every centre (positive).
-    change_times : sequence of float
-        Times at which the true level changes, seconds.
-    margin : float
-        Centres farther than ``margin`` seconds from every change are stationary
-        (``Lmax tau0 / 2``: no window holds a change).
-    span : float
-        Half-width of the tracking evaluation around each change, seconds (``Lmax tau0``).
-
-    Returns
-    -------
-    Metrics
-    """
-    t = np.asarray(time, dtype=float)
-    n = np.asarray(arw, dtype=float)
-    true = np.asarray(truth, dtype=float)
-    if not (t.shape == n.shape == true.shape):
-        raise AdavarInputError("time, arw and truth must have the same length")
-    if not np.all(true > 0):
-        raise AdavarInputError("the true N must be positive everywhere")
-    rel = n / true - 1.0
-    stationary = np.ones(t.size, dtype=bool)
-    for x in change_times:
-        stationary &= np.abs(t - x) > margin
-    r = rel[stationary & np.isfinite(rel)]
-    if r.size:
-        bias, std = float(r.mean()), float(r.std(ddof=1)) if r.size > 1 else math.nan
-        mad = float(_MAD_TO_STD * np.median(np.abs(r - np.median(r))))
-    else:
-        bias = std = mad = math.nan
-    tau0 = float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    changes = []
-    for x in change_times:
-        i = change_index(t, float(x), tau0)
-        before = float(true[max(i - 1, 0)])
-        after = float(true[min(i, t.size - 1)])
-        sel = np.abs(t - x) <= span
-        ts, ns, tr = t[sel], n[sel], true[sel]
-        error = float(np.nanmean(np.abs(ns - tr) / tr)) if ts.size else math.nan
-        step = after - before
-        direction = math.copysign(1.0, step) if step != 0 else 0.0
-        delay = rise = math.nan
-        if direction != 0.0 and ts.size:
-            k = _first_past(ns, before + 0.5 * step, direction)
-            if k >= 0:
-                delay = float(ts[k] - x)
-            k90 = _first_past(ns, before + 0.9 * step, direction)
-            if k90 >= 0:
-                # the start of the final passage: after the last centre before k90 still
-                # short of 10 % (robust to noise excursions ahead of the change)
-                short = np.flatnonzero(direction * (ns[:k90] - (before + 0.1 * step)) <= 0)
-                if short.size:
-                    rise = float(ts[k90] - ts[short[-1] + 1])
-        changes.append(ChangeMetrics(float(x), before, after, error, delay, rise, float(span)))
-    return Metrics(bias, std, mad, int(r.size), tuple(changes))
 
 
 # ---------------------------------------------------------------------------------------
@@ -412,7 +231,7 @@ class Comparison:
     ----------
     time : ndarray, shape (T,)
         Window-centre times, seconds.
-    data : ndarray, shape (N,)
+    data : ndarray, shape (N,), or ChunkedSource
         The rate samples.
     rate : float
         Sample rate, Hz.
@@ -612,8 +431,9 @@ def as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:
 
     Returns
     -------
-    samples : ndarray
-        At least 3 of them.
+    samples : ndarray or ChunkedSource
+        At least 3 of them; a record read piece by piece (a source, a dask array, a
+        memory-mapped file) as a source, not loaded.
     known : dict
         ``rate``, ``change_times``, ``truth``, ``intervals``, ``description``, ``scenario``
         of a scenario; ``{}`` for plain samples.
@@ -629,6 +449,8 @@ def as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:
             "scenario": getattr(data, "number", None),
         }
         data = data.data
+    if is_chunked(data):  # a file read piece by piece stays on disk
+        return open_record(data, 3), known
     return as_samples(data, min_length=3), known
 
 
@@ -680,6 +502,7 @@ def compare(
     keep: str = "all",
     step: int | None = None,
     max_memory: float = DEFAULT_MAX_MEMORY_MB,
+    chunk_size: int | None = None,
 ) -> Comparison:
     """Run DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR (or other methods) on one record.
 
@@ -735,13 +558,15 @@ def compare(
         time (:mod:`adavar.surface_fit`; ``adavar compare`` uses it).
     step : int, optional
         Windows at every ``step``-th centre only (the controllers still visit every
-        sample; node times and metrics are then read on that grid). Default: every centre
-        while the per-centre series of all methods fit ``max_memory`` MB
-        (:func:`adavar.window_defaults.comparison_step`), else the smallest step that fits;
-        ``Comparison.parameters["step"]`` says which. ``step=1``: every centre, whatever
-        the memory.
+        sample; nodes and metrics are read on that grid). Default: every centre while all
+        methods' per-centre series fit ``max_memory`` MB, else the smallest step that fits
+        (:func:`adavar.window_defaults.comparison_step`; ``parameters["step"]``).
     max_memory : float
         Budget in MB of the per-centre series when ``step`` is left to adavar.
+    chunk_size : int, optional
+        Samples the controllers and surfaces (``keep="figures"``) read at a time, for a
+        record read piece by piece. Default: :data:`adavar.sources.DEFAULT_CHUNK` with a
+        ``step`` > 1 (the same windows), else each function's own.
 
     Returns
     -------
@@ -760,7 +585,7 @@ def compare(
             s_test=s_test, combine=combine, thresholds=thresholds, false_alarm=false_alarm,
         ), taus=taus, terms=terms, confidence=confidence, noise_type=noise_type,
         points_per_decade=points_per_decade, units=units, description=description,
-        edf_cache=None, keep=keep, step=step, max_memory=max_memory,
+        edf_cache=None, keep=keep, step=step, max_memory=max_memory, chunk_size=chunk_size,
     )  # fmt: skip
 
 
@@ -813,6 +638,7 @@ def run_comparison(
     keep: str = "all",
     step: int | None = None,
     max_memory: float = DEFAULT_MAX_MEMORY_MB,
+    chunk_size: int | None = None,
 ) -> Comparison:
     """:func:`compare` with the controller settings as one dict, and an optional fast path.
 
@@ -828,7 +654,7 @@ def run_comparison(
         None: every surface with its confidence bounds and a fit weighted by their EDF (what
         :func:`compare` does). An :class:`EdfCache`: surfaces without bounds, the fit
         weighted by the cached EDF of noise exponent ``noise_type`` (the many-seed study).
-    keep, step, max_memory
+    keep, step, max_memory, chunk_size
         As in :func:`compare`.
 
     Returns
@@ -887,6 +713,10 @@ def run_comparison(
                 f"{s.label}: a window of {s.window} samples is longer than the record ({n})"
             )
 
+    if not isinstance(x, np.ndarray) and (
+        keep == "all" or edf_cache is not None or any(s.kind == "ici" for s in specs)
+    ):  # whole surfaces, the cached EDFs and ICI run on the record in memory
+        x = as_samples(x, min_length=3)
     if step is not None and (isinstance(step, bool) or not isinstance(step, (int, np.integer))
                              or step < 1):  # fmt: skip
         raise AdavarInputError(f"step must be a whole number of samples >= 1, got {step!r}")
@@ -897,6 +727,8 @@ def run_comparison(
     # with a step, the controllers' per-sample record is kept a piece at a time (the same
     # windows bit for bit): the transient is a piece, not 40 bytes a sample of the record
     piece = {"chunk_size": DEFAULT_CHUNK} if step > 1 and n > DEFAULT_CHUNK else {}
+    if chunk_size is not None:
+        piece = {"chunk_size": check_chunk_size(chunk_size)}
     centres: tuple[np.ndarray, np.ndarray] | None = None  # the first run's times, centres
     with threads_for(n):
         for spec in specs:
@@ -923,6 +755,7 @@ def run_comparison(
                     blocks = fit_davar_in_blocks(
                         x, fit_options=dict(terms=terms, cells=False), drawn=FIGURE_WINDOWS,
                         bounds=False, fit_rows="drawn", spill=True, **surface,
+                        **({} if chunk_size is None else piece),
                     )  # fmt: skip
                     result, fit = blocks.drawn, blocks.fit
             except ValueError as exc:

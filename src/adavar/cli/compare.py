@@ -16,6 +16,7 @@ from adavar import __version__
 from adavar.cli.options import (
     EXIT_OK,
     UsageError,
+    add_chunk_argument,
     add_controller_arguments,
     add_input_arguments,
     add_output_arguments,
@@ -461,6 +462,14 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     return _run_compare(args)
 
 
+def _in_memory(data: Any) -> Any:
+    """The record for the kurtosis studies, which run in memory (a file read piece by
+    piece is loaded for them; a scenario or an array is passed on)."""
+    from adavar.sources import is_chunked
+
+    return np.asarray(data) if is_chunked(data) else data
+
+
 def _run_compare(args: argparse.Namespace) -> int:
     from adavar.analysis import load_input, resolve_lengths
     from adavar.comparison import compare
@@ -493,7 +502,8 @@ def _run_compare(args: argparse.Namespace) -> int:
         description = None
     else:
         status(f"reading {args.file}")
-        samples, meta, units, tau0 = load_input(args)
+        # read piece by piece where the file allows: the methods stream it
+        samples, meta, units, tau0 = load_input(args, out_of_core=True)
         resolve_lengths(args, tau0)
         if args.truth_column is not None:
             truth = _truth_column(args, samples.size, tau0)
@@ -518,7 +528,7 @@ def _run_compare(args: argparse.Namespace) -> int:
         terms=terms, units=units, description=description, truth=truth,
         intervals=args.intervals, confidence=args.confidence, noise_type=args.noise_type,
         points_per_decade=args.points_per_decade, keep="figures", step=args.step,
-        max_memory=args.max_memory, **controller,
+        max_memory=args.max_memory, chunk_size=args.chunk_size, **controller,
     )  # fmt: skip
     chosen = comp.parameters["step"]
     resolution = None
@@ -530,8 +540,8 @@ def _run_compare(args: argparse.Namespace) -> int:
     thr = None
     if comp.change_times:
         status("kurtosis threshold crossings")
-        thr = threshold_study(data, change_times=comp.change_times, window=crossing_window,
-                              thresholds=fig8, rate=comp.rate)  # fmt: skip
+        thr = threshold_study(_in_memory(data), change_times=comp.change_times,
+                              window=crossing_window, thresholds=fig8, rate=comp.rate)  # fmt: skip
     status.close()
     study = None
     if args.seeds > 1:
@@ -549,7 +559,7 @@ def _run_compare(args: argparse.Namespace) -> int:
     if args.out is not None and args.figures:  # the study is drawn, not tabulated
         status("kurtosis study")
         windows = tuple(w for w in PAPER_FIG6_WINDOWS if w <= comp.data.size)
-        kurt = kurtosis_study(data, rate=comp.rate, windows=windows,
+        kurt = kurtosis_study(_in_memory(data), rate=comp.rate, windows=windows,
                               change_times=comp.change_times)  # fmt: skip
     elapsed = time.perf_counter() - start
 
@@ -682,6 +692,7 @@ def add_compare_parser(sub: Any) -> argparse.ArgumentParser:
         "10s (default: every sample, or as few as keep every method's series of N(t), "
         "window and controller record within --max-memory)",
     )  # fmt: skip
+    add_chunk_argument(cmp_)
     cmp_.add_argument(
         "--max-memory", type=positive_float("MB"), default=DEFAULT_MAX_MEMORY_MB, metavar="MB",
         help="budget of the methods' per-centre series when --step is not given: every "
