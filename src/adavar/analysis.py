@@ -18,6 +18,7 @@ functions' keywords, in one place. Problems with the input raise
 from __future__ import annotations
 
 import argparse
+import copy
 import functools
 import os
 from collections.abc import Callable, Mapping
@@ -43,6 +44,7 @@ from adavar.statistics import deviation
 from adavar.surface import davar
 
 __all__ = [
+    "ChannelAnalysis",
     "ReportAnalysis",
     "analyse_channel",
     "analyse_file",
@@ -169,16 +171,17 @@ def load_input(
     return samples, meta, units, tau0
 
 
-def resolve_lengths(args: Any, tau0: float, n_samples: int | None = None) -> None:
-    """The window-like options (``window``, ``lmax``, ``lmin``, ``segment`` = ``l``,
-    ``step``) in samples of this record, in place.
+def resolve_lengths(args: Any, tau0: float, n_samples: int | None = None) -> Any:
+    """The options with the window-like ones (``window``, ``lmax``, ``lmin``, ``segment``
+    = ``l``, ``step``) in samples of this record: a copy, ``args`` is left as it is.
 
     Durations (``"10min"``) are converted with ``tau0``. An adaptive window not given
     (``lmax``, ``lmin`` or ``segment`` None) takes the paper's proportions
     (:func:`adavar.adaptive.record_windows`): Lmax a tenth of the ``n_samples``-sample
-    record, Lmin two thirds and l a sixth of Lmax. ``args.windows_from`` says which:
+    record, Lmin two thirds and l a sixth of Lmax. ``windows_from`` says which:
     ``"flags"``, ``"lmax"`` (Lmin and l from it) or ``"record"``.
     """
+    args = copy.copy(args)
     if getattr(args, "window", None) is not None:
         args.window = to_samples(args.window, tau0, "--window")
     if hasattr(args, "lmax"):
@@ -203,9 +206,12 @@ def resolve_lengths(args: Any, tau0: float, n_samples: int | None = None) -> Non
             args.step = chosen_step
     elif getattr(args, "step", None) is not None:
         args.step = to_samples(args.step, tau0, "--step")
+    return args
 
 
-def resolve_resolution(args: Any, tau0: float, n_samples: int, channels: int = 1) -> str | None:
+def resolve_resolution(
+    args: Any, tau0: float, n_samples: int, channels: int = 1
+) -> tuple[Any, str | None]:
     """Taus and centres of a surface the user left to adavar (``taus`` / ``step`` None).
 
     The rule of :func:`adavar.adaptive.surface_resolution` (the library's default too):
@@ -213,8 +219,10 @@ def resolve_resolution(args: Any, tau0: float, n_samples: int, channels: int = 1
     ``"log"`` (10 per decade); ``step`` every centre while the surfaces of the ``channels``
     channels fit ``args.max_memory`` MB together at
     :data:`adavar.window_defaults.CELL_BYTES` a cell, else every ``step``-th. Returns a
-    sentence saying what was chosen and why (None when nothing was).
+    copy of the options with them (``args`` is left as it is) and a sentence saying what
+    was chosen and why (None when nothing was).
     """
+    args = copy.copy(args)
     longest = args.lmax if getattr(args, "command", None) == "adaptive" else args.window
     args.taus, args.step, why = surface_resolution(
         int(longest), n_samples, tau0, taus=args.taus, step=args.step,
@@ -222,18 +230,58 @@ def resolve_resolution(args: Any, tau0: float, n_samples: int, channels: int = 1
         channels=channels,
     )  # fmt: skip
     if not why:
-        return None
+        return args, None
     shared = f" ({channels} channels' surfaces together)" if channels > 1 else ""
-    return (
+    return args, (
         "resolution: " + ", ".join(why) + f", to keep the surface within --max-memory "
         f"{args.max_memory:g} MB{shared} (give --taus / --step to choose)"
     )
 
 
+@dataclass(eq=False)
+class ChannelAnalysis:
+    """One channel's analysis (:func:`analyse_channel`).
+
+    Attributes
+    ----------
+    result : DeviationResult
+        The deviation at the chosen taus.
+    fit : NoiseFit
+        Its noise fit.
+    surface, adaptive, coefficients
+        The DAVAR surface (a result, or a :class:`~adavar.surface_fit.BlockFit` with
+        ``keep="figures"``), the adaptive windows (None for a fixed window) and the fit of
+        every window; all None without ``window`` or ``adaptive``.
+    units, rate_units : str
+        The samples' unit and the rate unit of the deviation.
+    samples : int
+        Number of samples.
+    options : object
+        The options as used: a copy of the given ones with the window-like lengths in
+        samples of this record (:func:`resolve_lengths`).
+    events, shape, controller : dict or None
+        Filled in by the commands that show them (the events, :func:`surface_shape`, the
+        controller's parameters).
+    """
+
+    result: Any
+    fit: Any
+    surface: Any
+    adaptive: Any
+    coefficients: Any
+    units: str
+    rate_units: str
+    samples: int
+    options: Any
+    events: dict[str, Any] | None = None
+    shape: dict[str, Any] | None = None
+    controller: dict[str, Any] | None = None
+
+
 def analyse_channel(
     args: Any, samples: np.ndarray, units: str, tau0: float, status: Callable[[str], None],
     tag: str = "", keep: str = "all",
-) -> dict[str, Any]:  # fmt: skip
+) -> ChannelAnalysis:  # fmt: skip
     """The analysis of one channel that ``adavar report`` shows and ``adavar batch`` writes.
 
     The deviation at the chosen taus, its noise fit, and (with ``window`` or ``adaptive``)
@@ -251,7 +299,7 @@ def analyse_channel(
     from adavar.units import rate_unit
 
     rate_u = rate_unit(units, args.data_type)
-    resolve_lengths(args, tau0, int(np.size(samples)))
+    args = resolve_lengths(args, tau0, int(np.size(samples)))
     rate_kw = dict(
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,
@@ -285,11 +333,10 @@ def analyse_channel(
             coefficients = fit_noise(surface, **window_fit_keywords(args, fit), cells=False)
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
-    return {
-        "result": result, "fit": fit, "surface": surface, "adaptive": adaptive,
-        "coefficients": coefficients, "units": units, "rate_units": rate_u,
-        "samples": samples.size,
-    }  # fmt: skip
+    return ChannelAnalysis(
+        result=result, fit=fit, surface=surface, adaptive=adaptive, coefficients=coefficients,
+        units=units, rate_units=rate_u, samples=int(samples.size), options=args,
+    )  # fmt: skip
 
 
 #: What :func:`analyse_channel` and :func:`analyse_file` keep of a surface.
@@ -709,7 +756,7 @@ def analyse_file(
         samples, units = loaded, units_of
     segment_given = opts.get("segment") is not None
     run = analyse_channel(args, samples, units, tau0, lambda what: None, "", keep=keep)
-    # the lengths as used (durations and the record's windows resolved), for the events
+    args = run.options  # the lengths as used (durations and the record's windows resolved)
     opts = {**opts, **{k: getattr(args, k) for k in _LENGTHS if hasattr(args, k)}}
     opts["segment_given"] = segment_given
     opts["data_type"] = args.data_type  # as read: a Stable32 .phd file holds phase
@@ -725,7 +772,7 @@ def analyse_file(
     if args.n_reweight != 3 or args.spacing != "octave":
         parameters.update({"fit reweighting passes": args.n_reweight,
                            "fit tau spacing": args.spacing})  # fmt: skip
-    surface, adaptive = run["surface"], run["adaptive"]
+    surface, adaptive = run.surface, run.adaptive
     if surface is not None:
         parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
         if adaptive is not None:
@@ -737,8 +784,8 @@ def analyse_file(
     return ReportAnalysis(
         path=os.fspath(path),
         title=title or f"{Path(meta['path']).name}, column {meta['column']}",
-        samples=samples, meta=meta, units=units, rate_units=run["rate_units"],
-        tau0=float(tau0), rate_options=rate_kw, options=opts, deviation=run["result"],
-        fit=run["fit"], surface=surface, adaptive=adaptive,
-        coefficients=run["coefficients"], parameters=parameters, preprocessing=steps,
+        samples=samples, meta=meta, units=units, rate_units=run.rate_units,
+        tau0=float(tau0), rate_options=rate_kw, options=opts, deviation=run.result,
+        fit=run.fit, surface=surface, adaptive=adaptive,
+        coefficients=run.coefficients, parameters=parameters, preprocessing=steps,
     )  # fmt: skip

@@ -308,7 +308,7 @@ def build_report(
     ])  # fmt: skip
 
 
-def channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, Any]) -> str:
+def channel_section(k: int, name: str, run: Any, figures: dict[str, Any]) -> str:
     """The HTML section of channel number ``k`` of a several-channel report.
 
     Made of :func:`build_report`'s figure and table builders, with plot ids prefixed by the
@@ -320,7 +320,7 @@ def channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, A
         The channel's number (from 1).
     name : str
         The channel's name.
-    run : dict
+    run : ChannelAnalysis
         Its analysis (:func:`adavar.analysis.analyse_channel`) with ``events`` (or None).
     figures : dict
         Plot id -> figure; this channel's plots are added.
@@ -335,7 +335,7 @@ def channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, A
         figures[key] = figure
         return f'<div class="plot" id="{key}"></div>'
 
-    units, dev, fit = run["rate_units"], run["result"], run["fit"]
+    units, dev, fit = run.rate_units, run.result, run.fit
     stat = STAT_NAMES.get(dev.stat, dev.stat)
     cap = (
         f"{stat} of {dev.n_samples} samples at {dev.rate:.6g} Hz ({dev.data_type} data), "
@@ -344,13 +344,13 @@ def channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, A
     )
     parts = [
         f'<section id="channel-{k}" class="channel"><h2>Channel {user_text(name)} '
-        f"({user_text(run['units'])})</h2>",
+        f"({user_text(run.units)})</h2>",
         "<h3>Deviation and noise fit</h3>",
         plot(f"plot-{k}-deviation", deviation_plot(dev, fit, units)),
         f'<p class="caption">{escape(cap)}</p>{notes_html(dev.notes)}',
         f"<h3>Noise coefficients</h3>{coefficient_table(fit, units)}",
     ]
-    surface = run["surface"]
+    surface = run.surface
     if surface is not None:
         figure, caption, notes = surface_plot(surface, units)
         parts += [
@@ -359,9 +359,9 @@ def channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, A
             f'<p class="caption">{escape(caption)}</p>{notes}',
         ]
         figure, terms = coefficient_plot(
-            run["coefficients"], units, block_fit_of(run["coefficients"], surface)
+            run.coefficients, units, block_fit_of(run.coefficients, surface)
         )  # fmt: skip
-        events = (run.get("events") or {}).get("items")
+        events = (run.events or {}).get("items")
         if figure and events:
             figure["layout"]["shapes"] = event_shapes(events)
         parts.append("<h3>Noise coefficients over time</h3>")
@@ -376,11 +376,11 @@ def channel_section(k: int, name: str, run: dict[str, Any], figures: dict[str, A
         parts.append(f'<p class="caption">{escape(cap)}</p>')
         if events is not None:
             parts.append("<h3>Events</h3>"
-                         + events_table(events, run["coefficients"], units))  # fmt: skip
-    if run["adaptive"] is not None:
+                         + events_table(events, run.coefficients, units))  # fmt: skip
+    if run.adaptive is not None:
         parts += [
             "<h3>Adaptive window controller</h3>",
-            plot(f"plot-{k}-adaptive", controller_plot(run["adaptive"])),
+            plot(f"plot-{k}-adaptive", controller_plot(run.adaptive)),
         ]
     parts.append("</section>")
     return "".join(parts)

@@ -488,7 +488,7 @@ def _run_compare(args: argparse.Namespace) -> int:
     status = Status()
     truth = None
     if args.scenario is not None:
-        resolve_lengths(args, 1.0)  # the paper's scenarios are at 1 Hz
+        args = resolve_lengths(args, 1.0)  # the paper's scenarios are at 1 Hz
         status(f"simulating scenario {args.scenario}")
         data: Any = paper_scenario(
             args.scenario, seed=args.seed, variance_reading=args.variance_reading
@@ -504,7 +504,7 @@ def _run_compare(args: argparse.Namespace) -> int:
         status(f"reading {args.file}")
         # read piece by piece where the file allows: the methods stream it
         samples, meta, units, tau0 = load_input(args, out_of_core=True)
-        resolve_lengths(args, tau0)
+        args = resolve_lengths(args, tau0)
         if args.truth_column is not None:
             truth = _truth_column(args, samples.size, tau0)
         data = samples

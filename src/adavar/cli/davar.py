@@ -338,8 +338,8 @@ def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
     args.rate, args.tau0 = reader.rate, reader.tau0
     first = next(iter(loaded.values())) if chosen else loaded
     n_samples = int(getattr(first, "size", np.size(first)))
-    resolve_lengths(args, tau0, n_samples)
-    resolution = resolve_resolution(args, tau0, n_samples, len(loaded) if chosen else 1)
+    args = resolve_lengths(args, tau0, n_samples)
+    args, resolution = resolve_resolution(args, tau0, n_samples, len(loaded) if chosen else 1)
     if not chosen:
         loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
     names = list(loaded)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from adavar import __version__
 from adavar.cli.options import (
@@ -22,6 +22,9 @@ from adavar.cli.output import Status, check_output_file, fit_lines, output_error
 from adavar.settings import DATA_TYPE_DEFAULT
 from adavar.terms import TERM_NAMES
 from adavar.writers import dumps, fit_json
+
+if TYPE_CHECKING:
+    from adavar.analysis import ChannelAnalysis
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
@@ -56,16 +59,17 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
         # the surface a block of windows at a time: the report reads a few of its rows
         run = analyse_channel(args, loaded[name], units_of[name], tau0, status, tag,
                               keep="figures")  # fmt: skip
-        run["events"] = _events(args, loaded[name], run, tau0, segment_given)
-        run["shape"] = surface_shape(run["surface"])
-        run["controller"] = None if run["adaptive"] is None else run["adaptive"].parameters
+        run.events = _events(args, loaded[name], run, tau0, segment_given)
+        run.shape = surface_shape(run.surface)
+        run.controller = None if run.adaptive is None else run.adaptive.parameters
         if several:  # its plots now, and its surface freed before the next one is computed
             sections.append(channel_section(k + 1, name, run, figures))
-            run.update(result=None, surface=None, adaptive=None, coefficients=None)
+            run.result = run.surface = run.adaptive = run.coefficients = None
             release_free_memory()  # the surface's pages, before the next channel's
         runs.append(run)
     first = runs[0]
-    units = first["units"] if not several else "; ".join(
+    used = first.options  # the lengths as used: in samples, the record's windows chosen
+    units = first.units if not several else "; ".join(
         f"{name}: {units_of[name]}" for name in names
     )  # fmt: skip
     parameters: dict[str, Any] = {
@@ -75,13 +79,13 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
     if args.n_reweight != 3 or args.spacing != "octave":
         parameters.update({"fit reweighting passes": args.n_reweight,
                            "fit tau spacing": args.spacing})  # fmt: skip
-    if first["shape"] is not None:
-        parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
-        if first["controller"] is not None:
-            parameters.update({f"controller {k}": v for k, v in first["controller"].items()
+    if first.shape is not None:
+        parameters.update({"DAVAR taus": str(used.taus), "DAVAR step": used.step})
+        if first.controller is not None:
+            parameters.update({f"controller {k}": v for k, v in first.controller.items()
                                if v is not None})  # fmt: skip
         else:
-            parameters["DAVAR window [samples]"] = args.window
+            parameters["DAVAR window [samples]"] = used.window
     steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
     status("building the figures and the HTML")
     if several:
@@ -89,7 +93,7 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
         html = channels_page(
             title=title,
             source={"file": meta["path"], "columns": ", ".join(names), "format": meta["kind"],
-                    "samples": int(first["samples"])},
+                    "samples": int(first.samples)},
             sections=sections, figures=figures, parameters=parameters, preprocessing=steps,
         )  # fmt: skip
     else:
@@ -97,11 +101,11 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
         html = build_report(
             title=title,
             source={"file": meta["path"], "column": meta["column"], "format": meta["kind"],
-                    "samples": int(first["samples"])},
-            deviation=first["result"], fit=first["fit"], surface=first["surface"],
-            coefficients=first["coefficients"], adaptive=first["adaptive"],
-            parameters=parameters, preprocessing=steps, units=first["rate_units"],
-            events=(first["events"] or {}).get("items"),
+                    "samples": int(first.samples)},
+            deviation=first.result, fit=first.fit, surface=first.surface,
+            coefficients=first.coefficients, adaptive=first.adaptive,
+            parameters=parameters, preprocessing=steps, units=first.rate_units,
+            events=(first.events or {}).get("items"),
         )  # fmt: skip
     status(f"writing {output}")
     try:
@@ -110,14 +114,14 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
         raise output_error(args.output, exc) from None
     status.close()
 
-    def channel_json(name: str, run: dict[str, Any]) -> dict[str, Any]:
+    def channel_json(name: str, run: ChannelAnalysis) -> dict[str, Any]:
         return {
             "input": {"file": meta["path"], "column": name, "rate": 1.0 / tau0,
-                      "units": run["units"], "n_samples": int(run["samples"]),
+                      "units": run.units, "n_samples": int(run.samples),
                       "preprocessing": steps},
-            "fit": fit_json(run["fit"]),
-            "surface": run["shape"],
-            "events": None if run["events"] is None else run["events"]["items"],
+            "fit": fit_json(run.fit),
+            "surface": run.shape,
+            "events": None if run.events is None else run.events["items"],
         }  # fmt: skip
 
     payload: dict[str, Any] = {
@@ -138,28 +142,29 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
     print(f"wrote {output} ({payload['bytes'] / 1e6:.1f} MB): {title}")
     for name, run in zip(names, runs, strict=True):
         if several:
-            print(f"  column {name!r} ({run['units']}):")
-        print("\n".join(fit_lines(run["fit"], "    " if several else "  ")))
+            print(f"  column {name!r} ({run.units}):")
+        print("\n".join(fit_lines(run.fit, "    " if several else "  ")))
     return EXIT_OK
 
 
 def _events(
-    args: argparse.Namespace, samples: Any, run: dict[str, Any], tau0: float,
+    args: argparse.Namespace, samples: Any, run: ChannelAnalysis, tau0: float,
     segment_given: bool,
 ) -> dict[str, Any] | None:  # fmt: skip
     """The events of one channel, as :meth:`ReportAnalysis.events` finds them."""
     from adavar.analysis import ReportAnalysis
 
-    if run["surface"] is None:
+    if run.surface is None:
         return None
     analysis = ReportAnalysis(
         path=str(args.file), title="", samples=samples, meta={},
-        units=run["units"], rate_units=run["rate_units"], tau0=float(tau0),
+        units=run.units, rate_units=run.rate_units, tau0=float(tau0),
         rate_options=dict(rate=args.rate if args.rate is not None else 1.0,
                           tau0=None if args.rate is not None else tau0),
-        options={**vars(args), "segment_given": segment_given},
-        deviation=run["result"], fit=run["fit"], surface=run["surface"],
-        adaptive=run["adaptive"], coefficients=run["coefficients"],
+        # the lengths as the analysis used them (in samples, the record's windows chosen)
+        options={**vars(run.options), "segment_given": segment_given},
+        deviation=run.result, fit=run.fit, surface=run.surface,
+        adaptive=run.adaptive, coefficients=run.coefficients,
     )  # fmt: skip
     return analysis.events()
 
