@@ -53,6 +53,7 @@ __all__ = [
     "fit_keywords",
     "load_input",
     "report_options",
+    "report_parameters",
     "resolve_lengths",
     "resolve_resolution",
     "window_fit_keywords",
@@ -697,6 +698,33 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(starts.tolist(), stops.tolist(), strict=True))
 
 
+def report_parameters(
+    options: Any, units: str, tau0: float, meta: Mapping[str, Any], surface: bool,
+    controller: Mapping[str, Any] | None,
+) -> dict[str, Any]:  # fmt: skip
+    """The report's table of parameters: the statistic, data, fit and DAVAR settings used.
+
+    ``options`` as used (:attr:`ChannelAnalysis.options`), ``surface`` whether there is a
+    DAVAR surface, ``controller`` the adaptive window's parameters (None for a fixed one).
+    """
+    terms = options.terms or TERM_NAMES
+    parameters: dict[str, Any] = {
+        "statistic": "oadev", "data type": options.data_type, "units": units,
+        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
+    }  # fmt: skip
+    if options.n_reweight != 3 or options.spacing != "octave":
+        parameters.update({"fit reweighting passes": options.n_reweight,
+                           "fit tau spacing": options.spacing})  # fmt: skip
+    if surface:
+        parameters.update({"DAVAR taus": str(options.taus), "DAVAR step": options.step})
+        if controller is not None:
+            parameters.update({f"controller {k}": v for k, v in controller.items()
+                               if v is not None})  # fmt: skip
+        else:
+            parameters["DAVAR window [samples]"] = options.window
+    return parameters
+
+
 def analyse_file(
     path: str | os.PathLike[str],
     options: Mapping[str, Any] | argparse.Namespace | None = None,
@@ -764,22 +792,15 @@ def analyse_file(
         rate=args.rate if args.rate is not None else 1.0,
         tau0=None if args.rate is not None else tau0,
     )  # fmt: skip
-    terms = args.terms or TERM_NAMES
-    parameters: dict[str, Any] = {
-        "statistic": "oadev", "data type": args.data_type, "units": units,
-        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
-    }  # fmt: skip
-    if args.n_reweight != 3 or args.spacing != "octave":
-        parameters.update({"fit reweighting passes": args.n_reweight,
-                           "fit tau spacing": args.spacing})  # fmt: skip
+    parameters = report_parameters(
+        args,
+        units,
+        tau0,
+        meta,
+        run.surface is not None,
+        None if run.adaptive is None else run.adaptive.parameters,
+    )
     surface, adaptive = run.surface, run.adaptive
-    if surface is not None:
-        parameters.update({"DAVAR taus": str(args.taus), "DAVAR step": args.step})
-        if adaptive is not None:
-            parameters.update({f"controller {k}": v for k, v in adaptive.parameters.items()
-                               if v is not None})  # fmt: skip
-        else:
-            parameters["DAVAR window [samples]"] = args.window
     steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
     return ReportAnalysis(
         path=os.fspath(path),

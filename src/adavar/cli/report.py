@@ -20,7 +20,6 @@ from adavar.cli.options import (
 )
 from adavar.cli.output import Status, check_output_file, fit_lines, output_error
 from adavar.settings import DATA_TYPE_DEFAULT
-from adavar.terms import TERM_NAMES
 from adavar.writers import dumps, fit_json
 
 if TYPE_CHECKING:
@@ -35,10 +34,14 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 def _run_report(args: argparse.Namespace, output: Any) -> int:
     from adavar._heap import release_free_memory
-    from adavar.analysis import analyse_channel, load_input, surface_shape
+    from adavar.analysis import (
+        analyse_channel,
+        load_input,
+        report_parameters,
+        surface_shape,
+    )
     from adavar.report import build_report, channel_section, channels_page, write_report
 
-    terms = args.terms or TERM_NAMES
     status = Status()
     status(f"reading {args.file}")
     chosen = args.column is not None  # several channels only when --column names them
@@ -72,20 +75,9 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
     units = first.units if not several else "; ".join(
         f"{name}: {units_of[name]}" for name in names
     )  # fmt: skip
-    parameters: dict[str, Any] = {
-        "statistic": "oadev", "data type": args.data_type, "units": units,
-        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
-    }  # fmt: skip
-    if args.n_reweight != 3 or args.spacing != "octave":
-        parameters.update({"fit reweighting passes": args.n_reweight,
-                           "fit tau spacing": args.spacing})  # fmt: skip
-    if first.shape is not None:
-        parameters.update({"DAVAR taus": str(used.taus), "DAVAR step": used.step})
-        if first.controller is not None:
-            parameters.update({f"controller {k}": v for k, v in first.controller.items()
-                               if v is not None})  # fmt: skip
-        else:
-            parameters["DAVAR window [samples]"] = used.window
+    parameters = report_parameters(
+        used, units, tau0, meta, first.shape is not None, first.controller
+    )
     steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
     status("building the figures and the HTML")
     if several:
