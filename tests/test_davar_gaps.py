@@ -31,7 +31,7 @@ from adavar.windows import window_overhang
 from .cli_helpers import assert_one_line_error, run
 
 davar_mod = importlib.import_module("adavar.surface")
-gaps_kernel = importlib.import_module("adavar._kernels.window_gaps")
+gaps_kernel = importlib.import_module("adavar._kernels.window_engine")
 
 #: worst relative error of a kept cell against the exact reference (measured: see the
 #: module's report; the gap-free kernels' bound is 1e-15)
@@ -233,7 +233,7 @@ def test_without_nan_the_gap_free_result(stat, data_type):
 
 @pytest.mark.parametrize("stat", ["oadev", "ohdev", "mdev"])
 def test_kernel_without_missing_samples_is_the_gap_free_kernel(stat):
-    """Zero keep flags change nothing: the same bits as window_avar / window_hvar, on
+    """Zero keep flags change nothing: the same bits as the engine without gaps, on
     overlapping windows, an adaptive schedule and sparse centres."""
     rng = np.random.default_rng(5)
     u = rng.standard_normal(5000) * 1e-3 + 1e9

@@ -315,7 +315,7 @@ def test_out_of_core_and_lazy_paths_equal_in_memory(stat):
 
 @pytest.mark.parametrize("stat", ["ohvar", "mvar"])
 def test_serial_and_parallel_twins_are_bit_identical(monkeypatch, stat):
-    from adavar._kernels.window_hvar import window_hvar
+    from adavar._kernels.window_engine import window_variance as window_hvar
 
     rng = np.random.default_rng(12)
     x = rng.standard_normal(40_000) + 1e9 + np.linspace(0.0, 50.0, 40_000)

@@ -121,7 +121,7 @@ def _both(force, call):
 
 
 def test_threaded_davar_window_kernel_is_bit_identical(force):
-    from adavar._kernels.window_avar import window_avar
+    from adavar._kernels.window_engine import window_avar
 
     x = _record(40_000)
     ms = np.array([1, 2, 4, 8, 16, 32, 64], dtype=np.int64)

@@ -13,7 +13,7 @@ How it is computed
 ------------------
 In O(N M), like the gap-free surface: the missing samples are filled with finite values
 (:func:`adavar.gaps.filled_increments`), the record is mirror-extended, and the window
-kernel :mod:`adavar._kernels.window_gaps` zeroes the terms that fail the keep test before
+kernel (:mod:`adavar._kernels.window_engine`, given the gaps) zeroes the terms that fail the keep test before
 prefix-summing their squares, and prefix-counts the kept ones. A kept term involves no
 filled value: it is the term of the true record, to the accuracy of the gap-free kernels.
 
@@ -46,7 +46,7 @@ import numpy as np
 
 from adavar import differences as diff
 from adavar import sources
-from adavar._kernels.window_gaps import window_gaps
+from adavar._kernels.window_engine import window_gaps
 from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
 from adavar.gaps import (

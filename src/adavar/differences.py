@@ -14,8 +14,8 @@ compensated sum. ``r`` never exceeds one block's worth of data, so a difference
 ulps of the difference itself, whatever the offset, drift or length of the record.
 
 The kernels here know nothing about statistics; :mod:`adavar.statistics` builds on them.
-The DAVAR engine's window kernel, :func:`window_avar`, lives in
-:mod:`adavar._kernels.window_avar` (it keeps a window's span in double-double instead).
+The DAVAR engine's window kernel lives in :mod:`adavar._kernels.window_engine` (it keeps a
+window's span in double-double instead).
 """
 
 from __future__ import annotations
@@ -39,7 +39,6 @@ from adavar._kernels.difference_runs import (
     strided_run,
 )
 from adavar._kernels.double_double import dd_add, two_sum
-from adavar._kernels.window_avar import window_avar
 
 __all__ = [
     "BLOCK",
@@ -53,7 +52,6 @@ __all__ = [
     "modified_sums_kernel",
     "overlapping_sums_kernel",
     "strided_sums_kernel",
-    "window_avar",
 ]
 
 SUPERBLOCK = 1 << 14  # terms per parallel work item; each touches a few 128 KiB chunks
@@ -345,7 +343,7 @@ def anchored_phase(
         about ``1e-16 * D`` in the rest of its 1024-sample block. A whole-record statistic
         across such a step is dominated by the step's own terms; the DAVAR windows, which
         need not hold it, are computed from a double-double span instead
-        (:mod:`adavar._kernels.window_avar`) and lose nothing.
+        (:mod:`adavar._kernels.window_engine`) and lose nothing.
     cluster_stats : bool
         Also gather, in the same pass, the moments that the lag-1 noise identification
         needs for ``m = 1, 2, 4, ..., 2**(FUSED_LEVELS-1)``: of the cluster sums (see

@@ -66,6 +66,7 @@ from scipy.special import ndtr
 from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import ici_episodes as episodes_mod
+from adavar._kernels.window_engine import window_avar
 from adavar.errors import AdavarInputError
 from adavar.inputs import as_samples
 from adavar.settings import ICI_EDF, ICI_GAMMA, ICI_SIDES
@@ -524,7 +525,7 @@ def ici_centre_stats(
     def interval(at: np.ndarray, length: int, offsets: tuple) -> tuple:
         """The log-domain interval of the windows of ``length`` centred at ``at``, and
         whether each window lies where it may (edges="valid": inside the record)."""
-        v = diff.window_avar(ext, ms, at, np.full(at.size, length, dtype=np.int64),
+        v = window_avar(ext, ms, at, np.full(at.size, length, dtype=np.int64),
                              offset=offset, chunk=block)  # fmt: skip
         lo_, hi_ = _intervals(v, (offsets[0][None, :], offsets[1][None, :]))
         if n_samples is None:
@@ -797,7 +798,7 @@ def ici_split(
     off = interval_offsets(nu, options.gamma)
     entries = []
     for s in (LEFT, RIGHT):
-        v = diff.window_avar(ext, options.ms, centres + side_shift(s, length),
+        v = window_avar(ext, options.ms, centres + side_shift(s, length),
                              np.full(centres.size, length, dtype=np.int64), offset=offset,
                              chunk=ici_block(options.lmax))  # fmt: skip
         entries.append(_intervals(v, (off[0][j][None, :], off[1][j][None, :])))

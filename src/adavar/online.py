@@ -80,9 +80,9 @@ from typing import Any
 import numpy as np
 
 from adavar._jit import get_num_threads
+from adavar._kernels.window_engine import window_avar
 from adavar.adaptive import window_lengths
 from adavar.controller import REANCHOR, Controller, needs_head
-from adavar.differences import window_avar
 from adavar.durations import Length
 from adavar.errors import AdavarInputError
 from adavar.events import Event, EventTracker, stretch_summary

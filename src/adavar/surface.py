@@ -5,7 +5,7 @@
 
 How it works (docs/method.md sections 5-6): the rate record is extended at both ends by time
 reversal (``edges="mirror"``) and handed to a parallel kernel
-(:mod:`adavar._kernels.window_avar`) that, per chunk of consecutive centres, re-centres the
+(:mod:`adavar._kernels.window_engine`) that, per chunk of consecutive centres, re-centres the
 chunk's span on a local reference (the median of 65 of its samples) and integrates it in
 double-double; per averaging factor ``m`` it computes the second differences ``d_m[i]``
 over the span to an ulp, prefix-sums their squares with compensation, and reads each
@@ -20,7 +20,7 @@ A record far from 1 (beyond 2**±64) is computed at scale 1 and its variances sc
 a power of four (exact); variances beyond the float64 range are an error, not inf.
 
 ``stat="ohvar"`` and ``stat="mvar"`` give the dynamic overlapping Hadamard and modified
-Allan variances from the same engine (:mod:`adavar._kernels.window_hvar`: third differences,
+Allan variances from the same engine (:mod:`adavar._kernels.window_engine`: third differences,
 and moving sums of second differences, with the same double-double span), with the same
 windows, edges, EDFs (of the statistic) and out-of-core paths.
 """
@@ -39,7 +39,7 @@ import numpy as np
 from adavar import differences as diff
 from adavar import sources, stream
 from adavar._jit import jit, read_only
-from adavar._kernels.window_hvar import window_hvar
+from adavar._kernels.window_engine import window_variance
 from adavar.durations import Length, to_samples
 from adavar.errors import AdavarInputError
 from adavar.inputs import (
@@ -117,21 +117,15 @@ def _window_surface(
     stat: str, samples: np.ndarray, ms: np.ndarray, centres: np.ndarray, lengths: np.ndarray,
     **options: Any,
 ) -> np.ndarray:  # fmt: skip
-    """The window kernel of ``stat`` (``window_avar``'s arguments): one engine, two term kinds."""
-    if stat == "oadev":
-        return diff.window_avar(samples, ms, centres, lengths, **options)
-    return window_hvar(samples, ms, centres, lengths, stat=_KERNEL_STAT[stat], **options)
-
-
-#: result.stat -> the name of the window kernel's statistic
-_KERNEL_STAT = {"ohdev": "ohvar", "mdev": "mvar"}
+    """The window engine's variance of ``stat`` (``"oadev"``, ``"ohdev"``, ``"mdev"``)."""
+    return window_variance(samples, ms, centres, lengths, stat=stat, **options)
 
 
 def _chunked_avar(
     source: sources.ChunkedSource, sched: Any, ms: np.ndarray, scale: float, chunk: int,
     stat: str = "oadev", start: int = 0, stop: int | None = None,
 ) -> np.ndarray:  # fmt: skip
-    """:func:`adavar.differences.window_avar` over groups of centres read piece by piece.
+    """The window engine over groups of centres read piece by piece.
 
     Each group's span of the mirror-extended record is read and handed to the window
     kernel, which writes the group's rows of the output in place. The kernel re-centres

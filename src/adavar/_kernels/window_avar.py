@@ -1,4 +1,6 @@
-"""The DAVAR engine's kernel: the overlapping Allan variance of every window at once.
+"""The DAVAR engine's arithmetic: a window span in double-double, and its second differences.
+
+The pieces :mod:`adavar._kernels.window_engine` builds every window statistic from.
 
 Each work item takes a chunk of consecutive centres and the span of rate samples (or phase
 increments) ``u[lo:hi]`` that their windows cover, and re-centres it on a local reference:
@@ -30,21 +32,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit, read_only, threaded_jit, work_items
+from adavar._jit import jit, read_only, work_items
 from adavar._kernels.double_double import two_sum
 
 __all__ = [
     "MEDIAN_SAMPLES",
+    "chunk_layout",
     "prepare_windows",
     "sample_median",
-    "window_avar",
-    "window_avar_kernel",
 ]
 
 #: samples of a span whose median is its local reference
 MEDIAN_SAMPLES = 65
-#: scratch rows: prefix high and low parts, differences, their squares' prefix (3 parts)
-_ROWS = 6
 
 
 @jit
@@ -184,45 +183,6 @@ def _eval_uniform(q, first, n, count, norm, res, at):  # pragma: no cover - comp
 
 
 @jit
-def _eval_runs(q, aloc, lens, runs, n_runs, m, norm, res):  # pragma: no cover - compiled
-    """Any windows, as runs of one length with consecutive starts (``runs[j]`` .. next).
-
-    An adaptive schedule holds its length for long stretches (at ``Lmax`` most of the
-    time): each such run takes the contiguous, vectorised path.
-    """
-    for j in range(n_runs):
-        k0 = runs[j]
-        k1 = runs[j + 1]
-        L = lens[k0]
-        if 3 * m > L:
-            for k in range(k0, k1):
-                res[k] = np.nan
-            continue
-        n = L - 2 * m + 1
-        if k1 - k0 == 1:
-            a = aloc[k0]
-            res[k0] = max(_window_sum(q, a, a + n), 0.0) * (norm / n)
-        else:
-            _eval_uniform(q, aloc[k0], n, k1 - k0, norm, res, k0)
-
-
-@jit
-def _one_window(u, a, L, ms, scale, work, tmp, row):  # pragma: no cover - compiled
-    """Every factor of the window ``u[a:a+L]`` alone, over its own span, into ``row``."""
-    ph, pl, d, q = work[0], work[1], work[2], work[3:]
-    _local_prefix(u, a, a + L, sample_median(u, a, a + L, tmp), ph, pl)
-    for t in range(ms.size):
-        m = ms[t]
-        if 3 * m > L:
-            row[t] = np.nan
-            continue
-        n = L - 2 * m + 1
-        _fill_differences(ph, pl, m, 0, n, d)
-        _prefix_squares(d, n, q, False)  # from zero in the window: q[1] stays tiny
-        row[t] = max(q[0, n] + q[1, n], 0.0) * (scale / (2.0 * m * m) / n)
-
-
-@jit
 def chunk_layout(centres, lengths, offset, c0, c1, starts):  # pragma: no cover - compiled
     """Where windows ``c0 .. c1 - 1`` lie: their first samples into ``starts``, and
     ``(lo, hi, spread, need)``: the span ``[lo, hi)`` of their union, whether they lie far
@@ -241,95 +201,6 @@ def chunk_layout(centres, lengths, offset, c0, c1, starts):  # pragma: no cover 
     spread = hi - lo > 2 * covered  # far apart: each window over its own span
     need = (longest if spread else hi - lo) + 1
     return lo, hi, spread, need
-
-
-@threaded_jit
-def window_avar_kernel(
-    u, ms, centres, lengths, offset, chunk, workers, scale, out, w_lo, w_hi
-):  # fmt: skip  # pragma: no cover - compiled
-    """Overlapping Allan variance of every window at every averaging factor.
-
-    Window ``c`` covers ``u[a : a + lengths[c]]`` with
-    ``a = centres[c] - (lengths[c] - 1) // 2 + offset``; at factor ``m`` it sums
-    ``d_m[i]**2`` for ``n = L - 2m + 1`` starts ``i``, times ``scale / (2 m**2 n)``. The
-    windows are cut into chunks of ``chunk`` consecutive centres, dealt round-robin to
-    ``workers`` work items, of which this call runs ``w_lo .. w_hi - 1`` (the scratch is
-    allocated once per item: fresh pages for every chunk cost more than the arithmetic).
-    Cells with ``3m > L`` are NaN.
-
-    The chunk's code is written out in the loop rather than called: a separate compiled
-    function took about 0.4 s more to compile on a first run (Numba optimises and
-    compiles a callee's code again inside its caller), for the same speed.
-    """
-    nc = centres.size
-    nch = (nc + chunk - 1) // chunk
-    for item in range(w_lo, w_hi):
-        work = np.empty((_ROWS, 1))
-        tmp = np.empty(MEDIAN_SAMPLES)
-        for ch in range(item, nch, workers):
-            c0 = ch * chunk
-            c1 = min(c0 + chunk, nc)
-            nt = ms.size
-            size = c1 - c0
-            lens = lengths[c0:c1]
-            starts = np.empty(size, dtype=np.int64)
-            lo, hi, spread, need = chunk_layout(centres, lengths, offset, c0, c1, starts)
-            if need > work.shape[1]:
-                work = np.empty((_ROWS, need))
-            if spread:
-                for k in range(size):
-                    _one_window(u, starts[k], lens[k], ms, scale, work, tmp, out[c0 + k])
-                continue
-            ph, pl, d, q = work[0], work[1], work[2], work[3:]
-            _local_prefix(u, lo, hi, sample_median(u, lo, hi, tmp), ph, pl)
-            aloc = np.empty(size, dtype=np.int64)
-            for k in range(size):
-                aloc[k] = starts[k] - lo
-            # runs of one length with consecutive starts take the contiguous fast path
-            runs = np.empty(size + 1, dtype=np.int64)
-            n_runs = 0
-            for k in range(size):
-                if k == 0 or lens[k] != lens[k - 1] or aloc[k] != aloc[k - 1] + 1:
-                    runs[n_runs] = k
-                    n_runs += 1
-            runs[n_runs] = size
-            res = np.empty(size)
-            for t in range(nt):
-                m = ms[t]
-                norm = scale / (2.0 * m * m)
-                # span of this m, and whether one prefix over it pays (the windows' terms overlap)
-                span = 0
-                total = 0
-                for k in range(size):
-                    if 3 * m <= lens[k]:
-                        n = lens[k] - 2 * m + 1
-                        span = max(span, aloc[k] + n)
-                        total += n
-                if total > 0 and span <= 2 * total:
-                    _fill_differences(ph, pl, m, 0, span, d)
-                    big = _prefix_squares(d, span, q, False)
-                    _eval_runs(q, aloc, lens, runs, n_runs, m, norm, res)
-                    # a window's error is at most n 2**-53 big, i.e. 2**-50 of its sum when
-                    # its value (sum * norm / n) is at least big * norm / 8: else the
-                    # three-part sums
-                    floor = big * norm / 8.0
-                    for k in range(size):
-                        if res[k] < floor:
-                            _prefix_squares(d, span, q, True)
-                            _eval_runs(q, aloc, lens, runs, n_runs, m, norm, res)
-                            break
-                else:
-                    for k in range(size):
-                        L = lens[k]
-                        if 3 * m > L:
-                            res[k] = np.nan
-                            continue
-                        n = L - 2 * m + 1
-                        _fill_differences(ph, pl, m, aloc[k], n, d)
-                        _prefix_squares(d, n, q, False)  # from zero in the window: q[1] stays tiny
-                        res[k] = max(q[0, n] + q[1, n], 0.0) * (norm / n)
-                for k in range(size):
-                    out[c0 + k, t] = res[k]
 
 
 @jit
@@ -379,53 +250,3 @@ def prepare_windows(
     chunk = int(max(chunk, 1))
     workers = work_items(-(-nc // chunk))
     return u, ms, centres, lengths, out, chunk, workers, span
-
-
-def window_avar(
-    samples: np.ndarray,
-    ms: np.ndarray,
-    centres: np.ndarray,
-    lengths: np.ndarray,
-    *,
-    offset: int = 0,
-    scale: float = 1.0,
-    chunk: int = 4096,
-    out: np.ndarray | None = None,
-) -> np.ndarray:
-    """Overlapping Allan variance of many windows of ``samples`` at every factor ``ms``.
-
-    Parameters
-    ----------
-    samples : ndarray of float64
-        The (mirror-extended) rate samples, or phase increments.
-    ms : ndarray of int
-        Averaging factors.
-    centres, lengths : ndarray of int
-        Window ``c`` holds ``samples[a : a + lengths[c]]``,
-        ``a = centres[c] - (lengths[c] - 1) // 2 + offset`` (the convention of
-        :mod:`adavar.windows`).
-    offset : int
-        Shift from centre indices to indices of ``samples`` (the mirrored samples before
-        the record, less the start of a piece read out of core).
-    scale : float
-        Multiplies every variance (``1 / tau0**2`` for phase input).
-    chunk : int
-        Consecutive windows per unit of work.
-    out : ndarray, shape (len(centres), len(ms)), optional
-        Written in place (rows of a larger surface).
-
-    Returns
-    -------
-    ndarray, shape (len(centres), len(ms))
-        NaN where ``3 m > L``.
-    """
-    u, ms, centres, lengths, out, chunk, workers, span = prepare_windows(
-        samples, ms, centres, lengths, offset, chunk, out
-    )
-    if centres.size:
-        work = span * ms.size  # one term per sample of the windows' union, per m
-        window_avar_kernel.run(
-            work, workers, u, ms, centres, lengths, int(offset), chunk, workers, float(scale),
-            out,
-        )  # fmt: skip
-    return out

@@ -1,12 +1,8 @@
-"""The dynamic Hadamard and modified Allan variance kernels: every window at every factor.
+"""The terms of the dynamic Hadamard and modified Allan variances, over a window span.
 
-The engine of :mod:`adavar._kernels.window_avar` with other terms. A work item takes a chunk
-of consecutive centres, re-centres the span of their windows on a local reference (the
-median of up to 65 samples) and integrates it once in double-double (``P = ph + pl``, see
-``window_avar._local_prefix``). Per averaging factor ``m`` it fills the terms of the
-statistic over the span, prefix-sums their squares with compensation (``_prefix_squares``,
-the third part when a window's error bound asks for it) and reads each window's sum as the
-difference of two prefix values: O(1) per (window, factor) whatever the window length.
+The pieces :mod:`adavar._kernels.window_engine` runs for these statistics: over the span of
+a chunk of windows, integrated once in double-double (``P = ph + pl``, see
+``window_avar._local_prefix``), the terms of the statistic at one averaging factor ``m``:
 
 - ``"ohvar"``, the overlapping Hadamard variance (NIST SP 1065): the third
   differences ``P[i + 3m] - 3 P[i + 2m] + 3 P[i + m] - P[i]``, from three exact two-sums of
@@ -29,30 +25,14 @@ of 5000 samples on a 1e9 offset with a 1e6-sigma step and 1e12-sigma bursts in t
 
 from __future__ import annotations
 
-import numpy as np
-
-from adavar._jit import jit, threaded_jit
+from adavar._jit import jit
 from adavar._kernels.double_double import two_sum
-from adavar._kernels.window_avar import (
-    MEDIAN_SAMPLES,
-    _eval_uniform,
-    _local_prefix,
-    _prefix_squares,
-    _window_sum,
-    chunk_layout,
-    prepare_windows,
-    sample_median,
-)
 
-__all__ = ["KINDS", "MVAR", "OHVAR", "window_hvar", "window_hvar_kernel"]
+__all__ = ["MVAR", "OHVAR"]
 
-#: the statistic of a kernel call (plain integers: one compiled version serves both)
+#: the statistic of a call of the window engine (:data:`adavar._kernels.window_engine.KINDS`)
 OHVAR = 1
 MVAR = 2
-KINDS = {"ohvar": OHVAR, "mvar": MVAR}
-#: scratch rows: prefix high and low parts, the moving sums' prefix (2), the terms, and
-#: their squares' prefix (3 parts)
-_ROWS = 8
 
 
 @jit
@@ -156,174 +136,3 @@ def _norm_of(kind, m, scale):  # pragma: no cover - compiled
     """The factor of a window's sum of squares, before the division by its term count."""
     mm = float(m) * float(m)
     return scale / (2.0 * mm * mm) if kind == MVAR else scale / (6.0 * mm)
-
-
-@jit
-def _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res):  # pragma: no cover - compiled
-    """Any windows, as runs of one length with consecutive starts (``runs[j]`` .. next)."""
-    for j in range(n_runs):
-        k0 = runs[j]
-        k1 = runs[j + 1]
-        L = lens[k0]
-        if 3 * m > L:
-            for k in range(k0, k1):
-                res[k] = np.nan
-            continue
-        n = _terms_of(kind, L, m)
-        if k1 - k0 == 1:
-            a = aloc[k0]
-            res[k0] = max(_window_sum(q, a, a + n), 0.0) * (norm / n)
-        else:
-            _eval_uniform(q, aloc[k0], n, k1 - k0, norm, res, k0)
-
-
-@jit
-def _own_span(work, kind, m, first, n):  # pragma: no cover - compiled
-    """Sum of the squares of the ``n`` terms from ``first``, summed from zero (small q[1])."""
-    q = work[5:]
-    _fill_terms(work, kind, m, first, n)
-    _prefix_squares(work[4], n, q, False)
-    return q[0, n] + q[1, n]
-
-
-@jit
-def _one_window(u, a, L, ms, kind, scale, work, tmp, row):  # pragma: no cover - compiled
-    """Every factor of the window ``u[a:a+L]`` alone, over its own span, into ``row``."""
-    _local_prefix(u, a, a + L, sample_median(u, a, a + L, tmp), work[0], work[1])
-    for t in range(ms.size):
-        m = ms[t]
-        if 3 * m > L:
-            row[t] = np.nan
-            continue
-        n = _terms_of(kind, L, m)
-        row[t] = max(_own_span(work, kind, m, 0, n), 0.0) * (_norm_of(kind, m, scale) / n)
-
-
-@threaded_jit
-def window_hvar_kernel(
-    u, ms, centres, lengths, offset, chunk, workers, kind, scale, out, w_lo, w_hi
-):  # fmt: skip  # pragma: no cover - compiled
-    """Overlapping Hadamard (``kind = OHVAR``) or modified Allan (``MVAR``) variance of
-    every window at every averaging factor.
-
-    Windows as in ``window_avar_kernel``: window ``c`` covers ``u[a : a + lengths[c]]``,
-    ``a = centres[c] - (lengths[c] - 1) // 2 + offset``; chunks of ``chunk`` consecutive
-    centres are dealt round-robin to ``workers`` work items, of which this call runs
-    ``w_lo .. w_hi - 1``. Cells with ``3m > L`` are NaN.
-
-    The chunk's code is written out in the loop rather than called: a separate compiled
-    function took about 0.4 s more to compile on a first run (Numba optimises and
-    compiles a callee's code again inside its caller), for the same speed.
-    """
-    nc = centres.size
-    nch = (nc + chunk - 1) // chunk
-    for item in range(w_lo, w_hi):
-        work = np.empty((_ROWS, 1))
-        tmp = np.empty(MEDIAN_SAMPLES)
-        for ch in range(item, nch, workers):
-            c0 = ch * chunk
-            c1 = min(c0 + chunk, nc)
-            size = c1 - c0
-            lens = lengths[c0:c1]
-            starts = np.empty(size, dtype=np.int64)
-            lo, hi, spread, need = chunk_layout(centres, lengths, offset, c0, c1, starts)
-            if need > work.shape[1]:
-                work = np.empty((_ROWS, need))
-            if spread:
-                for k in range(size):
-                    _one_window(u, starts[k], lens[k], ms, kind, scale, work, tmp, out[c0 + k])
-                continue
-            q = work[5:]
-            _local_prefix(u, lo, hi, sample_median(u, lo, hi, tmp), work[0], work[1])
-            aloc = np.empty(size, dtype=np.int64)
-            runs = np.empty(size + 1, dtype=np.int64)
-            n_runs = 0
-            for k in range(size):
-                aloc[k] = starts[k] - lo
-                # runs of one length with consecutive starts take the contiguous fast path
-                if k == 0 or lens[k] != lens[k - 1] or aloc[k] != aloc[k - 1] + 1:
-                    runs[n_runs] = k
-                    n_runs += 1
-            runs[n_runs] = size
-            res = np.empty(size)
-            for t in range(ms.size):
-                m = ms[t]
-                norm = _norm_of(kind, m, scale)
-                # span of this m's terms, and whether one prefix over it pays (the windows overlap)
-                span = 0
-                total = 0
-                for k in range(size):
-                    if 3 * m <= lens[k]:
-                        n = _terms_of(kind, lens[k], m)
-                        span = max(span, aloc[k] + n)
-                        total += n
-                if total > 0 and span <= 2 * total:
-                    _fill_terms(work, kind, m, 0, span)
-                    big = _prefix_squares(work[4], span, q, False)
-                    _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res)
-                    # as in window_avar: a cell below big * norm / 8 may have lost bits to q[1]
-                    floor = big * norm / 8.0
-                    for k in range(size):
-                        if res[k] < floor:
-                            _prefix_squares(work[4], span, q, True)
-                            _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res)
-                            break
-                else:
-                    for k in range(size):
-                        L = lens[k]
-                        if 3 * m > L:
-                            res[k] = np.nan
-                            continue
-                        n = _terms_of(kind, L, m)
-                        res[k] = max(_own_span(work, kind, m, aloc[k], n), 0.0) * (norm / n)
-                for k in range(size):
-                    out[c0 + k, t] = res[k]
-
-
-def window_hvar(
-    samples: np.ndarray,
-    ms: np.ndarray,
-    centres: np.ndarray,
-    lengths: np.ndarray,
-    *,
-    stat: str,
-    offset: int = 0,
-    scale: float = 1.0,
-    chunk: int = 4096,
-    out: np.ndarray | None = None,
-) -> np.ndarray:
-    """Overlapping Hadamard or modified Allan variance of many windows of ``samples``.
-
-    Parameters
-    ----------
-    samples : ndarray of float64
-        The (mirror-extended) rate samples, or phase increments.
-    ms : ndarray of int
-        Averaging factors.
-    centres, lengths : ndarray of int
-        Window ``c`` holds ``samples[a : a + lengths[c]]``,
-        ``a = centres[c] - (lengths[c] - 1) // 2 + offset``.
-    stat : {"ohvar", "mvar"}
-        The statistic.
-    offset, scale, chunk, out
-        As for :func:`adavar._kernels.window_avar.window_avar`.
-
-    Returns
-    -------
-    ndarray, shape (len(centres), len(ms))
-        NaN where ``3 m > L``.
-    """
-    kind = KINDS.get(stat)
-    if kind is None:
-        raise ValueError(f"internal: unknown window statistic {stat!r}")
-    u, ms, centres, lengths, out, chunk, workers, span = prepare_windows(
-        samples, ms, centres, lengths, offset, chunk, out
-    )
-    if centres.size:
-        # the moving sums cost about twice a third difference per sample
-        work = span * ms.size * (2 if kind == MVAR else 1)
-        window_hvar_kernel.run(
-            work, workers, u, ms, centres, lengths, int(offset), chunk, workers, int(kind),
-            float(scale), out,
-        )  # fmt: skip
-    return out
