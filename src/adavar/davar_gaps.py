@@ -14,8 +14,9 @@ How it is computed
 In O(N M), like the gap-free surface: the missing samples are filled with finite values
 (:func:`adavar.gaps.filled_increments`), the record is mirror-extended, and the window
 kernel (:mod:`adavar._kernels.window_engine`, given the gaps) zeroes the terms that fail
-the keep test before prefix-summing their squares, and prefix-counts the kept ones. A kept term involves no
-filled value: it is the term of the true record, to the accuracy of the gap-free kernels.
+the keep test before prefix-summing their squares, and prefix-counts the kept ones. A kept
+term involves no filled value: it is the term of the true record, to the accuracy of the
+gap-free kernels.
 
 Mirror edges: the extension reflects the missing flags with the samples. For rate data
 the extension repeats the rate samples, so a missing one is missing in its image; for
