@@ -66,7 +66,7 @@ from scipy.special import ndtr
 from adavar import differences as diff
 from adavar import edf as edf_mod
 from adavar import ici_episodes as episodes_mod
-from adavar._kernels.window_engine import window_avar
+from adavar._kernels.window_engine import window_variance
 from adavar.errors import AdavarInputError
 from adavar.inputs import as_samples
 from adavar.settings import ICI_EDF, ICI_GAMMA, ICI_SIDES
@@ -381,7 +381,7 @@ class _Chain:
 
 
 def ici_block(lmax: int) -> int:
-    """Centres per unit of work of the DAVAR engine in the ICI pass (``window_avar``'s
+    """Centres per unit of work of the DAVAR engine in the ICI pass (``window_variance``'s
     ``chunk``): half of ``lmax``, within 64 .. 4096.
 
     A window's variance is computed within its unit (a local reference and prefix sums
@@ -525,8 +525,8 @@ def ici_centre_stats(
     def interval(at: np.ndarray, length: int, offsets: tuple) -> tuple:
         """The log-domain interval of the windows of ``length`` centred at ``at``, and
         whether each window lies where it may (edges="valid": inside the record)."""
-        v = window_avar(ext, ms, at, np.full(at.size, length, dtype=np.int64),
-                             offset=offset, chunk=block)  # fmt: skip
+        v = window_variance(ext, ms, at, np.full(at.size, length, dtype=np.int64),
+                            stat="oavar", offset=offset, chunk=block)  # fmt: skip
         lo_, hi_ = _intervals(v, (offsets[0][None, :], offsets[1][None, :]))
         if n_samples is None:
             return lo_, hi_, None
@@ -798,9 +798,9 @@ def ici_split(
     off = interval_offsets(nu, options.gamma)
     entries = []
     for s in (LEFT, RIGHT):
-        v = window_avar(ext, options.ms, centres + side_shift(s, length),
-                             np.full(centres.size, length, dtype=np.int64), offset=offset,
-                             chunk=ici_block(options.lmax))  # fmt: skip
+        v = window_variance(ext, options.ms, centres + side_shift(s, length),
+                            np.full(centres.size, length, dtype=np.int64), stat="oavar",
+                            offset=offset, chunk=ici_block(options.lmax))  # fmt: skip
         entries.append(_intervals(v, (off[0][j][None, :], off[1][j][None, :])))
     return ici_contrast(*entries[0], *entries[1])
 

@@ -80,7 +80,7 @@ from typing import Any
 import numpy as np
 
 from adavar._jit import get_num_threads
-from adavar._kernels.window_engine import window_avar
+from adavar._kernels.window_engine import window_variance
 from adavar.adaptive import window_lengths
 from adavar.controller import REANCHOR, Controller, needs_head
 from adavar.durations import Length
@@ -835,7 +835,7 @@ class OnlineAdaptive:
         pad = self._pad
         ext = self._extended(c0 - pad, c1 + pad + 1 if final else c1 + self._ahead + 1, final)
         at = centres if shifts is None else centres + shifts  # a one-sided window's centre
-        avar = window_avar(ext, self._ms, at - c0, lengths, offset=pad)
+        avar = window_variance(ext, self._ms, at - c0, lengths, stat="oavar", offset=pad)
         avar = unscale(avar, 2 * (self._k or 0), "Allan variances", underflow=False)
         edf = self._edf(at, lengths)
         fit = fit_avar(self.tau, avar, edf, terms=self.terms, units=self.units,

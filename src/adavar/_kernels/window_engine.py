@@ -41,7 +41,7 @@ from adavar._kernels.window_avar import (
 )
 from adavar._kernels.window_hvar import MVAR, OHVAR, _fill_terms, _norm_of, _terms_of
 
-__all__ = ["KINDS", "OAVAR", "window_avar", "window_gaps", "window_kernel", "window_variance"]
+__all__ = ["KINDS", "OAVAR", "window_gaps", "window_kernel", "window_variance"]
 
 #: the statistic of a kernel call (plain integers: one compiled version serves them all)
 OAVAR = 0
@@ -307,48 +307,6 @@ def _run(u, ms, ws, centres, lengths, offset, chunk, workers, kind, scale, gaps,
                           workers, int(kind), float(scale), gaps, out, kept)  # fmt: skip
 
 
-def window_avar(
-    samples: np.ndarray,
-    ms: np.ndarray,
-    centres: np.ndarray,
-    lengths: np.ndarray,
-    *,
-    offset: int = 0,
-    scale: float = 1.0,
-    chunk: int = 4096,
-    out: np.ndarray | None = None,
-) -> np.ndarray:
-    """Overlapping Allan variance of many windows of ``samples`` at every factor ``ms``.
-
-    Parameters
-    ----------
-    samples : ndarray of float64
-        The (mirror-extended) rate samples, or phase increments.
-    ms : ndarray of int
-        Averaging factors.
-    centres, lengths : ndarray of int
-        Window ``c`` holds ``samples[a : a + lengths[c]]``,
-        ``a = centres[c] - (lengths[c] - 1) // 2 + offset`` (the convention of
-        :mod:`adavar.windows`).
-    offset : int
-        Shift from centre indices to indices of ``samples`` (the mirrored samples before
-        the record, less the start of a piece read out of core).
-    scale : float
-        Multiplies every variance (``1 / tau0**2`` for phase input).
-    chunk : int
-        Consecutive windows per unit of work.
-    out : ndarray, shape (len(centres), len(ms)), optional
-        Written in place (rows of a larger surface).
-
-    Returns
-    -------
-    ndarray, shape (len(centres), len(ms))
-        NaN where ``3 m > L``.
-    """
-    return window_variance(samples, ms, centres, lengths, stat="oavar", offset=offset,
-                           scale=scale, chunk=chunk, out=out)  # fmt: skip
-
-
 def window_variance(
     samples: np.ndarray,
     ms: np.ndarray,
@@ -365,10 +323,25 @@ def window_variance(
 
     Parameters
     ----------
-    samples, ms, centres, lengths, offset, scale, chunk, out
-        As for :func:`window_avar`.
+    samples : ndarray of float64
+        The (mirror-extended) rate samples, or phase increments.
+    ms : ndarray of int
+        Averaging factors.
+    centres, lengths : ndarray of int
+        Window ``c`` holds ``samples[a : a + lengths[c]]``,
+        ``a = centres[c] - (lengths[c] - 1) // 2 + offset`` (the convention of
+        :mod:`adavar.windows`).
     stat : {"oavar", "ohvar", "mvar"}
         The statistic (or its deviation's name: ``"oadev"``, ``"ohdev"``, ``"mdev"``).
+    offset : int
+        Shift from centre indices to indices of ``samples`` (the mirrored samples before
+        the record, less the start of a piece read out of core).
+    scale : float
+        Multiplies every variance (``1 / tau0**2`` for phase input).
+    chunk : int
+        Consecutive windows per unit of work.
+    out : ndarray, shape (len(centres), len(ms)), optional
+        Written in place (rows of a larger surface).
 
     Returns
     -------
@@ -422,7 +395,7 @@ def window_gaps(
     ws : ndarray of int64
         The keep test's window per factor (:meth:`adavar.gaps.GapLayout.windows`).
     offset, scale, chunk
-        As for :func:`window_avar`.
+        As for :func:`window_variance`.
 
     Returns
     -------
