@@ -420,7 +420,7 @@ class EdfCache:
         return rows[inverse.ravel()]
 
 
-def as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:
+def as_record(data: Any, *, streamed: bool = False) -> tuple[Any, dict[str, Any]]:
     """Samples and what a scenario object knows (rate, changes, truth, intervals, ...).
 
     Parameters
@@ -428,12 +428,14 @@ def as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:
     data : array_like or PaperScenario
         Rate samples, or an object with ``data``, ``rate``, ``change_times`` and ``arw``
         (and optionally ``intervals``, ``description``, ``number``).
+    streamed : bool
+        Keep a record read piece by piece (a source, a dask array, a memory-mapped file)
+        as a source instead of loading it (for code that reads it piece by piece).
 
     Returns
     -------
     samples : ndarray or ChunkedSource
-        At least 3 of them; a record read piece by piece (a source, a dask array, a
-        memory-mapped file) as a source, not loaded.
+        At least 3 of them.
     known : dict
         ``rate``, ``change_times``, ``truth``, ``intervals``, ``description``, ``scenario``
         of a scenario; ``{}`` for plain samples.
@@ -449,7 +451,7 @@ def as_record(data: Any) -> tuple[np.ndarray, dict[str, Any]]:
             "scenario": getattr(data, "number", None),
         }
         data = data.data
-    if is_chunked(data):  # a file read piece by piece stays on disk
+    if streamed and is_chunked(data):  # a file read piece by piece stays on disk
         return open_record(data, 3), known
     return as_samples(data, min_length=3), known
 
@@ -663,7 +665,7 @@ def run_comparison(
     """
     if keep not in ("all", "figures"):
         raise AdavarInputError(f"unknown keep {keep!r}: use 'all' or 'figures'")
-    x, known = as_record(data)
+    x, known = as_record(data, streamed=True)
     n = x.size
     fs = check_rate(rate if rate is not None else known.get("rate", 1.0))
     tau0 = 1.0 / fs
