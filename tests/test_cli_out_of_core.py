@@ -255,3 +255,24 @@ def test_compare_of_a_file_holds_pieces_not_the_record(tmp_path, monkeypatch, ca
     code, _, err = run(capsys, ["compare", str(path), "--rate", "100", "--units", "deg/s"])
     assert code == 1 and "Stop" in err
     assert isinstance(seen["data"], ChunkedSource) and seen["data"].size == sizes[1]
+
+
+@pytest.mark.parametrize("stat", ["mtie", "theo1", "htotdev"])
+def test_statistics_computed_in_memory_load_a_npy_file(capsys, tmp_path, stat):
+    """`adavar avar FILE.npy --stat mtie` failed with the library's advice to pass an array
+    (the file was handed on to be read piece by piece). The statistics that run in memory
+    now load the file, as they do a text file, and give the same numbers."""
+    rng = np.random.default_rng(12)
+    x = np.cumsum(rng.standard_normal(3000)) * 1e-3 + rng.standard_normal(3000)
+    np.save(tmp_path / "x.npy", x)
+    np.savetxt(tmp_path / "x.txt", x, fmt="%.17g")
+    argv = ["--rate", "10", "--units", "deg/s", "--stat", stat, "--json"]
+    results = []
+    for name in ("x.npy", "x.txt"):
+        code, out, err = run(capsys, ["avar", str(tmp_path / name), *argv])
+        assert code == 0, err
+        results.append(json.loads(out)["dev"])
+    assert results[0] == results[1]
+    code, out, err = run(capsys, ["avar", str(tmp_path / "x.npy"), *argv, "--chunk-size",
+                                  "4096"])  # fmt: skip
+    assert_one_line_error(code, out, err, f"--stat {stat}", "in memory", "--chunk-size")

@@ -162,6 +162,31 @@ def _check_columns(args: argparse.Namespace, columns: list[str]) -> None:
     )
 
 
+def _in_memory_for(args: argparse.Namespace, samples: Any) -> Any:
+    """The record as the statistic reads it: the Allan family reads a file piece by piece;
+    the other statistics (Theo1, MTIE, TIE, the total family but totdev, ...) run on the
+    record in memory, so a file read piece by piece is loaded for them when it fits."""
+    from adavar.extended_statistics import SPECS
+    from adavar.sources import available_memory, is_chunked
+
+    if args.stat not in SPECS or not is_chunked(samples):
+        return samples
+    if getattr(args, "chunk_size", None) is not None:
+        raise UsageError(f"--stat {args.stat} is computed on the record in memory: leave out "
+                         "--chunk-size, or use an Allan statistic (oadev, mdev, ...), which "
+                         "reads the file piece by piece")  # fmt: skip
+    need = 3 * 8 * int(samples.size)  # the record in float64 and the statistic's copies
+    free = available_memory()
+    if free is not None and need > 0.8 * free:
+        raise AdavarInputError(
+            f"--stat {args.stat} holds the record in memory: {samples.size} samples need about "
+            f"{need / 2**30:.1f} GiB but {free / 2**30:.1f} GiB is free: use an Allan "
+            "statistic (oadev, mdev, ...), which reads the file piece by piece, or a shorter "
+            "record"
+        )
+    return np.asarray(samples, dtype=np.float64)
+
+
 def _avar_channel(
     args: argparse.Namespace, samples: np.ndarray, meta: dict[str, Any], units: str,
     tau0: float, do_fit: bool, status: Status | None = None, tag: str = "",
@@ -175,6 +200,7 @@ def _avar_channel(
 
     status = status or Status()
     rate_u = rate_unit(units, args.data_type)
+    samples = _in_memory_for(args, samples)
     status(f"{tag}computing the {args.stat} of {samples.size} samples")
     result = deviation(
         samples,
