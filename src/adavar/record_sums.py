@@ -62,7 +62,7 @@ __all__ = [
 BLOCK = diff.BLOCK
 SHIFT = diff.SHIFT
 _MASK = BLOCK - 1
-_SUPERBLOCK = 1 << 14  # terms per parallel work item, as in differences
+_SUPERBLOCK = diff.SUPERBLOCK  # terms per parallel work item
 _PARALLEL_MIN = 4 * _SUPERBLOCK  # shorter runs are not worth waking the thread pool
 
 
