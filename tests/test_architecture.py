@@ -243,10 +243,10 @@ def test_no_import_cycles_even_inside_functions():
 #: The layers, lowest first: a module imports from its own layer and those below, never
 #: from above (docs/architecture.md). ``name.*``: a package and everything in it.
 LAYERS = [
-    ("core", ["adavar.errors", "adavar.settings", "adavar.units", "adavar.durations",
-              "adavar.terms", "adavar.taus", "adavar.extended_statistics", "adavar.thinning",
-              "adavar.results", "adavar.fit_checks", "adavar.atomic", "adavar.csv_tables",
-              "adavar.datasets"]),
+    ("core", ["adavar.errors", "adavar.settings", "adavar.request", "adavar.units",
+              "adavar.durations", "adavar.terms", "adavar.taus", "adavar.extended_statistics",
+              "adavar.thinning", "adavar.results", "adavar.fit_checks", "adavar.atomic",
+              "adavar.csv_tables", "adavar.datasets"]),
     ("kernels", ["adavar._jit", "adavar._kernels.*", "adavar._nnls", "adavar._heap",
                  "adavar._workers", "adavar.differences"]),
     ("files", ["adavar.sources", "adavar.sampling", "adavar.readers.*", "adavar.preprocess",
@@ -268,8 +268,8 @@ LAYERS = [
     ("paper", ["adavar.paper.*", "adavar.comparison", "adavar.simulate"]),
     ("output", ["adavar.export", "adavar._figures", "adavar.paper_figures", "adavar.plots",
                 "adavar.notebook", "adavar.report_parts", "adavar.report"]),
-    ("pipeline", ["adavar.analysis", "adavar.batch_state", "adavar.batch_cluster",
-                  "adavar.batch", "adavar.demo", "adavar.precompile"]),
+    ("pipeline", ["adavar.analysis", "adavar.report_analysis", "adavar.batch_state",
+                  "adavar.batch_cluster", "adavar.batch", "adavar.demo", "adavar.precompile"]),
     ("cli", ["adavar.cli.*"]),
     ("package", ["adavar"]),
 ]  # fmt: skip

@@ -27,7 +27,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar import analysis, batch, cli, simulate, writers
+from adavar import analysis, batch, cli, report_analysis, simulate, writers
 from adavar import report as report_module
 from adavar.adaptive import record_windows
 from adavar.batch import (
@@ -624,7 +624,7 @@ def _slow_runs(mask):
 @settings(max_examples=200, deadline=None)
 @given(st.lists(st.booleans(), max_size=60))
 def test_runs_equal_a_plain_loop(mask):
-    assert analysis._runs(np.array(mask, dtype=bool)) == _slow_runs(mask)
+    assert report_analysis._runs(np.array(mask, dtype=bool)) == _slow_runs(mask)
 
 
 def test_events_are_the_node_times_of_the_schedule(records):

@@ -46,9 +46,17 @@ from adavar.events import Event, flag_runs, join_runs
 from adavar.ici import ici_schedule
 from adavar.inputs import DATA_TYPE_ALIASES, as_samples, refuse_masked, scaled, scaled_source
 from adavar.long_tau import LONG_TAU_SAMPLES, long_tau_changes
+from adavar.request import MethodOptions, settings_keywords
 from adavar.results import DavarResult
 from adavar.sampling import RATE_DEFAULT, resolve_rate, resolve_tau0
-from adavar.settings import CONTROLLER, HOURLY_FALSE_ALARMS, ICI_GAMMA, THRESHOLDS, threshold_mode
+from adavar.settings import (
+    CONTROLLER,
+    HOURLY_FALSE_ALARMS,
+    ICI_GAMMA,
+    THRESHOLDS,
+    ControllerSettings,
+    threshold_mode,
+)
 from adavar.sources import ChunkedSource
 from adavar.surface import davar, davar_blocks
 from adavar.thresholds import Thresholds, calibrated_thresholds, threshold_summary
@@ -592,6 +600,8 @@ def adaptive_davar(
     bounds: bool = True,
     dependence: Sequence[float] | None = None,
     kurtosis_reference: str | dict = "record",
+    settings: ControllerSettings | None = None,
+    method_options: MethodOptions | None = None,
 ) -> AdaptiveResult:
     """Dynamic Allan variance with the adaptive window of the paper (A-DAVAR), or a baseline.
 
@@ -738,6 +748,14 @@ def adaptive_davar(
         ``parameters["kurtosis_reference_fit"]`` gives the fit (which, given here as a dict,
         is used as it is, as ``dependence``). ``"gaussian"``: Gaussian noise (the behaviour
         before 0.2). Not used with ``thresholds="paper"``.
+    settings : ControllerSettings, optional
+        The controller's keywords (``lmax`` ... ``false_alarm_per_hour``) as one object
+        (:class:`adavar.settings.ControllerSettings`; the analyses' default is
+        :data:`adavar.request.ANALYSIS_CONTROLLER`); its fields replace those keywords. A
+        keyword also given with another value is an error.
+    method_options : MethodOptions, optional
+        ``method``, ``change_times``, ``dependence``, ``kurtosis_reference`` and the ICI
+        keywords as one object (:class:`adavar.request.MethodOptions`), as ``settings``.
 
     Returns
     -------
@@ -750,19 +768,10 @@ def adaptive_davar(
     The controller is an O(N) sequential pass; the surface is :func:`adavar.davar` with
     ``window`` = the schedule, so it costs what a fixed window costs.
     """
+    given = {k: v for k, v in locals().items() if k not in ("data", "settings", "method_options")}
+    keywords = settings_keywords(adaptive_davar, given, settings, method_options)
     # the body is shared with adaptive_blocks
-    return next(_adaptive_surfaces(
-        data, method=method, lmax=lmax, lmin=lmin, k1=k1, k2=k2, s1=s1, s2=s2, l=l,
-        dl0=dl0, dl1=dl1, s_test=s_test, combine=combine, taus=taus, edges=edges,
-        change_times=change_times, thresholds=thresholds, false_alarm=false_alarm, step=step,
-        confidence=confidence, data_type=data_type, rate=rate, tau0=tau0, t0=t0,
-        points_per_decade=points_per_decade, noise_type=noise_type, units=units,
-        chunk_size=chunk_size, edge_edf=edge_edf, false_alarm_per_hour=false_alarm_per_hour,
-        ici_gamma=ici_gamma, ici_lengths=ici_lengths, ici_taus=ici_taus, ici_sides=ici_sides,
-        ici_edf=ici_edf, ici_edf_samples=ici_edf_samples, ici_kurtosis=ici_kurtosis,
-        ici_episodes=ici_episodes, ici_long_tau=ici_long_tau, bounds=bounds, in_blocks=False,
-        block_values=None, dependence=dependence, kurtosis_reference=kurtosis_reference,
-    ))  # fmt: skip
+    return next(_adaptive_surfaces(data, **keywords, in_blocks=False, block_values=None))
 
 
 def adaptive_blocks(
@@ -797,6 +806,8 @@ def adaptive_blocks(
     arguments = inspect.signature(adaptive_davar).bind(data, **options)
     arguments.apply_defaults()
     given = dict(arguments.arguments)
+    settings, method_options = given.pop("settings"), given.pop("method_options")
+    given = settings_keywords(adaptive_davar, given, settings, method_options)
     if sources.is_dask(data):
         raise AdavarInputError(
             "adaptive_blocks takes an array or a file read piece by piece, not a dask array: "

@@ -1,30 +1,27 @@
-"""The analysis of one file: the pipeline behind ``adavar avar``, ``davar``, ``adaptive``,
-``report`` and ``batch``.
+"""The analysis of one file: the pipeline behind ``adavar davar``, ``adaptive``, ``report``
+and ``batch``.
 
-load (:func:`load_input`: read the record, its rate and unit, preprocess it) -> analyse
-(:func:`analyse_channel`: deviation and noise fit, the DAVAR surface and the coefficients
-over time). :func:`analyse_file` does both for one file exactly as ``adavar report FILE``
-and every task of ``adavar batch`` compute it (:class:`ReportAnalysis`).
+A command builds one :class:`~adavar.request.AnalysisRequest` from its flags and calls
+:func:`run`: read (:func:`read_input`: the record, its rate and unit, preprocessed; a file
+piece by piece where it can) -> the window-like lengths in samples of the record
+(:func:`resolve_lengths`) and the surface's resolution (:func:`resolve_resolution`) ->
+analyse each channel (:func:`analyse_channel`: deviation and noise fit, the DAVAR surface
+and the coefficients over time). :func:`adavar.report_analysis.analyse_file` is the same for
+one file as ``adavar report FILE`` and every task of ``adavar batch`` compute it.
 
-The options are any object with the commands' option names as attributes (an
-``argparse.Namespace`` from the command line, or the options of
-:func:`adavar.batch.run_batch`, completed by :func:`report_options` from
-:data:`adavar.settings.ANALYSIS_DEFAULTS`); :func:`fit_keywords`,
-:func:`controller_settings` and :func:`chunk_keywords` turn them into the library
-functions' keywords, in one place. Problems with the input raise
-:class:`adavar.errors.AdavarInputError`; nothing is printed.
+The keyword layer: :func:`analyse_channel`, :func:`resolve_lengths` and :func:`load_input`
+also take an options object with the flags' names (an ``argparse.Namespace``), and
+:func:`fit_keywords`, :func:`controller_settings` and :func:`chunk_keywords` turn a request
+or options into the library functions' keywords, in one place. Problems with the input
+raise :class:`adavar.errors.AdavarInputError`; nothing is printed.
 """
 
 from __future__ import annotations
 
-import argparse
 import copy
-import functools
-import os
-from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from functools import partial
-from pathlib import Path
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -39,28 +36,164 @@ from adavar.adaptive import (
 from adavar.durations import to_samples
 from adavar.errors import AdavarInputError
 from adavar.noise_model import TERM_NAMES, fit_noise
+from adavar.request import AnalysisRequest, RecordRequest
 from adavar.settings import ControllerSettings, FitSettings
 from adavar.statistics import deviation
 from adavar.surface import davar
 
 __all__ = [
+    "AnalysisRun",
     "ChannelAnalysis",
-    "ReportAnalysis",
+    "LoadedInput",
     "analyse_channel",
-    "analyse_file",
     "chunk_keywords",
     "controller_settings",
     "fit_keywords",
     "load_input",
-    "report_options",
-    "report_parameters",
+    "rate_keywords",
+    "read_input",
     "resolve_lengths",
     "resolve_resolution",
+    "run",
     "window_fit_keywords",
 ]
 
-_ALIASES = {"l": "segment"}
-_LENGTHS = ("window", "lmax", "lmin", "segment", "step")
+@dataclass(eq=False)
+class LoadedInput:
+    """A record as :func:`read_input` read it.
+
+    Attributes
+    ----------
+    channels : dict
+        Name -> samples (an array, or a source read piece by piece); with ``--gaps split``
+        one entry per gap-free piece.
+    units : dict
+        Name -> the samples' unit.
+    meta : dict
+        How they were read (``path``, ``column`` (the first), ``kind``, ``rate_from``,
+        ``reader``, ``preprocessing``, ``columns``, ``pieces``).
+    tau0 : float
+        Sample interval (s).
+    record : RecordRequest
+        The request as read: ``data_type`` as the file says (a Stable32 ``.phd`` file holds
+        phase), ``rate`` or ``tau0`` as the analysis uses them.
+    """
+
+    channels: dict[str, Any]
+    units: dict[str, str]
+    meta: dict[str, Any]
+    tau0: float
+    record: RecordRequest
+
+    @property
+    def first(self) -> tuple[Any, str]:
+        """The first channel's samples and unit."""
+        name = next(iter(self.channels))
+        return self.channels[name], self.units[name]
+
+
+def read_input(
+    record: RecordRequest,
+    *,
+    several: bool = False,
+    pieces: bool | None = None,
+    out_of_core: bool = False,
+    hint: str = " (or several, comma-separated, e.g. --column a,b)",
+) -> LoadedInput:
+    """Read a record's channels, preprocess them, and settle their unit and tau0 (seconds).
+
+    With ``out_of_core`` (the analyses that stream), a memory-mapped ``.npy`` column or a
+    lazy HDF5/Parquet channel is passed on as it is, so a record larger than memory is read
+    piece by piece; preprocessing loads it.
+
+    With ``several``, every selected channel (``column="gx,gy,gz"``, or all numeric
+    columns) is read; else the file must have one (or ``column`` choose it; ``hint`` ends
+    that error). With ``pieces`` (default: ``several``), ``gaps="split"`` gives each
+    gap-free piece of a channel as a channel of its own.
+
+    The rate comes from ``rate``/``tau0`` or from the file's time stamps (both: they must
+    agree); the unit from ``units`` or from the format (ROS bags declare rad/s and m/s^2).
+    ``record`` is not changed: :attr:`LoadedInput.record` is the request as read.
+    """
+    from adavar._heap import release_free_memory
+    from adavar.preprocess import preprocess
+    from adavar.readers import file_data_type, read_record
+
+    if record.rate is not None and record.tau0 is not None:
+        raise AdavarInputError("give exactly one of --rate HZ or --tau0 SECONDS (both given)")
+    declared = record.rate if record.rate is not None else (
+        1.0 / record.tau0 if record.tau0 is not None else None
+    )  # fmt: skip
+    gaps, nan = record.reader_gaps()
+    read = read_record(
+        record.file, columns=record.column, rate=declared,
+        time_column=record.time_column, time_format=record.time_format,
+        gaps=gaps, nan=nan, dataset=record.dataset, topic=record.topic,
+        gap_tolerance=record.gap_tolerance, lazy=record.lazy,
+        memory_map=False,  # .npy read with file reads: a file cut short is an error, no SIGBUS
+    )  # fmt: skip
+    # a Stable32 .phd file holds phase, a .frd frequency
+    data_type = file_data_type(record.file, record.data_type)
+    if len(read.names) != 1 and not several:
+        raise AdavarInputError(
+            f"{record.file} has {len(read.names)} channels ({', '.join(read.names)}): "
+            f"choose one with --column{hint}"
+        )
+    given = record.units.strip() if record.units and record.units.strip() else None
+    units_of = read.units_of(given)  # --units must agree with the units the file declares
+    if not all(units_of.values()):
+        raise AdavarInputError(
+            "declare the unit of the samples with --units (e.g. --units deg/s); adavar never "
+            "guesses units"
+        )
+    rate = float(read.rate)
+    steps: list[dict[str, Any]] = []
+    channels: dict[str, Any] = {}
+    split = read.segments is not None and len(read.segments) > 1
+    if split and not (several if pieces is None else pieces):
+        raise AdavarInputError(
+            f"{record.file} has {len(read.segments)} gap-free pieces: --gaps split is for "
+            "adavar avar; here use --gaps interpolate, or give a file with one piece"
+        )
+    for name in read.names:
+        parts = read.pieces(name) if split else [read.channel(name)]
+        for k, piece in enumerate(parts):
+            preprocessing = bool(record.preprocess)
+            if out_of_core and not preprocessing and sources.is_chunked(piece):
+                x = piece
+            else:
+                x = np.asarray(piece, dtype=np.float64)
+            if preprocessing:
+                x, new_rate, steps = preprocess(x, rate=float(read.rate),
+                                                steps=record.preprocess)  # fmt: skip
+                rate = float(new_rate)
+            key = f"{name} piece {k + 1}" if split else name
+            channels[key] = x
+            units_of[key] = units_of[name]
+    name = next(iter(channels))
+    tau0 = float(record.tau0) if record.tau0 is not None and not steps else 1.0 / rate
+    # the rate as the analysis gives it: as declared (times are centre / rate, without
+    # rounding), from the time stamps, or tau0 as declared
+    used_rate = float(record.rate) if record.rate is not None and not steps else rate
+    rate_tau0 = (used_rate, None) if record.tau0 is None or steps else (None, tau0)
+    meta = {
+        "path": str(record.file), "column": name, "kind": read.kind,
+        "rate_from": "declared" if declared is not None else "time stamps",
+        "reader": read.meta, "preprocessing": steps, "columns": list(read.names),
+        "pieces": None if not split else [
+            [float(read.time[sl.start]), float(read.time[sl.stop - 1])]
+            for sl in read.segments
+        ],
+    }  # fmt: skip
+    # the record's other columns, its time stamps and the parser threads' arenas are
+    # freed now: their pages go back before the analysis makes its peak
+    read = piece = parts = x = None
+    release_free_memory()
+    as_read = dataclasses.replace(record, data_type=data_type, rate=rate_tau0[0],
+                                  tau0=rate_tau0[1])  # fmt: skip
+    return LoadedInput(channels={k: channels[k] for k in channels},
+                       units={k: units_of[k] for k in channels}, meta=meta, tau0=tau0,
+                       record=as_read)  # fmt: skip
 
 
 def load_input(
@@ -70,172 +203,119 @@ def load_input(
     pieces: bool | None = None,
     out_of_core: bool = False,
 ) -> tuple[Any, dict[str, Any], Any, float]:
-    """Read FILE's column, preprocess it, and settle its unit and tau0 (seconds).
+    """:func:`read_input` for an options object (a command's namespace).
 
-    With ``out_of_core`` (commands whose analysis streams: avar, davar, adaptive), a
-    memory-mapped ``.npy`` column or a lazy HDF5/Parquet channel is passed on as it is,
-    so a record larger than memory is read piece by piece; preprocessing loads it.
-
-    With ``several``, every selected channel (``--column gx,gy,gz``, or all numeric
-    columns) is returned: a dict name -> samples, and a dict name -> unit. With
-    ``pieces`` (default: ``several``), ``--gaps split`` gives each gap-free piece of a
-    channel as a channel of its own.
-
-    The rate comes from --rate/--tau0 or from the file's time stamps (both: they must
-    agree); the unit from --units or from the format (ROS bags declare rad/s and m/s^2).
+    Sets ``args.data_type`` (as the file says), ``args.rate`` and ``args.tau0`` (as the
+    analysis uses them) on the object given. Returns ``(samples, meta, units, tau0)``; with
+    ``several`` the samples and units are dicts by channel.
     """
-    from adavar._heap import release_free_memory
-    from adavar.preprocess import preprocess
-    from adavar.readers import file_data_type, read_record
-
-    if args.rate is not None and args.tau0 is not None:
-        raise AdavarInputError("give exactly one of --rate HZ or --tau0 SECONDS (both given)")
-    declared = args.rate if args.rate is not None else (
-        1.0 / args.tau0 if args.tau0 is not None else None
+    hint = "" if getattr(args, "command", None) == "compare" else (
+        " (or several, comma-separated, e.g. --column a,b)"
     )  # fmt: skip
-    option = partial(getattr, args)
-    record = read_record(
-        args.file, columns=args.column, rate=declared,
-        time_column=option("time_column", None), time_format=option("time_format", "auto"),
-        gaps=option("gaps", "error"), nan=option("nan", "error"),
-        dataset=option("dataset", None), topic=option("topic", None),
-        gap_tolerance=option("gap_tolerance", 0.5), lazy=option("lazy", None),
-        memory_map=False,  # .npy read with file reads: a file cut short is an error, no SIGBUS
-    )  # fmt: skip
-    if hasattr(args, "data_type"):  # a Stable32 .phd file holds phase, a .frd frequency
-        args.data_type = file_data_type(args.file, args.data_type)
-    if len(record.names) != 1 and not several:
-        raise AdavarInputError(
-            f"{args.file} has {len(record.names)} channels ({', '.join(record.names)}): "
-            "choose one with --column"
-            + ("" if getattr(args, "command", None) == "compare"
-               else " (or several, comma-separated, e.g. --column a,b)")
-        )  # fmt: skip
-    given = args.units.strip() if args.units and args.units.strip() else None
-    units_of = record.units_of(given)  # --units must agree with the units the file declares
-    if not all(units_of.values()):
-        raise AdavarInputError(
-            "declare the unit of the samples with --units (e.g. --units deg/s); adavar never "
-            "guesses units"
-        )
-    rate = float(record.rate)
-    steps: list[dict[str, Any]] = []
-    channels: dict[str, np.ndarray] = {}
-    split = record.segments is not None and len(record.segments) > 1
-    if split and not (several if pieces is None else pieces):
-        raise AdavarInputError(
-            f"{args.file} has {len(record.segments)} gap-free pieces: --gaps split is for "
-            "adavar avar; here use --gaps interpolate, or give a file with one piece"
-        )
-    for name in record.names:
-        pieces = record.pieces(name) if split else [record.channel(name)]
-        for k, piece in enumerate(pieces):
-            preprocessing = bool(getattr(args, "preprocess", None))
-            if out_of_core and not preprocessing and sources.is_chunked(piece):
-                x = piece
-            else:
-                x = np.asarray(piece, dtype=np.float64)
-            if preprocessing:
-                x, new_rate, steps = preprocess(x, rate=float(record.rate),
-                                                steps=args.preprocess)  # fmt: skip
-                rate = float(new_rate)
-            key = f"{name} piece {k + 1}" if split else name
-            channels[key] = x
-            units_of[key] = units_of[name]
-    name = next(iter(channels))
-    samples = channels[name]
-    units = units_of[name]
-    if args.tau0 is not None and not steps:
-        tau0 = float(args.tau0)
-    else:
-        tau0 = 1.0 / rate
-    if args.rate is not None and not steps:
-        args_rate = float(args.rate)
-    else:
-        args_rate = rate
-    args.rate, args.tau0 = (args_rate, None) if args.tau0 is None or steps else (None, tau0)
-    meta = {
-        "path": str(args.file), "column": name, "kind": record.kind,
-        "rate_from": "declared" if declared is not None else "time stamps",
-        "reader": record.meta, "preprocessing": steps, "columns": list(record.names),
-        "pieces": None if not split else [
-            [float(record.time[sl.start]), float(record.time[sl.stop - 1])]
-            for sl in record.segments
-        ],
-    }  # fmt: skip
-    # the record's other columns, its time stamps and the parser threads' arenas are
-    # freed now: their pages go back before the analysis makes its peak
-    record = piece = pieces = x = None
-    release_free_memory()
+    loaded = read_input(RecordRequest.from_options(args), several=several, pieces=pieces,
+                        out_of_core=out_of_core, hint=hint)  # fmt: skip
+    if hasattr(args, "data_type"):
+        args.data_type = loaded.record.data_type
+    args.rate, args.tau0 = loaded.record.rate, loaded.record.tau0
     if several:
-        return channels, meta, units_of, tau0
-    return samples, meta, units, tau0
+        return loaded.channels, loaded.meta, loaded.units, loaded.tau0
+    samples, units = loaded.first
+    return samples, loaded.meta, units, loaded.tau0
+
+
+def _lengths(
+    tau0: float, n_samples: int | None, *, window: Any, lmax: Any, lmin: Any, segment: Any,
+    step: Any, adaptive: bool,
+) -> dict[str, Any]:  # fmt: skip
+    """The window-like lengths in samples (the one rule of :func:`resolve_lengths`)."""
+    out: dict[str, Any] = {}
+    if window is not None:
+        out["window"] = to_samples(window, tau0, "--window")
+    if not adaptive:
+        if step is not None:
+            out["step"] = to_samples(step, tau0, "--step")
+        return out
+    if None in (lmax, lmin, segment):
+        if lmax is None and n_samples is None:  # pragma: no cover - callers pass it
+            raise AdavarInputError("the record's length is needed to choose the windows")
+        given = None if lmax is None else to_samples(lmax, tau0, "--lmax")
+        chosen = record_windows(n_samples or 0, given)
+        out["windows_from"] = "record" if lmax is None else "lmax"
+        lmax, lmin, segment = (chosen[k] if v is None else v
+                               for k, v in enumerate((lmax, lmin, segment)))  # fmt: skip
+    else:
+        out["windows_from"] = "flags"
+    out["lmax"], out["lmin"], out["segment"], chosen_step = window_lengths(
+        tau0, lmax=lmax, lmin=lmin, l=segment, step=1 if step is None else step,
+    )  # fmt: skip
+    if step is not None:  # None: resolve_resolution chooses it
+        out["step"] = chosen_step
+    return out
 
 
 def resolve_lengths(args: Any, tau0: float, n_samples: int | None = None) -> Any:
-    """The options with the window-like ones (``window``, ``lmax``, ``lmin``, ``segment``
-    = ``l``, ``step``) in samples of this record: a copy, ``args`` is left as it is.
+    """The request (or options) with the window-like lengths (``window``, ``lmax``,
+    ``lmin``, ``segment`` = ``l``, ``step``) in samples of this record: a copy, the one
+    given is left as it is.
 
     Durations (``"10min"``) are converted with ``tau0``. An adaptive window not given
     (``lmax``, ``lmin`` or ``segment`` None) takes the paper's proportions
     (:func:`adavar.adaptive.record_windows`): Lmax a tenth of the ``n_samples``-sample
     record, Lmin two thirds and l a sixth of Lmax. ``windows_from`` says which:
     ``"flags"``, ``"lmax"`` (Lmin and l from it) or ``"record"``.
+
+    ``args`` is an :class:`~adavar.request.AnalysisRequest` (a new one is returned) or an
+    options object with the flags' names (the controller's lengths resolved only when it
+    has ``lmax``).
     """
+    if isinstance(args, AnalysisRequest):
+        c, w = args.controller, args.window
+        # the controller's lengths: for the adaptive window, or given (a fixed window's
+        # events read l)
+        controller = w.adaptive or any(v is not None for v in (c.lmax, c.lmin, c.l))
+        out = _lengths(tau0, n_samples, window=w.window, lmax=c.lmax, lmin=c.lmin,
+                       segment=c.l, step=w.step, adaptive=controller)  # fmt: skip
+        if "segment" in out:
+            out["l"] = out.pop("segment")
+        if args.windows_from is not None:  # resolved before: where they came from stays
+            out.pop("windows_from", None)
+        return args.with_lengths(**out)
+    out = _lengths(tau0, n_samples, window=getattr(args, "window", None),
+                   lmax=getattr(args, "lmax", None), lmin=getattr(args, "lmin", None),
+                   segment=getattr(args, "segment", None), step=getattr(args, "step", None),
+                   adaptive=hasattr(args, "lmax"))  # fmt: skip
     args = copy.copy(args)
-    if getattr(args, "window", None) is not None:
-        args.window = to_samples(args.window, tau0, "--window")
-    if hasattr(args, "lmax"):
-        chosen = args.lmax, args.lmin, args.segment
-        if None in chosen:
-            if args.lmax is None and n_samples is None:  # pragma: no cover - callers pass it
-                raise AdavarInputError("the record's length is needed to choose the windows")
-            given = None if args.lmax is None else to_samples(args.lmax, tau0, "--lmax")
-            lmax, lmin, seg = record_windows(n_samples or 0, given)
-            args.windows_from = "record" if args.lmax is None else "lmax"
-            args.lmax = lmax if args.lmax is None else args.lmax
-            args.lmin = lmin if args.lmin is None else args.lmin
-            args.segment = seg if args.segment is None else args.segment
-        else:
-            args.windows_from = "flags"
-        step = getattr(args, "step", None)
-        args.lmax, args.lmin, args.segment, chosen_step = window_lengths(
-            tau0, lmax=args.lmax, lmin=args.lmin, l=args.segment,
-            step=1 if step is None else step,
-        )  # fmt: skip
-        if step is not None:  # None: resolve_resolution chooses it
-            args.step = chosen_step
-    elif getattr(args, "step", None) is not None:
-        args.step = to_samples(args.step, tau0, "--step")
+    for name, value in out.items():
+        setattr(args, name, value)
     return args
 
 
 def resolve_resolution(
-    args: Any, tau0: float, n_samples: int, channels: int = 1
-) -> tuple[Any, str | None]:
+    request: AnalysisRequest, tau0: float, n_samples: int, channels: int = 1
+) -> tuple[AnalysisRequest, str | None]:
     """Taus and centres of a surface the user left to adavar (``taus`` / ``step`` None).
 
     The rule of :func:`adavar.adaptive.surface_resolution` (the library's default too):
     ``taus`` ``"all"`` while that is at most :data:`~adavar.settings.MAX_ALL_TAUS` taus, else
     ``"log"`` (10 per decade); ``step`` every centre while the surfaces of the ``channels``
-    channels fit ``args.max_memory`` MB together at
+    channels fit ``max_memory`` MB together at
     :data:`adavar.window_defaults.CELL_BYTES` a cell, else every ``step``-th. Returns a
-    copy of the options with them (``args`` is left as it is) and a sentence saying what
-    was chosen and why (None when nothing was).
+    new request with them and a sentence saying what was chosen and why (None when
+    nothing was).
     """
-    args = copy.copy(args)
-    longest = args.lmax if getattr(args, "command", None) == "adaptive" else args.window
-    args.taus, args.step, why = surface_resolution(
-        int(longest), n_samples, tau0, taus=args.taus, step=args.step,
-        points_per_decade=args.points_per_decade, max_memory=args.max_memory,
-        channels=channels,
+    w = request.window
+    longest = request.controller.lmax if w.adaptive else w.window
+    taus, step, why = surface_resolution(
+        int(longest), n_samples, tau0, taus=w.taus, step=w.step,
+        points_per_decade=w.points_per_decade, max_memory=w.max_memory, channels=channels,
     )  # fmt: skip
+    request = request.with_lengths(taus=taus, step=step)
     if not why:
-        return args, None
+        return request, None
     shared = f" ({channels} channels' surfaces together)" if channels > 1 else ""
-    return args, (
+    return request, (
         "resolution: " + ", ".join(why) + f", to keep the surface within --max-memory "
-        f"{args.max_memory:g} MB{shared} (give --taus / --step to choose)"
+        f"{w.max_memory:g} MB{shared} (give --taus / --step to choose)"
     )
 
 
@@ -245,21 +325,23 @@ class ChannelAnalysis:
 
     Attributes
     ----------
-    result : DeviationResult
-        The deviation at the chosen taus.
-    fit : NoiseFit
-        Its noise fit.
+    result : DeviationResult or None
+        The whole record's deviation (``whole="fit"``; ``whole="reference"``: the octave
+        curve of the windows' reference fit, or None).
+    fit : NoiseFit or None
+        Its noise fit (``whole="reference"``: the full-covariance reference, or None).
     surface, adaptive, coefficients
         The DAVAR surface (a result, or a :class:`~adavar.surface_fit.BlockFit` with
         ``keep="figures"``), the adaptive windows (None for a fixed window) and the fit of
-        every window; all None without ``window`` or ``adaptive``.
+        every window (None without bounds or for a variance other than the Allan
+        variance); all None without ``window`` or ``adaptive``.
     units, rate_units : str
         The samples' unit and the rate unit of the deviation.
     samples : int
         Number of samples.
-    options : object
-        The options as used: a copy of the given ones with the window-like lengths in
-        samples of this record (:func:`resolve_lengths`).
+    request : AnalysisRequest
+        The request as used: the window-like lengths in samples of this record
+        (:func:`resolve_lengths`).
     events, shape, controller : dict or None
         Filled in by the commands that show them (the events, :func:`surface_shape`, the
         controller's parameters).
@@ -273,20 +355,57 @@ class ChannelAnalysis:
     units: str
     rate_units: str
     samples: int
-    options: Any
+    request: AnalysisRequest
     events: dict[str, Any] | None = None
     shape: dict[str, Any] | None = None
     controller: dict[str, Any] | None = None
 
+    @property
+    def options(self) -> Any:
+        """The request as used, flat, by the flags' names (:meth:`AnalysisRequest.options`)."""
+        return self.request.options()
+
+
+#: What :func:`analyse_channel` and :func:`analyse_file` keep of a surface.
+KEEP = ("all", "figures")
+#: What :func:`analyse_channel` computes of the whole record.
+WHOLE = ("fit", "reference")
+
+
+def as_request(options: Any) -> AnalysisRequest:
+    """An :class:`~adavar.request.AnalysisRequest` as it is, or one from options by the
+    flags' names (the keyword layer)."""
+    return options if isinstance(options, AnalysisRequest) else (
+        AnalysisRequest.from_options(options)
+    )  # fmt: skip
+
+
+def rate_keywords(request: AnalysisRequest, tau0: float) -> dict[str, Any]:
+    """``rate``/``tau0`` for the library: the rate as given (times are centre / rate,
+    without rounding noise), else tau0."""
+    rate = request.record.rate
+    return dict(rate=rate if rate is not None else 1.0, tau0=None if rate is not None else tau0)
+
 
 def analyse_channel(
-    args: Any, samples: np.ndarray, units: str, tau0: float, status: Callable[[str], None],
-    tag: str = "", keep: str = "all",
+    request: AnalysisRequest | Any, samples: Any, units: str, tau0: float,
+    status: Callable[[str], None] | None = None, tag: str = "", keep: str = "all",
+    whole: str = "fit",
 ) -> ChannelAnalysis:  # fmt: skip
-    """The analysis of one channel that ``adavar report`` shows and ``adavar batch`` writes.
+    """One channel's analysis: the whole record's deviation and noise fit, and (with a
+    window) the DAVAR surface and the fit of every window.
 
-    The deviation at the chosen taus, its noise fit, and (with ``window`` or ``adaptive``)
-    the DAVAR surface and the fit of every window. ``status`` receives one line per step.
+    ``request`` is an :class:`~adavar.request.AnalysisRequest` (or options by the flags'
+    names); ``status`` receives one line per step.
+
+    ``whole="fit"`` (``adavar report``, ``adavar batch``): the deviation and noise fit of
+    the whole record, the reference of the windows' fits when it is a full-covariance
+    fit. ``whole="reference"`` (``adavar davar``, ``adavar adaptive``): only the
+    full-covariance fit of the octave curve the windows' fits take as reference (the
+    sensor's roll-off is the same in every window), and only when the windows are fitted
+    (bounds on, the Allan variance) with ``fit.method`` ``"auto"`` or ``"gls"``; a record
+    too short for it has none.
+
     ``keep="figures"``: the surface is computed and fitted a block of windows at a time
     (:mod:`adavar.surface_fit`); ``surface`` is then a :class:`~adavar.surface_fit.BlockFit`
     (the rows the report draws, every window's time, length, centre and coefficients),
@@ -297,55 +416,176 @@ def analyse_channel(
     """
     if keep not in KEEP:
         raise AdavarInputError(f"unknown keep {keep!r}: use one of {', '.join(KEEP)}")
+    if whole not in WHOLE:
+        raise AdavarInputError(f"unknown whole {whole!r}: use one of {', '.join(WHOLE)}")
     from adavar.units import rate_unit
 
-    rate_u = rate_unit(units, args.data_type)
-    args = resolve_lengths(args, tau0, int(np.size(samples)))
-    rate_kw = dict(
-        rate=args.rate if args.rate is not None else 1.0,
-        tau0=None if args.rate is not None else tau0,
-    )  # fmt: skip
-    status(f"{tag}deviation and noise fit of {samples.size} samples")
-    result = deviation(samples, data_type=args.data_type, units=rate_u, **rate_kw)
-    try:
-        fit = fit_noise(result, **fit_keywords(args))
-    except ValueError as exc:
-        raise AdavarInputError(str(exc)) from None
+    status = status or (lambda what: None)
+    request = resolve_lengths(as_request(request), tau0, int(np.size(samples)))
+    record, w = request.record, request.window
+    rate_u = rate_unit(units, record.data_type)
+    rate_kw = rate_keywords(request, tau0)
+    n = int(np.size(samples))
+    fit_windows = w.surface and w.confidence is not None and w.stat == "oavar"
+    result = fit = None
+    if whole == "fit":
+        status(f"{tag}deviation and noise fit of {n} samples")
+        result = deviation(samples, data_type=record.data_type, units=rate_u, **rate_kw)
+        try:
+            fit = fit_noise(result, settings=request.fit)
+        except ValueError as exc:
+            raise AdavarInputError(str(exc)) from None
     surface = adaptive = coefficients = None
-    common = dict(data_type=args.data_type, taus=args.taus, step=args.step, units=rate_u,
+    common = dict(data_type=record.data_type, taus=w.taus, step=w.step, units=rate_u,
                   **rate_kw)  # fmt: skip
-    if keep == "figures" and (args.adaptive or args.window is not None):
-        kind = "adaptive " if args.adaptive else ""
+    if keep == "figures" and w.surface:
+        kind = "adaptive " if w.adaptive else ""
         status(f"{tag}{kind}DAVAR surface and noise coefficients of every window")
-        surface = _fit_in_blocks(args, samples, fit, common)
+        surface = _fit_in_blocks(request, samples, fit, common)
         coefficients = surface.fit
-        adaptive = surface.windows if args.adaptive else None
-    elif args.adaptive:
-        status(f"{tag}adaptive DAVAR surface")
-        adaptive = adaptive_davar(samples, **controller_settings(args), **common)
-        surface = adaptive
-    elif args.window is not None:
-        status(f"{tag}DAVAR surface")
-        surface = davar(samples, window=args.window, **common)
-    if surface is not None and coefficients is None:
-        status(f"{tag}noise coefficients of every window")
+        adaptive = surface.windows if w.adaptive else None
+    elif w.surface:
+        status(f"{tag}computing the {'adaptive ' if w.adaptive else ''}DAVAR surface of "
+               f"{n} samples")  # fmt: skip
+        common.update(w.keywords(), **record.chunk_keywords())
+        if w.adaptive:
+            adaptive = adaptive_davar(samples, settings=request.controller,
+                                      method_options=request.method_options,
+                                      **common)  # fmt: skip
+            surface = adaptive
+        else:
+            surface = davar(samples, window=w.window, stat=w.stat, gaps=record.omit, **common)
+    if surface is not None and coefficients is None and fit_windows:
+        if whole == "fit":
+            status(f"{tag}noise coefficients of every window")
+        else:
+            status(f"{tag}fitting the noise terms of every window")
+            if request.fit.method in ("auto", "gls"):
+                result, fit = _reference_fit(request, samples, rate_u, rate_kw)
         try:
             # the windows' coefficients only: no per-cell residuals (a surface's size)
-            coefficients = fit_noise(surface, **window_fit_keywords(args, fit), cells=False)
+            coefficients = fit_noise(surface, **window_fit_keywords(request, fit), cells=False)
         except ValueError as exc:
             raise AdavarInputError(str(exc)) from None
     return ChannelAnalysis(
         result=result, fit=fit, surface=surface, adaptive=adaptive, coefficients=coefficients,
-        units=units, rate_units=rate_u, samples=int(samples.size), options=args,
+        units=units, rate_units=rate_u, samples=n, request=request,
     )  # fmt: skip
 
 
-#: What :func:`analyse_channel` and :func:`analyse_file` keep of a surface.
-KEEP = ("all", "figures")
+def _reference_fit(
+    request: AnalysisRequest, samples: Any, rate_u: str, rate_kw: dict[str, Any]
+) -> tuple[Any, Any]:  # fmt: skip
+    """The full-covariance fit of the whole record's octave curve (and the curve): the
+    reference of the windows' fits. (None, None) if the record is too short for it."""
+    try:
+        curve = deviation(samples, data_type=request.record.data_type, taus="octave",
+                          units=rate_u, gaps=request.record.omit, **rate_kw,
+                          **request.record.chunk_keywords())  # fmt: skip
+        return curve, fit_noise(curve, **{**fit_keywords(request), "method": "gls"})
+    except (ValueError, AdavarInputError):  # too short a record for the curve: no reference
+        return None, None
+
+
+@dataclass(eq=False)
+class AnalysisRun:
+    """What :func:`run` computed for one file.
+
+    Attributes
+    ----------
+    channels : dict
+        Name -> :class:`ChannelAnalysis`.
+    meta : dict
+        How the file was read (:class:`LoadedInput`).
+    tau0 : float
+        Sample interval (s).
+    request : AnalysisRequest
+        The request as used: the record as read, the lengths of the first channel in
+        samples, the resolution chosen.
+    resolution : str or None
+        What was chosen of a surface's taus and centres and why (None: nothing).
+    samples : dict
+        Name -> the samples analysed.
+    """
+
+    channels: dict[str, ChannelAnalysis]
+    meta: dict[str, Any]
+    tau0: float
+    request: AnalysisRequest
+    resolution: str | None
+    samples: dict[str, Any]
+
+
+def run(
+    request: AnalysisRequest,
+    *,
+    status: Callable[[str], None] | None = None,
+    channels: str = "chosen",
+    keep: str = "all",
+    whole: str = "fit",
+    check: Callable[[AnalysisRequest, LoadedInput], None] | None = None,
+    each: Callable[[str, ChannelAnalysis, Any], None] | None = None,
+) -> AnalysisRun:
+    """Read the record of ``request`` and analyse each of its channels.
+
+    The pipeline behind ``adavar report``, ``davar``, ``adaptive`` and (one channel a file)
+    ``batch``: :func:`read_input` (the file, piece by piece where it can), the window-like
+    lengths in samples of the record (:func:`resolve_lengths`), the surface's taus and
+    centres when left to adavar (:func:`resolve_resolution`), then :func:`analyse_channel`
+    for each channel.
+
+    Parameters
+    ----------
+    request : AnalysisRequest
+        What to read and compute (:meth:`AnalysisRequest.from_options` from a command's
+        options).
+    status : callable, optional
+        Receives one line per step.
+    channels : {"chosen", "one"}
+        ``"chosen"``: several channels when ``record.column`` names them; ``"one"``: the
+        one channel ``column`` chooses (a file of several needs it).
+    keep, whole : str
+        As :func:`analyse_channel`.
+    check : callable, optional
+        Called with the request (the record as read) and the :class:`LoadedInput` once
+        the record is read (the checks that need it).
+    each : callable, optional
+        Called with each channel's name, analysis and samples as soon as it is done (its
+        figures drawn before the next channel is computed).
+
+    Returns
+    -------
+    AnalysisRun
+    """
+    status = status or (lambda what: None)
+    status(f"reading {request.record.file}")
+    chosen = channels == "chosen" and request.record.column is not None
+    loaded = read_input(request.record, several=chosen, pieces=False, out_of_core=True)
+    request = dataclasses.replace(request, record=loaded.record)
+    first, _ = loaded.first
+    n_samples = int(getattr(first, "size", np.size(first)))
+    if check is not None:
+        check(request, loaded)
+    request = resolve_lengths(request, loaded.tau0, n_samples)
+    resolution = None
+    if request.window.surface:
+        request, resolution = resolve_resolution(request, loaded.tau0, n_samples,
+                                                 len(loaded.channels))  # fmt: skip
+    names = list(loaded.channels)
+    out: dict[str, ChannelAnalysis] = {}
+    for k, name in enumerate(names):
+        tag = f"{name} ({k + 1}/{len(names)}): " if len(names) > 1 else ""
+        out[name] = analyse_channel(request, loaded.channels[name], loaded.units[name],
+                                    loaded.tau0, status, tag, keep=keep,
+                                    whole=whole)  # fmt: skip
+        if each is not None:
+            each(name, out[name], loaded.channels[name])
+    return AnalysisRun(channels=out, meta=loaded.meta, tau0=loaded.tau0, request=request,
+                       resolution=resolution, samples=loaded.channels)  # fmt: skip
 
 
 def _fit_in_blocks(
-    args: Any, samples: np.ndarray, whole: Any, common: dict[str, Any]
+    request: AnalysisRequest, samples: Any, whole: Any, common: dict[str, Any]
 ) -> Any:  # fmt: skip
     """The surface of ``analyse_channel(..., keep="figures")``: a :class:`BlockFit`."""
     from adavar.report import MAX_SURFACE_TIMES, series_rows
@@ -353,16 +593,15 @@ def _fit_in_blocks(
 
     # the windows' coefficients only: no per-cell residuals (a surface's size); no
     # per-cell bounds (neither the report nor the fit reads them); the whole fit of the
-    # windows the coefficient figure draws, the coefficients of every window
-    # the coefficients of every window (five a window) wait in temporary files for the
-    # events, which read their stretches only
-    options = dict(fit_options={**window_fit_keywords(args, whole), "cells": False},
+    # windows the coefficient figure draws; the coefficients of every window (five a
+    # window) wait in temporary files for the events, which read their stretches only
+    options = dict(fit_options={**window_fit_keywords(request, whole), "cells": False},
                    drawn=MAX_SURFACE_TIMES, bounds=False, fit_rows=series_rows, spill=True,
                    **common)  # fmt: skip
     try:
-        if args.adaptive:
-            return fit_adaptive_in_blocks(samples, **controller_settings(args), **options)
-        return fit_davar_in_blocks(samples, window=args.window, **options)
+        if request.window.adaptive:
+            return fit_adaptive_in_blocks(samples, **request.controller.keywords(), **options)
+        return fit_davar_in_blocks(samples, window=request.window.window, **options)
     except ValueError as exc:
         raise AdavarInputError(str(exc)) from None
 
@@ -383,18 +622,32 @@ def surface_shape(surface: Any) -> dict[str, Any] | None:
 
 
 def controller_settings(args: Any) -> dict[str, Any]:
-    """The controller keywords of :func:`adavar.adaptive_davar` from the options."""
+    """The controller keywords of :func:`adavar.adaptive_davar` from a request or options."""
+    if isinstance(args, AnalysisRequest):
+        return args.controller.keywords()
     return ControllerSettings.from_options(args).keywords()
 
 
 def fit_keywords(args: Any) -> dict[str, Any]:
-    """The keywords of :func:`adavar.fit_noise` from the options."""
-    return dict(terms=args.terms or TERM_NAMES, n_reweight=args.n_reweight,
-                spacing=args.spacing, method=args.fit_method, select=args.select,
-                significance=args.significance, exclude=args.exclude, rolloff=args.rolloff,
-                tau_range=args.tau_range, bandwidth=args.bandwidth,
-                markov=getattr(args, "markov", "auto"),
-                bound_level=getattr(args, "bound_level", FitSettings.bound_level))  # fmt: skip
+    """The keywords of :func:`adavar.fit_noise` from a request (or options)."""
+    settings = _fit_settings(args)
+    return dict(terms=settings.terms or TERM_NAMES, n_reweight=settings.n_reweight,
+                spacing=settings.spacing, method=settings.method, select=settings.select,
+                significance=settings.significance, exclude=settings.exclude,
+                rolloff=settings.rolloff, tau_range=settings.tau_range,
+                bandwidth=settings.bandwidth, markov=settings.markov,
+                bound_level=settings.bound_level)  # fmt: skip
+
+
+def _fit_settings(args: Any) -> FitSettings:
+    """The fit settings of a request, of options by the flags' names, or as given."""
+    if isinstance(args, FitSettings):
+        return args
+    if isinstance(args, AnalysisRequest):
+        return args.fit
+    return FitSettings(**{f.name: getattr(args, "fit_method" if f.name == "method" else f.name)
+                          for f in dataclasses.fields(FitSettings)
+                          if hasattr(args, "fit_method" if f.name == "method" else f.name)})
 
 
 def window_fit_keywords(args: Any, whole: Any) -> dict[str, Any]:
@@ -411,402 +664,8 @@ def window_fit_keywords(args: Any, whole: Any) -> dict[str, Any]:
 
 
 def chunk_keywords(args: Any) -> dict[str, Any]:
-    """``chunk_size`` for the library, only when --chunk-size is given."""
+    """``chunk_size`` for the library, only when one is given."""
+    if isinstance(args, AnalysisRequest):
+        return args.record.chunk_keywords()
     size = getattr(args, "chunk_size", None)
     return {} if size is None else {"chunk_size": size}
-
-
-# --------------------------------------------------------------------------------------
-# Options: those of adavar report
-# --------------------------------------------------------------------------------------
-
-
-@functools.cache
-def _report_defaults() -> tuple[tuple[str, Any], ...]:
-    """The analysis options of ``adavar report`` and their defaults (one definition:
-    :data:`adavar.settings.ANALYSIS_DEFAULTS`, which the command line's parser agrees with)."""
-    from adavar.settings import ANALYSIS_DEFAULTS
-
-    return tuple(sorted(ANALYSIS_DEFAULTS.items()))
-
-
-def report_options(
-    options: Mapping[str, Any] | argparse.Namespace | None = None, *, ignore_unknown: bool = False
-) -> dict[str, Any]:
-    """Every analysis option of ``adavar report``: its defaults, updated with ``options``.
-
-    Parameters
-    ----------
-    options : mapping or argparse.Namespace, optional
-        Option values by the destination names of the flags of ``adavar report`` (``units``,
-        ``rate``, ``tau0``, ``column``, ``data_type``, ``preprocess``, ``window``,
-        ``adaptive``, ``taus``, ``step``, ``terms``, ``lmax``, ``lmin``, ``k1``, ``k2``,
-        ``s2``, ``segment`` (or ``l``), ``thresholds``, ``nan``, ``gaps``, ...); dashes may
-        be written as underscores or dashes.
-    ignore_unknown : bool
-        Skip keys that are not analysis options (for a command-line namespace) instead of
-        raising.
-
-    Returns
-    -------
-    dict
-        Name -> value for every analysis option.
-
-    Raises
-    ------
-    AdavarInputError
-        An unknown option name (unless ``ignore_unknown``).
-    """
-    defaults = dict(_report_defaults())
-    if options is None:
-        given: dict[str, Any] = {}
-    elif isinstance(options, argparse.Namespace):
-        given = dict(vars(options))
-    else:
-        given = dict(options)
-    out = dict(defaults)
-    for key, value in given.items():
-        name = _ALIASES.get(str(key), str(key).replace("-", "_"))
-        if name in defaults:
-            out[name] = value
-        elif not ignore_unknown:
-            raise AdavarInputError(
-                f"unknown analysis option {key!r}: use the names of the flags of 'adavar "
-                f"report' ({', '.join(sorted(defaults))})"
-            )
-    return out
-
-
-# --------------------------------------------------------------------------------------
-# One file: what adavar report computes
-# --------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class ReportAnalysis:
-    """Everything ``adavar report`` computes for one file (from :func:`analyse_file`).
-
-    Attributes
-    ----------
-    path : str
-        The file as given.
-    title : str
-        Title of the report.
-    samples : ndarray or source
-        The samples analysed (after preprocessing); a file read piece by piece (a
-        :class:`~adavar.sources.ChunkedSource`).
-    meta : dict
-        How they were read (``path``, ``column``, ``kind``, ``rate_from``, ``reader``,
-        ``preprocessing``, ...).
-    units : str
-        Declared unit of the samples.
-    rate_units : str
-        Unit of the rate samples (the integrated unit per second for phase data).
-    tau0 : float
-        Sample interval, seconds.
-    rate_options : dict
-        The ``rate``/``tau0`` keywords given to the analysis functions.
-    options : dict
-        Every analysis option (:func:`report_options`).
-    deviation : DeviationResult
-        The whole-record overlapping Allan deviation.
-    fit : NoiseFit
-        Its noise fit.
-    surface, adaptive : DavarResult, AdaptiveResult or None
-        The DAVAR surface (``window``) or the adaptive one (``adaptive``; then both are it).
-        With ``analyse_file(..., keep="figures")``: ``surface`` is a
-        :class:`adavar.surface_fit.BlockFit` (the rows the report draws, every window's
-        time, length, centre and coefficients: ``surface.term_values(name)``) and
-        ``adaptive`` its :attr:`~BlockFit.windows` (every window's controller record, no
-        cells).
-    coefficients : NoiseFit or None
-        The fit of every window of the surface (without the per-cell ``used`` and
-        ``residuals``: ``fit_noise(..., cells=False)``); with ``keep="figures"`` of the
-        windows the report's coefficient figure draws (``surface.fit_rows``).
-    parameters : dict
-        The parameter table of the report.
-    preprocessing : list of str
-        The preprocessing steps, in order.
-    """
-
-    path: str
-    title: str
-    samples: Any  # ndarray, or a source read piece by piece
-    meta: dict[str, Any]
-    units: str
-    rate_units: str
-    tau0: float
-    rate_options: dict[str, Any]
-    options: dict[str, Any]
-    deviation: Any
-    fit: Any
-    surface: Any = None
-    adaptive: Any = None
-    coefficients: Any = None
-    parameters: dict[str, Any] = field(default_factory=dict)
-    preprocessing: list[str] = field(default_factory=list)
-
-    @property
-    def n_samples(self) -> int:
-        """Number of samples analysed."""
-        return int(self.samples.size)
-
-    def html(self) -> str:
-        """The report (:func:`adavar.report.build_report`) of ``adavar report``."""
-        from adavar.report import build_report
-
-        return build_report(
-            title=self.title,
-            source={"file": self.meta["path"], "column": self.meta["column"],
-                    "format": self.meta["kind"], "samples": self.n_samples},
-            deviation=self.deviation, fit=self.fit, surface=self.surface,
-            coefficients=self.coefficients, adaptive=self.adaptive,
-            parameters=self.parameters, preprocessing=self.preprocessing,
-            units=self.rate_units, events=(self.events() or {}).get("items"),
-        )  # fmt: skip
-
-    def events(self) -> dict[str, Any] | None:
-        """The non-stationary stretches the window detected: None without ``window`` or
-        ``adaptive``.
-
-        Returns
-        -------
-        dict or None
-            ``{"method", "rule", "count", "items", "runs", "note"}``. ``items`` are the
-            stretches of :func:`adavar.events.find_events` (``start_s``, ``end_s``: the
-            estimated times of the changes into and out of it, seconds from the first
-            sample; ``before``, ``during``, ``after``: each fitted term's median and 16-84 %
-            range over the windows wholly outside/inside it); ``count`` their number.
-            ``runs`` are the raw runs of shortened (adaptive) or flagged (fixed) windows,
-            with the window-centre nodes of the paper: ``beginning_s`` (first centre of
-            the run), ``end_node_s`` (adaptive: the start of the last regrowth; fixed: the
-            last flagged centre), ``restore_s`` (adaptive: back at Lmax), ``leading_edge_s``
-            and ``min_window``. (Before 0.2 ``items`` were these runs, with ``start_s`` the
-            Beginning node.)
-        """
-        if self.surface is None:
-            return None
-        from adavar.events import find_events, run_change_times
-
-        surface = self.adaptive if self.adaptive is not None else self.surface
-        time_s = np.asarray(surface.time, dtype=float)
-        centre = np.asarray(surface.centre, dtype=np.int64)
-        t0 = float(time_s[0] - self._seconds(centre[0])) if time_s.size else 0.0
-        from adavar.surface_fit import BlockFit
-
-        fit = self.coefficients
-        if isinstance(self.surface, BlockFit):  # every window's terms (fit: a few windows)
-            terms = {name: self.surface.term_reader(name) for name in fit.terms}
-        else:
-            terms = {} if fit is None else {name: fit.term(name).value for name in fit.terms}
-        duration = t0 + float(self._seconds(self.n_samples))
-        if self.adaptive is not None:
-            lmax = int(self.adaptive.parameters["lmax"])
-            window = np.asarray(self.adaptive.window)
-            runs = []
-            for a, b in _runs(window < lmax):
-                e = b
-                while e > a and window[e - 1] < window[e]:
-                    e -= 1
-                runs.append({
-                    "beginning_s": float(time_s[a]), "end_node_s": float(time_s[e]),
-                    "restore_s": float(time_s[b + 1]) if b + 1 < window.size else None,
-                    "leading_edge_s": float(time_s[a] + self._seconds(lmax // 2)),
-                    "min_window": int(window[a : b + 1].min()),
-                })  # fmt: skip
-            rule = (f"episodes of windows shorter than Lmax = {lmax}: a change up (at the "
-                    "leading edge before the shrink) or down (at the trailing edge where the "
-                    "window regrows) by N on each side opens or closes a stretch; an episode "
-                    "with no change of level (a spike) is an event of its own")  # fmt: skip
-            if self.adaptive.method == "ici":  # its own steps, ramps and long-tau changes
-                from adavar.ici_events import ici_events
-
-                found = ici_events(window, centre, time_s, lmax, self.tau0, terms, t0=t0,
-                                   duration=duration,
-                                   parameters=self.adaptive.parameters)  # fmt: skip
-                rule = "the ICI window's steps (paired into stretches), ramps and long-tau changes"
-            else:
-                found = find_events(window, centre, time_s, lmax, self.tau0, terms, t0=t0,
-                                    duration=duration)  # fmt: skip
-            return {
-                "method": self.adaptive.method,
-                "rule": rule,
-                "count": len(found), "items": [e.as_dict() for e in found], "runs": runs,
-                "note": None,
-            }  # fmt: skip
-        return self._fixed_window_events(find_events, run_change_times, terms, t0, duration)
-
-    def _seconds(self, samples: Any) -> Any:
-        """Sample counts as seconds, as the DAVAR times are (``n / rate`` or ``n * tau0``)."""
-        n = np.asarray(samples, dtype=float)
-        if self.rate_options.get("tau0") is None:
-            return n / float(self.rate_options["rate"])
-        return n * float(self.rate_options["tau0"])
-
-    def _fixed_window_events(
-        self, find_events: Any, run_change_times: Any, terms: dict, t0: float,
-        duration: float,
-    ) -> dict[str, Any]:  # fmt: skip
-        from adavar.adaptive import adaptive_schedule
-
-        length = int(self.options["window"])
-        settings = controller_settings(argparse.Namespace(**self.options))
-        settings.update(lmax=length, lmin=length)
-        if not self.options.get("segment_given", True):  # l in proportion to this window
-            settings["l"] = record_windows(0, length)[2]
-        rule = (f"changes at the leading edge of the first window of each run of centres "
-                f"where the adaptive controller's test flags the fixed {length}-sample "
-                "window, classified by N on each side into stretches and short events")  # fmt: skip
-        if settings["l"] > length - 4:
-            note = (
-                f"no events: the S test needs a window of more than l + 3 = "
-                f"{settings['l'] + 3} samples (give a longer --window or a smaller --l)"
-            )
-            return {"method": "fixed", "rule": rule, "count": None, "items": None,
-                    "runs": None, "note": note}  # fmt: skip
-        u = self.samples
-        if self.options["data_type"] != "rate":  # the phase's increments
-            u = (sources.DifferencedSource(sources.as_source(u)) if sources.is_chunked(u)
-                 else np.diff(u))  # fmt: skip
-        # the runs of flags only: no per-centre array (memory: one piece of the record)
-        sched = adaptive_schedule(u, method="fixed", keep="runs", **settings,
-                                  **self.rate_options)  # fmt: skip
-        flagged = sched.flag_runs()
-        runs = [
-            {"beginning_s": float(t0 + self._seconds(a)),
-             "end_node_s": float(t0 + self._seconds(b)), "restore_s": None,
-             "leading_edge_s": float(t0 + self._seconds(a + length // 2)),
-             "min_window": length}
-            for a, b in flagged.tolist()
-        ]  # fmt: skip
-        changes = run_change_times(flagged, length, self.tau0, t0)
-        surface = self.surface
-        found = find_events(
-            surface.window, surface.centre, surface.time, length, self.tau0, terms, t0=t0,
-            duration=duration, changes=changes,
-        )  # fmt: skip
-        return {"method": "fixed", "rule": rule, "count": len(found),
-                "items": [e.as_dict() for e in found], "runs": runs,
-                "note": None}  # fmt: skip
-
-
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    """First and last index of every run of True in a 1-D boolean array."""
-    edges = np.diff(np.concatenate(([0], np.asarray(mask, dtype=np.int8), [0])))
-    starts = np.flatnonzero(edges == 1)
-    stops = np.flatnonzero(edges == -1) - 1
-    return list(zip(starts.tolist(), stops.tolist(), strict=True))
-
-
-def report_parameters(
-    options: Any, units: str, tau0: float, meta: Mapping[str, Any], surface: bool,
-    controller: Mapping[str, Any] | None,
-) -> dict[str, Any]:  # fmt: skip
-    """The report's table of parameters: the statistic, data, fit and DAVAR settings used.
-
-    ``options`` as used (:attr:`ChannelAnalysis.options`), ``surface`` whether there is a
-    DAVAR surface, ``controller`` the adaptive window's parameters (None for a fixed one).
-    """
-    terms = options.terms or TERM_NAMES
-    parameters: dict[str, Any] = {
-        "statistic": "oadev", "data type": options.data_type, "units": units,
-        "rate [Hz]": 1.0 / tau0, "rate from": meta["rate_from"], "terms": ", ".join(terms),
-    }  # fmt: skip
-    if options.n_reweight != 3 or options.spacing != "octave":
-        parameters.update({"fit reweighting passes": options.n_reweight,
-                           "fit tau spacing": options.spacing})  # fmt: skip
-    if surface:
-        parameters.update({"DAVAR taus": str(options.taus), "DAVAR step": options.step})
-        if controller is not None:
-            parameters.update({f"controller {k}": v for k, v in controller.items()
-                               if v is not None})  # fmt: skip
-        else:
-            parameters["DAVAR window [samples]"] = options.window
-    return parameters
-
-
-def analyse_file(
-    path: str | os.PathLike[str],
-    options: Mapping[str, Any] | argparse.Namespace | None = None,
-    *,
-    title: str | None = None,
-    keep: str = "all",
-) -> ReportAnalysis:
-    """Read, preprocess and analyse one file exactly as ``adavar report FILE`` does.
-
-    ``adavar report`` and every task of :func:`run_batch` call this, so a file's numbers are
-    the same in both.
-
-    Parameters
-    ----------
-    path : str or path-like
-        The record (any format of :func:`adavar.readers.read_record`).
-    options : mapping or argparse.Namespace, optional
-        Analysis options (:func:`report_options`); ``units`` and ``rate`` or ``tau0`` (unless
-        the file has time stamps) are needed.
-    title : str, optional
-        Title of the report (default: the file and column).
-    keep : {"all", "figures"}
-        ``"all"``: the whole surface (``surface.avar`` of every window and tau);
-        ``"figures"`` (what ``adavar report`` and ``adavar batch`` use): the surface
-        computed and fitted a block of windows at a time, keeping what the report and
-        the events read (see :class:`ReportAnalysis`): the same report and numbers in the
-        memory of a block instead of the surface.
-
-    Returns
-    -------
-    ReportAnalysis
-
-    Raises
-    ------
-    AdavarInputError
-        An unreadable or bad file, or bad options (a missing unit, both rate and tau0,
-        ...).
-    """
-    opts = report_options(options, ignore_unknown=isinstance(options, argparse.Namespace))
-    args = argparse.Namespace(file=os.fspath(path), **opts)
-    # as adavar report: read (sets args.rate / args.tau0 as every command does), then the
-    # channel's deviation, fit and surface by the report's own function
-    chosen = args.column is not None
-    # as adavar report: a file is read piece by piece
-    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False,
-                                              out_of_core=True)  # fmt: skip
-    if chosen:
-        if len(loaded) != 1:
-            raise AdavarInputError(
-                f"{path}: --column {args.column} selects {len(loaded)} channels; a batch "
-                "analyses one column per file: run one batch per column (e.g. --column "
-                f"{next(iter(loaded))}) with its own --out"
-            )
-        name = next(iter(loaded))
-        samples, units = loaded[name], units_of[name]
-    else:
-        samples, units = loaded, units_of
-    segment_given = opts.get("segment") is not None
-    run = analyse_channel(args, samples, units, tau0, lambda what: None, "", keep=keep)
-    args = run.options  # the lengths as used (durations and the record's windows resolved)
-    opts = {**opts, **{k: getattr(args, k) for k in _LENGTHS if hasattr(args, k)}}
-    opts["segment_given"] = segment_given
-    opts["data_type"] = args.data_type  # as read: a Stable32 .phd file holds phase
-    rate_kw = dict(
-        rate=args.rate if args.rate is not None else 1.0,
-        tau0=None if args.rate is not None else tau0,
-    )  # fmt: skip
-    parameters = report_parameters(
-        args,
-        units,
-        tau0,
-        meta,
-        run.surface is not None,
-        None if run.adaptive is None else run.adaptive.parameters,
-    )
-    surface, adaptive = run.surface, run.adaptive
-    steps = [step.get("spec", str(step)) for step in meta["preprocessing"]]
-    return ReportAnalysis(
-        path=os.fspath(path),
-        title=title or f"{Path(meta['path']).name}, column {meta['column']}",
-        samples=samples, meta=meta, units=units, rate_units=run.rate_units,
-        tau0=float(tau0), rate_options=rate_kw, options=opts, deviation=run.result,
-        fit=run.fit, surface=surface, adaptive=adaptive,
-        coefficients=run.coefficients, parameters=parameters, preprocessing=steps,
-    )  # fmt: skip

@@ -2,11 +2,12 @@
 
 :func:`run_batch` analyses many logs (a production line's static gyro recordings, a fleet's
 daily files) the way ``adavar report FILE`` analyses one: every file is one task that runs
-:func:`adavar.analysis.analyse_file` (the pipeline of ``adavar report``, :mod:`adavar.analysis`:
-the same load and channel analysis, so a file's numbers in a batch are those of running
-``adavar report`` on it alone) and writes its own folder ``OUT/<name>/`` atomically, where
-``<name>`` is the file's stem and a short hash of its resolved path (``gyro-3f2a9c``), the
-same in every run whatever the other files (:mod:`adavar.batch_state`):
+:func:`adavar.report_analysis.analyse_file` (the pipeline of ``adavar report``,
+:func:`adavar.analysis.run`: the same load and channel analysis, so a file's numbers in a
+batch are those of running ``adavar report`` on it alone) and writes its own folder
+``OUT/<name>/`` atomically, where ``<name>`` is the file's stem and a short hash of its
+resolved path (``gyro-3f2a9c``), the same in every run whatever the other files
+(:mod:`adavar.batch_state`):
 
 - ``report.html``: the self-contained interactive report of ``adavar report``;
 - ``result.json``: the input (file, column, rate, unit, samples, preprocessing, the size and
@@ -66,7 +67,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from adavar.analysis import ReportAnalysis, analyse_file, report_options, surface_shape
+from adavar.analysis import surface_shape
 from adavar.batch_cluster import (
     DEFAULT_WORKER_TIMEOUT,
     check_worker_timeout,
@@ -85,6 +86,7 @@ from adavar.batch_state import (
     read_result,
 )
 from adavar.errors import AdavarInputError
+from adavar.report_analysis import ReportAnalysis, analyse_file, report_options
 from adavar.terms import LETTERS
 from adavar.writers import BATCH_MARKER
 

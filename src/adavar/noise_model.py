@@ -95,6 +95,7 @@ import numpy as np
 from adavar import gls_core, gls_fit
 from adavar.errors import AdavarInputError
 from adavar.inputs import SAFE_EXPONENT, unscale
+from adavar.request import settings_keywords
 from adavar.results import ADEQUATE_P, MarkovTerm, NoiseFit, NoiseTerm
 from adavar.settings import FitSettings
 from adavar.slopes import read_slopes
@@ -465,6 +466,7 @@ def fit_noise(
     cells: bool = True,
     markov: str = "auto",
     bound_level: float = FitSettings.bound_level,
+    settings: FitSettings | None = None,
 ) -> NoiseFit:
     """Fit the IEEE noise model (docs/method.md section 4) to an Allan-deviation result.
 
@@ -557,6 +559,12 @@ def fit_noise(
         One-sided level of ``NoiseTerm.upper`` for terms at 0 (default 0.99: of the
         records where the selection leaves a real term out, its 99 % bound lies above
         the truth in 87-91 %, the 95 % one in 43-66 %).
+    settings : FitSettings, optional
+        ``terms``, ``n_reweight``, ``spacing``, ``method``, ``select``, ``significance``,
+        ``exclude``, ``rolloff``, ``tau_range``, ``bandwidth``, ``markov`` and
+        ``bound_level`` as one object (:class:`adavar.settings.FitSettings`, what
+        :class:`adavar.request.AnalysisRequest` holds); its fields replace those keywords.
+        A keyword also given with another value is an error.
 
     Returns
     -------
@@ -583,6 +591,9 @@ def fit_noise(
     has a standard deviation near 1 for N, B and K (``benchmarks/bench_fit_real.py``,
     ``docs/benchmarks.md``).
     """
+    if settings is not None:
+        given = {k: v for k, v in locals().items() if k not in ("result", "settings")}
+        return fit_noise(result, **settings_keywords(fit_noise, given, settings))
     method = _check_options(method, select, significance, exclude, rolloff, markov, bound_level)
     stat = getattr(result, "stat", None)
     if stat is not None and str(stat).lower() not in ALLAN_STATS:

@@ -135,6 +135,14 @@ class FitSettings:
     #: (benchmarks/bench_validation.py)
     bound_level: float = 0.99
 
+    def keywords(self) -> dict[str, Any]:
+        """The keywords of :func:`adavar.fit_noise` (``terms`` None: all five)."""
+        from adavar.terms import TERM_NAMES
+
+        values = asdict(self)
+        values["terms"] = TERM_NAMES if self.terms is None else tuple(self.terms)
+        return values
+
 
 #: The settings that calibrated thresholds replace (``thresholds="calibrated"`` computes
 #: K1, K2 and S2 for every window length; ``k1``, ``k2``, ``s2`` given are not used).

@@ -15,7 +15,7 @@ from adavar.terms import TERM_NAMES
 
 if _TYPE_CHECKING:  # pragma: no cover - annotations only
     from adavar.noise_model import NoiseFit
-from adavar.cli.avar import allow_gaps_omit, reader_arguments
+from adavar.cli.avar import allow_gaps_omit
 from adavar.cli.options import (
     EXIT_OK,
     TERM_FILES,
@@ -27,12 +27,10 @@ from adavar.cli.options import (
     add_kurtosis_reference_argument,
     add_output_arguments,
     add_surface_arguments,
-    ici_settings,
     seconds_list,
     window_length,
 )
 from adavar.cli.output import Status, channel_folders, guard_replacement, output_error, text_table
-from adavar.errors import AdavarInputError
 from adavar.results import DavarResult
 from adavar.settings import HOURLY_FALSE_ALARMS
 from adavar.windows import MIN_WINDOW
@@ -325,23 +323,32 @@ def _cmd_davar(args: argparse.Namespace) -> int:
 
 
 def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
-    from adavar.analysis import load_input, resolve_lengths, resolve_resolution
+    import dataclasses
+
+    from adavar.analysis import run as run_analysis
+    from adavar.cli.options import check_change_times
+    from adavar.request import AnalysisRequest
 
     status = Status()
-    status(f"reading {args.file}")
+    request = AnalysisRequest.from_options(args)  # --gaps omit: NaN rows left out
+    request = dataclasses.replace(
+        request, window=dataclasses.replace(request.window, adaptive=adaptive)
+    )
+
+    def check(request: AnalysisRequest, loaded: Any) -> None:
+        if adaptive:
+            samples, _ = loaded.first
+            check_change_times(args.change_times, int(getattr(samples, "size", np.size(samples))),
+                               loaded.tau0)  # fmt: skip
+
     # several channels only when --column names them: a surface of every numeric column
     # (a temperature too) is too costly to be a default
-    chosen = args.column is not None
-    reader = reader_arguments(args)  # --gaps omit: NaN rows for davar(gaps="omit")
-    loaded, meta, units_of, tau0 = load_input(reader, several=chosen, pieces=False,
-                                              out_of_core=True)  # fmt: skip
-    args.rate, args.tau0 = reader.rate, reader.tau0
-    first = next(iter(loaded.values())) if chosen else loaded
-    n_samples = int(getattr(first, "size", np.size(first)))
-    args = resolve_lengths(args, tau0, n_samples)
-    args, resolution = resolve_resolution(args, tau0, n_samples, len(loaded) if chosen else 1)
-    if not chosen:
-        loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
+    done = run_analysis(request, status=status, whole="reference", check=check)
+    meta, tau0, resolution = done.meta, done.tau0, done.resolution
+    # the options as used: durations in samples, the record's windows, the resolution
+    args = argparse.Namespace(**{**vars(args), **vars(done.request.options())})
+    loaded = done.samples
+    units_of = {name: analysis.units for name, analysis in done.channels.items()}
     names = list(loaded)
     several = len(names) > 1
     folders = channel_folders(names) if several else {}
@@ -349,10 +356,10 @@ def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
     for k, name in enumerate(names):
         out = args.out if args.out is None or not several else f"{args.out}/{folders[name]}"
         tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
-        info = {**meta, "column": name, "windows_from": getattr(args, "windows_from", None),
-                "resolution": resolution, "stat": getattr(args, "stat", "oavar")}  # fmt: skip
-        runs.append(_davar_channel(args, loaded[name], info, units_of[name],
-                                   tau0, fmt, out, status, tag))  # fmt: skip
+        info = {**meta, "column": name, "windows_from": args.windows_from,
+                "resolution": resolution, "stat": args.stat}  # fmt: skip
+        runs.append(_davar_channel(args, done.channels[name], loaded[name], info,
+                                   units_of[name], tau0, fmt, out, tag))  # fmt: skip
     if several:
         payload: dict[str, Any] = {
             "adavar_version": __version__,
@@ -408,81 +415,19 @@ def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
     return EXIT_OK
 
 
-def _whole_record_fit(samples: Any, args: argparse.Namespace, rate_u: str, common: dict) -> Any:
-    """The full-covariance fit of the whole record: the reference of the windows' fits
-    (the sensor's roll-off is the same in every window). None if it cannot be made."""
-    from adavar.analysis import chunk_keywords, fit_keywords
-    from adavar.noise_model import fit_noise
-    from adavar.statistics import deviation
-
-    if args.fit_method not in ("auto", "gls"):
-        return None
-    try:
-        whole = deviation(samples, data_type=args.data_type, taus="octave", units=rate_u,
-                          rate=common["rate"], tau0=common["tau0"],
-                          gaps="omit" if getattr(args, "gaps", None) == "omit" else "error",
-                          **chunk_keywords(args))  # fmt: skip
-        return fit_noise(whole, **{**fit_keywords(args), "method": "gls"})
-    except (ValueError, AdavarInputError):  # too short a record for the curve: no reference
-        return None
-
-
 def _davar_channel(
-    args: argparse.Namespace, samples: np.ndarray, meta: dict[str, Any], units: str,
-    tau0: float, fmt: str, out: str | None, status: Status, tag: str,
+    args: argparse.Namespace, analysis: Any, samples: Any, meta: dict[str, Any], units: str,
+    tau0: float, fmt: str, out: str | None, tag: str,
 ) -> dict[str, Any]:  # fmt: skip
-    """The (adaptive) DAVAR surface and its noise fit of one channel, with its JSON payload
-    and the names of the files its output folder ``out`` gets."""
-    from adavar.adaptive import adaptive_davar
-    from adavar.analysis import chunk_keywords, controller_settings, window_fit_keywords
-    from adavar.cli.options import check_change_times
-    from adavar.noise_model import fit_noise
-    from adavar.surface import davar
-    from adavar.units import rate_unit
-
-    if args.command == "adaptive":
-        check_change_times(args.change_times, int(getattr(samples, "size", np.size(samples))),
-                           tau0)  # fmt: skip
+    """One channel's surface and fit (:func:`adavar.analysis.run`): its events, its JSON
+    payload and the names of the files its output folder ``out`` gets."""
+    from adavar.analysis import rate_keywords
 
     adaptive = args.command == "adaptive"
-    rate_u = rate_unit(units, args.data_type)
-    status(f"{tag}computing the {'adaptive ' if adaptive else ''}DAVAR surface of "
-           f"{samples.size} samples")  # fmt: skip
-    common = dict(
-        # the rate as given: times are centre / rate, without 0.1-step rounding noise
-        rate=args.rate if args.rate is not None else 1.0,
-        tau0=None if args.rate is not None else tau0,
-        data_type=args.data_type,
-        taus=args.taus,
-        edges=args.edges,
-        step=args.step,
-        confidence=args.confidence,
-        points_per_decade=args.points_per_decade,
-        noise_type=args.noise_type,
-        t0=args.t0,
-        units=rate_u,
-        edge_edf=args.edge_edf,
-        **chunk_keywords(args),
-    )
-    if adaptive:
-        result = adaptive_davar(
-            samples, method=args.method, change_times=args.change_times,
-            dependence=args.dependence, kurtosis_reference=args.kurtosis_reference,
-            **controller_settings(args), **ici_settings(args), **common,
-        )  # fmt: skip
-    else:
-        result = davar(samples, window=args.window, stat=args.stat,
-                       gaps="omit" if args.gaps == "omit" else "error", **common)  # fmt: skip
-    stat = getattr(args, "stat", "oavar")  # adaptive: the Allan variance
-    fit = None
-    if args.confidence is not None and stat == "oavar":  # the IEEE model is of the AVAR
-        status(f"{tag}fitting the noise terms of every window")
-        try:
-            fit = fit_noise(result, **window_fit_keywords(args, _whole_record_fit(
-                samples, args, rate_u, common)), cells=False)  # fmt: skip
-        except ValueError as exc:
-            raise AdavarInputError(str(exc)) from None
-
+    result, fit, rate_u = analysis.surface, analysis.coefficients, analysis.rate_units
+    stat = args.stat  # adaptive: the Allan variance
+    common = {**rate_keywords(analysis.request, tau0),
+              **analysis.request.record.chunk_keywords()}  # fmt: skip
     written: list[str] = []
     if out is not None:
         written = [f"surface{SURFACE_FORMATS[fmt]}"]

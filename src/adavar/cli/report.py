@@ -34,42 +34,38 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 def _run_report(args: argparse.Namespace, output: Any) -> int:
     from adavar._heap import release_free_memory
-    from adavar.analysis import (
-        analyse_channel,
-        load_input,
-        report_parameters,
-        surface_shape,
-    )
+    from adavar.analysis import run as run_analysis
+    from adavar.analysis import surface_shape
     from adavar.report import build_report, channel_section, channels_page, write_report
+    from adavar.report_analysis import report_parameters
+    from adavar.request import AnalysisRequest
 
     status = Status()
-    status(f"reading {args.file}")
-    chosen = args.column is not None  # several channels only when --column names them
-    # a file is read piece by piece (a record larger than memory), the surfaces too (a
-    # block of windows at a time)
-    loaded, meta, units_of, tau0 = load_input(args, several=chosen, pieces=False,
-                                              out_of_core=True)  # fmt: skip
-    if not chosen:
-        loaded, units_of = {meta["column"]: loaded}, {meta["column"]: units_of}
-    names = list(loaded)
-    several = len(names) > 1
-    runs = []
-    segment_given = args.segment is not None  # before the windows follow the record
+    request = AnalysisRequest.from_options(args)
+    segment_given = request.controller.l is not None  # before the windows follow the record
     sections: list[str] = []  # several channels: each one's section, built as it is done
     figures: dict[str, dict[str, Any]] = {}
-    for k, name in enumerate(names):
-        tag = f"{name} ({k + 1}/{len(names)}): " if several else ""
-        # the surface a block of windows at a time: the report reads a few of its rows
-        run = analyse_channel(args, loaded[name], units_of[name], tau0, status, tag,
-                              keep="figures")  # fmt: skip
-        run.events = _events(args, loaded[name], run, tau0, segment_given)
+    several = False
+
+    def each(name: str, run: ChannelAnalysis, samples: Any) -> None:
+        run.events = _events(samples, run, segment_given)
         run.shape = surface_shape(run.surface)
         run.controller = None if run.adaptive is None else run.adaptive.parameters
         if several:  # its plots now, and its surface freed before the next one is computed
-            sections.append(channel_section(k + 1, name, run, figures))
+            sections.append(channel_section(len(sections) + 1, name, run, figures))
             run.result = run.surface = run.adaptive = run.coefficients = None
             release_free_memory()  # the surface's pages, before the next channel's
-        runs.append(run)
+
+    def count(request: AnalysisRequest, loaded: Any) -> None:
+        nonlocal several
+        several = len(loaded.channels) > 1
+
+    # a file is read piece by piece (a record larger than memory), the surfaces too (a
+    # block of windows at a time: the report reads a few of its rows)
+    done = run_analysis(request, status=status, keep="figures", check=count, each=each)
+    meta, tau0 = done.meta, done.tau0
+    names, runs = list(done.channels), list(done.channels.values())
+    units_of = {name: r.units for name, r in done.channels.items()}
     first = runs[0]
     used = first.options  # the lengths as used: in samples, the record's windows chosen
     units = first.units if not several else "; ".join(
@@ -139,20 +135,20 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
     return EXIT_OK
 
 
-def _events(
-    args: argparse.Namespace, samples: Any, run: ChannelAnalysis, tau0: float,
-    segment_given: bool,
-) -> dict[str, Any] | None:  # fmt: skip
+def _events(samples: Any, run: ChannelAnalysis, segment_given: bool) -> dict[str, Any] | None:
     """The events of one channel, as :meth:`ReportAnalysis.events` finds them."""
-    from adavar.analysis import ReportAnalysis
+    from adavar.analysis import rate_keywords
+    from adavar.report_analysis import ReportAnalysis
 
     if run.surface is None:
         return None
+    tau0 = 1.0 / run.request.record.rate if run.request.record.tau0 is None else (
+        run.request.record.tau0
+    )  # fmt: skip
     analysis = ReportAnalysis(
-        path=str(args.file), title="", samples=samples, meta={},
+        path=str(run.request.record.file), title="", samples=samples, meta={},
         units=run.units, rate_units=run.rate_units, tau0=float(tau0),
-        rate_options=dict(rate=args.rate if args.rate is not None else 1.0,
-                          tau0=None if args.rate is not None else tau0),
+        rate_options=rate_keywords(run.request, tau0),
         # the lengths as the analysis used them (in samples, the record's windows chosen)
         options={**vars(run.options), "segment_given": segment_given},
         deviation=run.result, fit=run.fit, surface=run.surface,

@@ -1,0 +1,162 @@
+"""Typed requests: settings objects built once, one pipeline behind the commands."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+import adavar
+from adavar import cli
+from adavar.analysis import read_input, resolve_lengths, run
+from adavar.cli.entry import build_parser
+from adavar.errors import AdavarInputError
+from adavar.request import (
+    ANALYSIS_CONTROLLER,
+    AnalysisRequest,
+    MethodOptions,
+    RecordRequest,
+    WindowSettings,
+)
+from adavar.settings import PAPER, ControllerSettings, FitSettings
+
+RATE = 100.0
+
+
+def _record(n: int = 12_000, seed: int = 3) -> np.ndarray:
+    """Band-limited noise, quantised, with a level step (not adavar.simulate)."""
+    rng = np.random.default_rng(seed)
+    x = np.convolve(rng.standard_normal(n + 7), np.ones(8) / 8, mode="valid")[:n] * 1e-2
+    x[n // 2 :] += 2e-2
+    return np.round(x / 1e-4) * 1e-4
+
+
+@pytest.fixture(scope="module")
+def gyro_csv(tmp_path_factory):
+    path = tmp_path_factory.mktemp("request") / "gyro.csv"
+    x = _record()
+    t = np.arange(x.size) / RATE
+    np.savetxt(path, np.c_[t, x, 0.5 * x[::-1]], delimiter=",", header="time,gx,gy",
+               comments="")  # fmt: skip
+    return path
+
+
+def test_a_request_built_in_code_equals_the_one_the_command_line_builds(gyro_csv):
+    # the library's and the command line's defaults are one: the parser's namespace of
+    # `adavar report FILE --units U` gives the request a script writes with two fields
+    args = build_parser().parse_args(["report", str(gyro_csv), "--column", "gx", "--units",
+                                      "deg/s", "-o", "r.html"])  # fmt: skip
+    assert AnalysisRequest.from_options(args) == AnalysisRequest(
+        record=RecordRequest(str(gyro_csv), column="gx", units="deg/s")
+    )
+    # the analyses' controller is the library's: windows from the record, hourly thresholds
+    assert ANALYSIS_CONTROLLER.lmax is None and ANALYSIS_CONTROLLER.thresholds == "calibrated"
+    assert ANALYSIS_CONTROLLER != PAPER
+
+
+def test_the_request_given_is_never_changed(gyro_csv):
+    request = AnalysisRequest(
+        record=RecordRequest(str(gyro_csv), column="gx", units="deg/s"),
+        window=WindowSettings(adaptive=True, taus=None, step=None),
+        controller=dataclasses.replace(ANALYSIS_CONTROLLER, lmax="5s"),
+    )
+    before = dataclasses.asdict(request)
+    done = run(request, whole="reference")
+    assert dataclasses.asdict(request) == before
+    used = done.request
+    assert used.record.rate == pytest.approx(RATE)  # from the time stamps
+    assert used.controller.lmax == 500 and used.windows_from == "lmax"
+    assert used.window.taus == "all" and used.window.step == 1
+    assert done.channels["gx"].request == used
+
+
+def test_run_gives_the_library_calls_numbers(gyro_csv):
+    request = AnalysisRequest(
+        record=RecordRequest(str(gyro_csv), column="gx", units="deg/s", rate=RATE),
+        window=WindowSettings(adaptive=True, step=7),
+        method_options=MethodOptions(method="kurtosis"),
+    )
+    done = run(request)
+    x = np.loadtxt(gyro_csv, delimiter=",", skiprows=1)[:, 1]
+    direct = adavar.adaptive_davar(x, rate=RATE, method="kurtosis", step=7, taus="octave",
+                                   units="deg/s")  # fmt: skip
+    channel = done.channels["gx"]
+    np.testing.assert_array_equal(channel.surface.avar, direct.avar)
+    np.testing.assert_array_equal(channel.surface.window, direct.window)
+    whole = adavar.fit_noise(adavar.deviation(x, rate=RATE, units="deg/s"))
+    assert channel.fit.angle_random_walk.value == whole.angle_random_walk.value
+
+
+def test_the_adaptive_command_is_the_pipeline(gyro_csv, capsys):
+    code = cli.main(["adaptive", str(gyro_csv), "--column", "gx", "--units", "deg/s",
+                     "--lmax", "1000", "--step", "50", "--json"])  # fmt: skip
+    assert code == 0
+    payload = json.loads(capsys.readouterr().out)
+    request = AnalysisRequest(
+        record=RecordRequest(str(gyro_csv), column="gx", units="deg/s"),
+        window=WindowSettings(adaptive=True, taus=None, step=50),
+        controller=dataclasses.replace(ANALYSIS_CONTROLLER, lmax=1000),
+    )
+    channel = run(request, whole="reference").channels["gx"]
+    assert payload["window"]["min"] == int(np.min(channel.surface.window))
+    assert payload["fit"] is not None
+    assert payload["parameters"]["controller"]["lmax"] == 1000
+
+
+def test_read_input_leaves_the_record_request_and_reports_what_it_read(tmp_path):
+    phase = np.cumsum(np.random.default_rng(1).standard_normal(500)) * 1e-9
+    path = tmp_path / "clock.phd"
+    np.savetxt(path, phase)
+    record = RecordRequest(str(path), tau0=1.0, units="s")
+    loaded = read_input(record)
+    assert record.data_type == "rate" and loaded.record.data_type == "phase"
+    assert loaded.record.tau0 == 1.0 and loaded.record.rate is None and loaded.tau0 == 1.0
+    with pytest.raises(AdavarInputError, match="exactly one"):
+        read_input(dataclasses.replace(record, rate=1.0))
+
+
+def test_resolve_lengths_returns_a_copy_of_options():
+    import argparse
+
+    options = argparse.Namespace(window="10s", lmax=None, lmin=None, segment=None, step=1)
+    used = resolve_lengths(options, 0.01, 100_000)
+    assert options.window == "10s" and options.lmax is None
+    assert used.window == 1000 and used.lmax == 10_000 and used.windows_from == "record"
+
+
+def test_library_functions_take_the_same_settings_objects():
+    x = _record(6000)
+    settings = dataclasses.replace(ANALYSIS_CONTROLLER, lmax=600, lmin=400, l=100,
+                                   thresholds="paper")  # fmt: skip
+    method = MethodOptions(method="kurtosis")
+    a = adavar.adaptive_davar(x, rate=RATE, step=5, settings=settings, method_options=method)
+    b = adavar.adaptive_davar(x, rate=RATE, step=5, lmax=600, lmin=400, l=100,
+                              thresholds="paper", method="kurtosis")  # fmt: skip
+    np.testing.assert_array_equal(a.avar, b.avar)
+    np.testing.assert_array_equal(a.window, b.window)
+    # the defaults given as one object are the defaults
+    c = adavar.adaptive_davar(x, rate=RATE, step=5, settings=ANALYSIS_CONTROLLER)
+    d = adavar.adaptive_davar(x, rate=RATE, step=5)
+    np.testing.assert_array_equal(c.window, d.window)
+    with pytest.raises(AdavarInputError, match="lmax is given both"):
+        adavar.adaptive_davar(x, rate=RATE, lmax=800, settings=settings)
+
+    result = adavar.deviation(x, rate=RATE, units="deg/s")
+    fit = FitSettings(method="wls", n_reweight=2)
+    e = adavar.fit_noise(result, settings=fit)
+    f = adavar.fit_noise(result, method="wls", n_reweight=2)
+    assert e.angle_random_walk.value == f.angle_random_walk.value
+    with pytest.raises(AdavarInputError, match="method is given both"):
+        adavar.fit_noise(result, method="gls", settings=fit)
+
+
+def test_controller_settings_round_trip_through_the_flags():
+    args = build_parser().parse_args(["adaptive", "f.csv", "--units", "deg/s", "--lmax", "30s",
+                                      "--false-alarm", "0.001", "--l", "2s"])  # fmt: skip
+    request = AnalysisRequest.from_options(args)
+    assert request.controller == ControllerSettings.from_options(args)
+    assert request.controller.false_alarm == 0.001
+    assert request.controller.false_alarm_per_hour is None
+    assert request.record.units == "deg/s" and request.window.taus is None
