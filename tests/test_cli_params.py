@@ -54,6 +54,10 @@ NOT_FLAGS = {
     "lazy",
     # fit_noise(reference=): the whole-record fit, which the command makes itself
     "reference",
+    # fit_noise(settings=), adaptive_davar(settings=, method_options=): the flags as the
+    # settings objects of a request, which the command builds from them
+    "settings",
+    "method_options",
     # davar(shift=): per-centre window offsets, which adaptive --method ici computes itself
     "shift",
     # fit_noise(cells=), compare(keep=): how much of what it computes a result holds; the
@@ -184,6 +188,10 @@ def recorder(monkeypatch, owner: Any, name: str, returns: Any = None) -> dict[st
     seen: dict[str, Any] = {}
 
     def fake(*args, **kwargs):
+        # the settings objects of a typed request: their fields are the keywords
+        for key in ("settings", "method_options"):
+            if kwargs.get(key) is not None and key in params:
+                kwargs.update(kwargs.pop(key).keywords())
         extra = {k: kwargs.pop(k) for k in list(kwargs) if k not in params}
         bound = inspect.signature(real).bind(*args, **kwargs)
         passed = {*bound.arguments, *extra}

@@ -368,8 +368,10 @@ class ChannelAnalysis:
 
 #: What :func:`analyse_channel` and :func:`analyse_file` keep of a surface.
 KEEP = ("all", "figures")
+#: Which channels :func:`run` analyses.
+CHANNELS = ("chosen", "one", "all")
 #: What :func:`analyse_channel` computes of the whole record.
-WHOLE = ("fit", "reference")
+WHOLE = ("fit", "curve", "reference")
 
 
 def as_request(options: Any) -> AnalysisRequest:
@@ -390,7 +392,7 @@ def rate_keywords(request: AnalysisRequest, tau0: float) -> dict[str, Any]:
 def analyse_channel(
     request: AnalysisRequest | Any, samples: Any, units: str, tau0: float,
     status: Callable[[str], None] | None = None, tag: str = "", keep: str = "all",
-    whole: str = "fit",
+    whole: str = "fit", name: str | None = None,
 ) -> ChannelAnalysis:  # fmt: skip
     """One channel's analysis: the whole record's deviation and noise fit, and (with a
     window) the DAVAR surface and the fit of every window.
@@ -398,9 +400,10 @@ def analyse_channel(
     ``request`` is an :class:`~adavar.request.AnalysisRequest` (or options by the flags'
     names); ``status`` receives one line per step.
 
-    ``whole="fit"`` (``adavar report``, ``adavar batch``): the deviation and noise fit of
-    the whole record, the reference of the windows' fits when it is a full-covariance
-    fit. ``whole="reference"`` (``adavar davar``, ``adavar adaptive``): only the
+    ``whole="fit"`` (``adavar report``, ``adavar batch``, ``adavar avar --fit``): the
+    deviation (``request.deviation``) and noise fit of the whole record, the reference of
+    the windows' fits when it is a full-covariance fit; ``whole="curve"``: the deviation
+    alone. ``whole="reference"`` (``adavar davar``, ``adavar adaptive``): only the
     full-covariance fit of the octave curve the windows' fits take as reference (the
     sensor's roll-off is the same in every window), and only when the windows are fitted
     (bounds on, the Allan variance) with ``fit.method`` ``"auto"`` or ``"gls"``; a record
@@ -428,13 +431,24 @@ def analyse_channel(
     n = int(np.size(samples))
     fit_windows = w.surface and w.confidence is not None and w.stat == "oavar"
     result = fit = None
+    if whole != "reference":
+        stat = request.deviation.stat
+        if whole == "fit" and w.surface:  # the report's first of its steps
+            status(f"{tag}deviation and noise fit of {n} samples")
+        else:
+            status(f"{tag}computing the {stat} of {n} samples")
+        result = deviation(_as_the_statistic_reads(request, samples), units=rate_u,
+                           data_type=record.data_type, gaps=record.omit,
+                           **request.deviation.keywords(), **record.chunk_keywords(),
+                           **rate_kw)  # fmt: skip
     if whole == "fit":
-        status(f"{tag}deviation and noise fit of {n} samples")
-        result = deviation(samples, data_type=record.data_type, units=rate_u, **rate_kw)
+        if not w.surface:
+            status(f"{tag}fitting the noise terms")
         try:
             fit = fit_noise(result, settings=request.fit)
         except ValueError as exc:
-            raise AdavarInputError(str(exc)) from None
+            where = "" if name is None else f"column {name!r}: "
+            raise AdavarInputError(f"{where}{exc}") from None
     surface = adaptive = coefficients = None
     common = dict(data_type=record.data_type, taus=w.taus, step=w.step, units=rate_u,
                   **rate_kw)  # fmt: skip
@@ -471,6 +485,32 @@ def analyse_channel(
         result=result, fit=fit, surface=surface, adaptive=adaptive, coefficients=coefficients,
         units=units, rate_units=rate_u, samples=n, request=request,
     )  # fmt: skip
+
+
+def _as_the_statistic_reads(request: AnalysisRequest, samples: Any) -> Any:
+    """The record as the statistic reads it: the Allan family reads a file piece by piece;
+    the other statistics (Theo1, MTIE, TIE, the total family but totdev, ...) run on the
+    record in memory, so a file read piece by piece is loaded for them when it fits."""
+    from adavar.extended_statistics import SPECS
+
+    stat = request.deviation.stat
+    if stat not in SPECS or not sources.is_chunked(samples):
+        return samples
+    if request.record.chunk_size is not None:
+        raise AdavarInputError(
+            f"--stat {stat} is computed on the record in memory: leave out --chunk-size, or "
+            "use an Allan statistic (oadev, mdev, ...), which reads the file piece by piece"
+        )
+    need = 3 * 8 * int(samples.size)  # the record in float64 and the statistic's copies
+    free = sources.available_memory()
+    if free is not None and need > 0.8 * free:
+        raise AdavarInputError(
+            f"--stat {stat} holds the record in memory: {samples.size} samples need about "
+            f"{need / 2**30:.1f} GiB but {free / 2**30:.1f} GiB is free: use an Allan "
+            "statistic (oadev, mdev, ...), which reads the file piece by piece, or a shorter "
+            "record"
+        )
+    return np.asarray(samples, dtype=np.float64)
 
 
 def _reference_fit(
@@ -541,9 +581,11 @@ def run(
         options).
     status : callable, optional
         Receives one line per step.
-    channels : {"chosen", "one"}
+    channels : {"chosen", "one", "all"}
         ``"chosen"``: several channels when ``record.column`` names them; ``"one"``: the
-        one channel ``column`` chooses (a file of several needs it).
+        one channel ``column`` chooses (a file of several needs it); ``"all"``: every
+        numeric column unless ``column`` chooses, and with ``gaps="split"`` each gap-free
+        piece as a channel of its own (``adavar avar``).
     keep, whole : str
         As :func:`analyse_channel`.
     check : callable, optional
@@ -559,8 +601,12 @@ def run(
     """
     status = status or (lambda what: None)
     status(f"reading {request.record.file}")
-    chosen = channels == "chosen" and request.record.column is not None
-    loaded = read_input(request.record, several=chosen, pieces=False, out_of_core=True)
+    if channels not in CHANNELS:
+        raise AdavarInputError(f"unknown channels {channels!r}: use one of {', '.join(CHANNELS)}")
+    several = channels == "all" or (channels == "chosen" and request.record.column is not None)
+    loaded = read_input(request.record, several=several,
+                        pieces=None if channels == "all" else False,
+                        out_of_core=True)  # fmt: skip
     request = dataclasses.replace(request, record=loaded.record)
     first, _ = loaded.first
     n_samples = int(getattr(first, "size", np.size(first)))
@@ -576,8 +622,8 @@ def run(
     for k, name in enumerate(names):
         tag = f"{name} ({k + 1}/{len(names)}): " if len(names) > 1 else ""
         out[name] = analyse_channel(request, loaded.channels[name], loaded.units[name],
-                                    loaded.tau0, status, tag, keep=keep,
-                                    whole=whole)  # fmt: skip
+                                    loaded.tau0, status, tag, keep=keep, whole=whole,
+                                    name=name)  # fmt: skip
         if each is not None:
             each(name, out[name], loaded.channels[name])
     return AnalysisRun(channels=out, meta=loaded.meta, tau0=loaded.tau0, request=request,

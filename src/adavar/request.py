@@ -6,6 +6,7 @@ builds the same objects directly. The request is made of
 
 - :class:`RecordRequest`: the file, its channels, rate or tau0, unit, data type and the
   reader's policies (gaps, NaN, preprocessing, pieces);
+- :class:`DeviationSettings`: the whole record's statistic and its intervals;
 - :class:`WindowSettings`: the DAVAR window (fixed length or adaptive), its taus and
   centres, the per-cell statistic and bounds;
 - :class:`adavar.settings.ControllerSettings`: the adaptive window's lengths and thresholds
@@ -42,6 +43,7 @@ from adavar.settings import (
 __all__ = [
     "ANALYSIS_CONTROLLER",
     "AnalysisRequest",
+    "DeviationSettings",
     "MethodOptions",
     "RecordRequest",
     "WindowSettings",
@@ -121,6 +123,46 @@ class RecordRequest:
     def chunk_keywords(self) -> dict[str, Any]:
         """``chunk_size`` for the library, only when one is given."""
         return {} if self.chunk_size is None else {"chunk_size": self.chunk_size}
+
+
+@dataclass(frozen=True)
+class DeviationSettings:
+    """The whole record's statistic (:func:`adavar.deviation`), with its defaults.
+
+    Attributes
+    ----------
+    stat : str
+        The statistic (``"oadev"``, ``"mdev"``, ..., ``"theo1"``, ``"mtie"``).
+    taus, confidence, points_per_decade, noise_id, totdev_edf, totdev_bias,
+    bias_correction, theo_ratio_terms, total_edf, stationarity_check
+        As :func:`adavar.deviation` takes them.
+    """
+
+    stat: str = "oadev"
+    taus: Any = "octave"
+    confidence: float | None = 0.683
+    points_per_decade: int = 10
+    noise_id: str = "sp1065"
+    totdev_edf: str = "sp1065"
+    totdev_bias: bool = False
+    bias_correction: bool | None = None
+    theo_ratio_terms: int | None = None
+    total_edf: str | None = None
+    stationarity_check: bool = True
+
+    @classmethod
+    def from_options(cls, options: Any) -> DeviationSettings:
+        """From the flags of ``adavar avar`` (an option not present takes its default).
+
+        Not part of :meth:`AnalysisRequest.from_options`: ``--stat``, ``--taus``,
+        ``--confidence`` and ``--points-per-decade`` of ``davar`` and ``report`` are the
+        surface's (:class:`WindowSettings`).
+        """
+        return cls(**_pick(cls, _namespace(options)))
+
+    def keywords(self) -> dict[str, Any]:
+        """The keywords of :func:`adavar.deviation`."""
+        return dataclasses.asdict(self)
 
 
 @dataclass(frozen=True)
@@ -246,6 +288,9 @@ class AnalysisRequest:
     ----------
     record : RecordRequest
     window : WindowSettings
+    deviation : DeviationSettings
+        The whole record's statistic (``adavar avar``; the report's is the default, the
+        overlapping Allan deviation at octave taus).
     controller : ControllerSettings
     fit : FitSettings
     method_options : MethodOptions
@@ -256,6 +301,7 @@ class AnalysisRequest:
 
     record: RecordRequest
     window: WindowSettings = WindowSettings()
+    deviation: DeviationSettings = DeviationSettings()
     controller: ControllerSettings = ANALYSIS_CONTROLLER
     fit: FitSettings = FIT
     method_options: MethodOptions = MethodOptions()
@@ -307,7 +353,8 @@ class AnalysisRequest:
 
     def options(self) -> SimpleNamespace:
         """Every setting by the flags' names, flat (for the report's parameter table)."""
-        flat = {**dataclasses.asdict(self.record), **dataclasses.asdict(self.window)}
+        flat = {**dataclasses.asdict(self.deviation), **dataclasses.asdict(self.record),
+                **dataclasses.asdict(self.window)}  # fmt: skip
         flat.update({("segment" if k == "l" else k): v
                      for k, v in dataclasses.asdict(self.controller).items()})  # fmt: skip
         flat.update({("fit_method" if k == "method" else k): v

@@ -47,7 +47,6 @@ from adavar.writers import (
 
 
 def _cmd_avar(args: argparse.Namespace) -> int:
-    from adavar.analysis import load_input
     from adavar.noise_model import ALLAN_STATS
 
     check_arguments(args)
@@ -61,22 +60,28 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         check_output_directory(args.out, replace=args.force)
         guard_replacement(args.out, [Path(args.file)])
 
+    import dataclasses
+
+    from adavar.analysis import run as run_analysis
+    from adavar.request import AnalysisRequest, DeviationSettings
+
     status = Status()
-    status(f"reading {args.file}")
-    channels, meta, units_of, tau0 = load_input(reader_arguments(args), several=True,
-                                                out_of_core=True)  # fmt: skip
-    _check_columns(args, meta["columns"])
-    runs = []
-    for k, (name, samples) in enumerate(channels.items()):
-        meta_c = {**meta, "column": name}
-        tag = f"{name} ({k + 1}/{len(channels)}): " if len(channels) > 1 else ""
-        runs.append(_avar_channel(args, samples, meta_c, units_of[name], tau0, do_fit,
-                                  status, tag))  # fmt: skip
+    request = dataclasses.replace(AnalysisRequest.from_options(args),
+                                  deviation=DeviationSettings.from_options(args))  # fmt: skip
+    done = run_analysis(
+        request, status=status, channels="all", whole="fit" if do_fit else "curve",
+        check=lambda request, loaded: _check_columns(args, loaded.meta["columns"]),
+    )  # fmt: skip
+    tau0, meta = done.tau0, done.meta
+    # as read: a Stable32 .phd file holds phase
+    args = argparse.Namespace(**{**vars(args), "data_type": done.request.record.data_type})
+    runs = [_avar_channel(args, analysis, {**meta, "column": name}, tau0, do_fit)
+            for name, analysis in done.channels.items()]  # fmt: skip
     several = len(runs) > 1
     if several:
         payload: dict[str, Any] = {
             "adavar_version": __version__,
-            "input": {"file": meta["path"], "columns": list(channels), "rate": 1.0 / tau0,
+            "input": {"file": meta["path"], "columns": list(done.channels), "rate": 1.0 / tau0,
                       "tau0": tau0, "data_type": args.data_type},
             "channels": {run["name"]: run["payload"] for run in runs},
         }  # fmt: skip
@@ -124,16 +129,6 @@ def _cmd_avar(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def reader_arguments(args: argparse.Namespace) -> argparse.Namespace:
-    """``--gaps omit`` for the reader: missing time stamps become NaN rows
-    (``gaps="nan"``) and NaN / empty cells stay in place (``nan="keep"``, unless --nan
-    drop or interpolate is given), for the deviation to leave out."""
-    if args.gaps != "omit":
-        return args
-    nan = "keep" if args.nan == "error" else args.nan
-    return argparse.Namespace(**{**vars(args), "gaps": "nan", "nan": nan})
-
-
 def allow_gaps_omit(parser: argparse.ArgumentParser, split: str = "") -> None:
     """``--gaps omit`` on ``parser`` (avar, davar): NaN rows whose terms are left out;
     ``split`` describes ``--gaps split`` where the command has it."""
@@ -162,72 +157,15 @@ def _check_columns(args: argparse.Namespace, columns: list[str]) -> None:
     )
 
 
-def _in_memory_for(args: argparse.Namespace, samples: Any) -> Any:
-    """The record as the statistic reads it: the Allan family reads a file piece by piece;
-    the other statistics (Theo1, MTIE, TIE, the total family but totdev, ...) run on the
-    record in memory, so a file read piece by piece is loaded for them when it fits."""
-    from adavar.extended_statistics import SPECS
-    from adavar.sources import available_memory, is_chunked
-
-    if args.stat not in SPECS or not is_chunked(samples):
-        return samples
-    if getattr(args, "chunk_size", None) is not None:
-        raise UsageError(f"--stat {args.stat} is computed on the record in memory: leave out "
-                         "--chunk-size, or use an Allan statistic (oadev, mdev, ...), which "
-                         "reads the file piece by piece")  # fmt: skip
-    need = 3 * 8 * int(samples.size)  # the record in float64 and the statistic's copies
-    free = available_memory()
-    if free is not None and need > 0.8 * free:
-        raise AdavarInputError(
-            f"--stat {args.stat} holds the record in memory: {samples.size} samples need about "
-            f"{need / 2**30:.1f} GiB but {free / 2**30:.1f} GiB is free: use an Allan "
-            "statistic (oadev, mdev, ...), which reads the file piece by piece, or a shorter "
-            "record"
-        )
-    return np.asarray(samples, dtype=np.float64)
-
-
 def _avar_channel(
-    args: argparse.Namespace, samples: np.ndarray, meta: dict[str, Any], units: str,
-    tau0: float, do_fit: bool, status: Status | None = None, tag: str = "",
+    args: argparse.Namespace, analysis: Any, meta: dict[str, Any], tau0: float, do_fit: bool,
 ) -> dict[str, Any]:  # fmt: skip
-    """The deviation (and fit) of one channel: results, JSON payload and printed lines."""
-    from adavar.analysis import chunk_keywords, fit_keywords
-    from adavar.noise_model import fit_noise
+    """One channel's deviation (and fit) (:func:`adavar.analysis.run`): its JSON payload
+    and printed lines."""
     from adavar.plots import STAT_NAMES
-    from adavar.statistics import deviation
-    from adavar.units import deviation_unit, rate_unit
+    from adavar.units import deviation_unit
 
-    status = status or Status()
-    rate_u = rate_unit(units, args.data_type)
-    samples = _in_memory_for(args, samples)
-    status(f"{tag}computing the {args.stat} of {samples.size} samples")
-    result = deviation(
-        samples,
-        stat=args.stat,
-        tau0=tau0,
-        data_type=args.data_type,
-        taus=args.taus,
-        confidence=args.confidence,
-        points_per_decade=args.points_per_decade,
-        units=rate_u,
-        noise_id=args.noise_id,
-        totdev_edf=args.totdev_edf,
-        totdev_bias=args.totdev_bias,
-        bias_correction=args.bias_correction,
-        theo_ratio_terms=args.theo_ratio_terms,
-        total_edf=args.total_edf,
-        gaps="omit" if args.gaps == "omit" else "error",
-        stationarity_check=args.stationarity_check,
-        **chunk_keywords(args),
-    )
-    fit = None
-    if do_fit:
-        status(f"{tag}fitting the noise terms")
-        try:
-            fit = fit_noise(result, **fit_keywords(args))
-        except ValueError as exc:
-            raise AdavarInputError(f"column {meta['column']!r}: {exc}") from None
+    result, fit, units, rate_u = analysis.result, analysis.fit, analysis.units, analysis.rate_units
     payload: dict[str, Any] = {
         "adavar_version": __version__,
         "input": {
