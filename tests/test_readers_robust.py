@@ -7,7 +7,6 @@ errors, decimal commas refused, text read whole.
 
 from __future__ import annotations
 
-import argparse
 import tracemalloc
 
 import numpy as np
@@ -89,15 +88,14 @@ def _bag(tmp_path):
 
 
 def test_ros_bag_units_flag_contradicting_the_bag_is_an_error(tmp_path, capsys):
-    from adavar.analysis import load_input
+    from adavar.analysis import read_input
+    from adavar.request import RecordRequest
 
     bag = _bag(tmp_path)
-    args = argparse.Namespace(file=str(bag), column="gx", rate=None, tau0=None, units="deg/s")
     with pytest.raises(AdavarInputError, match=r"--units deg/s contradicts .* in rad/s"):
-        load_input(args)
-    args = argparse.Namespace(file=str(bag), column="gx", rate=None, tau0=None, units=None)
-    _, _, units, tau0 = load_input(args)
-    assert units == "rad/s" and tau0 == 1 / 200.0
+        read_input(RecordRequest(str(bag), column="gx", units="deg/s"))
+    loaded = read_input(RecordRequest(str(bag), column="gx"))
+    assert loaded.units == {"gx": "rad/s"} and loaded.tau0 == 1 / 200.0
     code, out, err = run(capsys, ["avar", str(bag), "--column", "az", "--units", "deg/s"])
     assert_one_line_error(code, out, err, "contradicts", "'az' in m/s^2", "leave out --units")
 

@@ -9,8 +9,8 @@ analyse each channel (:func:`analyse_channel`: deviation and noise fit, the DAVA
 and the coefficients over time). :func:`adavar.report_analysis.analyse_file` is the same for
 one file as ``adavar report FILE`` and every task of ``adavar batch`` compute it.
 
-The keyword layer: :func:`analyse_channel`, :func:`resolve_lengths` and :func:`load_input`
-also take an options object with the flags' names (an ``argparse.Namespace``), and
+The keyword layer: :func:`analyse_channel` and :func:`resolve_lengths` also take an
+options object with the flags' names (an ``argparse.Namespace``), and
 :func:`fit_keywords`, :func:`controller_settings` and :func:`chunk_keywords` turn a request
 or options into the library functions' keywords, in one place. Problems with the input
 raise :class:`adavar.errors.AdavarInputError`; nothing is printed.
@@ -49,7 +49,6 @@ __all__ = [
     "chunk_keywords",
     "controller_settings",
     "fit_keywords",
-    "load_input",
     "rate_keywords",
     "read_input",
     "resolve_lengths",
@@ -57,6 +56,7 @@ __all__ = [
     "run",
     "window_fit_keywords",
 ]
+
 
 @dataclass(eq=False)
 class LoadedInput:
@@ -194,33 +194,6 @@ def read_input(
     return LoadedInput(channels={k: channels[k] for k in channels},
                        units={k: units_of[k] for k in channels}, meta=meta, tau0=tau0,
                        record=as_read)  # fmt: skip
-
-
-def load_input(
-    args: Any,
-    *,
-    several: bool = False,
-    pieces: bool | None = None,
-    out_of_core: bool = False,
-) -> tuple[Any, dict[str, Any], Any, float]:
-    """:func:`read_input` for an options object (a command's namespace).
-
-    Sets ``args.data_type`` (as the file says), ``args.rate`` and ``args.tau0`` (as the
-    analysis uses them) on the object given. Returns ``(samples, meta, units, tau0)``; with
-    ``several`` the samples and units are dicts by channel.
-    """
-    hint = "" if getattr(args, "command", None) == "compare" else (
-        " (or several, comma-separated, e.g. --column a,b)"
-    )  # fmt: skip
-    loaded = read_input(RecordRequest.from_options(args), several=several, pieces=pieces,
-                        out_of_core=out_of_core, hint=hint)  # fmt: skip
-    if hasattr(args, "data_type"):
-        args.data_type = loaded.record.data_type
-    args.rate, args.tau0 = loaded.record.rate, loaded.record.tau0
-    if several:
-        return loaded.channels, loaded.meta, loaded.units, loaded.tau0
-    samples, units = loaded.first
-    return samples, loaded.meta, units, loaded.tau0
 
 
 def _lengths(
@@ -691,9 +664,13 @@ def _fit_settings(args: Any) -> FitSettings:
         return args
     if isinstance(args, AnalysisRequest):
         return args.fit
-    return FitSettings(**{f.name: getattr(args, "fit_method" if f.name == "method" else f.name)
-                          for f in dataclasses.fields(FitSettings)
-                          if hasattr(args, "fit_method" if f.name == "method" else f.name)})
+    return FitSettings(
+        **{
+            f.name: getattr(args, "fit_method" if f.name == "method" else f.name)
+            for f in dataclasses.fields(FitSettings)
+            if hasattr(args, "fit_method" if f.name == "method" else f.name)
+        }
+    )
 
 
 def window_fit_keywords(args: Any, whole: Any) -> dict[str, Any]:

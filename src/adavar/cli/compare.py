@@ -471,11 +471,12 @@ def _in_memory(data: Any) -> Any:
 
 
 def _run_compare(args: argparse.Namespace) -> int:
-    from adavar.analysis import load_input, resolve_lengths
+    from adavar.analysis import read_input, resolve_lengths
     from adavar.comparison import compare
     from adavar.paper.reference import PAPER_FIG6_WINDOWS, PAPER_FIG8_THRESHOLDS
     from adavar.paper.scenarios import paper_scenario
     from adavar.paper.studies import compare_seeds, kurtosis_study, threshold_study
+    from adavar.request import RecordRequest
 
     units: str | None = None
     tau0 = 1.0
@@ -503,12 +504,14 @@ def _run_compare(args: argparse.Namespace) -> int:
     else:
         status(f"reading {args.file}")
         # read piece by piece where the file allows: the methods stream it
-        samples, meta, units, tau0 = load_input(args, out_of_core=True)
+        loaded = read_input(RecordRequest.from_options(args), out_of_core=True, hint="")
+        samples, units = loaded.first
+        meta, tau0, used_rate = loaded.meta, loaded.tau0, loaded.record.rate
         args = resolve_lengths(args, tau0)
         if args.truth_column is not None:
             truth = _truth_column(args, samples.size, tau0)
         data = samples
-        rate = args.rate if args.rate is not None else 1.0 / tau0
+        rate = used_rate if used_rate is not None else 1.0 / tau0
         changes = args.change_times
         input_json = {
             "file": meta["path"], "column": meta["column"], "rate": 1.0 / tau0, "tau0": tau0,
