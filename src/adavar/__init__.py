@@ -20,7 +20,11 @@ The public entry points:
   studies;
 - :func:`fit_noise`: the IEEE-952 noise coefficients (Q, N, B, K, R) of a deviation curve, or
   of every DAVAR window at once (N(t), B(t), ...);
-- :mod:`adavar.simulate`: seeded generators of the noise processes.
+- :mod:`adavar.simulate`: seeded generators of the noise processes;
+- :class:`AnalysisRequest` (:class:`RecordRequest`, :class:`WindowSettings`,
+  :class:`DeviationSettings`, :class:`ControllerSettings`, :class:`FitSettings`,
+  :class:`MethodOptions`): one analysis of a file as typed settings, which
+  :func:`adavar.analysis.run` computes (the pipeline behind the commands).
 """
 
 from __future__ import annotations
@@ -43,6 +47,13 @@ _LAZY = {
     "Duration": "adavar.durations",
     "seconds": "adavar.durations",
     "AdavarInputError": "adavar.errors",
+    "AnalysisRequest": "adavar.request",
+    "DeviationSettings": "adavar.request",
+    "MethodOptions": "adavar.request",
+    "RecordRequest": "adavar.request",
+    "WindowSettings": "adavar.request",
+    "ControllerSettings": "adavar.settings",
+    "FitSettings": "adavar.settings",
     "kurtosis_contribution": "adavar.kurtosis",
     "sliding_kurtosis": "adavar.kurtosis",
     "LongTauChanges": "adavar.long_tau",
@@ -77,7 +88,15 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from adavar.online import OnlineAdaptive
     from adavar.paper.studies import compare_seeds
     from adavar.power_law import PowerLawFit, fit_power_law
+    from adavar.request import (
+        AnalysisRequest,
+        DeviationSettings,
+        MethodOptions,
+        RecordRequest,
+        WindowSettings,
+    )
     from adavar.results import DavarResult, DeviationResult, MarkovTerm
+    from adavar.settings import ControllerSettings, FitSettings
     from adavar.stationary_noise import StationarityResult, stationarity
     from adavar.statistics import deviation
     from adavar.surface import davar
@@ -101,18 +120,25 @@ def __dir__() -> list[str]:
 __all__ = [
     "AdaptiveResult",
     "AdavarInputError",
+    "AnalysisRequest",
     "CodeviationResult",
+    "ControllerSettings",
     "CorneredHatResult",
     "DavarResult",
     "DeviationResult",
+    "DeviationSettings",
     "Duration",
+    "FitSettings",
     "LongTauChanges",
     "MarkovTerm",
+    "MethodOptions",
     "NoiseFit",
     "NoiseTerm",
     "OnlineAdaptive",
     "PowerLawFit",
+    "RecordRequest",
     "StationarityResult",
+    "WindowSettings",
     "adaptive_davar",
     "adaptive_schedule",
     "compare",
