@@ -166,7 +166,9 @@ def test_every_keyword_has_a_flag():
     flags = {o for _, _, a in parser.commands["monitor"].options for o in a.option_strings}
     not_flags = {"fit_options": "--bandwidth", "keep": "the command keeps recent rows",
                  "l": "--l", "thresholds": "--thresholds",
-                 "pairing": "the command pairs by level (the default)"}  # fmt: skip
+                 "pairing": "the command pairs by level (the default)",
+                 "settings": "the controller's flags, as one object",
+                 "method_options": "--method, --dependence, ... as one object"}  # fmt: skip
     for name in inspect.signature(OnlineAdaptive).parameters:
         flag = "--" + name.replace("_", "-")
         assert flag in flags or name in not_flags, name

@@ -160,3 +160,19 @@ def test_controller_settings_round_trip_through_the_flags():
     assert request.controller.false_alarm == 0.001
     assert request.controller.false_alarm_per_hour is None
     assert request.record.units == "deg/s" and request.window.taus is None
+
+
+def test_the_stream_takes_the_same_settings_objects():
+    x = _record(8000, seed=5)
+    settings = dataclasses.replace(ANALYSIS_CONTROLLER, lmax=400, lmin=200, l=60)
+    typed = adavar.OnlineAdaptive(rate=RATE, settings=settings,
+                                  method_options=MethodOptions(method="kurtosis"), step=4)
+    plain = adavar.OnlineAdaptive(rate=RATE, lmax=400, lmin=200, l=60, method="kurtosis",
+                                  step=4)  # fmt: skip
+    for live in (typed, plain):
+        live.push(x)
+        live.finish()
+    np.testing.assert_array_equal(typed.window, plain.window)
+    np.testing.assert_array_equal(typed.arw, plain.arw)
+    with pytest.raises(AdavarInputError, match="change_times"):
+        adavar.OnlineAdaptive(rate=RATE, method_options=MethodOptions(change_times=[1.0]))

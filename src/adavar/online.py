@@ -90,8 +90,16 @@ from adavar.inputs import data_exponent, refuse_masked, tau_factors, unscale
 from adavar.noise_model import fit_avar
 from adavar.online_ici import ICI_EDF_SAMPLES, IciTracker
 from adavar.online_rows import Rows, check_noise_type
+from adavar.request import MethodOptions, settings_keywords
 from adavar.sampling import resolve_tau0
-from adavar.settings import CONTROLLER, HOURLY_FALSE_ALARMS, ICI_GAMMA, THRESHOLDS, threshold_mode
+from adavar.settings import (
+    CONTROLLER,
+    HOURLY_FALSE_ALARMS,
+    ICI_GAMMA,
+    THRESHOLDS,
+    ControllerSettings,
+    threshold_mode,
+)
 from adavar.surface_common import edf_table
 from adavar.terms import TERM_NAMES
 from adavar.window_defaults import dependence_stages, resolve_windows, stage_controller
@@ -208,6 +216,12 @@ class OnlineAdaptive:
     ici_kurtosis, ici_episodes : bool
         ``method="ici"``: as in :func:`adavar.adaptive_davar` (the live events are the
         steps; ramps change the windows, but are not events here).
+    settings, method_options : ControllerSettings, MethodOptions, optional
+        The controller's and the method's keywords as the objects of
+        :class:`adavar.AnalysisRequest` (their fields replace those keywords; a keyword
+        also given with another value is an error). ``MethodOptions.ici_edf_samples``
+        None means :data:`adavar.settings.ICI_EDF_SAMPLES`; its ``change_times``,
+        ``ici_long_tau`` (not options of a stream) must keep their defaults.
 
     Attributes
     ----------
@@ -315,7 +329,17 @@ class OnlineAdaptive:
         ici_edf_samples: int | None = ICI_EDF_SAMPLES,
         ici_kurtosis: bool = True,
         ici_episodes: bool = True,
+        settings: ControllerSettings | None = None,
+        method_options: MethodOptions | None = None,
     ) -> None:
+        if settings is not None or method_options is not None:
+            given = {k: v for k, v in locals().items()
+                     if k not in ("self", "settings", "method_options")}  # fmt: skip
+            keywords = settings_keywords(OnlineAdaptive.__init__, given, settings, method_options)
+            if keywords["ici_edf_samples"] is None:  # a stream has no whole record to read
+                keywords["ici_edf_samples"] = ICI_EDF_SAMPLES
+            self.__init__(**keywords)
+            return
         if method not in ONLINE_METHODS:
             raise AdavarInputError(
                 f"method {method!r} does not run live: use 'adaptive', 'kurtosis' or 'ici'"

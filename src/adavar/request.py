@@ -248,6 +248,12 @@ class MethodOptions:
     ici_episodes: bool = True
     ici_long_tau: bool = True
 
+    @classmethod
+    def from_options(cls, options: Any) -> MethodOptions:
+        """From an options object or mapping with the flags' names (an option not present
+        takes its default)."""
+        return cls(**_pick(cls, _namespace(options)))
+
     def keywords(self) -> dict[str, Any]:
         """The keywords of :func:`adavar.adaptive_davar`."""
         return dataclasses.asdict(self)
@@ -331,7 +337,7 @@ class AnalysisRequest:
         if fit_values.get("terms") is not None:
             fit_values["terms"] = tuple(fit_values["terms"])
         fit = FitSettings(**fit_values)
-        method = MethodOptions(**_pick(MethodOptions, options))
+        method = MethodOptions.from_options(options)
         return cls(record=record, window=window, controller=controller, fit=fit,
                    method_options=method,
                    windows_from=getattr(options, "windows_from", None))  # fmt: skip
@@ -387,7 +393,16 @@ def settings_keywords(
         if obj is None:
             continue
         values = obj.keywords() if hasattr(obj, "keywords") else dataclasses.asdict(obj)
+        defaults = {f.name: f.default for f in fields(obj)}
         for name, value in values.items():
+            if name not in parameters:  # an option this function has not (change_times live)
+                if _same(value, defaults.get(name, value)):
+                    continue
+                raise AdavarInputError(
+                    f"{name}={value!r} of the {type(obj).__name__} is not an option of "
+                    f"{function.__qualname__.removesuffix('.__init__')}: leave it at its "
+                    "default"
+                )
             default = parameters[name].default
             mine = given.get(name, default)
             if mine is not default and not _same(mine, default) and not _same(mine, value):

@@ -36,7 +36,6 @@ from adavar.cli.options import (
     add_kurtosis_reference_argument,
     check_arguments,
     finite_float,
-    ici_settings,
     length_arg,
     parse_noise_type,
     parse_taus,
@@ -380,28 +379,21 @@ class _Status:
 
 def _cmd_monitor(args: argparse.Namespace) -> int:
     from adavar.online import OnlineAdaptive
+    from adavar.request import MethodOptions
     from adavar.settings import ControllerSettings
 
     check_arguments(args)
     if not args.units.strip():
         raise UsageError("--units is empty: give the unit of the samples, e.g. deg/s")
-    settings = ControllerSettings.from_options(
-        argparse.Namespace(**{**vars(args), "segment": args.segment or 0})
-    ).keywords()
-    settings.pop("l")
-    for name in ("lmax", "lmin"):  # not given: the paper's 600 and its proportions
-        if getattr(args, name) is None:
-            settings.pop(name)
     fit_options = {} if args.bandwidth is None else {"bandwidth": args.bandwidth}
-    ici = ici_settings(args)
-    if ici["ici_edf_samples"] is None:  # a stream has no whole record to measure it on
-        ici["ici_edf_samples"] = ICI_EDF_SAMPLES
+    # the controller's and the method's flags as the settings objects of a request (lmax,
+    # lmin, l not given: a stream's proportions, adavar.settings.STREAM_LMAX_SECONDS)
     live = OnlineAdaptive(
-        rate=args.rate, method=args.method, **settings, l=args.segment, dependence=args.dependence,
-        kurtosis_reference=args.kurtosis_reference, step=args.step, terms=args.terms,
-        taus=args.taus, noise_type=args.noise_type,
-        edge_edf=args.edge_edf, units=args.units.strip(), t0=args.t0,
-        fit_options=fit_options, fit_batch=args.fit_batch, keep="recent", **ici,
+        rate=args.rate, settings=ControllerSettings.from_options(args),
+        method_options=MethodOptions.from_options(args), step=args.step, terms=args.terms,
+        taus=args.taus, noise_type=args.noise_type, edge_edf=args.edge_edf,
+        units=args.units.strip(), t0=args.t0, fit_options=fit_options,
+        fit_batch=args.fit_batch, keep="recent",
     )  # fmt: skip
     text = args.input_format == "text"
     decode: Any = _TextDecoder(args.column) if text else _BinaryDecoder(

@@ -932,14 +932,3 @@ def add_ici_arguments(cmd: argparse.ArgumentParser, live: bool = False) -> None:
             help="also report changes of the long-tau terms (rate random walk, bias "
             "instability) found at long averaging times, events with tau_s (default)",
         )  # fmt: skip
-
-
-def ici_settings(args: argparse.Namespace) -> dict[str, object]:
-    """The ICI keywords of :func:`adavar.adaptive_davar` from the options."""
-    settings = dict(ici_gamma=args.ici_gamma, ici_lengths=args.ici_lengths,
-                    ici_taus=args.ici_taus, ici_sides=args.ici_sides, ici_edf=args.ici_edf,
-                    ici_edf_samples=args.ici_edf_samples, ici_kurtosis=args.ici_kurtosis,
-                    ici_episodes=args.ici_episodes)  # fmt: skip
-    if hasattr(args, "ici_long_tau"):  # not live
-        settings["ici_long_tau"] = args.ici_long_tau
-    return settings
