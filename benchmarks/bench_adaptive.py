@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe, timed
 
 import adavar
-from adavar.adaptive import adaptive_schedule
+from adavar.dynamic.adaptive import adaptive_schedule
 
 #: the paper's controller, the figures' setting (the defaults follow the record since 0.2)
 PAPER = dict(lmax=600, lmin=400, l=100, thresholds="paper", step=1)

@@ -6,11 +6,11 @@ rate, 1/131 deg/s LSB; N 0.3 deg/sqrt(h), B 7 deg/h, K 21 deg/h/sqrt(h)):
 * **stationary**: 2-hour records; the fraction of centres where the window shrank and the
   number of shrink episodes (false events) per hour;
 * **disturbed**: 1-hour records with the white noise x3 or x1.5 from 20 to 40 minutes; the
-  event's start and end (:func:`adavar.events.find_events`: the window's leading edge at
+  event's start and end (:func:`adavar.dynamic.events.find_events`: the window's leading edge at
   the first shrink of each episode, changes paired into stretches), their errors against
   the truth and against ``Lmin/2``.
 
-The windows are :func:`adavar.adaptive.record_windows` of the record (Lmax a tenth of it),
+The windows are :func:`adavar.dynamic.adaptive.record_windows` of the record (Lmax a tenth of it),
 the thresholds those of ``adavar adaptive``'s defaults: calibrated for 0.1 false events per
 stationary hour (``--thresholds paper`` for the paper's: ``--paper``). A false event is a
 shrink episode (episodes less than Lmax/4 apart are one). The last part times ``adavar
@@ -33,8 +33,8 @@ from _machine import describe
 
 import adavar
 from adavar import simulate
-from adavar.adaptive import record_windows
-from adavar.events import find_events
+from adavar.dynamic.adaptive import record_windows
+from adavar.dynamic.events import find_events
 
 NOISE = dict(angle_random_walk=0.005, bias_instability=0.002, rate_random_walk=1e-4, lsb=1 / 131)
 

@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe
 
 from adavar import simulate
-from adavar.batch import analyse_file, run_batch
+from adavar.pipeline.batch import analyse_file, run_batch
 
 
 def _records(folder: Path, files: int, n: int) -> list[Path]:

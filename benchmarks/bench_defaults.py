@@ -31,8 +31,8 @@ import numpy as np
 from _machine import describe
 
 import adavar
-from adavar.events import find_events
-from adavar.thresholds import DEPENDENCE_SAMPLES, noise_dependence
+from adavar.dynamic.events import find_events
+from adavar.dynamic.thresholds import DEPENDENCE_SAMPLES, noise_dependence
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from tests.independent_noise import changing, low_pass, white
@@ -48,7 +48,7 @@ def head_dependence(x: np.ndarray) -> tuple[float, float]:
 
 
 def events_of(x: np.ndarray, rate: float, **controller) -> tuple[list, float]:
-    """The events (change times paired, adavar.events.find_events) of the schedule, and
+    """The events (change times paired, adavar.dynamic.events.find_events) of the schedule, and
     half its Lmax in seconds."""
     sched = adavar.adaptive_schedule(x, rate=rate, **controller)
     lmax = int(sched.parameters["lmax"])
@@ -152,7 +152,7 @@ def live_table(seeds: int) -> None:
         same += bool(np.array_equal(live.window, sched.window)) and [
             (e.start_s, e.end_s) for e in live.events
         ] == [(e.start_s, e.end_s) for e in offline]
-    print(f"\nlive defaults (Lmax {adavar.settings.STREAM_LMAX_SECONDS:g} s) against offline "
+    print(f"\nlive defaults (Lmax {adavar.core.settings.STREAM_LMAX_SECONDS:g} s) against offline "
           f"defaults (a tenth of 30 min) on the step records: {same}/{seeds} with the same "
           "windows and events")  # fmt: skip
 

@@ -34,7 +34,7 @@ import numpy as np
 from _machine import describe
 
 import adavar
-from adavar.events import change_episodes, find_events
+from adavar.dynamic.events import change_episodes, find_events
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import independent_noise as ind
@@ -54,7 +54,7 @@ def stationary(shape: str, n: int, rate: float, seed: int) -> np.ndarray:
 
 
 def episodes(window: np.ndarray, centre: np.ndarray, lmax: int, tau0: float) -> int:
-    """Shrink episodes, merged as adavar.events.EventTracker merges them (each gives at most
+    """Shrink episodes, merged as adavar.dynamic.events.EventTracker merges them (each gives at most
     one event)."""
     count, lead0, hi = 0, -np.inf, -np.inf
     for lead, trail in change_episodes(window, centre, lmax, tau0):

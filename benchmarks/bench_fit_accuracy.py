@@ -4,8 +4,8 @@ Simulated sensors with known angle random walk N and rate random walk K (white r
 ``N * randn / sqrt(tau0)`` plus the random walk ``cumsum(K * sqrt(tau0) * randn)``), 4e5
 samples at 1 Hz, 20 seeds each. For every record:
 
-* adavar: ``adavar.statistics.deviation(stat="oadev")`` (edf from the Greenhall-Riley
-  algorithm with the noise type identified per tau) then ``adavar.noise_model.fit_noise``
+* adavar: ``adavar.stats.statistics.deviation(stat="oadev")`` (edf from the Greenhall-Riley
+  algorithm with the noise type identified per tau) then ``adavar.fit.noise_model.fit_noise``
   (non-negative least squares weighted by ``edf / (2 avar^2)``, iteratively reweighted with
   the model). Two tau grids: ``"octave"`` (1, 2, 4, ... up to half the record), the
   documented choice (the NIST SP 1065 / IEEE Std 952 convention and adavar's default), and
@@ -30,8 +30,8 @@ import time
 import numpy as np
 from allan_variance import compute_avar, estimate_parameters
 
-from adavar.noise_model import TERM_NAMES, fit_noise
-from adavar.statistics import deviation
+from adavar.fit.noise_model import TERM_NAMES, fit_noise
+from adavar.stats.statistics import deviation
 
 N_SAMPLES = 400_000
 TAU0 = 1.0

@@ -52,7 +52,7 @@ _B = math.sqrt(2 * math.log(2) / math.pi)
 
 def _follows(r, fit, record_s: float, level: float = 0.683) -> bool:
     """Model inside the ``level`` interval or within 10 % at every fitted tau of 1 s .. limit."""
-    from adavar.edf import chi2_interval
+    from adavar.stats.edf import chi2_interval
 
     top = min(1000.0, record_s / 10.0)
     model = fit.fitted_dev

@@ -10,7 +10,7 @@ robust ``mad``; tracking: the mean ``|N - N_true| / N_true`` within ``Lmax`` of 
   EDF (the fast path of :func:`adavar.paper.studies.compare_seeds`), medians over seeds; and
   the fraction of stationary centres whose window is shorter than ``Lmax``;
 * **realistic 200 Hz** records (the bandwidth-limited, quantised simulator of
-  ``bench_adaptive_real.py``; windows :func:`adavar.adaptive.record_windows` of the record,
+  ``bench_adaptive_real.py``; windows :func:`adavar.dynamic.adaptive.record_windows` of the record,
   A-DAVAR's thresholds calibrated for 0.1 false events per hour as ``adavar adaptive``):
   stationary 2 h (shortened fraction and spread of N), disturbed 1 h with the white noise x3
   or x1.5 from 20 to 40 min (tracking error). N is fitted with N, B and K above ``2 /
@@ -44,10 +44,10 @@ from _machine import describe
 from bench_adaptive_real import NOISE, _record
 
 import adavar
-from adavar.adaptive import record_windows
 from adavar.comparison import EdfCache, run_comparison, tracking_metrics
+from adavar.core.settings import CONTROLLER
+from adavar.dynamic.adaptive import record_windows
 from adavar.paper.scenarios import paper_scenario
-from adavar.settings import CONTROLLER
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # tests/ (the generator)
 from tests import independent_noise as inn

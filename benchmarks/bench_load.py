@@ -140,7 +140,7 @@ def memory() -> list[str]:
         path = os.path.join(tmp, "gyro.csv")
         np.savetxt(path, rng.standard_normal(n) * 0.01, fmt="%.9g", header="gz", comments="")
         cli = [sys.executable, "-m", "adavar.cli"]
-        imports = "import adavar.cli, adavar.surface, adavar.plots"
+        imports = "import adavar.cli, adavar.dynamic.surface, adavar.output.plots"
         base = _peak_rss_mb([sys.executable, "-c", imports])
         runs = {
             "avar --taus all": ["avar", path, "--rate", "200", "--units", "deg/s", "--taus", "all"],
@@ -240,7 +240,7 @@ def kernels(max_n: int) -> list[str]:
 def _threaded_times() -> dict[str, float]:
     """Best of 3 of each threaded kernel's public call (compiled first)."""
     import adavar
-    from adavar.kurtosis import kurtosis_contribution
+    from adavar.dynamic.kurtosis import kurtosis_contribution
 
     x = adavar.simulate.sensor(
         720_000, rate=200.0, angle_random_walk=0.01, bias_instability=0.003, bandwidth=50.0,
@@ -276,7 +276,7 @@ import time
 t0 = time.perf_counter()
 import numpy as np
 import adavar
-from adavar.kurtosis import kurtosis_contribution
+from adavar.dynamic.kurtosis import kurtosis_contribution
 from numba.core import event
 
 compiling = [0.0]

@@ -30,7 +30,7 @@ import numpy as np
 from _machine import describe
 
 import adavar
-from adavar.online import OnlineAdaptive
+from adavar.dynamic.online import OnlineAdaptive
 from adavar.simulate import sensor
 
 RATE = 200.0

@@ -14,7 +14,7 @@ Usage: python benchmarks/bench_paper.py [--seeds 200] [--fa-samples 200000]
 4. Scenario 2 (disturbances at 1000-2000 s and 4000-5000 s) beside the paper's Table 3 (a
    measured gyroscope with that shape, not this simulation).
 5. False-alarm rates of the controllers on stationary white noise
-   (:func:`adavar.adaptive.false_alarm_rate`), paper thresholds against calibrated ones,
+   (:func:`adavar.dynamic.adaptive.false_alarm_rate`), paper thresholds against calibrated ones,
    and what calibrated thresholds do to the nodes and metrics of scenario 1.
 6. Speed: 100 seeds of scenario 1 with the four default methods.
 """
@@ -32,9 +32,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe, timed
 
-from adavar.adaptive import false_alarm_rate
+from adavar.core.settings import PAPER
+from adavar.dynamic.adaptive import false_alarm_rate
 from adavar.paper import NODE_TITLES, PAPER_LABELS, PAPER_REFERENCE, compare_seeds, paper_arw
-from adavar.settings import PAPER
 
 
 def table(headers: list[str], rows: list[list[str]], indent: str = "  ") -> str:
@@ -284,15 +284,15 @@ def main() -> None:
     # this script computes them once.
     import functools
 
-    import adavar.adaptive
+    import adavar.dynamic.adaptive
 
-    original = adavar.adaptive.calibrated_thresholds
-    adavar.adaptive.calibrated_thresholds = functools.lru_cache(maxsize=8)(original)
+    original = adavar.dynamic.adaptive.calibrated_thresholds
+    adavar.dynamic.adaptive.calibrated_thresholds = functools.lru_cache(maxsize=8)(original)
     t = time.perf_counter()
     try:
         s1c = compare_seeds(1, seeds, thresholds="calibrated", methods=methods)
     finally:
-        adavar.adaptive.calibrated_thresholds = original
+        adavar.dynamic.adaptive.calibrated_thresholds = original
     print(
         f"Scenario 1 with calibrated thresholds, {len(s1c.seeds)} seeds "
         f"({time.perf_counter() - t:.1f} s)"

@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe, timed
 
 import adavar
-from adavar import theo_family as tf
+from adavar.stats import theo_family as tf
 
 
 def theo_ops(n: int, ms: np.ndarray) -> float:
@@ -118,7 +118,7 @@ def bench_theobr(x: np.ndarray, args: argparse.Namespace) -> None:
         rel = float(np.max(np.abs(mine / pdev[np.searchsorted(pm, few)] - 1)))
         # the ratios both can form: allantools' oadev over its theo1 at the first pairs
         theirs = padev[: few.size] ** 2 / pdev[np.searchsorted(pm, few)] ** 2
-        ours_r = tf._oavar(adavar.differences.anchored_phase(u), m_avar[: few.size])
+        ours_r = tf._oavar(adavar._kernels.differences.anchored_phase(u), m_avar[: few.size])
         rel = max(rel, float(np.max(np.abs(ours_r / mine**2 / theirs - 1))))
         peer_total = peer * theo_ops(n, m_theo) / theo_ops(n, few) + peer_avar
         tag = " (scaled)" if before_scaled else ""

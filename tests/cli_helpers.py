@@ -26,8 +26,9 @@ def assert_one_line_error(code, out, err, *fragments):
 
 #: The library modules whose functions the commands import when they run (the command
 #: modules import them inside their functions, so that ``adavar --help`` stays light).
-LIBRARY = ("adavar.analysis", "adavar.statistics", "adavar.noise_model", "adavar.adaptive",
-           "adavar.surface", "adavar.export", "adavar.simulate")  # fmt: skip
+LIBRARY = ("adavar.pipeline.analysis", "adavar.stats.statistics", "adavar.fit.noise_model",
+           "adavar.dynamic.adaptive", "adavar.dynamic.surface", "adavar.output.export",
+           "adavar.simulate")  # fmt: skip
 
 
 def patch_cli(monkeypatch, name, value):

@@ -3,7 +3,7 @@
 On a fresh checkout every Numba kernel compiles on first use (then it is cached on disk).
 With two pytest-xdist workers, both start with the same tests' kernels and compile them
 side by side: the same work twice. Here each worker first compiles one half of the
-stages of ``adavar precompile`` (:mod:`adavar.precompile`) and writes them to the
+stages of ``adavar precompile`` (:mod:`adavar.pipeline.precompile`) and writes them to the
 shared cache; whichever kernels of the other half it then needs it loads from there.
 Nothing here asserts anything: a warm-up that fails leaves the kernels to compile in the
 tests, which report any error themselves.
@@ -26,7 +26,7 @@ os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 
 def _share(k: int) -> None:
     """Compile every other stage of ``adavar precompile``, from the ``k``-th on."""
-    from adavar.precompile import STAGES, precompile
+    from adavar.pipeline.precompile import STAGES, precompile
 
     precompile(list(STAGES)[k::2])
 

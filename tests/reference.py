@@ -181,7 +181,7 @@ def davar_reference(x, window, *, edges="mirror", step=1, data_type="rate", tau0
 
 
 # ---------------------------------------------------------------------------------------
-# kurtosis (adavar.kurtosis)
+# kurtosis (adavar.dynamic.kurtosis)
 
 
 def pearson_kurtosis(values):

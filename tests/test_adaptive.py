@@ -9,14 +9,14 @@ import pytest
 from scipy import stats
 
 import adavar
-from adavar.adaptive import (
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic.adaptive import (
     AdaptiveResult,
     adaptive_schedule,
     calibrated_thresholds,
     false_alarm_rate,
     oracle_schedule,
 )
-from adavar.errors import AdavarInputError
 
 # the controller of docs/method.md with the paper's thresholds (the default is per hour)
 SMALL = dict(lmax=200, lmin=120, l=30, thresholds="paper")  # l: the paper's segment name
@@ -280,7 +280,7 @@ def test_controller_statistics_agree_with_the_kurtosis_module():
 def test_parallel_segments_reproduce_the_sequential_pass_bit_for_bit(monkeypatch, segments):
     """Speculative segments (started from Lmax, WARM_UP centres early) and the sequential
     pass agree exactly, including segments whose guess must be rerun."""
-    from adavar import controller
+    from adavar.dynamic import controller
 
     x = np.random.default_rng(21).standard_normal(40_000) + 5e5
     for a in range(0, x.size, 3000):  # frequent disturbances: some guesses will not coalesce

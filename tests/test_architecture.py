@@ -138,9 +138,9 @@ def test_functions_keep_their_names_whatever_is_imported():
     imported: the modules have other names, so no module's class has to be swapped."""
     import adavar
     import adavar.comparison
-    import adavar.surface
+    import adavar.dynamic.surface
 
-    assert adavar.davar is adavar.surface.davar
+    assert adavar.davar is adavar.dynamic.surface.davar
     assert adavar.compare is adavar.comparison.compare
     from adavar import cli
     from adavar.cli import entry
@@ -160,7 +160,7 @@ def _public_module(dotted: str) -> bool:
 def test_no_module_takes_another_public_modules_private_names():
     """A name another module needs is not private: ``from adavar.x import _y`` and
     ``x._y`` of a public module ``adavar.x`` are refused (private modules such as
-    ``adavar._kernels`` or ``adavar._jit`` are internal as a whole)."""
+    ``adavar._kernels`` or ``adavar._kernels._jit`` are internal as a whole)."""
     found = []
     for path, tree in _modules().items():
         here = _module_name(path)
@@ -243,42 +243,30 @@ def test_no_import_cycles_even_inside_functions():
 #: The layers, lowest first: a module imports from its own layer and those below, never
 #: from above (docs/architecture.md). ``name.*``: a package and everything in it.
 LAYERS = [
-    ("core", ["adavar.errors", "adavar.settings", "adavar.request", "adavar.units",
-              "adavar.durations", "adavar.terms", "adavar.taus", "adavar.extended_statistics",
-              "adavar.thinning", "adavar.results", "adavar.fit_checks", "adavar.atomic",
-              "adavar.csv_tables", "adavar.datasets"]),
-    ("kernels", ["adavar._jit", "adavar._kernels.*", "adavar._nnls", "adavar._heap",
-                 "adavar._workers", "adavar.differences"]),
-    ("files", ["adavar.sources", "adavar.sampling", "adavar.readers.*", "adavar.preprocess",
-               "adavar.inputs", "adavar.writers", "adavar.io", "adavar.iir",
-               "adavar.generators"]),
-    ("statistics", ["adavar.noise_id", "adavar.edf", "adavar.record_sums",
-                    "adavar.stream", "adavar.gaps", "adavar.theo_family",
-                    "adavar.total_family", "adavar.time_error", "adavar.stationary_noise",
-                    "adavar.statistics", "adavar.cornered_hat", "adavar.slopes",
-                    "adavar.avar_covariance"]),
-    ("fit", ["adavar.gls_core", "adavar.gls_select", "adavar.gls_fit", "adavar.stack_fit",
-             "adavar.noise_model", "adavar.power_law"]),
-    ("dynamic", ["adavar.windows", "adavar.window_defaults", "adavar.surface_common",
-                 "adavar.surface", "adavar.davar_gaps", "adavar.kurtosis",
-                 "adavar.kurtosis_reference", "adavar.thresholds", "adavar.controller",
-                 "adavar.events", "adavar.adaptive", "adavar.ici", "adavar.ici_episodes",
-                 "adavar.ici_events", "adavar.long_tau", "adavar.online", "adavar.online_ici",
-                 "adavar.online_rows", "adavar.surface_fit"]),
+    ("core", ["adavar.core.*"]),
+    ("kernels", ["adavar._kernels.*"]),
+    ("io", ["adavar.io.*", "adavar.readers.*"]),
+    ("simulation", ["adavar.simulation.*"]),
+    ("stats", ["adavar.stats.*"]),
+    ("fit", ["adavar.fit.*"]),
+    ("dynamic", ["adavar.dynamic.*"]),
     ("paper", ["adavar.paper.*", "adavar.comparison", "adavar.simulate"]),
-    ("output", ["adavar.export", "adavar._figures", "adavar.paper_figures", "adavar.plots",
-                "adavar.notebook", "adavar.report_parts", "adavar.report"]),
-    ("pipeline", ["adavar.analysis", "adavar.report_analysis", "adavar.batch_state",
-                  "adavar.batch_cluster", "adavar.batch", "adavar.demo", "adavar.precompile"]),
+    ("output", ["adavar.output.*"]),
+    ("pipeline", ["adavar.pipeline.*"]),
     ("cli", ["adavar.cli.*"]),
-    ("package", ["adavar"]),
+    ("package", [
+        "adavar", "adavar.adaptive", "adavar.analysis", "adavar.batch", "adavar.datasets",
+        "adavar.demo", "adavar.events", "adavar.export", "adavar.long_tau", "adavar.plots",
+        "adavar.precompile", "adavar.report", "adavar.report_parts", "adavar.settings",
+        "adavar.stream", "adavar.surface", "adavar.surface_fit",
+    ]),
 ]  # fmt: skip
 
 #: Calls upward that run only when a user asks for them, each with its reason
 UPWARD = {
     # a result's notebook view and .plot() draw it: the figures are the output layer's,
     # reached at call time (notebook and plots import no result class at run time)
-    ("adavar.results", "adavar.notebook"),
+    ("adavar.core.results", "adavar.output.notebook"),
 }
 
 
@@ -303,3 +291,79 @@ def test_every_module_has_a_layer_and_imports_only_downwards():
                 upward.append(f"{here} ({LAYERS[_layer(here)][0]}) imports {target} "
                               f"({LAYERS[_layer(target)][0]})")  # fmt: skip
     assert upward == []
+
+
+# faces: added by the relayout (issue 41)
+#: the public faces: documented module paths that re-export a module of a layer package
+FACES = {
+    "adavar.adaptive": "adavar.dynamic.adaptive",
+    "adavar.analysis": "adavar.pipeline.analysis",
+    "adavar.batch": "adavar.pipeline.batch",
+    "adavar.datasets": "adavar.core.datasets",
+    "adavar.demo": "adavar.pipeline.demo",
+    "adavar.events": "adavar.dynamic.events",
+    "adavar.export": "adavar.output.export",
+    "adavar.io": "adavar.io.text_column",
+    "adavar.long_tau": "adavar.dynamic.long_tau",
+    "adavar.plots": "adavar.output.plots",
+    "adavar.precompile": "adavar.pipeline.precompile",
+    "adavar.report": "adavar.output.report",
+    "adavar.report_parts": "adavar.output.report_parts",
+    "adavar.settings": "adavar.core.settings",
+    "adavar.stream": "adavar.stats.stream",
+    "adavar.surface": "adavar.dynamic.surface",
+    "adavar.surface_fit": "adavar.dynamic.surface_fit",
+}
+#: faces of more than one module (``adavar.simulate``: the generators and the scenarios)
+OTHER_FACES = {"adavar.simulate"}
+
+
+def test_no_module_imports_a_public_face():
+    """The library imports every name from the module that defines it; the faces
+    (``adavar.plots``, ``adavar.simulate``, ...) are for users (the package ``adavar``
+    itself and the faces excepted)."""
+    faces = set(FACES) | OTHER_FACES
+    modules = {_module_name(path) for path in _modules()}
+    found = []
+    for path, tree in _modules().items():
+        here = _module_name(path)
+        if here == "adavar" or here in faces:
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module == "adavar":
+                found += [f"{here}: adavar.{a.name}" for a in node.names
+                          if f"adavar.{a.name}" in faces]  # fmt: skip
+            elif isinstance(node, ast.ImportFrom) and node.module in faces:
+                # ``from adavar.io import sources``: a module of the package, not the face
+                found += [f"{here}: {node.module}.{a.name}" for a in node.names
+                          if f"{node.module}.{a.name}" not in modules]  # fmt: skip
+            elif isinstance(node, ast.Import):
+                found += [f"{here}: {a.name}" for a in node.names if a.name in faces]
+    assert found == []
+
+
+def test_the_top_level_holds_the_faces_only():
+    """A new module goes into its layer's package (``LAYERS``); the top level of the
+    package holds the public faces (and ``adavar.comparison``, the paper layer's module
+    that ``adavar.paper`` keeps outside itself), and ``adavar``'s lazy names point at the
+    modules that define them."""
+    import adavar
+
+    top = {f"adavar.{path.stem}" for path in SRC.glob("*.py") if path.stem != "__init__"}
+    assert top - {"adavar.comparison"} - OTHER_FACES == set(FACES) - {"adavar.io"}
+    assert [m for m in adavar._LAZY.values() if m in FACES or m in OTHER_FACES] == []
+
+
+@pytest.mark.parametrize("face", sorted(FACES))
+def test_every_face_exports_exactly_its_modules_public_names(face):
+    import importlib
+
+    public = importlib.import_module(face)
+    module = importlib.import_module(FACES[face])
+    assert list(public.__all__) == list(module.__all__)
+    assert [n for n in module.__all__ if getattr(public, n) is not getattr(module, n)] == []
+    defined = {
+        node.name for node in ast.parse(Path(public.__file__).read_text()).body
+        if isinstance(node, (ast.FunctionDef, ast.ClassDef))
+    } - {"__getattr__", "__dir__"}  # fmt: skip
+    assert defined == set(), f"{face} defines {defined}: a face only re-exports"

@@ -27,10 +27,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar import analysis, batch, cli, report_analysis, simulate, writers
-from adavar import report as report_module
-from adavar.adaptive import record_windows
-from adavar.batch import (
+from adavar import cli, simulate
+from adavar.comparison import schedule_nodes
+from adavar.dynamic.adaptive import record_windows
+from adavar.io import writers
+from adavar.io.writers import OUTPUT_MARKER
+from adavar.output import report as report_module
+from adavar.pipeline import analysis, batch, report_analysis
+from adavar.pipeline.batch import (
     BATCH_MARKER,
     SUMMARY_COLUMNS,
     analyse_file,
@@ -39,9 +43,7 @@ from adavar.batch import (
     report_options,
     run_batch,
 )
-from adavar.batch_state import BATCH_LOCK, BATCH_STATE, folder_name
-from adavar.comparison import schedule_nodes
-from adavar.writers import OUTPUT_MARKER
+from adavar.pipeline.batch_state import BATCH_LOCK, BATCH_STATE, folder_name
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -645,7 +647,7 @@ def test_events_are_the_node_times_of_the_schedule(records):
     got = [(i["beginning_s"], i["end_node_s"], i["restore_s"]) for i in events["runs"]]
     assert got == expected
     # the stretches start at a change (the leading edge before a shrink), not at a node
-    from adavar.events import find_events
+    from adavar.dynamic.events import find_events
 
     fit = analysis.coefficients
     stretches = find_events(window, analysis.adaptive.centre, time_s, 600, 1 / RATE,
@@ -661,7 +663,7 @@ def test_events_are_the_node_times_of_the_schedule(records):
 
 
 def test_fixed_window_events_follow_the_controller_flags(records):
-    from adavar.adaptive import adaptive_schedule
+    from adavar.dynamic.adaptive import adaptive_schedule
 
     analysis = analyse_file(records["g2"], {"units": "deg/s", "rate": RATE, "window": 1000,
                                             "l": 100})  # fmt: skip
@@ -697,7 +699,7 @@ def test_fixed_window_events_follow_the_controller_flags(records):
 def test_keep_figures_gives_the_same_report_and_events(records, options, monkeypatch):
     """``keep="figures"`` (what adavar report and batch use) fits the surface a block at a
     time and keeps its drawn rows: the same page, events and shape as the whole surface."""
-    monkeypatch.setattr(sys.modules["adavar.surface"], "BLOCK_VALUES", 4096)  # many blocks
+    monkeypatch.setattr(sys.modules["adavar.dynamic.surface"], "BLOCK_VALUES", 4096)  # many blocks
     options = {"units": "deg/s", "rate": RATE, **options}
     whole = analyse_file(records["g2"], options)
     blocks = analyse_file(records["g2"], options, keep="figures")

@@ -26,12 +26,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import adavar.sources
-from adavar import batch_cluster, simulate
-from adavar.batch import run_batch
-from adavar.batch_state import BATCH_LOCK, BATCH_STATE, folder_name, locked
-from adavar.errors import AdavarInputError
-from adavar.writers import PAUSE_BEFORE_RENAME_ENV
+import adavar.io.sources
+from adavar import simulate
+from adavar.core.errors import AdavarInputError
+from adavar.io.writers import PAUSE_BEFORE_RENAME_ENV
+from adavar.pipeline import batch_cluster
+from adavar.pipeline.batch import run_batch
+from adavar.pipeline.batch_state import BATCH_LOCK, BATCH_STATE, folder_name, locked
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -79,12 +80,14 @@ def test_workers_are_bounded_by_the_free_memory(capsys, gyros, tmp_path, monkeyp
 
     monkeypatch.setattr(distributed, "LocalCluster", _no_cluster)
     monkeypatch.setattr(batch_cluster, "_cores", lambda: 64)
-    monkeypatch.setattr(adavar.sources, "available_memory", lambda: 3 * batch_cluster.WORKER_MEMORY)
+    monkeypatch.setattr(
+        adavar.io.sources, "available_memory", lambda: 3 * batch_cluster.WORKER_MEMORY
+    )
     assert batch_cluster.max_workers()[0] == 3
     code, stdout, err = run(capsys, ["batch", str(gyros[0]), *BATCH, "--out",
                                      str(tmp_path / "out"), "--workers", "4"])  # fmt: skip
     assert_one_line_error(code, stdout, err, "GiB of free memory", "--workers 3 or fewer")
-    monkeypatch.setattr(adavar.sources, "available_memory", lambda: None)  # unknown: cores
+    monkeypatch.setattr(adavar.io.sources, "available_memory", lambda: None)  # unknown: cores
     assert batch_cluster.max_workers()[0] == 64 * batch_cluster.WORKERS_PER_CORE
 
 
@@ -228,7 +231,7 @@ def test_a_task_cancelled_without_its_scheduler_was_lost_with_it():
     the scheduler was lost, as the others do; a cancellation while connected does not."""
     from concurrent.futures import CancelledError
 
-    from adavar.batch_cluster import _task_failure
+    from adavar.pipeline.batch_cluster import _task_failure
 
     class FutureCancelledError(CancelledError):
         pass

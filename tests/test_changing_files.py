@@ -20,10 +20,10 @@ import numpy as np
 import pytest
 
 from adavar import readers
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
+from adavar.io.sources import NpyFileSource
 from adavar.readers import read_record, textscan
-from adavar.sources import NpyFileSource
-from adavar.statistics import deviation
+from adavar.stats.statistics import deviation
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -208,7 +208,7 @@ sys.exit(main([argv[0], path, *argv[1:]]))
 #: (module, function after which the file is cut short, command)
 _SIGBUS_RUNS = {
     # the events' check of a fixed window read the map: davar --chunk-size (the issue)
-    "davar": ("surface", "davar", ["davar", "--rate", "10", "--units", "deg/s", "--window",
+    "davar": ("dynamic.surface", "davar", ["davar", "--rate", "10", "--units", "deg/s", "--window",
                                  "2001", "--step", "997", "--chunk-size", "4096"]),
     # preprocessing loaded the record through the map
     "preprocess": ("readers", "read_record", ["avar", "--rate", "10", "--units", "deg/s",

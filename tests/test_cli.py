@@ -17,8 +17,8 @@ import pytest
 import adavar
 from adavar import simulate
 from adavar.cli import main
-from adavar.io import read_text
-from adavar.writers import DEMO_MARKER, OUTPUT_MARKER
+from adavar.io.text_column import read_text
+from adavar.io.writers import DEMO_MARKER, OUTPUT_MARKER
 
 from .cli_helpers import assert_one_line_error, patch_cli, run
 
@@ -87,7 +87,7 @@ def test_avar_fit_recovers_white_noise_n(capsys, white_csv):
     assert code == 0 and err == ""
     assert "NaN" not in out and "Infinity" not in out
     fit = json.loads(out)["fit"]
-    for name in adavar.noise_model.TERM_NAMES:
+    for name in adavar.fit.noise_model.TERM_NAMES:
         assert set(fit[name]) == {"value", "uncertainty", "upper", "unit"}
     arw = fit["angle_random_walk"]
     assert arw["unit"] == "deg/sqrt(s)"
@@ -364,7 +364,7 @@ PAPER_DEMO_FILES = [
 
 def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path, monkeypatch):
     out_dir = tmp_path / "demo"
-    monkeypatch.setattr("adavar.demo.PAPER_SEEDS", 6)  # fewer realisations than the demo's
+    monkeypatch.setattr("adavar.pipeline.demo.PAPER_SEEDS", 6)  # fewer realisations than the demo's
     before = set(threading.enumerate())
     code, out, err = run(capsys, ["demo", "--out", str(out_dir)])
     assert code == 0, err
@@ -382,7 +382,7 @@ def test_demo_table_then_json_replacing_its_folder(capsys, tmp_path, monkeypatch
     names = {p.name for p in out_dir.iterdir()}
     assert set(PAPER_DEMO_FILES) <= names, set(PAPER_DEMO_FILES) - names
 
-    monkeypatch.setattr("adavar.demo.PAPER_SEEDS", 2)
+    monkeypatch.setattr("adavar.pipeline.demo.PAPER_SEEDS", 2)
     # one process (the worker's path is the first run's, and tests/test_demo.py's)
     # no figures: the first run's are gone with its folder, and none is drawn
     argv = ["demo", "--out", str(out_dir), "--json", "--seed", "5", "--workers", "1",

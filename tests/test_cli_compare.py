@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from adavar.io import read_text
+from adavar.io.text_column import read_text
 from adavar.simulate import paper_scenario
 
 from .cli_helpers import assert_one_line_error, run

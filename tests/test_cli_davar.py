@@ -17,8 +17,8 @@ from scipy.io import netcdf_file
 
 import adavar
 from adavar import simulate
-from adavar.io import read_text
-from adavar.writers import OUTPUT_MARKER
+from adavar.io.text_column import read_text
+from adavar.io.writers import OUTPUT_MARKER
 
 from .cli_helpers import assert_one_line_error, patch_cli, run
 
@@ -103,7 +103,8 @@ def test_json_summarises_without_the_surface(capsys, gyro_csv, expected):
     }  # fmt: skip
     assert payload["parameters"] == {
         "window": WINDOW, "window_s": 40.0, "step": 1, "edges": "mirror", "taus": "all",
-        "points_per_decade": 10, "confidence": 0.683, "terms": list(adavar.noise_model.TERM_NAMES),
+        "points_per_decade": 10, "confidence": 0.683,
+        "terms": list(adavar.fit.noise_model.TERM_NAMES),
         "resolution": None,  # every centre and every tau fit the default --max-memory
     }  # fmt: skip
     assert payload["shape"] == {"time": N_SAMPLES, "tau": result.tau.size}
@@ -124,7 +125,7 @@ def test_json_summarises_without_the_surface(capsys, gyro_csv, expected):
     assert stats["conventional"]["unit"] == "deg/sqrt(h)"
     assert stats["conventional"]["value"]["median"] == pytest.approx(60 * np.median(value))
     assert payload["fit"]["n_fitted"] == N_SAMPLES
-    assert set(payload["fit"]["coefficients"]) == set(adavar.noise_model.TERM_NAMES)
+    assert set(payload["fit"]["coefficients"]) == set(adavar.fit.noise_model.TERM_NAMES)
 
 
 def test_terms_and_failed_windows_do_not_crash(capsys, gyro_csv):

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adavar.online import OnlineAdaptive
+from adavar.dynamic.online import OnlineAdaptive
 from adavar.simulate import sensor
 
 from .cli_helpers import assert_one_line_error, run

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adavar.online import OnlineAdaptive
+from adavar.dynamic.online import OnlineAdaptive
 
 from .cli_helpers import assert_one_line_error, run
 from .test_cli_monitor import ARGS, RATE, parse, stream, wait_for_listener

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from adavar.online import OnlineAdaptive
+from adavar.dynamic.online import OnlineAdaptive
 from adavar.simulate import sensor
 
 from .test_cli_monitor_ends import free_udp_port

@@ -12,7 +12,7 @@ import json
 import numpy as np
 import pytest
 
-from adavar import stream
+from adavar.stats import stream
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -203,8 +203,9 @@ def test_report_with_a_window_holds_pieces_not_the_record(capsys, tmp_path, monk
     samples), then, streamed, its events read it whole again. With few windows and pieces
     of 64 Ki samples (the default is 4 Mi), the traced peak grows by less than two bytes a
     sample from 1 Mi to 2 Mi samples (the record in memory: 8 and more)."""
-    from adavar import sources, stationary_noise, stream
+    from adavar.io import sources
     from adavar.readers import record
+    from adavar.stats import stationary_noise, stream
 
     for module in (sources, stream, stationary_noise, record):
         monkeypatch.setattr(module, "DEFAULT_CHUNK", 1 << 16)
@@ -224,7 +225,7 @@ def test_compare_of_a_file_holds_pieces_not_the_record(tmp_path, monkeypatch, ca
 
     from adavar import comparison
     from adavar.cli import compare as compare_command
-    from adavar.sources import ChunkedSource
+    from adavar.io.sources import ChunkedSource
 
     opts = dict(rate=100.0, lmax=600, lmin=400, taus=[0.01, 0.02], keep="figures",
                 step=50_000, chunk_size=16384, methods=["davar-400", "a-davar"])  # fmt: skip

@@ -19,11 +19,12 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar import cli, generators, readers, simulate
+from adavar import cli, readers, simulate
 from adavar import comparison as compare_module
+from adavar.output.plots import rate_unit
 from adavar.paper import scenarios as paper_scenarios
 from adavar.paper import studies as paper_studies
-from adavar.plots import rate_unit
+from adavar.simulation import generators
 
 from .cli_helpers import patch_cli, run
 
@@ -68,7 +69,7 @@ NOT_FLAGS = {
     # the davar command writes the bounds
     "bounds",
     # davar(rows=): a block of a surface, for code that works through a long record's
-    # surface piece by piece (adavar.surface_fit); the command writes the whole surface
+    # surface piece by piece (adavar.dynamic.surface_fit); the command writes the whole surface
     "rows",
     # read_record(memory_map=): the commands always read .npy files with file reads, never
     # through a map (a file cut short meanwhile is then an error, not a SIGBUS crash)
@@ -563,8 +564,8 @@ def test_truth_column_is_for_a_file(capsys, record):
 
 
 def test_report_parser_defaults_are_the_analysis_defaults():
-    """adavar.settings holds every analysis default once; the parser agrees with it."""
-    from adavar.settings import ANALYSIS_DEFAULTS
+    """adavar.core.settings holds every analysis default once; the parser agrees with it."""
+    from adavar.core.settings import ANALYSIS_DEFAULTS
 
     args = cli.build_parser().parse_args(["report", "FILE", "-o", "report.html"])
     cli_only = {"command", "handler", "file", "output", "json", "force", "title", "config",

@@ -76,9 +76,11 @@ def commands(files, out):
 @pytest.fixture
 def quick_demo(monkeypatch):
     """The demo without the paper's scenario (its part is timed by test_cli)."""
-    import adavar.demo
+    import adavar.pipeline.demo
 
-    monkeypatch.setattr(adavar.demo, "run_demo", partial(adavar.demo.run_demo, paper=False))
+    monkeypatch.setattr(
+        adavar.pipeline.demo, "run_demo", partial(adavar.pipeline.demo.run_demo, paper=False)
+    )
 
 
 @pytest.mark.parametrize(

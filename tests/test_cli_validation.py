@@ -14,14 +14,14 @@ import json
 import numpy as np
 import pytest
 
-import adavar.sources
+import adavar.io.sources
 from adavar import simulate
-from adavar.errors import AdavarInputError
-from adavar.export import kalibr_values
-from adavar.noise_model import fit_noise
-from adavar.preprocess import MAX_DETREND_ORDER, detrend, parse_steps, preprocess
-from adavar.statistics import deviation
-from adavar.units import is_known_unit
+from adavar.core.errors import AdavarInputError
+from adavar.core.units import is_known_unit
+from adavar.fit.noise_model import fit_noise
+from adavar.io.preprocess import MAX_DETREND_ORDER, detrend, parse_steps, preprocess
+from adavar.output.export import kalibr_values
+from adavar.stats.statistics import deviation
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -70,13 +70,13 @@ def test_detrend_degree_is_bounded(capsys, gyro_csv, tmp_path):
 
 
 def test_simulate_n_is_bounded_by_the_free_memory(capsys, tmp_path, monkeypatch):
-    monkeypatch.setattr(adavar.sources, "available_memory", lambda: 2**20)  # 1 MiB free
+    monkeypatch.setattr(adavar.io.sources, "available_memory", lambda: 2**20)  # 1 MiB free
     target = tmp_path / "sim.csv"
     code, out, err = run(capsys, ["simulate", "--arw", "0.01", "--n", "100000",
                                   "-o", str(target)])  # fmt: skip
     assert_one_line_error(code, out, err, "--n 100000", "GiB", "free", "or fewer")
     assert not target.exists()
-    monkeypatch.setattr(adavar.sources, "available_memory", lambda: 2**30)
+    monkeypatch.setattr(adavar.io.sources, "available_memory", lambda: 2**30)
     code, out, err = run(capsys, ["simulate", "--arw", "0.01", "--n", "1000", "-o", str(target)])
     assert code == 0, err
 
@@ -232,7 +232,7 @@ def test_kalibr_library_names_the_column_and_suggests_only_what_helps():
 
 
 def test_points_per_decade_is_bounded_on_the_command_line(capsys, gyro_csv):
-    from adavar.statistics import MAX_POINTS_PER_DECADE
+    from adavar.stats.statistics import MAX_POINTS_PER_DECADE
 
     too_many = str(MAX_POINTS_PER_DECADE + 1)
     code, out, err = run(capsys, avar(gyro_csv, "--taus", "log", "--points-per-decade", too_many))
@@ -308,7 +308,7 @@ def test_power_law_bandwidth_without_the_power_law_fit(capsys, gyro_csv):
 
 
 def test_a_tiny_chunk_size_warns(capsys, gyro_csv):
-    from adavar.settings import EFFICIENT_CHUNK
+    from adavar.core.settings import EFFICIENT_CHUNK
 
     code, _, err = run(capsys, avar(gyro_csv, "--chunk-size", "16"))
     assert code == 0, err

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar.adaptive import adaptive_schedule, oracle_schedule
 from adavar.comparison import (
     PAPER_TABLE1_NODES,
     Comparison,
@@ -21,11 +20,12 @@ from adavar.comparison import (
     run_comparison,
     schedule_nodes,
 )
-from adavar.errors import AdavarInputError
-from adavar.kurtosis import sliding_kurtosis
+from adavar.core.errors import AdavarInputError
+from adavar.core.settings import PAPER
+from adavar.dynamic.adaptive import adaptive_schedule, oracle_schedule
+from adavar.dynamic.kurtosis import sliding_kurtosis
 from adavar.paper.metrics import interval_means, tracking_metrics
 from adavar.paper.studies import compare_seeds, kurtosis_study, threshold_study
-from adavar.settings import PAPER
 from adavar.simulate import paper_scenario
 
 LMAX, LMIN = 600, 400
@@ -304,7 +304,7 @@ def test_fast_path_matches_compare_for_white_noise_edfs(scenario):
         controller=dict(lmax=600, lmin=400, k1=2.5, k2=3.3, s1=0.0, s2=0.07, l=100, dl0=2,
                         dl1=2, s_test="upper", combine="or", thresholds="paper",
                         false_alarm=0.01),
-        taus="octave", terms=adavar.noise_model.TERM_NAMES, confidence=0.683, noise_type=0,
+        taus="octave", terms=adavar.fit.noise_model.TERM_NAMES, confidence=0.683, noise_type=0,
         points_per_decade=10, units=None, description=None, edf_cache=EdfCache(),
     )  # fmt: skip
     for name in full.methods:
@@ -397,7 +397,7 @@ def test_compare_seeds_rejects_bad_input():
 
 
 def test_comparison_figures(scenario, comparison):
-    from adavar.plots import comparison_figures
+    from adavar.output.plots import comparison_figures
 
     figs = comparison_figures(comparison, kurtosis=kurtosis_study(scenario),
                               thresholds=threshold_study(scenario))  # fmt: skip
@@ -488,7 +488,7 @@ def test_the_comparisons_memory_stops_growing_with_the_record():
 
 
 def test_a_record_read_piece_by_piece_gives_the_same_comparison(tmp_path):
-    from adavar.sources import ChunkedSource
+    from adavar.io.sources import ChunkedSource
 
     x = _gyro_with_bursts(30_000, seed=8)
     np.save(tmp_path / "x.npy", x)

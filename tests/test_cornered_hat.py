@@ -7,8 +7,8 @@ import pytest
 
 import adavar
 from adavar import simulate
-from adavar.cornered_hat import cornered_hat, gcodev
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
+from adavar.stats.cornered_hat import cornered_hat, gcodev
 
 from .stable32_data import stable32_root
 

@@ -10,12 +10,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar import edf as edf_mod
-from adavar import surface_common
-from adavar.errors import AdavarInputError
-from adavar.results import DavarResult
-from adavar.surface import davar
-from adavar.surface_common import EDF_EXACT_LENGTHS, edf_table
+from adavar.core.errors import AdavarInputError
+from adavar.core.results import DavarResult
+from adavar.dynamic import surface_common
+from adavar.dynamic.surface import davar
+from adavar.dynamic.surface_common import EDF_EXACT_LENGTHS, edf_table
+from adavar.stats import edf as edf_mod
 
 from . import reference
 

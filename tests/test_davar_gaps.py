@@ -21,16 +21,17 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar import _jit, stream
-from adavar.errors import AdavarInputError
-from adavar.gaps import effective_points
-from adavar.surface import davar
-from adavar.surface_common import edf_of_counts
-from adavar.windows import window_overhang
+from adavar._kernels import _jit
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic.surface import davar
+from adavar.dynamic.surface_common import edf_of_counts
+from adavar.dynamic.windows import window_overhang
+from adavar.stats import stream
+from adavar.stats.gaps import effective_points
 
 from .cli_helpers import assert_one_line_error, run
 
-davar_mod = importlib.import_module("adavar.surface")
+davar_mod = importlib.import_module("adavar.dynamic.surface")
 gaps_kernel = importlib.import_module("adavar._kernels.window_engine")
 
 #: worst relative error of a kept cell against the exact reference (measured: see the

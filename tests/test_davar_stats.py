@@ -19,13 +19,14 @@ from hypothesis import strategies as st
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.stats import chi2
 
-from adavar import _jit, stream
-from adavar import edf as edf_mod
-from adavar.errors import AdavarInputError
-from adavar.noise_model import fit_noise
-from adavar.statistics import deviation
-from adavar.surface import davar
-from adavar.surface_common import DavarStatResult
+from adavar._kernels import _jit
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic.surface import davar
+from adavar.dynamic.surface_common import DavarStatResult
+from adavar.fit.noise_model import fit_noise
+from adavar.stats import edf as edf_mod
+from adavar.stats import stream
+from adavar.stats.statistics import deviation
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -253,7 +254,7 @@ def _edf_of_cell(stat, alpha, m, L, overhang):
 
 @pytest.mark.parametrize("stat", ["ohvar", "mvar"])
 def test_edf_and_interval_of_every_cell(stat):
-    from adavar.windows import window_overhang
+    from adavar.dynamic.windows import window_overhang
 
     x = _noise(300, seed=8)
     lengths = np.random.default_rng(9).integers(6, 40, size=x.size)

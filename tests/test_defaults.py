@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar.events import change_times
+from adavar.dynamic.events import change_times
 
 from .cli_helpers import run
 from .independent_noise import changing

@@ -10,7 +10,7 @@ from functools import partial
 import numpy as np
 import pytest
 
-from adavar import demo
+from adavar.pipeline import demo
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -86,7 +86,7 @@ def test_a_dead_worker_falls_back_to_this_process(monkeypatch):
 
 
 def test_concatenated_studies_refuse_other_settings():
-    from adavar.errors import AdavarInputError
+    from adavar.core.errors import AdavarInputError
     from adavar.paper.studies import compare_seeds, concatenate_seed_studies
 
     a = demo._seed_study(2018, 1)
@@ -99,7 +99,7 @@ def test_concatenated_studies_refuse_other_settings():
 
 
 def test_shared_jobs_run_here_what_the_worker_cannot():
-    from adavar._workers import SharedJobs
+    from adavar._kernels._workers import SharedJobs
 
     calls = []
     job = lambda *args: calls.append(args) or sum(args)  # noqa: E731
@@ -165,7 +165,7 @@ def test_demo_figures_in_the_formats_asked(capsys, tmp_path, monkeypatch):
 def test_compilations_records_compiles_not_cache_loads():
     import numba
 
-    from adavar._jit import compilations
+    from adavar._kernels._jit import compilations
 
     fresh = numba.njit(lambda v: v + 1)  # never cached: compiles on its first call
     with compilations() as compiled:
@@ -177,14 +177,14 @@ def test_compilations_records_compiles_not_cache_loads():
 
 
 def test_worker_pool_starts_now_and_preloads():
-    from adavar import _workers
+    from adavar._kernels import _workers
 
-    pool = _workers.worker_pool(2, ("adavar.units",), start=True)
+    pool = _workers.worker_pool(2, ("adavar.core.units",), start=True)
     if pool is None:
         pytest.skip("this machine cannot start a second process")
     with pool:
         assert len(pool._processes) == 1  # started before any work was submitted
-        loaded = pool.submit(eval, "'adavar.units' in __import__('sys').modules")
+        loaded = pool.submit(eval, "'adavar.core.units' in __import__('sys').modules")
         assert loaded.result(timeout=120) is True
     assert _workers.worker_pool(1) is None
 
@@ -192,7 +192,7 @@ def test_worker_pool_starts_now_and_preloads():
 def test_partial_files_of_a_killed_writer_are_removed(tmp_path):
     # a worker killed while it wrote leaves its temporary; the folder is put in place
     # without it (the job was redone by the other process)
-    from adavar.writers import atomic_directory, partial_name
+    from adavar.io.writers import atomic_directory, partial_name
 
     out = tmp_path / "out"
     with atomic_directory(out) as tmp:

@@ -9,8 +9,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar import differences as diff
-from adavar import edf
+from adavar._kernels import differences as diff
+from adavar.stats import edf
 
 
 def _series(kind, n, seed):

@@ -10,7 +10,7 @@ import pytest
 
 import adavar
 from adavar import simulate
-from adavar.durations import Duration, parse_duration, to_samples
+from adavar.core.durations import Duration, parse_duration, to_samples
 
 from .cli_helpers import assert_one_line_error, run
 

@@ -1,4 +1,4 @@
-"""Tests of adavar.edf: EDF, noise identification and chi-square intervals.
+"""Tests of adavar.stats.edf: EDF, noise identification and chi-square intervals.
 
 Independent peers: allantools 2024.6 (``allantools.ci``), exact correlation sums computed
 here from the estimator filters, high-precision (Decimal) evaluation of Greenhall's kernel,
@@ -19,8 +19,8 @@ from hypothesis import strategies as st
 from scipy.optimize import brentq
 from scipy.stats import chi2
 
-from adavar import edf as edf_mod
-from adavar.edf import (
+from adavar.stats import edf as edf_mod
+from adavar.stats.edf import (
     EDF_FLOOR,
     NoiseIdError,
     chi2_interval,
@@ -656,7 +656,7 @@ def test_b1_rn_ratio_needs_m_and_errors():
 
 
 def test_identify_noise_policy(monkeypatch):
-    from adavar import noise_id  # the policy lives there since the split out of edf.py
+    from adavar.stats import noise_id  # the policy lives there since the split out of edf.py
 
     calls = []
     real_lag1, real_b1 = edf_mod.identify_noise_lag1, edf_mod.identify_noise_b1

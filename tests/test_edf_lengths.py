@@ -1,6 +1,6 @@
-"""Tests of adavar.edf.edf_lengths, the EDF of one (stat, alpha, m) at many record lengths.
+"""Tests of adavar.stats.edf.edf_lengths, the EDF of one (stat, alpha, m) at many record lengths.
 
-The reference is the scalar :func:`adavar.edf.edf` (Greenhall's algorithm one length at a
+The reference is the scalar :func:`adavar.stats.edf.edf` (Greenhall's algorithm one length at a
 time): the vectorised values must agree with it to 1e-12 relative (they differ by a few
 ulps, the sums being taken in another order) at every statistic, alpha (including values
 clamped to the statistic's range), m up to ~5000 and lengths from the shortest valid to
@@ -21,9 +21,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.interpolate import PchipInterpolator
 
-from adavar import edf as edf_mod
-from adavar import surface_common
-from adavar.edf import EDF_FLOOR, STAT_ALPHA_RANGE, TOTDEV_EDF_METHODS, edf, edf_lengths
+from adavar.dynamic import surface_common
+from adavar.stats import edf as edf_mod
+from adavar.stats.edf import EDF_FLOOR, STAT_ALPHA_RANGE, TOTDEV_EDF_METHODS, edf, edf_lengths
 
 from .test_edf import STATS
 
@@ -223,7 +223,7 @@ def _old_edf_of_counts(counts: np.ndarray, alpha: int, m: int, stat: str) -> np.
 
 
 def _old_edf_table(lengths, ms, alpha, overhang=None, stat="oadev", exact_pairs=4096):
-    """davar.edf_table as it was, with adavar.edf.edf one length at a time."""
+    """davar.edf_table as it was, with adavar.stats.edf.edf one length at a time."""
     lengths = np.asarray(lengths, dtype=np.int64)
     table = np.full((lengths.size, ms.size), np.nan)
     if overhang is not None:

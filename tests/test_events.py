@@ -1,4 +1,4 @@
-"""Non-stationary stretches read off the adaptive window (adavar.events)."""
+"""Non-stationary stretches read off the adaptive window (adavar.dynamic.events)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from adavar import simulate
-from adavar.adaptive import oracle_schedule
-from adavar.events import change_times, find_events
+from adavar.dynamic.adaptive import oracle_schedule
+from adavar.dynamic.events import change_times, find_events
 
 from .cli_helpers import run
 
@@ -81,7 +81,7 @@ def test_cli_adaptive_reports_the_disturbance(capsys, tmp_path):
 
 def _events_by_masks(window, centre, time, lmax, tau0, coefficients, t0, duration):
     """find_events as it was written first: boolean masks over every window."""
-    from adavar.events import stretch_summary
+    from adavar.dynamic.events import stretch_summary
 
     time = np.asarray(time, dtype=float)
     changes = []

@@ -1,4 +1,5 @@
-"""Tests of adavar.export: atomic CSV/JSON writers, the coefficient table, Kalibr imu.yaml."""
+"""Tests of adavar.output.export: atomic CSV/JSON writers, the coefficient table, Kalibr
+imu.yaml."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ import os
 import numpy as np
 import pytest
 
-from adavar.errors import AdavarInputError
-from adavar.export import (
+from adavar.core.errors import AdavarInputError
+from adavar.fit.noise_model import fit_avar
+from adavar.output.export import (
     COEFFICIENT_COLUMNS,
     KALIBR_KEYS,
     coefficient_rows,
@@ -20,7 +22,6 @@ from adavar.export import (
     write_json,
     write_table_csv,
 )
-from adavar.noise_model import fit_avar
 
 G = 9.80665
 DEG = math.pi / 180.0

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar import avar_covariance, simulate
-from adavar.slopes import read_slopes
+from adavar import simulate
+from adavar.stats import avar_covariance
+from adavar.stats.slopes import read_slopes
 
 RATE = 100.0
 B_FACTOR = 2 * math.log(2) / math.pi
@@ -141,7 +142,7 @@ def mems():
 
 def _within(result, fit, conf_level=0.95, tol=0.10):
     """Model inside the interval at ``conf_level`` or within ``tol`` at each fitted tau."""
-    from adavar.edf import chi2_interval
+    from adavar.stats.edf import chi2_interval
 
     lo, hi = chi2_interval(result.dev**2, result.edf, conf_level)
     model = fit.fitted_dev
@@ -212,7 +213,7 @@ def test_bandwidth_and_tau_range_exclusions_are_reported(mems):
 
 
 def test_fit_figure_marks_the_excluded_taus(mems):
-    from adavar import plots
+    from adavar.output import plots
 
     fit = adavar.fit_noise(mems)
     fig = plots.deviation_figure(mems, fit)

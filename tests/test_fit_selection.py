@@ -11,10 +11,11 @@ import pytest
 from scipy.special import ndtri
 
 import adavar
-from adavar import avar_covariance, gls_core
-from adavar.fit_checks import tradeoff_warnings
-from adavar.results import NoiseFit
-from adavar.terms import markov_avar
+from adavar.core.fit_checks import tradeoff_warnings
+from adavar.core.results import NoiseFit
+from adavar.core.terms import markov_avar
+from adavar.fit import gls_core
+from adavar.stats import avar_covariance
 
 from .cli_helpers import run
 from .independent_noise import Truth, markov, record, white

@@ -1,8 +1,8 @@
-"""``deviation(..., gaps="omit")``: records with missing (NaN) samples (adavar.gaps).
+"""``deviation(..., gaps="omit")``: records with missing (NaN) samples (adavar.stats.gaps).
 
 The fast path is checked against a slow, obviously correct reference: a loop over every
 term of the statistic that skips the terms touching a missing sample (the rules of the
-:mod:`adavar.gaps` docstring, written out again here) and sums the rest exactly
+:mod:`adavar.stats.gaps` docstring, written out again here) and sums the rest exactly
 (``math.fsum`` over the terms of :mod:`tests.reference`). The long coverage simulation is
 ``benchmarks/bench_gaps.py``.
 """
@@ -18,12 +18,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar import differences as diff
-from adavar import gaps
 from adavar import simulate as sim
-from adavar.errors import AdavarInputError
-from adavar.noise_id import decimated_phase_lag1
+from adavar._kernels import differences as diff
+from adavar.core.errors import AdavarInputError
 from adavar.readers import read_record
+from adavar.stats import gaps
+from adavar.stats.noise_id import decimated_phase_lag1
 
 from .cli_helpers import assert_one_line_error, run
 from .reference import _modified_terms, _pd, d2_terms, d3_terms
@@ -348,7 +348,7 @@ def test_edf_is_that_of_a_gap_free_record_with_as_many_terms():
         r = adavar.deviation(y, stat=stat, taus=[1, 4, 16], noise_id="sp1065", gaps="omit")
         for m, n, a, e in zip(r.m, r.n, r.alpha, r.edf, strict=True):
             points = int(gaps.effective_points(stat, int(m), int(n)))
-            assert e == adavar.edf.edf(stat, int(a), int(m), points)
+            assert e == adavar.stats.edf.edf(stat, int(a), int(m), points)
             # a gap-free record of that length has exactly n terms
             full = adavar.deviation(sim.white(points - 1, seed=2), stat=stat,
                                     taus=[float(m)], confidence=None)  # fmt: skip

@@ -1,4 +1,4 @@
-"""The ICI adaptive window (adavar.ici) and one-sided DAVAR windows (davar(shift=)).
+"""The ICI adaptive window (adavar.dynamic.ici) and one-sided DAVAR windows (davar(shift=)).
 
 A slow, obviously correct reference of each: the Allan variance of one window summed term by
 term with ``math.fsum`` over the mirror-extended record, the candidates' intervals and the
@@ -20,10 +20,10 @@ from scipy.stats import chi2
 
 import adavar
 from adavar import simulate
-from adavar.adaptive import adaptive_davar, adaptive_schedule
 from adavar.comparison import compare
-from adavar.errors import AdavarInputError
-from adavar.ici import (
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic.adaptive import adaptive_davar, adaptive_schedule
+from adavar.dynamic.ici import (
     CENTRED,
     LEFT,
     RIGHT,
@@ -32,7 +32,7 @@ from adavar.ici import (
     ici_schedule,
     side_shift,
 )
-from adavar.ici_episodes import kurtosis_edf
+from adavar.dynamic.ici_episodes import kurtosis_edf
 from adavar.paper.scenarios import paper_scenario
 
 from .cli_helpers import assert_one_line_error, run

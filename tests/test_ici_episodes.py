@@ -1,5 +1,5 @@
 """Issue 39, items 10-11: the ICI window on gradual changes, bursts, heavy tails and the
-long-tau terms (adavar.ici_episodes, adavar.long_tau, adavar.ici_events).
+long-tau terms (adavar.dynamic.ici_episodes, adavar.dynamic.long_tau, adavar.dynamic.ici_events).
 
 Records from ``tests/independent_noise.py`` (no adavar code in the generator). Each check
 also runs the rule before 0.3 (``ici_kurtosis=False, ici_episodes=False``) where it failed,
@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar import ici_episodes as ep
-from adavar.errors import AdavarInputError
-from adavar.ici import ici_schedule
-from adavar.long_tau import long_tau_changes
-from adavar.online_ici import IciTracker
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic import ici_episodes as ep
+from adavar.dynamic.ici import ici_schedule
+from adavar.dynamic.long_tau import long_tau_changes
+from adavar.dynamic.online_ici import IciTracker
 
 from .cli_helpers import run
 from .independent_noise import changing, record, white

@@ -1,4 +1,4 @@
-"""Tests of adavar.iir against scipy.signal, the slow and obviously correct reference.
+"""Tests of adavar.simulation.iir against scipy.signal, the slow and obviously correct reference.
 
 The Butterworth design, the steady-state initial conditions and the cascade filter are
 compared with ``scipy.signal.butter``/``sosfilt_zi``/``sosfilt``/``lfilter`` on random and
@@ -21,8 +21,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy import signal
 
-from adavar import generators, iir
 from adavar import simulate as sim
+from adavar.simulation import generators, iir
 
 RTOL = 1e-12
 KINDS = (

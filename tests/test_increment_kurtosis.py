@@ -10,8 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar import stream
-from adavar.statistics import KURTOSIS_SAMPLES, increment_kurtosis
+from adavar.stats import stream
+from adavar.stats.statistics import KURTOSIS_SAMPLES, increment_kurtosis
 
 
 def reference(x: np.ndarray) -> float:

@@ -1,4 +1,4 @@
-"""Tests of adavar.io: the text reader and the atomic output folder."""
+"""Tests of adavar.io.text_column: the text reader and the atomic output folder."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar.errors import AdavarInputError
-from adavar.io import atomic_directory, check_output_directory, read_text
-from adavar.writers import OUTPUT_MARKER, write_marker
+from adavar.core.errors import AdavarInputError
+from adavar.io.text_column import atomic_directory, check_output_directory, read_text
+from adavar.io.writers import OUTPUT_MARKER, write_marker
 
 
 def write(tmp_path, name, text):
@@ -260,7 +260,8 @@ def test_csv_pieces_cut_anywhere_join_to_the_text(monkeypatch):
     import csv as csv_module
     import io
 
-    from adavar import csv_tables, writers
+    from adavar.core import csv_tables
+    from adavar.io import writers
 
     rng = np.random.default_rng(4)
     columns = [rng.standard_normal(1000), np.arange(1000, dtype=np.int64)]
@@ -281,7 +282,7 @@ def test_numeric_columns_take_the_text_and_pieces_of_the_row_path(monkeypatch, p
     """block_rows of numeric columns is written a column at a time: the same text and the
     same pieces as the row-by-row path (csv_cell of every cell), for every numeric dtype
     and odd value; other columns (text, 2-D, unequal lengths) take the row path."""
-    from adavar import csv_tables
+    from adavar.core import csv_tables
 
     monkeypatch.setattr(csv_tables, "CSV_PIECE_ROWS", per_piece)
     rng = np.random.default_rng(8)
@@ -326,7 +327,7 @@ def test_csv_rows_are_the_csv_modules_rows(rows):
     import csv as csv_module
     import io
 
-    from adavar import writers
+    from adavar.io import writers
 
     width = max(len(r) for r in rows)
     rows = [r + [None] * (width - len(r)) for r in rows]

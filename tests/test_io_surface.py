@@ -1,4 +1,5 @@
-"""Tests of adavar.io.write_surface: NetCDF and Parquet files readable without adavar."""
+"""Tests of adavar.io.text_column.write_surface: NetCDF and Parquet files readable without
+adavar."""
 
 from __future__ import annotations
 
@@ -13,9 +14,9 @@ from scipy.io import netcdf_file
 
 import adavar
 from adavar import simulate
-from adavar import writers as adio
-from adavar.errors import AdavarInputError
-from adavar.writers import SURFACE_FORMATS, check_surface_format, write_surface
+from adavar.core.errors import AdavarInputError
+from adavar.io import writers as adio
+from adavar.io.writers import SURFACE_FORMATS, check_surface_format, write_surface
 
 RATE = 10.0
 

@@ -8,10 +8,10 @@ import scipy.stats
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar import kurtosis as kmod
-from adavar.errors import AdavarInputError
-from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
-from adavar.windows import window_schedule
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic import kurtosis as kmod
+from adavar.dynamic.kurtosis import kurtosis_contribution, sliding_kurtosis
+from adavar.dynamic.windows import window_schedule
 
 from . import reference
 

@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 import adavar
-import adavar.stack_fit as stack_fit
+import adavar.fit.stack_fit as stack_fit
 from adavar import simulate
-from adavar import surface as davar_module
 from adavar.comparison import FIGURE_WINDOWS, compare
+from adavar.dynamic import surface as davar_module
 
 
 @pytest.fixture
@@ -42,7 +42,7 @@ def _peak(fn):
 def test_compare_holds_one_surface_at_a_time(small_blocks, monkeypatch):
     """Before: every method's surface and its per-cell residuals, 11 surfaces at the peak
     for two methods (8.1 GB for four on a 30-minute 200 Hz record); then one surface at a
-    time; now a block of windows of one (``adavar.surface_fit``), and the same numbers."""
+    time; now a block of windows of one (``adavar.dynamic.surface_fit``), and the same numbers."""
     x = simulate.white(20_000, seed=3)
     kw = dict(methods=["davar-150", "a-davar"], lmax=150, lmin=100, l=25, taus="all")
     compare(x[:1000], **kw)  # compiled outside the measurement
@@ -116,7 +116,7 @@ def test_surface_fit_in_blocks_is_the_fit_at_once(small_blocks, monkeypatch):
 def test_release_free_memory_returns_the_holes_a_thread_left():
     """What a text file's parser threads leave: freed blocks between live ones in their
     own arena, resident until trimmed (the live ones untouched)."""
-    from adavar._heap import release_free_memory
+    from adavar._kernels._heap import release_free_memory
 
     def rss() -> int:
         with open("/proc/self/statm") as f:

@@ -1,4 +1,4 @@
-"""Tests of adavar.noise_model (the IEEE noise-model fit) and adavar.units."""
+"""Tests of adavar.fit.noise_model (the IEEE noise-model fit) and adavar.core.units."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from scipy.optimize import nnls
 
-from adavar.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
-from adavar.results import DeviationResult
-from adavar.units import RATE_UNITS, conventional_units, convert, convert_coefficient
+from adavar.core.results import DeviationResult
+from adavar.core.units import RATE_UNITS, conventional_units, convert, convert_coefficient
+from adavar.fit.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
 
 POWERS = np.arange(-2, 3)
 K_FACTORS = np.array([3.0, 1.0, 2.0 * math.log(2.0) / math.pi, 1.0 / 3.0, 0.5])
@@ -59,7 +59,7 @@ def simulate_nk(n_true: float, k_true: float, n: int, seed: int) -> np.ndarray:
 
 
 def deviation_result(tau, avar, edf, stat="oadev", units=None) -> DeviationResult:
-    """A DeviationResult built by hand (what adavar.statistics.deviation returns)."""
+    """A DeviationResult built by hand (what adavar.stats.statistics.deviation returns)."""
     tau = np.asarray(tau, dtype=float)
     dev = np.sqrt(avar)
     nan = np.full(tau.shape, np.nan)
@@ -304,7 +304,7 @@ def _stack_with_holes():
 
 @pytest.mark.parametrize("repeat", [1, 20])  # 60 curves: one thread; 1200: in threads
 def test_stack_equals_curve_by_curve_bit_for_bit(repeat, monkeypatch):
-    from adavar import _jit
+    from adavar._kernels import _jit
 
     monkeypatch.setattr(_jit, "SERIAL_WORK", 0)  # blocks in threads from 1024 curves
     tau, curves, edf = _stack_with_holes()

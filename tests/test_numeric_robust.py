@@ -12,10 +12,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar import stream
-from adavar.errors import AdavarInputError
-from adavar.noise_model import MAX_REWEIGHT
-from adavar.statistics import MAX_POINTS_PER_DECADE, STATISTICS
+from adavar.core.errors import AdavarInputError
+from adavar.fit.noise_model import MAX_REWEIGHT
+from adavar.stats import stream
+from adavar.stats.statistics import MAX_POINTS_PER_DECADE, STATISTICS
 
 from . import reference
 

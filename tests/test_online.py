@@ -10,9 +10,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar.errors import AdavarInputError
-from adavar.events import find_events
-from adavar.online import OnlineAdaptive
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic.events import find_events
+from adavar.dynamic.online import OnlineAdaptive
 from adavar.paper.scenarios import paper_scenario
 from adavar.simulate import sensor
 
@@ -139,7 +139,7 @@ def test_hourly_thresholds_start_early_and_are_refined():
     """The hourly thresholds' correlation is estimated on the first 8192 samples (41 s at
     200 Hz; the old pass waited for 2**20, 87 minutes) and refined at every doubling up to
     DEPENDENCE_SAMPLES: no emitted row changes, and the windows are the offline ones."""
-    from adavar.thresholds import DEPENDENCE_SAMPLES
+    from adavar.dynamic.thresholds import DEPENDENCE_SAMPLES
 
     n = DEPENDENCE_SAMPLES + 60_000
     x = sensor(n, rate=RATE, bandwidth=40, lsb=1 / 131, angle_random_walk=0.01, seed=7)
@@ -339,7 +339,7 @@ def test_ici_step_recent_latency_and_refusals():
 
 def test_ici_edf_samples_offline():
     """ici_edf_samples: the EDF of the first K samples; the whole record when K covers it."""
-    from adavar.ici import ici_schedule
+    from adavar.dynamic.ici import ici_schedule
 
     x = np.asarray(ici_record()[:9000])
     whole = ici_schedule(x, lmax=1200, lmin=800)
@@ -356,7 +356,7 @@ def test_a_backlog_is_fitted_in_blocks(monkeypatch):
     """Rows fitted a block at a time (a backlog after the hourly thresholds are set is up
     to DEPENDENCE_SAMPLES rows): the same windows, N(t) and events as one block, and as
     the offline pass."""
-    import adavar.online as online
+    import adavar.dynamic.online as online
 
     x = record()
     controller = dict(thresholds="calibrated", false_alarm_per_hour=0.1)

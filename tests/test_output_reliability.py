@@ -26,9 +26,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from adavar import atomic, simulate
-from adavar.batch_state import folder_name
-from adavar.writers import OUTPUT_MARKER, PAUSE_FILE_RENAME_ENV, foreign_files
+from adavar import simulate
+from adavar.core import atomic
+from adavar.io.writers import OUTPUT_MARKER, PAUSE_FILE_RENAME_ENV, foreign_files
+from adavar.pipeline.batch_state import folder_name
 
 from .cli_helpers import assert_one_line_error, run
 

@@ -26,10 +26,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from adavar import batch, simulate, writers
-from adavar.batch import run_batch
-from adavar.batch_state import BATCH_STATE, folder_name
-from adavar.writers import OUTPUT_MARKER
+from adavar import simulate
+from adavar.io import writers
+from adavar.io.writers import OUTPUT_MARKER
+from adavar.pipeline import batch
+from adavar.pipeline.batch import run_batch
+from adavar.pipeline.batch_state import BATCH_STATE, folder_name
 
 from .cli_helpers import assert_one_line_error, run
 
@@ -512,7 +514,7 @@ def test_every_csv_is_read_by_pandas_as_it_is(capsys, gyro_csv, tmp_path):
     }  # fmt: skip
     assert found["avar1/deviation.csv"].dtypes["n"].kind == "i"
     # adavar still reads what it wrote (the deviation back, the compare's descriptions)
-    from adavar.io import read_text
+    from adavar.io.text_column import read_text
 
     dev, _ = read_text(tmp_path / "avar1" / "deviation.csv", column="dev")
     assert np.array_equal(dev, found["avar1/deviation.csv"]["dev"].to_numpy())
@@ -525,7 +527,7 @@ def test_every_csv_is_read_by_pandas_as_it_is(capsys, gyro_csv, tmp_path):
 
 
 def test_spreadsheet_formulas_are_neutralised_but_numbers_are_not(tmp_path):
-    from adavar.export import write_table_csv
+    from adavar.output.export import write_table_csv
 
     cells = ["=1+2", "+x", "-x", "@SUM(A1)", "\tx", "\rx", "-1.5", "-inf", "plain", -1.5, 2]
     path = write_table_csv(tmp_path / "t.csv", [cells], [f"c{k}" for k in range(10)] + ["=c"])

@@ -1,4 +1,4 @@
-"""Tests of adavar.plots: figures, atomic saving, unit labels and number formatting."""
+"""Tests of adavar.output.plots: figures, atomic saving, unit labels and number formatting."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ from matplotlib.figure import Figure
 
 import adavar
 from adavar import simulate
-from adavar._figures import envelope, power_label, run_ends
-from adavar.plots import (
+from adavar.output._figures import envelope, power_label, run_ends
+from adavar.output.plots import (
     deviation_figure,
     deviation_unit,
     format_pm,
@@ -79,7 +79,7 @@ def test_labels_without_known_unit():
     result = adavar.deviation(x, stat="mdev")
     fig = deviation_figure(result)
     assert fig.axes[0].get_ylabel() == "Modified Allan deviation"
-    # a unit outside adavar.units: natural units in the term labels
+    # a unit outside adavar.core.units: natural units in the term labels
     res = adavar.deviation(x, rate=10.0, units="V")
     fit = adavar.fit_noise(res, terms=["angle_random_walk"])
     labels = legend_labels(deviation_figure(res, fit))
@@ -190,7 +190,7 @@ def test_save_figure_draws_the_pixels_of_savefig(gyro, tmp_path):
     where savefig's own layout pass does, for a one-panel and a six-panel figure."""
     from matplotlib.image import imread
 
-    from adavar.plots import controller_figure
+    from adavar.output.plots import controller_figure
 
     schedule = adavar.adaptive_schedule(simulate.white(3000, seed=4), rate=10.0, lmax=300,
                                         lmin=100, l=30)  # fmt: skip
@@ -295,7 +295,7 @@ def test_log_axes_draw_no_mathtext(gyro, tmp_path):
 def test_run_ends_draw_the_same_shape(values, step):
     """The points run_ends keeps draw the same line (or step fill) as every point: each
     dropped point lies on the segment (or the step) of the kept points around it."""
-    from adavar._figures import run_ends
+    from adavar.output._figures import run_ends
 
     v = np.array(values)
     at = run_ends(v, step=step)
@@ -318,7 +318,7 @@ def test_flag_panels_are_every_points_pixels(n):
     """A flag panel drawn from its runs' ends has the pixels of the panel drawn with every
     point, runs narrower than a pixel included (a snapped path of few vertices lost
     them)."""
-    from adavar.paper_figures import _step_panel
+    from adavar.output.paper_figures import _step_panel
 
     rng = np.random.default_rng(5)
     t = np.arange(n) / 200.0
@@ -380,7 +380,7 @@ def _envelope_reference(y: np.ndarray, bins: int) -> np.ndarray:
     st.integers(1, 60),
 )
 def test_envelope_keeps_each_runs_extremes(bins, values, block):
-    from adavar import _figures
+    from adavar.output import _figures
 
     y = np.array(values, dtype=float)
     saved = _figures.ENVELOPE_BLOCK
@@ -402,7 +402,7 @@ def test_a_window_of_many_runs_is_drawn_by_the_envelope_of_its_run_ends():
     envelope of those run ends, with the same extremes, and a few runs are drawn whole."""
     import dataclasses
 
-    from adavar.plots import controller_figure
+    from adavar.output.plots import controller_figure
 
     x = simulate.white(3000, seed=4)
     short = adavar.adaptive_schedule(x, rate=200.0, lmax=300, lmin=200, l=50)
@@ -433,8 +433,8 @@ def test_a_window_of_many_runs_is_drawn_by_the_envelope_of_its_run_ends():
 def test_long_lines_are_drawn_by_their_envelope_short_ones_whole():
     """Fig. 6 of a 2-hour 200 Hz record: its lines hold a few thousand points each (they
     held every one: 376 MB in matplotlib with Fig. 7); a short record's, every point."""
+    from adavar.output.plots import kurtosis_windows_figure
     from adavar.paper.studies import kurtosis_study
-    from adavar.plots import kurtosis_windows_figure
 
     for n, drawn in ((16_000, 16_000), (1_440_000, 2 * 4096 + 2)):
         x = simulate.white(n, seed=2)

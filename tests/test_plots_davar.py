@@ -1,4 +1,4 @@
-"""Tests of the DAVAR figures of adavar.plots: surface, heat map, coefficient over time."""
+"""Tests of the DAVAR figures of adavar.output.plots: surface, heat map, coefficient over time."""
 
 from __future__ import annotations
 
@@ -12,17 +12,17 @@ from matplotlib.figure import Figure
 
 import adavar
 from adavar import simulate
-from adavar.plots import (
+from adavar.core.results import DavarResult
+from adavar.core.thinning import spread_log as _spread_log
+from adavar.output.plots import (
     coefficient_figure,
     davar_heatmap_figure,
     davar_surface_figure,
     save_figure,
 )
-from adavar.plots import (
+from adavar.output.plots import (
     spread_indices as _spread,
 )
-from adavar.results import DavarResult
-from adavar.thinning import spread_log as _spread_log
 
 RATE = 10.0
 STD = 0.5

@@ -1,4 +1,4 @@
-"""The power-law clock model (adavar.power_law): its variances, the fit, its calibration."""
+"""The power-law clock model (adavar.fit.power_law): its variances, the fit, its calibration."""
 
 from __future__ import annotations
 
@@ -11,9 +11,9 @@ from scipy.integrate import quad
 
 import adavar
 from adavar import simulate
-from adavar.errors import AdavarInputError
-from adavar.power_law import expected_variance, fit_power_law, power_law_design
-from adavar.units import term_names
+from adavar.core.errors import AdavarInputError
+from adavar.core.units import term_names
+from adavar.fit.power_law import expected_variance, fit_power_law, power_law_design
 
 # --------------------------------------------------------------------------------------
 # a power-law clock with exactly the model's spectrum (shared with the benchmark)

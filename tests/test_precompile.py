@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from adavar.precompile import STAGES, precompile
+from adavar.pipeline.precompile import STAGES, precompile
 from tests.cli_helpers import run
 
 # In a fresh interpreter: every stage, then the commands in this process. A kernel that a
@@ -20,7 +20,7 @@ import json, sys
 import numpy as np
 from adavar import simulate
 from adavar.cli import main
-from adavar.precompile import precompile
+from adavar.pipeline.precompile import precompile
 
 def signatures():
     out = {}

@@ -1,4 +1,4 @@
-"""Tests of adavar.preprocess: detrend, mean removal, decimation, selection, pipelines."""
+"""Tests of adavar.io.preprocess: detrend, mean removal, decimation, selection, pipelines."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import json
 import numpy as np
 import pytest
 
-from adavar.errors import AdavarInputError
-from adavar.preprocess import (
+from adavar.core.errors import AdavarInputError
+from adavar.io.preprocess import (
     Pipeline,
     Step,
     decimate,
@@ -51,7 +51,7 @@ def test_detrend_removes_exact_cubic(n, offset):
 def test_detrend_in_blocks_is_the_least_squares_fit(monkeypatch, n, order):
     """Blocks of 1000 samples (the library's are 2**20): the basis of every block is
     legvander's bit for bit, and the residual is the one-shot least-squares residual."""
-    import adavar.preprocess as pre
+    import adavar.io.preprocess as pre
 
     if n <= order:
         pytest.skip("fewer samples than coefficients")

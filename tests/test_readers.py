@@ -7,9 +7,9 @@ import json
 import numpy as np
 import pytest
 
-from adavar import stream
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 from adavar.readers import Record, read_record
+from adavar.stats import stream
 
 
 def write(tmp_path, name, text):

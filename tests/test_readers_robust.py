@@ -12,8 +12,8 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from adavar.errors import AdavarInputError
-from adavar.io import read_text
+from adavar.core.errors import AdavarInputError
+from adavar.io.text_column import read_text
 from adavar.readers import Record, read_record, textscan
 from tests.cli_helpers import assert_one_line_error, run
 
@@ -88,8 +88,8 @@ def _bag(tmp_path):
 
 
 def test_ros_bag_units_flag_contradicting_the_bag_is_an_error(tmp_path, capsys):
-    from adavar.analysis import read_input
-    from adavar.request import RecordRequest
+    from adavar.core.request import RecordRequest
+    from adavar.pipeline.analysis import read_input
 
     bag = _bag(tmp_path)
     with pytest.raises(AdavarInputError, match=r"--units deg/s contradicts .* in rad/s"):
@@ -429,7 +429,7 @@ def test_integers_beyond_2_53_in_a_text_file_are_an_error(tmp_path):
 
 
 def test_integers_beyond_2_53_in_a_npy_are_an_error_when_read(tmp_path):
-    from adavar.statistics import deviation
+    from adavar.stats.statistics import deviation
 
     path = tmp_path / "x.npy"
     np.save(path, BIG.astype(np.int64))
@@ -480,8 +480,8 @@ def test_a_stable32_frequency_file_is_rate_data(tmp_path, capsys):
 
 
 def test_file_data_type():
+    from adavar.core.settings import DATA_TYPE_DEFAULT
     from adavar.readers import file_data_type
-    from adavar.settings import DATA_TYPE_DEFAULT
 
     assert file_data_type("a.PHD", DATA_TYPE_DEFAULT) == "phase"
     assert file_data_type("a.phd", None) == "phase"

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 from adavar.readers import read_record, textscan
 from adavar.readers.record import sampling_interval
 

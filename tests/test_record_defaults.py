@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from adavar import cli, simulate
-from adavar.adaptive import record_windows
+from adavar.dynamic.adaptive import record_windows
 
 from .cli_helpers import run
 
@@ -76,7 +76,7 @@ def test_s_quantile_draws_in_bounded_batches(monkeypatch):
     """The S simulation behind calibrated thresholds: batches give the numbers of one array."""
     from scipy import stats
 
-    from adavar import thresholds
+    from adavar.dynamic import thresholds
 
     rng = np.random.default_rng(4)
     x = rng.standard_normal((500, 300))
@@ -90,7 +90,7 @@ def test_s_quantile_draws_in_bounded_batches(monkeypatch):
 def test_compare_refuses_what_does_not_fit_in_memory(monkeypatch, capsys, tmp_path):
     """Before any work: a one-line error and exit 2, not the kernel's OOM killer."""
     import adavar
-    from adavar import sources
+    from adavar.io import sources
 
     from .cli_helpers import assert_one_line_error
 

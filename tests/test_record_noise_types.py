@@ -1,9 +1,9 @@
 """The per-record noise identification and interval tables against slow references.
 
-:func:`adavar.statistics.record_noise_types` takes the lag-1 statistics of the short
+:func:`adavar.stats.statistics.record_noise_types` takes the lag-1 statistics of the short
 averaging factors from moments gathered while integrating (all fused levels at once, one
 small kernel), computes R(n) for every B1 tau in one pass of each kernel and reuses the
-OADEV being computed; :func:`adavar.edf.interval_table` caches the EDF and chi-square
+OADEV being computed; :func:`adavar.stats.edf.interval_table` caches the EDF and chi-square
 quantiles of a tau grid. Each is checked here against the plain, materialised computation.
 """
 
@@ -16,11 +16,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from adavar import differences as diff
-from adavar import edf, record_sums, simulate
-from adavar import noise_id as nid
-from adavar import statistics as stats
-from adavar.taus import averaging_factors
+from adavar import simulate
+from adavar._kernels import differences as diff
+from adavar.core.taus import averaging_factors
+from adavar.stats import edf, record_sums
+from adavar.stats import noise_id as nid
+from adavar.stats import statistics as stats
 
 
 def _series(kind: str, n: int, seed: int) -> np.ndarray:
@@ -124,7 +125,7 @@ def _reference_noise_types(u, ms, dmax, noise_id):
 
     ``"sp1065"``: lag-1 first on the materialised decimated phase (quadratic detrend; white
     PM there checked by R(n)), then, as ``"input"`` and ``"stable32"`` do from the start,
-    on the materialised cluster means (:func:`adavar.noise_id.identify_noise_lag1`, one
+    on the materialised cluster means (:func:`adavar.stats.noise_id.identify_noise_lag1`, one
     difference fewer after the phase, FM types at the averaged rate's boundaries for
     m >= 2); else B1 with R(n) from the materialised phase, else the nearest identified
     tau.

@@ -10,11 +10,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from adavar import differences as diff
-from adavar import record_sums as sstat
-from adavar import stream
-from adavar.errors import AdavarInputError
-from adavar.statistics import STATISTICS, deviation
+from adavar._kernels import differences as diff
+from adavar.core.errors import AdavarInputError
+from adavar.stats import record_sums as sstat
+from adavar.stats import stream
+from adavar.stats.statistics import STATISTICS, deviation
 
 from . import reference
 

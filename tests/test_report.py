@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar.report import MAX_SURFACE_TAUS, MAX_SURFACE_TIMES, build_report, write_report
-from adavar.results import DavarResult
+from adavar.core.results import DavarResult
+from adavar.output.report import MAX_SURFACE_TAUS, MAX_SURFACE_TIMES, build_report, write_report
 
 pytest.importorskip("plotly", reason="the report embeds plotly.js from the plotly package")
 
@@ -487,10 +487,10 @@ def test_coefficients_of_a_block_fit_draw_the_same_figure(monkeypatch) -> None:
     values are read by slices, here of 64 windows)."""
     import dataclasses
 
-    from adavar import report, report_parts
+    from adavar.output import report, report_parts
 
     monkeypatch.setattr(report_parts, "_SCAN_WINDOWS", 64)
-    from adavar.surface_fit import fit_davar_in_blocks
+    from adavar.dynamic.surface_fit import fit_davar_in_blocks
 
     x = adavar.simulate.sensor(9000, rate=100.0, angle_random_walk=0.01, bias_instability=0.002,
                                bandwidth=30.0, lsb=1e-3, seed=4)  # fmt: skip

@@ -10,17 +10,17 @@ import pytest
 
 import adavar
 from adavar import cli
-from adavar.analysis import read_input, resolve_lengths, run
 from adavar.cli.entry import build_parser
-from adavar.errors import AdavarInputError
-from adavar.request import (
+from adavar.core.errors import AdavarInputError
+from adavar.core.request import (
     ANALYSIS_CONTROLLER,
     AnalysisRequest,
     MethodOptions,
     RecordRequest,
     WindowSettings,
 )
-from adavar.settings import PAPER, ControllerSettings, FitSettings
+from adavar.core.settings import PAPER, ControllerSettings, FitSettings
+from adavar.pipeline.analysis import read_input, resolve_lengths, run
 
 RATE = 100.0
 
@@ -165,8 +165,9 @@ def test_controller_settings_round_trip_through_the_flags():
 def test_the_stream_takes_the_same_settings_objects():
     x = _record(8000, seed=5)
     settings = dataclasses.replace(ANALYSIS_CONTROLLER, lmax=400, lmin=200, l=60)
-    typed = adavar.OnlineAdaptive(rate=RATE, settings=settings,
-                                  method_options=MethodOptions(method="kurtosis"), step=4)
+    typed = adavar.OnlineAdaptive(
+        rate=RATE, settings=settings, method_options=MethodOptions(method="kurtosis"), step=4
+    )
     plain = adavar.OnlineAdaptive(rate=RATE, lmax=400, lmin=200, l=60, method="kurtosis",
                                   step=4)  # fmt: skip
     for live in (typed, plain):

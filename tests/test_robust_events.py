@@ -1,9 +1,9 @@
 """Events on data nobody tuned for (issue 39, items 8 and 9).
 
 Item 8: an outlier is an event of its own and never flips the pairing of the changes
-after it (adavar.events pairs episodes by the noise level on each side). Item 9: the
+after it (adavar.dynamic.events pairs episodes by the noise level on each side). Item 9: the
 kurtosis tests compare each window with the record's own stationary noise
-(adavar.kurtosis_reference), so non-Gaussian stationary noise gives no false events while
+(adavar.dynamic.kurtosis_reference), so non-Gaussian stationary noise gives no false events while
 steps and bursts are still found. The long version: benchmarks/bench_events_robust.py.
 """
 
@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar.errors import AdavarInputError
-from adavar.events import EventTracker, find_events
-from adavar.kurtosis_reference import KurtosisReference, record_reference
-from adavar.thresholds import thresholds_for
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic.events import EventTracker, find_events
+from adavar.dynamic.kurtosis_reference import KurtosisReference, record_reference
+from adavar.dynamic.thresholds import thresholds_for
 
 from . import independent_noise as ind
 
@@ -91,7 +91,7 @@ def _tracker(levels: list[tuple[float, float]]):
         n[times >= t] = value
 
     def summaries(low, high, names=None):
-        from adavar.events import stretch_summary
+        from adavar.dynamic.events import stretch_summary
 
         inside = (times > low) & (times < high)
         return {"angle_random_walk": stretch_summary(n[inside])}

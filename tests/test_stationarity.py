@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import adavar
-from adavar.errors import AdavarInputError
-from adavar.stationary_noise import stationarity
+from adavar.core.errors import AdavarInputError
+from adavar.stats.stationary_noise import stationarity
 
 from . import independent_noise as ind
 from .cli_helpers import run
@@ -138,7 +138,7 @@ def test_block_powers_in_memory_are_numpys(order):
     version's bit for bit: the squared differences of the scaled samples, summed in the
     pieces the NumPy version reads as NumPy sums them (pairwise), blocks across pieces
     included. So the p-value, the stretch and the ratio are those of before."""
-    from adavar.stationary_noise import _block_powers, _record_powers
+    from adavar.stats.stationary_noise import _block_powers, _record_powers
 
     rng = np.random.default_rng(order)
     for n, offset, scale in ((300, 0.0, 1.0), (70_001, 1e9, 1e-3), (250_000, -3.0, 1e5)):

@@ -9,9 +9,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar.datasets import nist_1000
-from adavar.errors import AdavarInputError
-from adavar.statistics import STATISTICS, deviation
+from adavar.core.datasets import nist_1000
+from adavar.core.errors import AdavarInputError
+from adavar.stats.statistics import STATISTICS, deviation
 
 from . import reference
 
@@ -241,7 +241,7 @@ def test_public_api_exposes_deviation():
 def test_unidentified_taus_take_the_nearest_identified_one(values):
     # the bisection of fill_unidentified against the dense distance matrix it replaced
     # (which needed n_taus x n_known memory: 193 GiB for taus="all" on 720k samples)
-    from adavar.noise_id import fill_unidentified
+    from adavar.stats.noise_id import fill_unidentified
 
     alpha = np.array([np.nan if v is None else v for v in values], dtype=float)
     known = np.flatnonzero(np.isfinite(alpha))

@@ -14,11 +14,13 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from adavar import adaptive, controller, sources, stream
-from adavar.adaptive import adaptive_davar, adaptive_schedule
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic import adaptive, controller
+from adavar.dynamic.adaptive import adaptive_davar, adaptive_schedule
+from adavar.dynamic.windows import window_schedule
+from adavar.io import sources
 from adavar.simulate import paper_scenario
-from adavar.windows import window_schedule
+from adavar.stats import stream
 from tests.test_adaptive import literal_controller
 
 SMALL = dict(lmax=200, lmin=120, l=30, thresholds="paper")  # the adapting controller
@@ -218,7 +220,7 @@ def test_memory_stays_within_a_few_chunks():
 def test_keep_runs_gives_the_runs_of_the_full_flags(burst, method, chunk):
     """keep="runs" (the fixed window's change times, issue 42): the runs of f over every
     centre, joined across pieces, equal to those of the whole in-memory schedule."""
-    from adavar.events import flag_change_times, run_change_times
+    from adavar.dynamic.events import flag_change_times, run_change_times
 
     x, _ = burst
     want = adaptive_schedule(x, **{**SMALL, "method": method})
@@ -234,7 +236,7 @@ def test_keep_runs_gives_the_runs_of_the_full_flags(burst, method, chunk):
 
 
 def test_join_runs_across_pieces():
-    from adavar.events import flag_runs, join_runs
+    from adavar.dynamic.events import flag_runs, join_runs
 
     rng = np.random.default_rng(3)
     flags = rng.random(5000) < 0.7

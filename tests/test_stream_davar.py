@@ -10,13 +10,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from adavar import differences as diff
-from adavar import edf as edf_mod
-from adavar import simulate, stream
-from adavar import surface as davar_mod
-from adavar.errors import AdavarInputError
-from adavar.statistics import record_noise_types
-from adavar.surface import davar
+from adavar import simulate
+from adavar._kernels import differences as diff
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic import surface as davar_mod
+from adavar.dynamic.surface import davar
+from adavar.stats import edf as edf_mod
+from adavar.stats import stream
+from adavar.stats.statistics import record_noise_types
 
 RTOL = 1e-12
 

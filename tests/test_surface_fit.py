@@ -9,10 +9,10 @@ from hypothesis import strategies as st
 
 import adavar
 from adavar import simulate
-from adavar.errors import AdavarInputError
-from adavar.surface import davar_blocks
-from adavar.surface_fit import concatenate_fits, drawn_rows, fit_davar_in_blocks
-from adavar.thinning import spread_indices
+from adavar.core.errors import AdavarInputError
+from adavar.core.thinning import spread_indices
+from adavar.dynamic.surface import davar_blocks
+from adavar.dynamic.surface_fit import concatenate_fits, drawn_rows, fit_davar_in_blocks
 
 RATE = 200.0
 
@@ -230,7 +230,7 @@ ADAPTIVE_FIELDS = (*FIELDS, "kurtosis", "s", "f1", "f2", "f")
     ids=["adaptive", "step", "ici", "phase", "valid", "kurtosis-no-confidence"],
 )  # fmt: skip
 def test_adaptive_blocks_are_the_adaptive_surface(step_gyro, options):
-    from adavar.adaptive import adaptive_blocks
+    from adavar.dynamic.adaptive import adaptive_blocks
 
     x = np.cumsum(step_gyro) / RATE if options.get("data_type") == "phase" else step_gyro
     whole = adavar.adaptive_davar(x, rate=RATE, taus="octave", lmax=300, lmin=100, l=50,
@@ -255,7 +255,7 @@ def test_adaptive_blocks_are_the_adaptive_surface(step_gyro, options):
 @pytest.mark.parametrize("options", [{}, {"step": 3}, {"method": "ici"}],
                          ids=["adaptive", "step", "ici"])  # fmt: skip
 def test_adaptive_fit_in_blocks_is_the_fit_of_the_whole_surface(step_gyro, options):
-    from adavar.surface_fit import fit_adaptive_in_blocks
+    from adavar.dynamic.surface_fit import fit_adaptive_in_blocks
 
     common = dict(rate=RATE, taus="all", lmax=300, lmin=100, l=50, **options)
     whole = adavar.adaptive_davar(step_gyro, **common)
@@ -286,7 +286,7 @@ def test_adaptive_fit_in_blocks_is_the_fit_of_the_whole_surface(step_gyro, optio
 def test_adaptive_blocks_of_a_record_read_piece_by_piece(step_gyro, tmp_path, options):
     """The controller streams the file and each block reads its windows' span: every row
     equals the record in memory's, on a memory map and with chunk_size."""
-    from adavar.adaptive import adaptive_blocks
+    from adavar.dynamic.adaptive import adaptive_blocks
 
     x = np.cumsum(step_gyro) / RATE if options.get("data_type") == "phase" else step_gyro
     path = tmp_path / "x.npy"
@@ -307,7 +307,7 @@ def test_adaptive_blocks_of_a_record_read_piece_by_piece(step_gyro, tmp_path, op
 def test_adaptive_blocks_refuse_what_they_cannot_block(step_gyro):
     import dask.array as da
 
-    from adavar.adaptive import adaptive_blocks
+    from adavar.dynamic.adaptive import adaptive_blocks
 
     with pytest.raises(AdavarInputError, match="dask"):
         next(adaptive_blocks(da.from_array(step_gyro, chunks=1000), rate=RATE))
@@ -323,7 +323,7 @@ def test_adaptive_blocks_refuse_what_they_cannot_block(step_gyro):
 def test_joined_rows_are_the_concatenation(sizes, offset, kind):
     """Blocks that are consecutive views of one array join to a view of it; any other
     blocks to a copy; either way the concatenation of the blocks."""
-    from adavar.surface_fit import _Joined
+    from adavar.dynamic.surface_fit import _Joined
 
     total = sum(sizes)
     base = np.arange(offset + 2 * total + 3, dtype=float) * 1.5
@@ -349,7 +349,7 @@ def test_joined_rows_are_the_concatenation(sizes, offset, kind):
 def test_fit_rows_keep_the_whole_fit_of_some_windows(step_gyro, fit_rows):
     """Every window's coefficients, and the whole fit (uncertainties, chi-square) of the
     windows asked for only; the same numbers as the fit of the whole surface."""
-    from adavar.surface_fit import fit_adaptive_in_blocks
+    from adavar.dynamic.surface_fit import fit_adaptive_in_blocks
 
     common = dict(rate=RATE, taus="octave", lmax=300, lmin=100, l=50)
     whole = adavar.fit_noise(adavar.adaptive_davar(step_gyro, **common), cells=False)
@@ -399,7 +399,7 @@ def test_spilled_coefficients_fall_back_or_fail_clearly(step_gyro, monkeypatch):
     that names TMPDIR."""
     import tempfile
 
-    from adavar import surface_fit
+    from adavar.dynamic import surface_fit
 
     common = dict(rate=RATE, taus="octave", lmax=300, lmin=100, l=50, block_values=2000,
                   fit_options={"cells": False}, fit_rows="drawn")  # fmt: skip
@@ -431,7 +431,7 @@ def test_blocks_fitted_a_few_windows_at_a_time_are_the_whole_fit(step_gyro, monk
                                                                 fit_rows):  # fmt: skip
     """A block's windows fitted FIT_ROWS at a time (37 here: every block cut unevenly)
     give the whole surface's fit, bit for bit."""
-    from adavar import surface_fit
+    from adavar.dynamic import surface_fit
 
     monkeypatch.setattr(surface_fit, "FIT_ROWS", 37)
     common = dict(rate=RATE, taus="octave", lmax=300, lmin=100, l=50)

@@ -8,8 +8,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar import theo_family as tf
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
+from adavar.stats import theo_family as tf
 from tests.stable32_data import read_data, stable32_root
 
 SETTINGS = settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -356,7 +356,7 @@ def test_theo1_edf_formulas():
     assert tf.edf("theo1", -3, 100, 1001) == tf.edf("theo1", -2, 100, 1001)  # clamped
     assert tf.edf("theobr", 0, 100, 1001) == tf.edf("theo1", 0, 100, 1001)
     assert tf.edf("theoh", 0, 300, 1001) == tf.edf("theo1", 0, 400, 1001)
-    assert tf.edf("theoh", 0, 30, 1001) == adavar.edf.edf("oadev", 0, 30, 1001)
+    assert tf.edf("theoh", 0, 30, 1001) == adavar.stats.edf.edf("oadev", 0, 30, 1001)
 
 
 def test_intervals_through_deviation():

@@ -14,7 +14,8 @@ def _run(code: str, **env: str) -> subprocess.CompletedProcess:
 
 def test_adavar_threads_sets_the_kernels_threads_and_import_changes_no_environment():
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_OPT", "OMP_WAIT_POLICY")}
-    code = ("import os, numba, adavar.statistics, adavar.surface, adavar.noise_model; "
+    code = ("import os, numba, adavar.stats.statistics, adavar.dynamic.surface, "
+            "adavar.fit.noise_model; "
             "print(numba.get_num_threads(), os.environ.get('OMP_WAIT_POLICY'), "
             "os.environ.get('NUMBA_OPT'))")  # fmt: skip
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -58,7 +59,7 @@ def test_cached_kernels_give_the_same_numbers_in_a_new_process():
 
     first = run("mdev")  # compiles what the cache lacks (a fresh checkout)
     assert run("mdev") == first
-    from adavar._jit import jit
+    from adavar._kernels._jit import jit
 
     @jit(cache=False)
     def plus(x):  # pragma: no cover - compiled
@@ -85,7 +86,7 @@ def test_a_bad_thread_setting_is_a_one_line_error_on_the_command_line(tmp_path):
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from adavar import _jit  # noqa: E402
+from adavar._kernels import _jit  # noqa: E402
 
 
 @pytest.fixture
@@ -93,7 +94,8 @@ def force(monkeypatch):
     """Run every threaded kernel on the calling thread alone (``force("serial")``) or on
     every thread from the smallest input (``force("parallel")``)."""
 
-    from adavar import differences, noise_id
+    from adavar._kernels import differences
+    from adavar.stats import noise_id
 
     def choose(which: str) -> None:
         monkeypatch.setattr(_jit, "SERIAL_WORK", 1 << 62 if which == "serial" else 0)
@@ -134,8 +136,8 @@ def test_threaded_davar_window_kernel_is_bit_identical(force):
 def test_threaded_modified_sums_are_bit_identical_and_exact(force, monkeypatch):
     """The MVAR numerators in parts of MOD_PART starts (issue 42): the same bits on one
     thread and several, each part's sliding sum exact against a direct sum."""
-    from adavar import differences as diff
-    from adavar import record_sums
+    from adavar._kernels import differences as diff
+    from adavar.stats import record_sums
 
     monkeypatch.setattr(diff, "MOD_PART", 5000)  # many parts on a short record
     x = _record(40_000, seed=9)
@@ -153,7 +155,7 @@ def test_threaded_modified_sums_are_bit_identical_and_exact(force, monkeypatch):
 
 
 def test_threaded_kurtosis_kernels_are_bit_identical(force):
-    from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
+    from adavar.dynamic.kurtosis import kurtosis_contribution, sliding_kurtosis
 
     x = _record(30_000, seed=3)
     for call in (
@@ -166,7 +168,7 @@ def test_threaded_kurtosis_kernels_are_bit_identical(force):
 
 
 def test_threaded_adaptive_controller_is_bit_identical(force):
-    from adavar.adaptive import adaptive_schedule
+    from adavar.dynamic.adaptive import adaptive_schedule
 
     x = _record(60_000, seed=5)
     x[30_000:32_000] += 3.0 * np.random.default_rng(1).standard_normal(2000)  # a disturbance
@@ -180,7 +182,7 @@ def test_threaded_adaptive_controller_is_bit_identical(force):
 def test_the_controller_survives_a_huge_burst(force, where):
     # a 1e12-sigma burst leaves the window's running sums with nothing but rounding: it
     # used to raise ZeroDivisionError (serial) or SystemError (parallel)
-    from adavar.adaptive import adaptive_schedule
+    from adavar.dynamic.adaptive import adaptive_schedule
 
     x = np.random.default_rng(2).standard_normal(60_000)
     if where == "spike":
@@ -325,8 +327,8 @@ def test_grouped_items_cover_every_unit_once(least):
 def test_threaded_whole_record_kernels_are_bit_identical(force):
     """The integration pass and the overlapping sums of a record with an offset, a step and
     a drift: the same bits on one thread and on all (issue 42)."""
-    from adavar import differences as diff
-    from adavar.statistics import deviation
+    from adavar._kernels import differences as diff
+    from adavar.stats.statistics import deviation
 
     x = _record(300_000, seed=5)
     u = np.diff(x)
@@ -344,8 +346,8 @@ def test_whole_record_kernels_use_every_thread_above_the_threshold(monkeypatch):
     more than the work), from it on the pool of the other threads (issue 42)."""
     import numba
 
-    from adavar import differences as diff
-    from adavar.statistics import deviation
+    from adavar._kernels import differences as diff
+    from adavar.stats.statistics import deviation
 
     if numba.get_num_threads() < 2:
         pytest.skip("one thread set for the kernels")
@@ -365,10 +367,10 @@ def test_threaded_noise_identification_and_stationarity_are_bit_identical(force)
     """The noise identification over taus and the stationarity check's block powers, of
     records with an offset, a step and a drift: the same bits on one thread and on all
     (issue 42)."""
-    from adavar import differences as diff
-    from adavar import stationary_noise as sn
-    from adavar.stationary_noise import stationarity
-    from adavar.statistics import record_noise_types
+    from adavar._kernels import differences as diff
+    from adavar.stats import stationary_noise as sn
+    from adavar.stats.stationary_noise import stationarity
+    from adavar.stats.statistics import record_noise_types
 
     x = _record(300_000, seed=9)
     ms = 2 ** np.arange(17)  # the octaves, and a few taus the fused levels do not cover
@@ -394,9 +396,9 @@ def test_noise_identification_and_stationarity_use_every_thread_above_the_thresh
     RECORD_THREADS_MIN samples on; below, the calling thread alone (issue 42)."""
     import numba
 
-    from adavar import differences as diff
-    from adavar.stationary_noise import stationarity
-    from adavar.statistics import record_noise_types
+    from adavar._kernels import differences as diff
+    from adavar.stats.stationary_noise import stationarity
+    from adavar.stats.statistics import record_noise_types
 
     if numba.get_num_threads() < 2:
         pytest.skip("one thread set for the kernels")

@@ -10,8 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar.errors import AdavarInputError
-from adavar.thresholds import (
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic.thresholds import (
     _ag_inverse,
     _ag_z,
     _s_quantile,
@@ -131,7 +131,7 @@ def test_row_kurtosis_is_scipys_bit_for_bit(rows):
     (so calibrated thresholds do not move), on whole rows and on leading column slices."""
     from scipy.stats import kurtosis
 
-    from adavar.thresholds import _row_kurtosis
+    from adavar.dynamic.thresholds import _row_kurtosis
 
     x = np.random.default_rng(3).standard_normal((257, 301))
     if rows == "offset":

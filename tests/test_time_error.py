@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from numpy.lib.stride_tricks import sliding_window_view
 
 import adavar
-from adavar import time_error as te
-from adavar.edf import greenhall_edf
+from adavar.stats import time_error as te
+from adavar.stats.edf import greenhall_edf
 from tests.stable32_data import read_data, stable32_root
 
 SETTINGS = settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow])

@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 import adavar
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 
 N = 4000
 
@@ -108,7 +108,7 @@ def test_an_irregular_index_is_an_error_with_the_way_out(x):
 
 
 def test_jitter_within_one_percent_gives_the_mean_step(x):
-    from adavar.sampling import index_interval
+    from adavar.io.sampling import index_interval
 
     base = np.arange(N, dtype=np.int64) * 10_000_000
     jitter = np.random.default_rng(2).integers(-40_000, 40_000, N)  # 0.4 %

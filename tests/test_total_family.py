@@ -11,12 +11,12 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import adavar
-from adavar import edf as edf_mod
-from adavar import total_family as tf
-from adavar.datasets import nist_1000
-from adavar.errors import AdavarInputError
-from adavar.extended_statistics import SPECS
-from adavar.settings import ALL_STATISTICS
+from adavar.core.datasets import nist_1000
+from adavar.core.errors import AdavarInputError
+from adavar.core.extended_statistics import SPECS
+from adavar.core.settings import ALL_STATISTICS
+from adavar.stats import edf as edf_mod
+from adavar.stats import total_family as tf
 from tests.stable32_data import read_data, read_table, stable32_root
 
 SETTINGS = settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
@@ -389,7 +389,7 @@ def test_mtot_and_htot_edf_formulas():
 def test_registered():
     for stat in STATS:
         assert stat in ALL_STATISTICS
-        assert SPECS[stat].module == "adavar.total_family"
+        assert SPECS[stat].module == "adavar.stats.total_family"
     assert SPECS["ttotdev"].kind == "time"
     assert SPECS["htotdev"].dmax == 3
 

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from adavar import windows as windows_module
-from adavar.errors import AdavarInputError
-from adavar.windows import (
+from adavar.core.errors import AdavarInputError
+from adavar.dynamic import windows as windows_module
+from adavar.dynamic.windows import (
     EDGES,
     MIN_WINDOW,
     WindowSchedule,

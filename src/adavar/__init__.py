@@ -24,7 +24,7 @@ The public entry points:
 - :class:`AnalysisRequest` (:class:`RecordRequest`, :class:`WindowSettings`,
   :class:`DeviationSettings`, :class:`ControllerSettings`, :class:`FitSettings`,
   :class:`MethodOptions`): one analysis of a file as typed settings, which
-  :func:`adavar.analysis.run` computes (the pipeline behind the commands).
+  :func:`adavar.pipeline.analysis.run` computes (the pipeline behind the commands).
 """
 
 from __future__ import annotations
@@ -35,71 +35,71 @@ from typing import TYPE_CHECKING, Any
 # public names -> the module that defines them, imported on first use (PEP 562), so that
 # ``import adavar`` does not load NumPy's neighbours, SciPy and Numba before they are needed
 _LAZY = {
-    "AdaptiveResult": "adavar.adaptive",
-    "adaptive_davar": "adavar.adaptive",
-    "adaptive_schedule": "adavar.adaptive",
+    "AdaptiveResult": "adavar.dynamic.adaptive",
+    "adaptive_davar": "adavar.dynamic.adaptive",
+    "adaptive_schedule": "adavar.dynamic.adaptive",
     "compare": "adavar.comparison",
-    "CodeviationResult": "adavar.cornered_hat",
-    "CorneredHatResult": "adavar.cornered_hat",
-    "cornered_hat": "adavar.cornered_hat",
-    "gcodev": "adavar.cornered_hat",
-    "davar": "adavar.surface",
-    "Duration": "adavar.durations",
-    "seconds": "adavar.durations",
-    "AdavarInputError": "adavar.errors",
-    "AnalysisRequest": "adavar.request",
-    "DeviationSettings": "adavar.request",
-    "MethodOptions": "adavar.request",
-    "RecordRequest": "adavar.request",
-    "WindowSettings": "adavar.request",
-    "ControllerSettings": "adavar.settings",
-    "FitSettings": "adavar.settings",
-    "kurtosis_contribution": "adavar.kurtosis",
-    "sliding_kurtosis": "adavar.kurtosis",
-    "LongTauChanges": "adavar.long_tau",
-    "long_tau_changes": "adavar.long_tau",
-    "NoiseFit": "adavar.noise_model",
-    "NoiseTerm": "adavar.noise_model",
-    "MarkovTerm": "adavar.results",
-    "fit_avar": "adavar.noise_model",
-    "fit_noise": "adavar.noise_model",
-    "OnlineAdaptive": "adavar.online",
+    "CodeviationResult": "adavar.stats.cornered_hat",
+    "CorneredHatResult": "adavar.stats.cornered_hat",
+    "cornered_hat": "adavar.stats.cornered_hat",
+    "gcodev": "adavar.stats.cornered_hat",
+    "davar": "adavar.dynamic.surface",
+    "Duration": "adavar.core.durations",
+    "seconds": "adavar.core.durations",
+    "AdavarInputError": "adavar.core.errors",
+    "AnalysisRequest": "adavar.core.request",
+    "DeviationSettings": "adavar.core.request",
+    "MethodOptions": "adavar.core.request",
+    "RecordRequest": "adavar.core.request",
+    "WindowSettings": "adavar.core.request",
+    "ControllerSettings": "adavar.core.settings",
+    "FitSettings": "adavar.core.settings",
+    "kurtosis_contribution": "adavar.dynamic.kurtosis",
+    "sliding_kurtosis": "adavar.dynamic.kurtosis",
+    "LongTauChanges": "adavar.dynamic.long_tau",
+    "long_tau_changes": "adavar.dynamic.long_tau",
+    "NoiseFit": "adavar.fit.noise_model",
+    "NoiseTerm": "adavar.fit.noise_model",
+    "MarkovTerm": "adavar.core.results",
+    "fit_avar": "adavar.fit.noise_model",
+    "fit_noise": "adavar.fit.noise_model",
+    "OnlineAdaptive": "adavar.dynamic.online",
     "compare_seeds": "adavar.paper.studies",
-    "PowerLawFit": "adavar.power_law",
-    "fit_power_law": "adavar.power_law",
-    "DavarResult": "adavar.results",
-    "DeviationResult": "adavar.results",
-    "deviation": "adavar.statistics",
-    "StationarityResult": "adavar.stationary_noise",
-    "stationarity": "adavar.stationary_noise",
+    "PowerLawFit": "adavar.fit.power_law",
+    "fit_power_law": "adavar.fit.power_law",
+    "DavarResult": "adavar.core.results",
+    "DeviationResult": "adavar.core.results",
+    "deviation": "adavar.stats.statistics",
+    "StationarityResult": "adavar.stats.stationary_noise",
+    "stationarity": "adavar.stats.stationary_noise",
 }
 _SUBMODULES = ("simulate",)
 
 if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     from adavar import simulate
-    from adavar.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
     from adavar.comparison import compare
-    from adavar.cornered_hat import CodeviationResult, CorneredHatResult, cornered_hat, gcodev
-    from adavar.durations import Duration, seconds
-    from adavar.errors import AdavarInputError
-    from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
-    from adavar.long_tau import LongTauChanges, long_tau_changes
-    from adavar.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
-    from adavar.online import OnlineAdaptive
-    from adavar.paper.studies import compare_seeds
-    from adavar.power_law import PowerLawFit, fit_power_law
-    from adavar.request import (
+    from adavar.core.durations import Duration, seconds
+    from adavar.core.errors import AdavarInputError
+    from adavar.core.request import (
         AnalysisRequest,
         DeviationSettings,
         MethodOptions,
         RecordRequest,
         WindowSettings,
     )
-    from adavar.results import DavarResult, DeviationResult, MarkovTerm
-    from adavar.settings import ControllerSettings, FitSettings
-    from adavar.stationary_noise import StationarityResult, stationarity
-    from adavar.statistics import deviation
-    from adavar.surface import davar
+    from adavar.core.results import DavarResult, DeviationResult, MarkovTerm
+    from adavar.core.settings import ControllerSettings, FitSettings
+    from adavar.dynamic.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
+    from adavar.dynamic.kurtosis import kurtosis_contribution, sliding_kurtosis
+    from adavar.dynamic.long_tau import LongTauChanges, long_tau_changes
+    from adavar.dynamic.online import OnlineAdaptive
+    from adavar.dynamic.surface import davar
+    from adavar.fit.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
+    from adavar.fit.power_law import PowerLawFit, fit_power_law
+    from adavar.paper.studies import compare_seeds
+    from adavar.stats.cornered_hat import CodeviationResult, CorneredHatResult, cornered_hat, gcodev
+    from adavar.stats.stationary_noise import StationarityResult, stationarity
+    from adavar.stats.statistics import deviation
 
 
 def __getattr__(name: str) -> Any:

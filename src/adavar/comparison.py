@@ -61,10 +61,19 @@ from typing import Any
 
 import numpy as np
 
-from adavar.adaptive import Schedule, adaptive_schedule
-from adavar.errors import AdavarInputError
-from adavar.inputs import as_samples
-from adavar.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
+from adavar.core.errors import AdavarInputError
+from adavar.core.results import DavarResult
+from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
+from adavar.dynamic.adaptive import Schedule, adaptive_schedule
+from adavar.dynamic.surface import davar
+from adavar.dynamic.surface_common import edf_table
+from adavar.dynamic.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows
+from adavar.dynamic.window_defaults import comparison_step
+from adavar.dynamic.windows import window_overhang
+from adavar.fit.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
+from adavar.io.inputs import as_samples
+from adavar.io.sources import DEFAULT_CHUNK, check_chunk_size, is_chunked, open_record
+from adavar.io.writers import jsonable
 from adavar.paper.metrics import ChangeMetrics, Metrics, interval_means, tracking_metrics
 from adavar.paper.nodes import NODE_NAMES, Nodes, fixed_nodes, schedule_nodes
 from adavar.paper.reference import (
@@ -76,15 +85,6 @@ from adavar.paper.reference import (
     PAPER_TABLE3_NODES,
     paper_nodes,
 )
-from adavar.results import DavarResult
-from adavar.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
-from adavar.sources import DEFAULT_CHUNK, check_chunk_size, is_chunked, open_record
-from adavar.surface import davar
-from adavar.surface_common import edf_table
-from adavar.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows
-from adavar.window_defaults import comparison_step
-from adavar.windows import window_overhang
-from adavar.writers import jsonable
 
 __all__ = [
     "FIGURE_WINDOWS",
@@ -518,7 +518,7 @@ def compare(
         From ``"davar-<L>"`` (fixed window of ``L`` samples), ``"davar-k"`` (the kurtosis
         controller, ``f = f1``), ``"a-davar"`` (the adaptive controller), ``"oracle"``
         (the ideal schedule; needs ``change_times``), ``"ici"`` (the
-        intersection-of-confidence-intervals window of :mod:`adavar.ici`, with one-sided
+        intersection-of-confidence-intervals window of :mod:`adavar.dynamic.ici`, with one-sided
         windows, its defaults) and ``"ici-centred"`` (the same, centred windows only). Default
         :func:`default_methods` ``(lmin, lmax)``.
     rate : float, optional
@@ -550,24 +550,24 @@ def compare(
     keep : {"all", "figures"}
         ``"all"`` (default): every method's whole surface (``MethodRun.result``) and the
         per-cell residuals of its fit, held together. ``"figures"``: what the tables and
-        :func:`adavar.plots.comparison_figures` read: each surface is freed once fitted,
+        :func:`adavar.output.plots.comparison_figures` read: each surface is freed once fitted,
         keeping only the :data:`FIGURE_WINDOWS` windows (evenly spread over the record)
-        that :func:`adavar.plots.davar_surface_figure` draws, with the fits of those
+        that :func:`adavar.output.plots.davar_surface_figure` draws, with the fits of those
         windows only (without per-cell ``used`` and ``residuals``; ``arw`` holds every
         window's N), and the surfaces without confidence bounds (``avar_low``,
         ``avar_high`` and ``bound_table`` None; ``davar(..., bounds=False)``); every other
         value is the same, and each surface is computed and fitted a block of windows at a
-        time (:mod:`adavar.surface_fit`; ``adavar compare`` uses it).
+        time (:mod:`adavar.dynamic.surface_fit`; ``adavar compare`` uses it).
     step : int, optional
         Windows at every ``step``-th centre only (the controllers still visit every
         sample; nodes and metrics are read on that grid). Default: every centre while all
         methods' per-centre series fit ``max_memory`` MB, else the smallest step that fits
-        (:func:`adavar.window_defaults.comparison_step`; ``parameters["step"]``).
+        (:func:`adavar.dynamic.window_defaults.comparison_step`; ``parameters["step"]``).
     max_memory : float
         Budget in MB of the per-centre series when ``step`` is left to adavar.
     chunk_size : int, optional
         Samples the controllers and surfaces (``keep="figures"``) read at a time, for a
-        record read piece by piece. Default: :data:`adavar.sources.DEFAULT_CHUNK` with a
+        record read piece by piece. Default: :data:`adavar.io.sources.DEFAULT_CHUNK` with a
         ``step`` > 1 (the same windows), else each function's own.
 
     Returns
@@ -594,7 +594,7 @@ def compare(
 #: Bytes a method's run holds per surface cell: the variance and the per-window fit.
 _RUN_CELL_BYTES = 8 * 2
 #: Windows of a surface kept with ``keep="figures"``: those
-#: :func:`adavar.plots.davar_surface_figure` draws (its ``max_times``).
+#: :func:`adavar.output.plots.davar_surface_figure` draws (its ``max_times``).
 FIGURE_WINDOWS = 400
 
 
@@ -603,8 +603,8 @@ def _check_memory(
     keep: str = "all",
 ) -> None:  # fmt: skip
     """A one-line error, before any work, when the runs would not fit in free memory."""
-    from adavar.sources import available_memory
-    from adavar.taus import averaging_factors
+    from adavar.core.taus import averaging_factors
+    from adavar.io.sources import available_memory
 
     ms, _ = averaging_factors(taus, max(1, longest // 3), tau0,
                               points_per_decade=points_per_decade)  # fmt: skip

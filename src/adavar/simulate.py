@@ -1,6 +1,6 @@
 """Seeded simulation of inertial-sensor and clock noise: ``adavar.simulate``.
 
-The public face of the noise generators (:mod:`adavar.generators`: white noise, random
+The public face of the noise generators (:mod:`adavar.simulation.generators`: white noise, random
 walks, flicker, Gauss-Markov, sinusoids, the IEEE Std 952 terms, a sensor with its
 bandwidth and LSB, piecewise-white records) and of the A-DAVAR paper's simulated records
 (:mod:`adavar.paper.scenarios`: :func:`paper_scenario`, :class:`PaperScenario`,
@@ -16,7 +16,8 @@ Examples
 
 from __future__ import annotations
 
-from adavar.generators import (
+from adavar.paper.scenarios import PAPER_SCENARIOS, PaperScenario, paper_scenario
+from adavar.simulation.generators import (
     MAX_SAMPLES,
     angle_random_walk,
     bias_instability,
@@ -32,7 +33,6 @@ from adavar.generators import (
     sinusoid,
     white,
 )
-from adavar.paper.scenarios import PAPER_SCENARIOS, PaperScenario, paper_scenario
 
 __all__ = [
     "MAX_SAMPLES",

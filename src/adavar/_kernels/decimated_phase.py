@@ -1,6 +1,6 @@
 """The lag-1 test on the decimated phase (SP 1065, Riley & Greenhall 2004): its sums.
 
-The test of :mod:`adavar.noise_id` starts, at each averaging factor ``m``, on the decimated
+The test of :mod:`adavar.stats.noise_id` starts, at each averaging factor ``m``, on the decimated
 phase ``P[k] = S[k m]``, ``k = 0 .. count``, quadratically detrended: the lag-1
 autocorrelation ``r1`` of its residuals ``e``. Two ways to it live here.
 
@@ -11,17 +11,17 @@ autocorrelation ``r1`` of its residuals ``e``. Two ways to it live here.
   materialising the cluster sums: the same numbers, bit for bit. At ``m = 1`` they are
   two dependent chains of additions over the whole record (about 60 ms at 1e7 samples),
   which no thread can share.
-* At the fused levels ``m = 1, 2, .., 32`` (:data:`adavar.differences.FUSED_LEVELS`),
+* At the fused levels ``m = 1, 2, .., 32`` (:data:`adavar._kernels.differences.FUSED_LEVELS`),
   :func:`fused_phase_levels`: from sums the integration pass gathers per block (of the
-  points ``S[k m]`` about the block's anchor: :func:`adavar.differences._block_phase_moments`
-  via ``cluster_stats``) and those of the cluster sums it gathers anyway, in a few
-  operations per block. The fit comes from the sums of ``P``, ``u P``, ``u^2 P``; then
-  ``sum e^2 = sum P^2 - sum f P`` (least squares) and ``sum e[k-1] e[k] = sum e^2 -
-  (e[0]^2 + e[c]^2) / 2 - sum (e[k] - e[k-1])^2 / 2``, whose differences are the cluster
-  sums less the fitted curve's (``c1 + 2 c2 t``). No pass over the data.
+  points ``S[k m]`` about the block's anchor:
+  :func:`adavar._kernels.differences._block_phase_moments` via ``cluster_stats``) and those of the
+  cluster sums it gathers anyway, in a few operations per block. The fit comes from the sums of
+  ``P``, ``u P``, ``u^2 P``; then ``sum e^2 = sum P^2 - sum f P`` (least squares) and ``sum e[k-1]
+  e[k] = sum e^2 - (e[0]^2 + e[c]^2) / 2 - sum (e[k] - e[k-1])^2 / 2``, whose differences are the
+  cluster sums less the fitted curve's (``c1 + 2 c2 t``). No pass over the data.
 
 The second is not the first bit for bit (its sums run in another order), so it comes
-with a bound on the distance between the two, and :func:`adavar.noise_id.rate_noise_types`
+with a bound on the distance between the two, and :func:`adavar.stats.noise_id.rate_noise_types`
 takes its decision only where the bound shows the first would have reached the same one
 (else it runs the sequential passes). The bound, with ``u = 2**-53``, ``c`` clusters,
 ``M`` an upper bound of ``|P|``, ``zmax`` of ``|z|``, ``F`` of the fitted curve, and
@@ -52,8 +52,8 @@ import math
 
 import numpy as np
 
-from adavar._jit import jit
-from adavar.differences import BLOCK, SHIFT, AnchoredPhase, cluster_sum
+from adavar._kernels._jit import jit
+from adavar._kernels.differences import BLOCK, SHIFT, AnchoredPhase, cluster_sum
 
 __all__ = [
     "decimated_phase_lag1",
@@ -166,8 +166,8 @@ def decimated_phase_lag1(z: np.ndarray) -> tuple[float, float, int, float]:
     Returns
     -------
     r1, den, size, scale
-        As one order of :func:`adavar.noise_id.alpha_from_lag1`'s inputs: the autocorrelation, its
-        denominator ``sum e^2``, the series length ``count + 1`` and ``max |P|``.
+        As one order of :func:`adavar.stats.noise_id.alpha_from_lag1`'s inputs: the autocorrelation,
+        its denominator ``sum e^2``, the series length ``count + 1`` and ``max |P|``.
     """
     z = np.ascontiguousarray(z, dtype=np.float64)
     count = z.size
@@ -189,8 +189,8 @@ def decimated_phase_stats(r, hh, hl, m, count):  # pragma: no cover - compiled
     ``(r1, den, scale)``, bit for bit, without materialising them.
 
     The two passes of :func:`phase_moments` and :func:`phase_residual_lag` with the
-    cluster sums computed as they are read (:func:`adavar.differences.cluster_sum`, as
-    :func:`adavar.differences.cluster_differences` computes them) and the running sums
+    cluster sums computed as they are read (:func:`adavar._kernels.differences.cluster_sum`, as
+    :func:`adavar._kernels.differences.cluster_differences` computes them) and the running sums
     held in registers: the same operations in the same order.
     """
     kc = 0.5 * count
@@ -331,7 +331,7 @@ def fused_phase_levels(phase: AnchoredPhase) -> np.ndarray | None:
     """The decimated phase's lag-1 statistics at every fused level, with their bounds.
 
     Returns ``None`` without the integration's moments
-    (:func:`adavar.differences.anchored_phase` with ``cluster_stats=True``), else one row
+    (:func:`adavar._kernels.differences.anchored_phase` with ``cluster_stats=True``), else one row
     per level ``m = 2**lev``: ``(r1, den, scale, tol_r1, tol_den)``, NaN where the level
     has fewer than 8 clusters (``tol_r1`` and ``tol_den`` NaN also where no bound holds).
     :func:`decimated_phase_stats` of the level gives an ``r1`` within ``tol_r1`` of this

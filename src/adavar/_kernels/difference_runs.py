@@ -1,6 +1,6 @@
 """The one set of inner kernels behind every whole-record sum of squared differences.
 
-A difference ``sum_k c_k S[i + k m]`` of the anchored phase (:mod:`adavar.differences`)
+A difference ``sum_k c_k S[i + k m]`` of the anchored phase (:mod:`adavar._kernels.differences`)
 splits into an anchor part, exact in double-double and constant while no ``i + k m``
 crosses a block boundary, plus a local part ``sum_k c_k r[i + k m]``. The kernels here take
 the local parts as *views*: ``x_k[j] = r[base + j + k m]``. In memory the views are slices
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit, read_only
+from adavar._kernels._jit import jit, read_only
 from adavar._kernels.double_double import dd_scaled_add, two_sum
 
 __all__ = [

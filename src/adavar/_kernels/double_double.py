@@ -3,10 +3,10 @@ function relies on exact IEEE rounding).
 
 A double-double is a pair ``(high, low)`` with ``|low| <= ulp(high) / 2`` that represents
 ``high + low`` exactly: about 32 significant digits. The anchored phase of
-:mod:`adavar.differences`, the whole-record sums of :mod:`adavar.record_sums`, the running
-moments of :mod:`adavar.kurtosis` and the controller of :mod:`adavar.adaptive` all build on
-these few operations (Knuth's two-sum, Dekker's fast two-sum, and products through a fused
-multiply-add).
+:mod:`adavar._kernels.differences`, the whole-record sums of :mod:`adavar.stats.record_sums`, the
+running moments of :mod:`adavar.dynamic.kurtosis` and the controller of
+:mod:`adavar.dynamic.adaptive` all build on these few operations (Knuth's two-sum, Dekker's fast
+two-sum, and products through a fused multiply-add).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-from adavar._jit import jit
+from adavar._kernels._jit import jit
 
 __all__ = [
     "dd_add",

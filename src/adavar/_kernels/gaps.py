@@ -1,15 +1,15 @@
-"""Compiled helpers of :mod:`adavar.gaps`: filling the missing samples, and the lag-1
+"""Compiled helpers of :mod:`adavar.stats.gaps`: filling the missing samples, and the lag-1
 statistics of a series with gaps.
 
 The sums that leave out the terms touching a missing sample are the gap-free sums'
-own kernels (:mod:`adavar.differences`) given the missing samples as an argument.
+own kernels (:mod:`adavar._kernels.differences`) given the missing samples as an argument.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit
+from adavar._kernels._jit import jit
 
 __all__ = [
     "fill_missing",

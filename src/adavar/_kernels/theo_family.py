@@ -1,4 +1,4 @@
-"""Compiled kernels of the Theo family (:mod:`adavar.theo_family`).
+"""Compiled kernels of the Theo family (:mod:`adavar.stats.theo_family`).
 
 Theo1 at an even averaging factor ``m = 2k`` is (SP 1065 Eq. 30, with ``j = k - delta``)
 
@@ -46,7 +46,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit
+from adavar._kernels._jit import jit
 from adavar._kernels.double_double import fast_two_sum, fma, two_sum
 
 __all__ = ["centred_phase", "theo1_fast_sums", "theo1_sums"]

@@ -1,4 +1,4 @@
-"""Compiled kernels of the time-error statistics (:mod:`adavar.time_error`).
+"""Compiled kernels of the time-error statistics (:mod:`adavar.stats.time_error`).
 
 Both work on the phase ``x[k] = u[0] + ... + u[k-1]`` held as a normalised double-double
 (``xh + xl``), so that neither a frequency offset (which MTIE and TIE keep: they are not
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit
+from adavar._kernels._jit import jit
 from adavar._kernels.double_double import two_sum
 
 __all__ = ["dd_phase", "mtie_values", "tie_square_sums"]

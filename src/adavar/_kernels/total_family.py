@@ -1,4 +1,4 @@
-"""Compiled kernels of :mod:`adavar.total_family`: MTOT/HTOT and PVAR sums in O(N) per tau.
+"""Compiled kernels of :mod:`adavar.stats.total_family`: MTOT/HTOT and PVAR sums in O(N) per tau.
 
 MTOT and HTOT (NIST SP 1065, 5.2.12-5.2.14) share one inner sum. For every subsequence
 ``x[n : n + 3m]`` (phase for MTOT, rate for HTOT) the half-average slope ``s_n`` is removed,
@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit
+from adavar._kernels._jit import jit
 from adavar._kernels.double_double import fma, two_sum
 from adavar._kernels.window_avar import MEDIAN_SAMPLES, sample_median
 

@@ -15,7 +15,7 @@ large the offset of the data from ``s``, the drift across the span or a level st
 The squares' prefix sums carry their rounding errors in a second part, and in a third when
 a window's error bound says so (after a burst far above its noise, see
 :func:`_prefix_squares`).
-(The anchored phase of :mod:`adavar.differences` keeps one double per sample and loses
+(The anchored phase of :mod:`adavar._kernels.differences` keeps one double per sample and loses
 ``1e-13 * D`` relative after a level step of ``D`` standard deviations; a window needs only
 its own span, so here the whole span is kept in double-double.) Per averaging factor ``m``,
 when the windows overlap, the squares ``d_m**2`` over the span are prefix-summed with
@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit, read_only, work_items
+from adavar._kernels._jit import jit, read_only, work_items
 from adavar._kernels.double_double import two_sum
 
 __all__ = [

@@ -12,7 +12,7 @@ whatever the window length. Windows far apart are computed one by one over their
 
 Missing samples are an argument of the same kernel (``gaps``, ``davar(..., gaps="omit")``):
 the record's missing samples are filled with finite values beforehand
-(:func:`adavar.gaps.filled_increments`), each term that touches one is set to zero before
+(:func:`adavar.stats.gaps.filled_increments`), each term that touches one is set to zero before
 its square enters the prefix, and a second, integer prefix counts the kept terms; a cell is
 the sum of its kept squares over their count, NaN when none is kept. The keep test of the
 term starting at (extended) index ``j`` is that of the whole-record sums: ``cnt[j + w] ==
@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from adavar._jit import jit, read_only, threaded_jit, work_items
+from adavar._kernels._jit import jit, read_only, threaded_jit, work_items
 from adavar._kernels.window_avar import (
     MEDIAN_SAMPLES,
     _eval_uniform,
@@ -330,7 +330,7 @@ def window_variance(
     centres, lengths : ndarray of int
         Window ``c`` holds ``samples[a : a + lengths[c]]``,
         ``a = centres[c] - (lengths[c] - 1) // 2 + offset`` (the convention of
-        :mod:`adavar.windows`).
+        :mod:`adavar.dynamic.windows`).
     stat : {"oavar", "ohvar", "mvar"}
         The statistic (or its deviation's name: ``"oadev"``, ``"ohdev"``, ``"mdev"``).
     offset : int
@@ -393,7 +393,7 @@ def window_gaps(
     pm : ndarray of uint8
         Missing flag of every extended phase point (read only where ``ws`` is 0).
     ws : ndarray of int64
-        The keep test's window per factor (:meth:`adavar.gaps.GapLayout.windows`).
+        The keep test's window per factor (:meth:`adavar.stats.gaps.GapLayout.windows`).
     offset, scale, chunk
         As for :func:`window_variance`.
 

@@ -25,7 +25,7 @@ of 5000 samples on a 1e9 offset with a 1e6-sigma step and 1e12-sigma bursts in t
 
 from __future__ import annotations
 
-from adavar._jit import jit
+from adavar._kernels._jit import jit
 from adavar._kernels.double_double import two_sum
 
 __all__ = ["MVAR", "OHVAR"]

@@ -34,9 +34,9 @@ from adavar.cli.output import (
     output_error,
     safe_name,
 )
-from adavar.errors import AdavarInputError
-from adavar.settings import ALL_STATISTICS, DATA_TYPE_DEFAULT
-from adavar.writers import (
+from adavar.core.errors import AdavarInputError
+from adavar.core.settings import ALL_STATISTICS, DATA_TYPE_DEFAULT
+from adavar.io.writers import (
     atomic_directory,
     check_output_directory,
     deviation_json,
@@ -47,7 +47,7 @@ from adavar.writers import (
 
 
 def _cmd_avar(args: argparse.Namespace) -> int:
-    from adavar.noise_model import ALLAN_STATS
+    from adavar.fit.noise_model import ALLAN_STATS
 
     check_arguments(args)
     do_fit = args.fit or args.terms is not None
@@ -62,8 +62,8 @@ def _cmd_avar(args: argparse.Namespace) -> int:
 
     import dataclasses
 
-    from adavar.analysis import run as run_analysis
-    from adavar.request import AnalysisRequest, DeviationSettings
+    from adavar.core.request import AnalysisRequest, DeviationSettings
+    from adavar.pipeline.analysis import run as run_analysis
 
     status = Status()
     request = dataclasses.replace(AnalysisRequest.from_options(args),
@@ -95,7 +95,7 @@ def _cmd_avar(args: argparse.Namespace) -> int:
 
     written: list[str] = []
     if args.out is not None:
-        from adavar.plots import deviation_figure, save_figure
+        from adavar.output.plots import deviation_figure, save_figure
 
         try:
             with atomic_directory(args.out, replace=args.force) as tmp:
@@ -160,10 +160,10 @@ def _check_columns(args: argparse.Namespace, columns: list[str]) -> None:
 def _avar_channel(
     args: argparse.Namespace, analysis: Any, meta: dict[str, Any], tau0: float, do_fit: bool,
 ) -> dict[str, Any]:  # fmt: skip
-    """One channel's deviation (and fit) (:func:`adavar.analysis.run`): its JSON payload
+    """One channel's deviation (and fit) (:func:`adavar.pipeline.analysis.run`): its JSON payload
     and printed lines."""
-    from adavar.plots import STAT_NAMES
-    from adavar.units import deviation_unit
+    from adavar.core.units import deviation_unit
+    from adavar.output.plots import STAT_NAMES
 
     result, fit, units, rate_u = analysis.result, analysis.fit, analysis.units, analysis.rate_units
     payload: dict[str, Any] = {
@@ -215,8 +215,8 @@ def _avar_channel(
 
 def _power_law(args: argparse.Namespace, result: Any, units: str, do_fit: bool) -> tuple[Any, str]:
     """The clock model of ``--fit`` (``--power-law``): (PowerLawFit or None, why not)."""
-    from adavar.power_law import POWER_LAW_STATS, fit_power_law
-    from adavar.units import sensor_kind
+    from adavar.core.units import sensor_kind
+    from adavar.fit.power_law import POWER_LAW_STATS, fit_power_law
 
     choice = getattr(args, "power_law", "auto")
     wanted = choice == "on" or (

@@ -1,4 +1,4 @@
-"""``adavar batch``: many files, one task each (:mod:`adavar.batch`)."""
+"""``adavar batch``: many files, one task each (:mod:`adavar.pipeline.batch`)."""
 
 from __future__ import annotations
 
@@ -12,7 +12,6 @@ from collections.abc import Iterator
 from typing import Any
 
 from adavar import __version__
-from adavar.batch_cluster import DEFAULT_WORKER_TIMEOUT
 from adavar.cli.options import (
     EXIT_INTERNAL,
     EXIT_OK,
@@ -22,7 +21,8 @@ from adavar.cli.options import (
     positive_int,
 )
 from adavar.cli.output import ProgressBar, text_table
-from adavar.writers import dumps
+from adavar.io.writers import dumps
+from adavar.pipeline.batch_cluster import DEFAULT_WORKER_TIMEOUT
 
 #: Most files listed one per line by ``adavar batch`` (beyond: the failed ones only).
 _BATCH_LISTED = 50
@@ -61,7 +61,7 @@ class _BatchProgress(ProgressBar):
 
 
 def _batch_row_line(row: dict[str, Any]) -> list[str]:
-    from adavar.units import format_pm
+    from adavar.core.units import format_pm
 
     n_value = row.get("N")
     coefficient = (
@@ -108,7 +108,7 @@ def _quiet_cluster_logs(cluster: bool, debug: bool) -> Iterator[None]:
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:
-    from adavar.batch import STATUS_ABSENT, collect_files, report_options, run_batch
+    from adavar.pipeline.batch import STATUS_ABSENT, collect_files, report_options, run_batch
 
     check_arguments(args)
     files = collect_files(args.inputs, files_from=args.files_from)

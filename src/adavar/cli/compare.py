@@ -43,10 +43,10 @@ from adavar.cli.output import (
     output_error,
     text_table,
 )
-from adavar.errors import AdavarInputError
-from adavar.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
-from adavar.terms import TERM_NAMES
-from adavar.writers import (
+from adavar.core.errors import AdavarInputError
+from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
+from adavar.core.terms import TERM_NAMES
+from adavar.io.writers import (
     atomic_directory,
     block_rows,
     check_output_directory,
@@ -133,7 +133,7 @@ def _compare_interval_lines(comp: Any, study: Any) -> list[str]:
                      *(f"{v:.3f}" for v in pr)])  # fmt: skip
     unit = None
     if comp.units:
-        from adavar.plots import term_unit
+        from adavar.output.plots import term_unit
 
         unit = term_unit("angle_random_walk", comp.units)
     what = f"N in {unit}" if unit else "N in sample unit x sqrt(s)"
@@ -395,7 +395,7 @@ def compare_tables(
 def compare_figures(comp: Any, kurt: Any, thr: Any) -> dict[str, Any]:
     """The figures of the comparison by file stem, not yet drawn (one is drawn, written
     and dropped before the next: each holds tens of floats per centre)."""
-    from adavar.plots import paper_figure_recipes
+    from adavar.output.plots import paper_figure_recipes
 
     return paper_figure_recipes(comp, kurtosis=kurt, thresholds=thr)
 
@@ -465,18 +465,18 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 def _in_memory(data: Any) -> Any:
     """The record for the kurtosis studies, which run in memory (a file read piece by
     piece is loaded for them; a scenario or an array is passed on)."""
-    from adavar.sources import is_chunked
+    from adavar.io.sources import is_chunked
 
     return np.asarray(data) if is_chunked(data) else data
 
 
 def _run_compare(args: argparse.Namespace) -> int:
-    from adavar.analysis import read_input, resolve_lengths
     from adavar.comparison import compare
+    from adavar.core.request import RecordRequest
     from adavar.paper.reference import PAPER_FIG6_WINDOWS, PAPER_FIG8_THRESHOLDS
     from adavar.paper.scenarios import paper_scenario
     from adavar.paper.studies import compare_seeds, kurtosis_study, threshold_study
-    from adavar.request import RecordRequest
+    from adavar.pipeline.analysis import read_input, resolve_lengths
 
     units: str | None = None
     tau0 = 1.0
@@ -584,8 +584,8 @@ def _run_compare(args: argparse.Namespace) -> int:
     }
     text = dumps(payload)
     if args.out is not None:
-        from adavar._heap import release_free_memory
-        from adavar.plots import save_figure
+        from adavar._kernels._heap import release_free_memory
+        from adavar.output.plots import save_figure
 
         status(f"writing {args.out}")
         try:

@@ -11,10 +11,10 @@ from typing import Any
 import numpy as np
 
 from adavar import __version__
-from adavar.terms import TERM_NAMES
+from adavar.core.terms import TERM_NAMES
 
 if _TYPE_CHECKING:  # pragma: no cover - annotations only
-    from adavar.noise_model import NoiseFit
+    from adavar.fit.noise_model import NoiseFit
 from adavar.cli.avar import allow_gaps_omit
 from adavar.cli.options import (
     EXIT_OK,
@@ -31,10 +31,10 @@ from adavar.cli.options import (
     window_length,
 )
 from adavar.cli.output import Status, channel_folders, guard_replacement, output_error, text_table
-from adavar.results import DavarResult
-from adavar.settings import HOURLY_FALSE_ALARMS
-from adavar.windows import MIN_WINDOW
-from adavar.writers import (
+from adavar.core.results import DavarResult
+from adavar.core.settings import HOURLY_FALSE_ALARMS
+from adavar.dynamic.windows import MIN_WINDOW
+from adavar.io.writers import (
     SURFACE_FORMATS,
     atomic_directory,
     block_rows,
@@ -92,7 +92,7 @@ def _fitted_windows(fit: NoiseFit) -> np.ndarray:
 
 
 def _davar_fit_json(fit: NoiseFit, times: np.ndarray) -> dict[str, Any]:
-    from adavar.units import term_unit
+    from adavar.core.units import term_unit
 
     conv = conventional(fit)
     fitted = _fitted_windows(fit)
@@ -139,8 +139,8 @@ def _davar_summary(
     result: DavarResult, fit: NoiseFit | None, meta: dict[str, Any], units: str,
     data_type: str, written: list[str], out: str | None,
 ) -> list[str]:  # fmt: skip
-    from adavar.plots import TERM_LABELS
-    from adavar.units import term_unit
+    from adavar.core.units import term_unit
+    from adavar.output.plots import TERM_LABELS
 
     tau0 = float(result.tau0)
     window = np.asarray(result.window)
@@ -238,7 +238,7 @@ def _fixed_events_possible(args: argparse.Namespace, samples: Any) -> bool:
     """Events of a fixed window: rate data in memory or in a .npy file (read with file
     reads), a window the S test fits in, and no missing sample (--gaps omit: the
     controller's tests need every sample)."""
-    from adavar.sources import DEFAULT_CHUNK, NpyFileSource
+    from adavar.io.sources import DEFAULT_CHUNK, NpyFileSource
 
     def missing() -> bool:
         if not isinstance(samples, NpyFileSource):
@@ -255,8 +255,8 @@ def _fixed_window_changes(
 ) -> list[float]:
     """Change times flagged by the controller's tests in the fixed window (no adaptation);
     the record in pieces, only the runs of flags kept (memory: one piece)."""
-    from adavar.adaptive import adaptive_schedule, record_windows
-    from adavar.events import run_change_times
+    from adavar.dynamic.adaptive import adaptive_schedule, record_windows
+    from adavar.dynamic.events import run_change_times
 
     length = int(args.window)
     sched = adaptive_schedule(
@@ -270,8 +270,8 @@ def _fixed_window_changes(
 
 def _schedule_of(result: Any) -> Any:
     """The controller record of an AdaptiveResult as a Schedule (for the Fig. 10 panels)."""
-    from adavar.adaptive import Schedule
-    from adavar.thresholds import thresholds_for
+    from adavar.dynamic.adaptive import Schedule
+    from adavar.dynamic.thresholds import thresholds_for
 
     p = result.parameters
     return Schedule(
@@ -325,9 +325,9 @@ def _cmd_davar(args: argparse.Namespace) -> int:
 def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
     import dataclasses
 
-    from adavar.analysis import run as run_analysis
     from adavar.cli.options import check_change_times
-    from adavar.request import AnalysisRequest
+    from adavar.core.request import AnalysisRequest
+    from adavar.pipeline.analysis import run as run_analysis
 
     status = Status()
     request = AnalysisRequest.from_options(args)  # --gaps omit: NaN rows left out
@@ -419,9 +419,9 @@ def _davar_channel(
     args: argparse.Namespace, analysis: Any, samples: Any, meta: dict[str, Any], units: str,
     tau0: float, fmt: str, out: str | None, tag: str,
 ) -> dict[str, Any]:  # fmt: skip
-    """One channel's surface and fit (:func:`adavar.analysis.run`): its events, its JSON
+    """One channel's surface and fit (:func:`adavar.pipeline.analysis.run`): its events, its JSON
     payload and the names of the files its output folder ``out`` gets."""
-    from adavar.analysis import rate_keywords
+    from adavar.pipeline.analysis import rate_keywords
 
     adaptive = args.command == "adaptive"
     result, fit, rate_u = analysis.surface, analysis.coefficients, analysis.rate_units
@@ -491,14 +491,14 @@ def _davar_channel(
         }  # fmt: skip
     events = None
     if fit is not None and (adaptive or _fixed_events_possible(args, samples)):
-        from adavar.events import find_events
+        from adavar.dynamic.events import find_events
 
         lmax = int(result.parameters["lmax"]) if adaptive else int(args.window)
         changes = None if adaptive else _fixed_window_changes(args, samples, common, tau0)
         terms = {name: fit.term(name).value for name in fit.terms}
         duration = float(args.t0) + result.n_samples * tau0
         if adaptive and result.method == "ici":  # its steps, ramps and long-tau changes
-            from adavar.ici_events import ici_events
+            from adavar.dynamic.ici_events import ici_events
 
             events = ici_events(result.window, result.centre, result.time, lmax, tau0, terms,
                                 t0=float(args.t0), duration=duration,
@@ -548,7 +548,7 @@ def _write_events(path: Path, events: list[Any], fit: NoiseFit) -> None:
 
 def _event_lines(events: list[Any], fit: NoiseFit) -> list[str]:
     """The events table of the printout: start, end, N before / during / after."""
-    from adavar.units import convert_coefficient, term_unit
+    from adavar.core.units import convert_coefficient, term_unit
 
     name = "angle_random_walk"
     unit = term_unit(name, fit.units) or ""
@@ -580,7 +580,7 @@ def _channel_figures(args: argparse.Namespace, run: dict[str, Any]) -> dict[str,
     """The figures of one channel by file stem (none without --figures formats)."""
     if not args.figures:
         return {}
-    from adavar.plots import coefficient_figure, davar_heatmap_figure, davar_surface_figure
+    from adavar.output.plots import coefficient_figure, davar_heatmap_figure, davar_surface_figure
 
     adaptive = args.command == "adaptive"
     result, fit, meta = run["result"], run["fit"], run["meta"]
@@ -590,7 +590,7 @@ def _channel_figures(args: argparse.Namespace, run: dict[str, Any]) -> dict[str,
         "davar_heatmap": davar_heatmap_figure(result),
     }
     if adaptive and result.method != "ici":  # ICI runs no kurtosis test: nothing to draw
-        from adavar.plots import controller_figure
+        from adavar.output.plots import controller_figure
 
         figures["controller"] = controller_figure(
             _schedule_of(result), result.time, change_times=args.change_times or (),
@@ -609,7 +609,7 @@ def _write_davar_channel(
     args: argparse.Namespace, run: dict[str, Any], dest: Path, fmt: str, status: Status
 ) -> None:
     """The surface, coefficients, figures and result.json of one channel into ``dest``."""
-    from adavar.plots import save_figure
+    from adavar.output.plots import save_figure
 
     result, fit = run["result"], run["fit"]
     if args.figures:

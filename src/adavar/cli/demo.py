@@ -19,8 +19,8 @@ from adavar.cli.output import (
     output_error,
     text_table,
 )
-from adavar.errors import AdavarInputError
-from adavar.writers import (
+from adavar.core.errors import AdavarInputError
+from adavar.io.writers import (
     DEMO_MARKER,
     atomic_directory,
     check_output_directory,
@@ -31,7 +31,7 @@ from adavar.writers import (
     write_pieces,
 )
 
-# DEMO_MARKER (adavar.writers) marks a folder written by ``adavar demo``: such a folder is
+# DEMO_MARKER (adavar.io.writers) marks a folder written by ``adavar demo``: such a folder is
 # replaced by the next run; --force replaces another folder adavar wrote, never a foreign one.
 
 
@@ -99,10 +99,10 @@ def _check_demo_out(out: str, force: bool) -> None:
 
 def _demo_report(demo: Any) -> str:
     """The demo's HTML report: the simulated gyro, and the paper's scenario 1 with A-DAVAR."""
-    from adavar.adaptive import adaptive_davar
-    from adavar.noise_model import fit_noise
-    from adavar.report import build_report
-    from adavar.settings import PAPER
+    from adavar.core.settings import PAPER
+    from adavar.dynamic.adaptive import adaptive_davar
+    from adavar.fit.noise_model import fit_noise
+    from adavar.output.report import build_report
 
     gyro = demo.gyro
     paper = demo.paper
@@ -134,8 +134,8 @@ FIGURE_ORDER = ("fig10_controller", "fig11_adavar_surface", "gyro_oadev",
 
 
 def _figure_recipes(demo: Any) -> dict[str, Any]:
-    """File stem -> how to draw it (:data:`adavar.plots.FigureRecipe`), in drawing order."""
-    from adavar.plots import deviation_figure, paper_figure_recipes
+    """File stem -> how to draw it (:data:`adavar.output.plots.FigureRecipe`), in drawing order."""
+    from adavar.output.plots import deviation_figure, paper_figure_recipes
 
     gyro, paper = demo.gyro, demo.paper
     title = (
@@ -154,7 +154,7 @@ def _draw_figure(
     folder: str, stem: str, formats: tuple[str, ...], draw: Any, args: tuple, kwargs: dict
 ) -> str:
     """Draw one figure and write it into ``folder`` (in either process); returns the stem."""
-    from adavar.plots import save_figure
+    from adavar.output.plots import save_figure
 
     save_figure(draw(*args, **kwargs), Path(folder) / stem, formats)
     return stem
@@ -169,7 +169,7 @@ def _demo_outputs(
     the tables, the report and the JSON, and then takes the figures not yet started.
     Returns the files written and the JSON text.
     """
-    from adavar._workers import SharedJobs
+    from adavar._kernels._workers import SharedJobs
 
     paper = demo.paper
     try:
@@ -213,16 +213,16 @@ def _demo_outputs(
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from adavar._workers import worker_pool
+    from adavar._kernels._workers import worker_pool
 
     start = time.perf_counter()
     _check_demo_out(args.out, args.force)
     status = Status()
     status("NIST check values, a simulated gyro and the paper's scenario 1")
     # the worker starts before this process imports the demo: both import at once
-    pool = worker_pool(args.workers, ("adavar.demo",), start=True)
+    pool = worker_pool(args.workers, ("adavar.pipeline.demo",), start=True)
     try:
-        from adavar.demo import GYRO_BANDWIDTH, GYRO_BIAS, GYRO_LSB, run_demo
+        from adavar.pipeline.demo import GYRO_BANDWIDTH, GYRO_BIAS, GYRO_LSB, run_demo
 
         demo = run_demo(seed=args.seed, executor=pool, keep="figures")
         files, text = _demo_outputs(args, status, demo, pool)

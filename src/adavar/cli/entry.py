@@ -30,7 +30,7 @@ from adavar.cli.parser import Parser
 from adavar.cli.precompile import add_precompile_parser
 from adavar.cli.report import add_report_parser
 from adavar.cli.simulate import add_simulate_parser
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 
 __all__ = ["build_parser", "main", "run"]
 

@@ -10,15 +10,15 @@ import numpy as np
 from adavar import __version__
 from adavar.cli.options import EXIT_OK, UsageError, parse_names, positive_float
 from adavar.cli.output import Status, check_output_file, output_error
-from adavar.errors import AdavarInputError
-from adavar.writers import dumps
+from adavar.core.errors import AdavarInputError
+from adavar.io.writers import dumps
 
 
 def _cmd_kalibr(args: argparse.Namespace) -> int:
-    from adavar.export import kalibr_imu_yaml, kalibr_values, write_text
-    from adavar.noise_model import fit_noise
+    from adavar.fit.noise_model import fit_noise
+    from adavar.output.export import kalibr_imu_yaml, kalibr_values, write_text
     from adavar.readers import read_record
-    from adavar.statistics import deviation
+    from adavar.stats.statistics import deviation
 
     output = check_output_file(args.output, args.force, (".yaml", ".yml"))
     if len(args.gyro) != 3 or len(args.accel) != 3:

@@ -43,8 +43,8 @@ from adavar.cli.options import (
     positive_float,
     positive_int,
 )
-from adavar.errors import AdavarInputError
-from adavar.settings import ICI_EDF_SAMPLES, STREAM_LMAX_SECONDS
+from adavar.core.errors import AdavarInputError
+from adavar.core.settings import ICI_EDF_SAMPLES, STREAM_LMAX_SECONDS
 
 __all__ = ["add_monitor_parser"]
 
@@ -378,16 +378,16 @@ class _Status:
 
 
 def _cmd_monitor(args: argparse.Namespace) -> int:
-    from adavar.online import OnlineAdaptive
-    from adavar.request import MethodOptions
-    from adavar.settings import ControllerSettings
+    from adavar.core.request import MethodOptions
+    from adavar.core.settings import ControllerSettings
+    from adavar.dynamic.online import OnlineAdaptive
 
     check_arguments(args)
     if not args.units.strip():
         raise UsageError("--units is empty: give the unit of the samples, e.g. deg/s")
     fit_options = {} if args.bandwidth is None else {"bandwidth": args.bandwidth}
     # the controller's and the method's flags as the settings objects of a request (lmax,
-    # lmin, l not given: a stream's proportions, adavar.settings.STREAM_LMAX_SECONDS)
+    # lmin, l not given: a stream's proportions, adavar.core.settings.STREAM_LMAX_SECONDS)
     live = OnlineAdaptive(
         rate=args.rate, settings=ControllerSettings.from_options(args),
         method_options=MethodOptions.from_options(args), step=args.step, terms=args.terms,

@@ -8,11 +8,9 @@ import math
 import sys
 from collections.abc import Callable
 
-from adavar._figures import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
-from adavar.durations import parse_duration
-from adavar.errors import AdavarInputError
-from adavar.preprocess import MAX_DETREND_ORDER, parse_steps
-from adavar.settings import (
+from adavar.core.durations import parse_duration
+from adavar.core.errors import AdavarInputError
+from adavar.core.settings import (
     CONTROLLER,
     DATA_TYPE_DEFAULT,
     DEFAULT_MAX_MEMORY_MB,
@@ -24,13 +22,15 @@ from adavar.settings import (
     MAX_ALL_TAUS,
     MAX_POINTS_PER_DECADE,
 )
-from adavar.taus import TAU_KEYWORDS
-from adavar.terms import ALIASES, TERM_NAMES, TERMS
-from adavar.units import RATE_UNITS, is_known_unit
-from adavar.windows import EDGES, MIN_WINDOW
-from adavar.writers import (
+from adavar.core.taus import TAU_KEYWORDS
+from adavar.core.terms import ALIASES, TERM_NAMES, TERMS
+from adavar.core.units import RATE_UNITS, is_known_unit
+from adavar.dynamic.windows import EDGES, MIN_WINDOW
+from adavar.io.preprocess import MAX_DETREND_ORDER, parse_steps
+from adavar.io.writers import (
     SURFACE_FORMATS,
 )
+from adavar.output._figures import DEFAULT_FIGURE_FORMATS, FIGURE_FORMATS
 
 EXIT_OK = 0
 
@@ -428,7 +428,7 @@ def check_controller_flags(args: argparse.Namespace) -> None:
     run would silently use something else than what was asked (``--k1 2`` with calibrated
     thresholds recorded 2 and ran with 2.62). One line naming the flags, the mode and the
     way out. Only flags given (:func:`given_flags`) count, never the defaults."""
-    from adavar.settings import BAND_ONLY, CALIBRATED_ONLY, CALIBRATED_REPLACES, HOURLY_ONLY
+    from adavar.core.settings import BAND_ONLY, CALIBRATED_ONLY, CALIBRATED_REPLACES, HOURLY_ONLY
 
     given = given_flags(args)
     if not given:
@@ -483,7 +483,7 @@ def check_controller_flags(args: argparse.Namespace) -> None:
 def check_chunk_size(args: argparse.Namespace) -> None:
     """A warning for a ``--chunk-size`` so small that reading a piece costs more than
     analysing it (1e5 samples: 0.85 s in memory, 1.6 s at 64, 4.0 s at 16, 22 s at 1)."""
-    from adavar.settings import EFFICIENT_CHUNK
+    from adavar.core.settings import EFFICIENT_CHUNK
 
     size = getattr(args, "chunk_size", None)
     if size is not None and size < EFFICIENT_CHUNK:
@@ -882,7 +882,7 @@ def add_kurtosis_reference_argument(cmd: argparse.ArgumentParser) -> None:
 
 
 def add_ici_arguments(cmd: argparse.ArgumentParser, live: bool = False) -> None:
-    """The options of ``--method ici`` (:func:`adavar.ici.ici_schedule`); ``live``: without
+    """The options of ``--method ici`` (:func:`adavar.dynamic.ici.ici_schedule`); ``live``: without
     ``--ici-long-tau`` (the long-tau scan needs the whole record)."""
     group = cmd.group("ICI window (--method ici)")
     group.add_argument(

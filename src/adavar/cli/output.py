@@ -11,13 +11,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from adavar.cli.options import UsageError
-from adavar.errors import AdavarInputError
-from adavar.results import DeviationResult
-from adavar.terms import TERM_NAMES
+from adavar.core.errors import AdavarInputError
+from adavar.core.results import DeviationResult
+from adavar.core.terms import TERM_NAMES
 
 if TYPE_CHECKING:  # pragma: no cover
-    from adavar.noise_model import NoiseFit
-from adavar.writers import conventional
+    from adavar.fit.noise_model import NoiseFit
+from adavar.io.writers import conventional
 
 
 def text_table(headers: Sequence[str], rows: Sequence[Sequence[str]], indent: str = "") -> str:
@@ -61,8 +61,8 @@ def deviation_table(result: DeviationResult, indent: str = "") -> str:
 
 
 def fit_lines(fit: NoiseFit, indent: str = "", true: dict[str, Any] | None = None) -> list[str]:
-    from adavar.plots import TERM_LABELS, term_label
-    from adavar.units import format_pm, term_unit
+    from adavar.core.units import format_pm, term_unit
+    from adavar.output.plots import TERM_LABELS, term_label
 
     conv = conventional(fit)
     red = float(fit.reduced_chi2)

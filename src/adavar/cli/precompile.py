@@ -10,8 +10,8 @@ from adavar.cli.output import Status
 
 
 def _cmd_precompile(args: argparse.Namespace) -> int:
-    from adavar.precompile import STAGES, precompile
-    from adavar.writers import dumps
+    from adavar.io.writers import dumps
+    from adavar.pipeline.precompile import STAGES, precompile
 
     stages = None
     if args.stages:
@@ -24,7 +24,7 @@ def _cmd_precompile(args: argparse.Namespace) -> int:
             )
     workers = args.workers
     if workers is None:
-        from adavar._workers import free_cores
+        from adavar._kernels._workers import free_cores
 
         workers = free_cores()
     Status()(f"compiling the kernels ({workers} process{'es' * (workers > 1)})")
@@ -41,7 +41,7 @@ def _cmd_precompile(args: argparse.Namespace) -> int:
 
 def add_precompile_parser(sub: Any) -> argparse.ArgumentParser:
     """Add ``adavar precompile`` to the sub-command parsers ``sub``."""
-    from adavar.precompile import STAGES
+    from adavar.pipeline.precompile import STAGES
 
     cmd = sub.add_parser(
         "precompile",

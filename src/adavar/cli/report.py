@@ -19,11 +19,11 @@ from adavar.cli.options import (
     window_length,
 )
 from adavar.cli.output import Status, check_output_file, fit_lines, output_error
-from adavar.settings import DATA_TYPE_DEFAULT
-from adavar.writers import dumps, fit_json
+from adavar.core.settings import DATA_TYPE_DEFAULT
+from adavar.io.writers import dumps, fit_json
 
 if TYPE_CHECKING:
-    from adavar.analysis import ChannelAnalysis
+    from adavar.pipeline.analysis import ChannelAnalysis
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
@@ -33,12 +33,12 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _run_report(args: argparse.Namespace, output: Any) -> int:
-    from adavar._heap import release_free_memory
-    from adavar.analysis import run as run_analysis
-    from adavar.analysis import surface_shape
-    from adavar.report import build_report, channel_section, channels_page, write_report
-    from adavar.report_analysis import report_parameters
-    from adavar.request import AnalysisRequest
+    from adavar._kernels._heap import release_free_memory
+    from adavar.core.request import AnalysisRequest
+    from adavar.output.report import build_report, channel_section, channels_page, write_report
+    from adavar.pipeline.analysis import run as run_analysis
+    from adavar.pipeline.analysis import surface_shape
+    from adavar.pipeline.report_analysis import report_parameters
 
     status = Status()
     request = AnalysisRequest.from_options(args)
@@ -137,8 +137,8 @@ def _run_report(args: argparse.Namespace, output: Any) -> int:
 
 def _events(samples: Any, run: ChannelAnalysis, segment_given: bool) -> dict[str, Any] | None:
     """The events of one channel, as :meth:`ReportAnalysis.events` finds them."""
-    from adavar.analysis import rate_keywords
-    from adavar.report_analysis import ReportAnalysis
+    from adavar.pipeline.analysis import rate_keywords
+    from adavar.pipeline.report_analysis import ReportAnalysis
 
     if run.surface is None:
         return None

@@ -18,9 +18,9 @@ from adavar.cli.options import (
     positive_int,
 )
 from adavar.cli.output import Status, check_output_file, output_error
-from adavar.errors import AdavarInputError
-from adavar.settings import MAX_SAMPLES
-from adavar.writers import atomic_file, dumps
+from adavar.core.errors import AdavarInputError
+from adavar.core.settings import MAX_SAMPLES
+from adavar.io.writers import atomic_file, dumps
 
 #: Bytes of memory per sample of ``adavar simulate`` (the generators' arrays; the CSV text
 #: is written :data:`CSV_ROWS` rows at a time), for the check of --n.
@@ -31,7 +31,7 @@ CSV_ROWS = 1 << 16
 
 def _check_memory(n: int) -> None:
     """A one-line error, before any work, when --n samples would not fit in memory."""
-    from adavar.sources import available_memory
+    from adavar.io.sources import available_memory
 
     need = n * BYTES_PER_SAMPLE
     free = available_memory()
@@ -58,8 +58,8 @@ def _check_finite(x: np.ndarray, what: str) -> None:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from adavar.generators import sensor
     from adavar.paper.scenarios import paper_scenario
+    from adavar.simulation.generators import sensor
 
     output = check_output_file(args.output, args.force, (".csv",))
     status = Status()

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 from adavar.paper.nodes import change_index
 
 __all__ = ["ChangeMetrics", "Metrics", "interval_means", "tracking_metrics"]

@@ -41,7 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 
 __all__ = [
     "NODE_NAMES",

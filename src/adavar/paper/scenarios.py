@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar.generators import FloatArray, SeedLike, piecewise_white
+from adavar.simulation.generators import FloatArray, SeedLike, piecewise_white
 
 __all__ = ["PAPER_SCENARIOS", "PaperScenario", "paper_scenario"]
 

@@ -21,8 +21,10 @@ from typing import Any
 import numpy as np
 
 from adavar.comparison import EdfCache, as_record, check_rate, run_comparison, threads_for
-from adavar.errors import AdavarInputError
-from adavar.noise_model import TERM_NAMES
+from adavar.core.errors import AdavarInputError
+from adavar.core.settings import CONTROLLER
+from adavar.fit.noise_model import TERM_NAMES
+from adavar.io.writers import jsonable
 from adavar.paper.nodes import NODE_NAMES
 from adavar.paper.reference import (
     PAPER_FIG6_WINDOWS,
@@ -34,8 +36,6 @@ from adavar.paper.reference import (
     paper_nodes,
 )
 from adavar.paper.scenarios import paper_scenario
-from adavar.settings import CONTROLLER
-from adavar.writers import jsonable
 
 __all__ = [
     "KurtosisStudy",
@@ -108,7 +108,7 @@ def kurtosis_study(
     -------
     KurtosisStudy
     """
-    from adavar.kurtosis import kurtosis_contribution, sliding_kurtosis
+    from adavar.dynamic.kurtosis import kurtosis_contribution, sliding_kurtosis
 
     x, known = as_record(data)
     fs = check_rate(known.get("rate", rate))
@@ -242,7 +242,7 @@ def threshold_study(
     -------
     ThresholdStudy
     """
-    from adavar.kurtosis import sliding_kurtosis
+    from adavar.dynamic.kurtosis import sliding_kurtosis
 
     x, known = as_record(data)
     fs = check_rate(rate if rate is not None else known.get("rate", 1.0))
@@ -556,7 +556,7 @@ def compare_seeds(
     keep 100 seeds
     within seconds: one numba thread, surfaces without bounds, EDFs for white noise
     computed once, octave taus by default. ``thresholds="calibrated"`` is much slower
-    (about 1 s per adaptive method and seed): :func:`adavar.adaptive.adaptive_schedule`
+    (about 1 s per adaptive method and seed): :func:`adavar.dynamic.adaptive.adaptive_schedule`
     recomputes the calibrated thresholds on every call.
 
     Parameters

@@ -27,7 +27,7 @@ the format declares (ROS bags, HDF5 attributes) are checked against the user's
 (:meth:`Record.units_of`); every step taken (rows dropped, gaps split or filled, samples
 interpolated) is listed in :attr:`Record.meta` so a result can be reproduced.
 
-Every problem with the input raises :class:`adavar.errors.AdavarInputError` with a
+Every problem with the input raises :class:`adavar.core.errors.AdavarInputError` with a
 one-line message that names the problem, where it is, and the way out.
 
 The package, one module per format plus the shared parts (each one imports only the

@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from adavar.io.sources import FileState, check_unchanged, file_state
 from adavar.readers.errors import fail
 from adavar.readers.hdf5 import read_hdf5
 from adavar.readers.npy import read_npy, read_npz
@@ -28,7 +29,6 @@ from adavar.readers.rosbag import read_rosbag
 from adavar.readers.stable32 import read_stable32
 from adavar.readers.table import TIME_FORMATS, as_list
 from adavar.readers.text import read_text
-from adavar.sources import FileState, check_unchanged, file_state
 
 #: File-name suffix -> reader kind (ROS 2 bags are also recognised as folders).
 SUFFIXES: dict[str, str] = {
@@ -199,7 +199,7 @@ def read_record(
         Relative tolerance on the sampling interval, in (0, 1).
     lazy : bool, optional
         HDF5 datasets and Parquet columns: ``True`` returns each channel as a
-        :class:`adavar.stream.ChunkedSource` that is read piece by piece (by the
+        :class:`adavar.stats.stream.ChunkedSource` that is read piece by piece (by the
         out-of-core analyses; ``np.asarray`` loads it whole), ``False`` reads it into
         memory. By default (None) lazily when the numeric data exceed 1 GiB or a quarter
         of the available memory and there is no time column and ``nan="error"`` (NaN/Inf
@@ -210,7 +210,7 @@ def read_record(
     memory_map : bool
         ``.npy`` and uncompressed ``.npz`` columns: ``True`` (default) returns them as
         read-only memory maps in the file's dtype; ``False`` as
-        :class:`adavar.stream.ChunkedSource` pieces read with file reads, never through a
+        :class:`adavar.stats.stream.ChunkedSource` pieces read with file reads, never through a
         map (the command line's choice): a file truncated while it is read is then an
         error naming it, where touching a map past the file's new end kills the process
         (SIGBUS). Either way the analyses read them piece by piece. With a time column,

@@ -1,6 +1,6 @@
 """How a reader reports a problem with its input.
 
-Every problem with a file raises :class:`adavar.errors.AdavarInputError` with a one-line
+Every problem with a file raises :class:`adavar.core.errors.AdavarInputError` with a one-line
 message that names the problem, where it is (:func:`locate`: ``row 12`` of a text file,
 ``sample 3`` or ``message 3`` elsewhere) and the way out; :func:`require` imports the
 optional package a format needs (h5py, pyarrow, rosbags) only when a file of that format is
@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 
 
 def fail(message: str) -> AdavarInputError:

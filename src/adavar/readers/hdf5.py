@@ -14,11 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from adavar.io.sources import HDF5Source
 from adavar.readers.errors import fail, one_line, require
 from adavar.readers.lazy import lazy_refused, lazy_wanted
 from adavar.readers.record import RawRecord
 from adavar.readers.table import Table, array_table, channels_from_table, dt64_ns, numeric_kind
-from adavar.sources import HDF5Source
 
 
 def read_hdf5(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:

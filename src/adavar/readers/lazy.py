@@ -1,6 +1,6 @@
 """When a file column is read piece by piece instead of into memory.
 
-HDF5 datasets and Parquet columns are returned as :class:`adavar.stream.ChunkedSource`
+HDF5 datasets and Parquet columns are returned as :class:`adavar.stats.stream.ChunkedSource`
 pieces (read by the out-of-core analyses) when ``lazy=True``, or by default when their
 numeric data exceed :data:`LAZY_BYTES` or a quarter of the available memory and nothing
 needs the whole record at once (no time column, ``nan="error"``). ``.npy`` and uncompressed
@@ -11,9 +11,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
+from adavar.io.sources import available_memory
 from adavar.readers.errors import fail
-from adavar.sources import available_memory
 
 #: auto ``lazy``: read a file column piece by piece from this size (bytes) or a quarter
 #: of the available memory, whichever is smaller

@@ -5,7 +5,7 @@ are columns; an ``.npz`` archive's 1-D arrays of equal length are columns (or it
 array is read as a ``.npy``). Files are never unpickled; a ``.npy`` and the stored
 (uncompressed) members of an ``.npz`` are memory-mapped, so the analyses read a record
 larger than memory piece by piece. With ``memory_map=False`` (the command line) their
-columns are :class:`adavar.sources.NpyFileSource` pieces read with file reads instead, and
+columns are :class:`adavar.io.sources.NpyFileSource` pieces read with file reads instead, and
 nothing is read through the map (whose pages, touched past the end of a file truncated
 meanwhile, would kill the process with SIGBUS).
 """
@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from adavar.io.sources import ChunkedSource, FileState, check_unchanged, memmap_source
 from adavar.readers.errors import fail, one_line
 from adavar.readers.record import RawRecord
 from adavar.readers.table import (
@@ -30,7 +31,6 @@ from adavar.readers.table import (
     dt64_ns,
     numeric_kind,
 )
-from adavar.sources import ChunkedSource, FileState, check_unchanged, memmap_source
 
 
 def _read_whole(path: Path, arr: np.memmap, src: str, state: FileState | None) -> np.ndarray:

@@ -13,11 +13,11 @@ from typing import Any
 
 import numpy as np
 
+from adavar.io.sources import ParquetSource
 from adavar.readers.errors import fail, one_line, require
 from adavar.readers.lazy import lazy_refused, lazy_wanted
 from adavar.readers.record import RawRecord
 from adavar.readers.table import Table, channels_from_table, is_iso, time_name_unit
-from adavar.sources import ParquetSource
 
 
 def _lazy_parquet(path: Path, src: str, opts: dict[str, Any], pa: Any, pq: Any) -> RawRecord | None:

@@ -18,11 +18,11 @@ from typing import Any
 
 import numpy as np
 
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
+from adavar.core.settings import RATE_AGREEMENT
+from adavar.io.sources import DEFAULT_CHUNK, ChunkedSource, NpyFileSource, memmap_source
 from adavar.readers.errors import fail, locate
 from adavar.readers.table import resolve
-from adavar.settings import RATE_AGREEMENT
-from adavar.sources import DEFAULT_CHUNK, ChunkedSource, NpyFileSource, memmap_source
 
 #: Values of ``gaps``: what to do with gaps and non-uniform sampling in a time base.
 GAP_POLICIES = ("error", "split", "interpolate", "nan")
@@ -175,7 +175,7 @@ class Record:
 
 def _contradicts(given: str, declared: str) -> bool:
     """Whether unit ``given`` is not the unit ``declared`` by the file (which adavar knows)."""
-    from adavar.units import unit_info
+    from adavar.core.units import unit_info
 
     try:
         info = unit_info(declared)
@@ -190,7 +190,7 @@ def _contradicts(given: str, declared: str) -> bool:
 def _what_differs(given: str, declared: str) -> str:
     """`` (deg/s is an angular rate, m/s^2 an acceleration)`` when the two units measure
     different quantities, else ""."""
-    from adavar.units import unit_info
+    from adavar.core.units import unit_info
 
     kinds = {("gyro", 0.0): "an angular rate", ("accelerometer", 0.0): "an acceleration",
              ("gyro", 1.0): "an angle", ("accelerometer", 1.0): "a velocity"}  # fmt: skip

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 from adavar.readers.errors import fail, one_line, require
 from adavar.readers.record import RawRecord
 from adavar.readers.table import as_list, resolve

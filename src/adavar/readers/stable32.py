@@ -15,11 +15,11 @@ import os
 from pathlib import Path
 from typing import Any
 
+from adavar.core.settings import FileDefault
 from adavar.readers.errors import fail
 from adavar.readers.record import RawRecord
 from adavar.readers.table import channels_from_table
 from adavar.readers.text import text_table
-from adavar.settings import FileDefault
 
 #: Stable32 suffix -> the data type of its samples (``data_type`` of the analyses)
 STABLE32_DATA_TYPES = {".phd": "phase", ".frd": "rate"}
@@ -36,7 +36,7 @@ def file_data_type(path: str | os.PathLike[str], given: str | None) -> str | Non
     path : str or path-like
         The file.
     given : str or None
-        The data type asked for: a :class:`adavar.settings.FileDefault` (the default,
+        The data type asked for: a :class:`adavar.core.settings.FileDefault` (the default,
         ``--data-type`` not given) or None yields to the file's; a value given must agree.
 
     Raises

@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from adavar.io.sources import ChunkedSource, check_exact_integers, memmap_source
 from adavar.readers.errors import fail, locate
-from adavar.sources import ChunkedSource, check_exact_integers, memmap_source
 
 #: Values of ``time_format``.
 TIME_FORMATS = ("auto", "s", "ms", "us", "ns", "iso", "mjd")

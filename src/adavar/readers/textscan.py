@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar.errors import AdavarInputError
+from adavar.core.errors import AdavarInputError
 from adavar.readers.errors import fail
 from adavar.readers.table import MISSING, is_iso
 
@@ -756,7 +756,7 @@ def parse_threads(data_bytes: int) -> int:
     blocks = -(-data_bytes // BLOCK)
     if blocks < 2:
         return 1
-    from adavar.settings import requested_threads
+    from adavar.core.settings import requested_threads
 
     affinity = getattr(os, "sched_getaffinity", None)
     cores = len(affinity(0)) if affinity is not None else os.cpu_count() or 1

@@ -1,0 +1,301 @@
+"""Model selection of the full-covariance noise fit (:mod:`adavar.fit.gls_fit`): every subset of
+the candidate terms judged by its likelihood, a Gauss-Markov term screened on a grid of
+correlation times, and the profile-likelihood bounds of the terms left out."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from adavar.core.terms import markov_avar
+from adavar.fit.gls_core import (
+    MARKOV,
+    Problem,
+    Whitened,
+    fit_terms,
+    inverse_fisher,
+    neg2_log_likelihood,
+    signed_nnls,
+    solve,
+    whitened,
+)
+
+__all__ = [
+    "MARKOV_MARGIN",
+    "MARKOV_PARAMS",
+    "RAMP_PARAMS",
+    "Choice",
+    "choose",
+    "markov_grid",
+    "markov_range",
+    "own_fit",
+    "profile_bound",
+    "subset_choice",
+]
+
+MARKOV_PARAMS = 2  # sigma^2 and the correlation time
+_RAMP = 4  # index of the rate ramp
+#: Parameters a rate ramp counts for in the selection. A deterministic ramp gives the
+#: estimates almost no variance, so over a short record it fits the last octaves of a
+#: rate random walk more tightly than the random walk itself: it must earn one parameter
+#: more than it has.
+RAMP_PARAMS = 2
+#: How much better (in ``-2 ln L`` with the penalties) a model with a Gauss-Markov term
+#: must be than the best without: a flicker-to-random-walk corner mimics a weak hump
+#: (the simulated MEMS gyro of tests/test_fit_real.py gains 4.0), a real one gains
+#: 15-65 on 3-hour records (benchmarks/bench_validation.py).
+MARKOV_MARGIN = 10.0
+_MARKOV_CANDIDATES = 4  # term sets judged with a Gauss-Markov term under their own covariance
+_MARKOV_REACH = 3.0  # octaves either side of the screened correlation time the likelihood scans
+
+
+def markov_grid(tau: np.ndarray, step: float = 0.25) -> np.ndarray:
+    """Correlation times whose hump lies inside the fitted taus (it peaks near 1.9 T)."""
+    lo, hi = math.log2(tau.min()), math.log2(tau.max() / 4.0)
+    if hi < lo:
+        return np.empty(0)
+    return 2.0 ** np.arange(lo, hi + 1e-9, step)
+
+
+@dataclass(frozen=True)
+class Choice:
+    cols: tuple[int, ...]  # IEEE terms (indices 0..4) with a non-zero coefficient
+    markov_tau: float | None
+    criterion: float
+    coef: np.ndarray
+
+
+def own_fit(prob: Problem, idx: np.ndarray, cols, coef: np.ndarray, signed: bool,
+             markov: bool, passes: int = 2) -> np.ndarray:  # fmt: skip
+    """``coef`` refitted on the columns ``cols`` (and the Gauss-Markov column) under the
+    covariance of its own model, ``passes`` times."""
+    for _ in range(passes):
+        model = prob.phi[idx] @ coef
+        if not np.all(model > 0):
+            break
+        w = whitened(prob, idx, coef)
+        x, _ = solve(w, cols, signed, w.aw[:, MARKOV] if markov else None)
+        new = np.zeros(6)
+        new[list(cols)] = x[: len(cols)]
+        if markov:
+            new[MARKOV] = x[-1]
+        if not np.any(new[1:4] > 0) and new[MARKOV] <= 0:
+            break
+        coef = new
+    return coef
+
+
+def subset_choice(
+    prob: Problem, idx: np.ndarray, coef_full: np.ndarray, terms: tuple[int, ...],
+    signed: bool, penalty: float, markov: bool, forced: tuple[int, ...] = (),
+) -> Choice:  # fmt: skip
+    """The subset of ``terms`` holding ``forced`` (with or without a Gauss-Markov term) of
+    the least ``-2 ln L + penalty * parameters``, each model judged under its own
+    covariance."""
+    prob.set_markov(None)
+    w_full = whitened(prob, idx, coef_full)
+
+    def judge(cols: tuple[int, ...], coef: np.ndarray, tau_c: float | None) -> Choice:
+        used = tuple(c for c in cols if coef[c] != 0)
+        has_markov = tau_c is not None and coef[MARKOV] > 0
+        k = len(used) + (MARKOV_PARAMS if has_markov else 0)
+        k += (RAMP_PARAMS - 1) * (_RAMP in used)
+        crit = neg2_log_likelihood(prob, idx, coef) + penalty * k
+        return Choice(used, tau_c if has_markov else None, crit, coef)
+
+    def better(a: Choice, b: Choice | None) -> bool:
+        if b is None or a.criterion < b.criterion - 1e-9:
+            return True
+        return abs(a.criterion - b.criterion) <= 1e-9 and len(a.cols) < len(b.cols)
+
+    best: Choice | None = None
+    subsets = [
+        c for r in range(1, len(terms) + 1) for c in itertools.combinations(terms, r)
+        if set(forced) <= set(c)
+    ]  # fmt: skip
+    for cols in subsets:
+        x, _ = solve(w_full, cols, signed)
+        coef = np.zeros(6)
+        coef[list(cols)] = x
+        if not np.any(coef[1:4] > 0):
+            continue  # no random term: no covariance, no likelihood
+        coef = own_fit(prob, idx, cols, coef, signed, False)
+        choice = judge(cols, coef, None)
+        if better(choice, best):
+            best = choice
+    if best is None:  # only a ramp or a signed tau^-2 term: the richest model
+        return Choice(tuple(int(c) for c in terms if coef_full[c] != 0), None, math.inf,
+                       coef_full)  # fmt: skip
+    if not markov:
+        return best
+    ieee_best = best
+    # a Gauss-Markov term. A cheap screen (every term set on a half-octave grid of
+    # correlation times, whitened by the IEEE model's correlation on the data's own scale:
+    # on the model's own, a model that overshoots the long taus makes their variance so
+    # large that nothing there could look better) tells whether a hump may be there and
+    # which term sets go with it; the correlation time is then chosen by the likelihood
+    # itself, each on its own covariance (one basis per time): the screen's approximate
+    # weights pull it towards too short a time when the IEEE model overshoots.
+    tau = prob.tau[idx]
+    # the hump replaces some of the best IEEE model's terms, rarely adds others
+    within = [
+        c for r in range(len(ieee_best.cols) + 1)
+        for c in itertools.combinations(ieee_best.cols, r)
+    ]  # fmt: skip
+    w_ieee = whitened(prob, idx, ieee_best.coef, data=True)
+    _, chi2_ieee = solve(w_ieee, ieee_best.cols, signed)
+    bar = chi2_ieee + penalty * len(ieee_best.cols)
+    ranked: dict[tuple, float] = {}  # term set -> its best screened criterion
+    screened = math.inf, math.nan  # the best screened criterion and its time
+    for t in markov_grid(tau, step=0.5):
+        col = w_ieee.column(markov_avar(tau, 1.0, float(t)))
+        for cols in within:
+            x, chi2 = solve(w_ieee, cols, signed, col)
+            if x[-1] > 0:
+                crit = chi2 + penalty * (sum(1 for v in x[:-1] if v != 0) + MARKOV_PARAMS)
+                if crit < bar and crit < ranked.get(cols, math.inf):
+                    ranked[cols] = crit
+                screened = min(screened, (crit, float(t)))
+    if not ranked:
+        return best
+    sets = sorted(ranked, key=ranked.__getitem__)[:_MARKOV_CANDIDATES]
+
+    def trial(tc: float) -> Choice | None:
+        """The best of the term sets with a Gauss-Markov term of correlation time tc."""
+        prob.set_markov(tc)
+        w = whitened(prob, idx, ieee_best.coef)
+        found = None
+        for cols in sets:
+            x, _ = solve(w, cols, signed, w.aw[:, MARKOV])
+            coef = np.zeros(6)
+            coef[list(cols)] = x[: len(cols)]
+            coef[MARKOV] = x[-1]
+            if coef[MARKOV] <= 0:
+                continue
+            choice = judge(cols, own_fit(prob, idx, cols, coef, signed, True), tc)
+            if choice.markov_tau is not None and better(choice, found):
+                found = choice
+        return found
+
+    # the likelihood's times: an octave apart, up to _MARKOV_REACH octaves either side of
+    # the screen's (which an overshooting IEEE model pulls short by two or three)
+    grid = markov_grid(tau, step=1.0)
+    near = np.abs(np.log2(grid / screened[1])) <= _MARKOV_REACH
+    scan = [(trial(float(t)), float(t)) for t in (grid[near] if near.any() else grid)]
+    scan = [(c, t) for c, t in scan if c is not None]
+    if not scan:
+        return best
+    top, t_top = min(scan, key=lambda ct: ct[0].criterion)
+    for step in (0.5, 0.25, 0.125):  # a finer time around the best
+        for tc in (t_top * 2.0**-step, t_top * 2.0**step):
+            choice = trial(tc)
+            if choice is not None and choice.criterion < top.criterion:
+                top, t_top = choice, tc
+    if top.criterion < ieee_best.criterion - MARKOV_MARGIN and better(top, best):
+        best = top
+    prob.set_markov(best.markov_tau)
+    return best
+
+
+def markov_range(w: Whitened, prob: Problem, idx, cols, signed, tau_c) -> tuple:
+    """The correlation times whose best fit costs at most 1 more in chi-square."""
+    tau = prob.tau[idx]
+
+    def chi2_at(t: float) -> float:
+        x, c2 = solve(w, cols, signed, w.column(markov_avar(tau, 1.0, t)))
+        return c2 if x[-1] > 0 else math.inf
+
+    ref = chi2_at(tau_c)
+    grid = 2.0 ** np.arange(math.log2(tau.min()), math.log2(tau.max()) + 1e-9, 0.0625)
+    ok = [float(t) for t in grid if chi2_at(float(t)) <= ref + 1.0] + [tau_c]
+    return (min(ok), max(ok))
+
+
+def profile_bound(prob: Problem, idx: np.ndarray, cols: list[int], k: int,
+                   coef: np.ndarray, signed: bool, z: float, sigma: float) -> float:  # fmt: skip
+    """The one-sided upper bound of the coefficient ``C_k`` of a term left out: the largest
+    ``c >= 0`` whose profile likelihood (``C_k = c`` fixed, the model's other columns
+    ``cols`` refitted under their own covariance) is within ``z^2`` of the best over
+    ``c >= 0``. The covariance grows with ``c``, so the bound is the likelihood's, not a
+    chi-square under the covariance of the model without the term."""
+    column = prob.phi[idx, k]
+    markov = MARKOV in cols
+    ieee = [c for c in cols if c != MARKOV]
+    cache: dict[float, float] = {}
+
+    def profile(c: float) -> float:
+        if c in cache:
+            return cache[c]
+        trial = coef.copy()
+        trial[k] = c
+        for _ in range(2):
+            model = prob.phi[idx] @ trial
+            if not np.all(model > 0):
+                break
+            w = whitened(prob, idx, trial)
+            target = w.bw - c * w.column(column)
+            design = w.aw[:, ieee + ([MARKOV] if markov else [])]
+            free = np.array([signed and j == 0 for j in ieee] + [False] * markov, dtype=bool)
+            x, _ = signed_nnls(design, target, free)
+            new = np.zeros(6)
+            new[ieee + ([MARKOV] if markov else [])] = x
+            new[k] = c
+            trial = new
+        cache[c] = neg2_log_likelihood(prob, idx, trial)
+        return cache[c]
+
+    step = sigma if (sigma > 0 and math.isfinite(sigma)) else 1.0
+    # the best c >= 0 (the term may be left out yet not at 0 in its own optimum)
+    grid = [0.0] + [step * f for f in (0.25, 0.5, 1.0, 2.0)]
+    values = [profile(c) for c in grid]
+    best = min(values)
+    c_best = grid[int(np.argmin(values))]
+    target = best + z * z
+    lo, hi = c_best, c_best + step
+    for _ in range(200):
+        if profile(hi) > target:
+            break
+        lo, hi = hi, hi + 2.0 * (hi - c_best)
+    else:
+        return math.inf
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        if profile(mid) > target:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= 1e-4 * hi:
+            break
+    return hi
+
+
+def choose(prob, idx, all_cols, n_iter, signed, select, significance, markov, forced=()):
+    """The columns of the final model (IEEE indices, then 5 for a Gauss-Markov term, whose
+    correlation time is left set in ``prob``) and the candidate terms dropped; ``forced``
+    terms stay in every model compared."""
+    prob.set_markov(None)
+    if select in ("none", "significance"):
+        cols = all_cols.copy()
+        dropped: list[int] = []
+        while select == "significance" and cols.size > 1:
+            coef, chi2, aw, _ = fit_terms(prob, idx, cols, n_iter, signed)
+            dof = idx.size - cols.size
+            factor = max(1.0, chi2 / dof) if dof > 0 else 1.0
+            sig = np.sqrt(np.maximum(np.diag(inverse_fisher(aw) * factor), 0.0))
+            z = np.where(sig > 0, np.abs(coef[cols]) / np.where(sig > 0, sig, 1.0), 0.0)
+            worst = int(np.argmin(z))
+            if z[worst] >= significance:
+                break
+            dropped.append(int(cols[worst]))
+            cols = np.delete(cols, worst)
+        return cols, dropped
+    penalty = 2.0 if select == "aic" else math.log(max(idx.size, 2))
+    coef, *_ = fit_terms(prob, idx, all_cols, n_iter, signed)
+    terms = tuple(int(c) for c in all_cols)
+    forced = tuple(c for c in forced if c in terms)
+    choice = subset_choice(prob, idx, coef, terms, signed, penalty, markov, forced)
+    cols = np.array(choice.cols + ((MARKOV,) if choice.markov_tau else ()), dtype=np.int64)
+    return cols, [int(c) for c in all_cols if c not in choice.cols]
