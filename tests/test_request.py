@@ -177,3 +177,21 @@ def test_the_stream_takes_the_same_settings_objects():
     np.testing.assert_array_equal(typed.arw, plain.arw)
     with pytest.raises(AdavarInputError, match="change_times"):
         adavar.OnlineAdaptive(rate=RATE, method_options=MethodOptions(change_times=[1.0]))
+
+
+def test_a_wrong_settings_object_or_option_name_is_an_error():
+    x = _record(3000)
+    with pytest.raises(AdavarInputError, match="expected a ControllerSettings, got FitSettings"):
+        adavar.adaptive_davar(x, rate=RATE, settings=FitSettings())
+    with pytest.raises(AdavarInputError, match="expected a FitSettings, got dict"):
+        adavar.fit_noise(adavar.deviation(x, rate=RATE), settings={"method": "wls"})
+    with pytest.raises(AdavarInputError, match="unknown analysis option 'widnow'"):
+        AnalysisRequest.from_options({"file": "f.csv", "widnow": 100})
+    with pytest.raises(AdavarInputError, match=r"record=\.\.\.\) takes a RecordRequest, not str"):
+        AnalysisRequest(record="f.csv")
+
+
+def test_run_takes_options_by_the_flags_names(gyro_csv):
+    done = run({"file": str(gyro_csv), "column": "gy", "units": "deg/s", "window": "10s",
+                "step": 100})  # fmt: skip
+    assert done.request.window.window == 1000 and done.channels["gy"].surface is not None

@@ -280,6 +280,14 @@ def _pick(cls: type, options: Any, rename: Mapping[str, str] | None = None) -> d
 
 _CONTROLLER_NAMES = [("segment" if f.name == "l" else f.name) for f in fields(ControllerSettings)]
 
+#: Every option name :meth:`AnalysisRequest.from_options` reads (the flags' names).
+_OPTION_NAMES = frozenset(
+    {f.name for cls in (RecordRequest, WindowSettings, MethodOptions) for f in fields(cls)}
+    | {("segment" if f.name == "l" else f.name) for f in fields(ControllerSettings)}
+    | {("fit_method" if f.name == "method" else f.name) for f in fields(FitSettings)}
+    | {"windows_from"}
+)
+
 #: The adaptive window of an analysis when none is given: windows from the record,
 #: thresholds calibrated for :data:`adavar.core.settings.HOURLY_FALSE_ALARMS` false events per
 #: stationary hour (the library's and every command's but ``compare``).
@@ -313,17 +321,37 @@ class AnalysisRequest:
     method_options: MethodOptions = MethodOptions()
     windows_from: str | None = None
 
+    def __post_init__(self) -> None:
+        for name, kind in _PARTS.items():
+            value = getattr(self, name)
+            if not isinstance(value, kind):
+                raise AdavarInputError(
+                    f"AnalysisRequest({name}=...) takes a {kind.__name__}, not "
+                    f"{type(value).__name__}: e.g. {name}=adavar.{kind.__name__}(...)"
+                )
+
     @classmethod
     def from_options(cls, options: Any) -> AnalysisRequest:
         """The request of a command's options (an ``argparse.Namespace`` or a mapping with
         the flags' destination names: ``segment`` for ``l``, ``fit_method`` for the fit's
         ``method``); an option not present takes its default.
 
+        A mapping may hold only those names (a typo is an error, not a default); a
+        namespace carries the command's other flags too, which are not the request's.
+
         Raises
         ------
         AdavarInputError
-            No ``file``.
+            No ``file``, or a mapping with a name that is no option of the request.
         """
+        if isinstance(options, Mapping):
+            unknown = sorted(str(k) for k in options
+                             if str(k).replace("-", "_") not in _OPTION_NAMES)  # fmt: skip
+            if unknown:
+                raise AdavarInputError(
+                    f"unknown analysis option {unknown[0]!r}: use the names of the flags "
+                    f"({', '.join(sorted(_OPTION_NAMES))})"
+                )
         options = _namespace(options)
         record = RecordRequest.from_options(options)
         window = WindowSettings(**_pick(WindowSettings, options))
@@ -371,27 +399,33 @@ class AnalysisRequest:
 
 
 def settings_keywords(
-    function: Callable[..., Any], given: Mapping[str, Any], *objects: Any
+    function: Callable[..., Any], given: Mapping[str, Any], *objects: tuple[Any, type]
 ) -> dict[str, Any]:
     """A function's keywords with the fields of settings objects filled in.
 
     The thin keyword layer of the functions that take settings objects
     (:func:`adavar.adaptive_davar` ``settings=`` and ``method_options=``,
     :func:`adavar.fit_noise` ``settings=``): ``given`` are the keywords the caller passed
-    (their values, defaults included); each object's fields (its ``keywords()`` if it has
-    one) replace the keywords of the same names.
+    (their values, defaults included); ``objects`` are ``(object, its class)`` pairs (None:
+    not given), and each object's fields (its ``keywords()`` if it has one) replace the
+    keywords of the same names.
 
     Raises
     ------
     AdavarInputError
-        A keyword given both with a value of its own and in a settings object (ambiguous:
-        give it once).
+        An object of another class, or a keyword given both with a value of its own and in
+        a settings object (ambiguous: give it once).
     """
     parameters = inspect.signature(function).parameters
     out = dict(given)
-    for obj in objects:
+    for obj, kind in objects:
         if obj is None:
             continue
+        if not isinstance(obj, kind):
+            raise AdavarInputError(
+                f"expected a {kind.__name__}, got {type(obj).__name__}: build one (e.g. "
+                f"adavar.{kind.__name__}(...)) or give the keywords"
+            )
         values = obj.keywords() if hasattr(obj, "keywords") else dataclasses.asdict(obj)
         defaults = {f.name: f.default for f in fields(obj)}
         for name, value in values.items():
@@ -419,3 +453,14 @@ def _same(a: Any, b: Any) -> bool:
         return bool(a == b)
     except (TypeError, ValueError):  # arrays: not a setting's value
         return False
+
+
+#: The parts of an :class:`AnalysisRequest` and their classes.
+_PARTS = {
+    "record": RecordRequest,
+    "window": WindowSettings,
+    "deviation": DeviationSettings,
+    "controller": ControllerSettings,
+    "fit": FitSettings,
+    "method_options": MethodOptions,
+}

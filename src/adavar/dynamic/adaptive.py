@@ -769,7 +769,9 @@ def adaptive_davar(
     ``window`` = the schedule, so it costs what a fixed window costs.
     """
     given = {k: v for k, v in locals().items() if k not in ("data", "settings", "method_options")}
-    keywords = settings_keywords(adaptive_davar, given, settings, method_options)
+    keywords = settings_keywords(
+        adaptive_davar, given, (settings, ControllerSettings), (method_options, MethodOptions)
+    )
     # the body is shared with adaptive_blocks
     return next(_adaptive_surfaces(data, **keywords, in_blocks=False, block_values=None))
 
@@ -807,7 +809,9 @@ def adaptive_blocks(
     arguments.apply_defaults()
     given = dict(arguments.arguments)
     settings, method_options = given.pop("settings"), given.pop("method_options")
-    given = settings_keywords(adaptive_davar, given, settings, method_options)
+    given = settings_keywords(
+        adaptive_davar, given, (settings, ControllerSettings), (method_options, MethodOptions)
+    )
     if sources.is_dask(data):
         raise AdavarInputError(
             "adaptive_blocks takes an array or a file read piece by piece, not a dask array: "

@@ -335,7 +335,12 @@ class OnlineAdaptive:
         if settings is not None or method_options is not None:
             given = {k: v for k, v in locals().items()
                      if k not in ("self", "settings", "method_options")}  # fmt: skip
-            keywords = settings_keywords(OnlineAdaptive.__init__, given, settings, method_options)
+            keywords = settings_keywords(
+                OnlineAdaptive.__init__,
+                given,
+                (settings, ControllerSettings),
+                (method_options, MethodOptions),
+            )
             if keywords["ici_edf_samples"] is None:  # a stream has no whole record to read
                 keywords["ici_edf_samples"] = ICI_EDF_SAMPLES
             self.__init__(**keywords)

@@ -593,7 +593,7 @@ def fit_noise(
     """
     if settings is not None:
         given = {k: v for k, v in locals().items() if k not in ("result", "settings")}
-        return fit_noise(result, **settings_keywords(fit_noise, given, settings))
+        return fit_noise(result, **settings_keywords(fit_noise, given, (settings, FitSettings)))
     method = _check_options(method, select, significance, exclude, rolloff, markov, bound_level)
     stat = getattr(result, "stat", None)
     if stat is not None and str(stat).lower() not in ALLAN_STATS:

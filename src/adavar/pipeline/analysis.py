@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -530,7 +530,7 @@ class AnalysisRun:
 
 
 def run(
-    request: AnalysisRequest,
+    request: AnalysisRequest | Mapping[str, Any],
     *,
     status: Callable[[str], None] | None = None,
     channels: str = "chosen",
@@ -550,8 +550,8 @@ def run(
     Parameters
     ----------
     request : AnalysisRequest
-        What to read and compute (:meth:`AnalysisRequest.from_options` from a command's
-        options).
+        What to read and compute (or options by the flags' names, a mapping or a namespace:
+        :meth:`AnalysisRequest.from_options`).
     status : callable, optional
         Receives one line per step.
     channels : {"chosen", "one", "all"}
@@ -572,6 +572,7 @@ def run(
     -------
     AnalysisRun
     """
+    request = as_request(request)
     status = status or (lambda what: None)
     status(f"reading {request.record.file}")
     if channels not in CHANNELS:
