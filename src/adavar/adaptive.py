@@ -7,36 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.dynamic.adaptive import (
-    METHODS,
-    AdaptiveResult,
-    Schedule,
-    adaptive_blocks,
-    adaptive_davar,
-    adaptive_schedule,
-    calibrated_thresholds,
-    dependence_stages,
-    false_alarm_rate,
-    oracle_schedule,
-    record_windows,
-    resolve_windows,
-    surface_resolution,
-    window_lengths,
-)
-
-__all__ = [
-    "METHODS",
-    "AdaptiveResult",
-    "Schedule",
-    "adaptive_blocks",
-    "adaptive_davar",
-    "adaptive_schedule",
-    "calibrated_thresholds",
-    "dependence_stages",
-    "false_alarm_rate",
-    "oracle_schedule",
-    "record_windows",
-    "resolve_windows",
-    "surface_resolution",
-    "window_lengths",
-]
+from adavar.dynamic.adaptive import *  # noqa: F403 - the names of its __all__
+from adavar.dynamic.adaptive import __all__ as __all__

@@ -7,34 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.pipeline.analysis import (
-    AnalysisRun,
-    ChannelAnalysis,
-    LoadedInput,
-    analyse_channel,
-    chunk_keywords,
-    controller_settings,
-    fit_keywords,
-    rate_keywords,
-    read_input,
-    resolve_lengths,
-    resolve_resolution,
-    run,
-    window_fit_keywords,
-)
-
-__all__ = [
-    "AnalysisRun",
-    "ChannelAnalysis",
-    "LoadedInput",
-    "analyse_channel",
-    "chunk_keywords",
-    "controller_settings",
-    "fit_keywords",
-    "rate_keywords",
-    "read_input",
-    "resolve_lengths",
-    "resolve_resolution",
-    "run",
-    "window_fit_keywords",
-]
+from adavar.pipeline.analysis import *  # noqa: F403 - the names of its __all__
+from adavar.pipeline.analysis import __all__ as __all__

@@ -7,30 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.pipeline.batch import (
-    BATCH_MARKER,
-    DEFAULT_WORKER_TIMEOUT,
-    STATUS_ABSENT,
-    SUMMARY_COLUMNS,
-    BatchResult,
-    ReportAnalysis,
-    analyse_file,
-    collect_files,
-    output_names,
-    report_options,
-    run_batch,
-)
-
-__all__ = [
-    "BATCH_MARKER",
-    "DEFAULT_WORKER_TIMEOUT",
-    "STATUS_ABSENT",
-    "SUMMARY_COLUMNS",
-    "BatchResult",
-    "ReportAnalysis",
-    "analyse_file",
-    "collect_files",
-    "output_names",
-    "report_options",
-    "run_batch",
-]
+from adavar.pipeline.batch import *  # noqa: F403 - the names of its __all__
+from adavar.pipeline.batch import __all__ as __all__

@@ -7,10 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.core.datasets import (
-    nist_1000,
-)
-
-__all__ = [
-    "nist_1000",
-]
+from adavar.core.datasets import *  # noqa: F403 - the names of its __all__
+from adavar.core.datasets import __all__ as __all__

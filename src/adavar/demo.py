@@ -7,44 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.pipeline.demo import (
-    GYRO_BANDWIDTH,
-    GYRO_BIAS,
-    GYRO_LSB,
-    GYRO_RATE,
-    GYRO_SAMPLES,
-    GYRO_TRUE,
-    GYRO_UNITS,
-    NIST_AVERAGING_FACTORS,
-    NIST_MEAN,
-    NIST_PUBLISHED,
-    NIST_STD,
-    PAPER_SEEDS,
-    DemoResult,
-    GyroDemo,
-    NistRow,
-    PaperDemo,
-    run_demo,
-    worker_pool,
-)
-
-__all__ = [
-    "GYRO_BANDWIDTH",
-    "GYRO_BIAS",
-    "GYRO_LSB",
-    "GYRO_RATE",
-    "GYRO_SAMPLES",
-    "GYRO_TRUE",
-    "GYRO_UNITS",
-    "NIST_AVERAGING_FACTORS",
-    "NIST_MEAN",
-    "NIST_PUBLISHED",
-    "NIST_STD",
-    "PAPER_SEEDS",
-    "DemoResult",
-    "GyroDemo",
-    "NistRow",
-    "PaperDemo",
-    "run_demo",
-    "worker_pool",
-]
+from adavar.pipeline.demo import *  # noqa: F403 - the names of its __all__
+from adavar.pipeline.demo import __all__ as __all__

@@ -7,34 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.dynamic.events import (
-    LEVEL_RATIO,
-    LEVEL_SPAN,
-    PAIRINGS,
-    Event,
-    EventTracker,
-    change_episodes,
-    change_times,
-    find_events,
-    flag_change_times,
-    flag_runs,
-    join_runs,
-    run_change_times,
-    stretch_summary,
-)
-
-__all__ = [
-    "LEVEL_RATIO",
-    "LEVEL_SPAN",
-    "PAIRINGS",
-    "Event",
-    "EventTracker",
-    "change_episodes",
-    "change_times",
-    "find_events",
-    "flag_change_times",
-    "flag_runs",
-    "join_runs",
-    "run_change_times",
-    "stretch_summary",
-]
+from adavar.dynamic.events import *  # noqa: F403 - the names of its __all__
+from adavar.dynamic.events import __all__ as __all__

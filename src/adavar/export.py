@@ -7,24 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.output.export import (
-    COEFFICIENT_COLUMNS,
-    KALIBR_KEYS,
-    coefficient_rows,
-    kalibr_imu_yaml,
-    kalibr_values,
-    write_json,
-    write_table_csv,
-    write_text,
-)
-
-__all__ = [
-    "COEFFICIENT_COLUMNS",
-    "KALIBR_KEYS",
-    "coefficient_rows",
-    "kalibr_imu_yaml",
-    "kalibr_values",
-    "write_json",
-    "write_table_csv",
-    "write_text",
-]
+from adavar.output.export import *  # noqa: F403 - the names of its __all__
+from adavar.output.export import __all__ as __all__

@@ -7,18 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.dynamic.long_tau import (
-    LONG_TAU_MIN_M,
-    LONG_TAU_SAMPLES,
-    LongTauChange,
-    LongTauChanges,
-    long_tau_changes,
-)
-
-__all__ = [
-    "LONG_TAU_MIN_M",
-    "LONG_TAU_SAMPLES",
-    "LongTauChange",
-    "LongTauChanges",
-    "long_tau_changes",
-]
+from adavar.dynamic.long_tau import *  # noqa: F403 - the names of its __all__
+from adavar.dynamic.long_tau import __all__ as __all__

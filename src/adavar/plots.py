@@ -7,52 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.output.plots import (
-    STAT_NAMES,
-    TERM_LABELS,
-    FigureRecipe,
-    arw_comparison_figure,
-    coefficient_figure,
-    comparison_figures,
-    contribution_figure,
-    controller_figure,
-    davar_heatmap_figure,
-    davar_surface_figure,
-    deviation_figure,
-    deviation_unit,
-    format_pm,
-    kurtosis_windows_figure,
-    paper_figure_recipes,
-    rate_unit,
-    save_figure,
-    spread_indices,
-    study_figures,
-    term_label,
-    term_unit,
-    threshold_figure,
-)
-
-__all__ = [
-    "STAT_NAMES",
-    "TERM_LABELS",
-    "FigureRecipe",
-    "arw_comparison_figure",
-    "coefficient_figure",
-    "comparison_figures",
-    "contribution_figure",
-    "controller_figure",
-    "davar_heatmap_figure",
-    "davar_surface_figure",
-    "deviation_figure",
-    "deviation_unit",
-    "format_pm",
-    "kurtosis_windows_figure",
-    "paper_figure_recipes",
-    "rate_unit",
-    "save_figure",
-    "spread_indices",
-    "study_figures",
-    "term_label",
-    "term_unit",
-    "threshold_figure",
-]
+from adavar.output.plots import *  # noqa: F403 - the names of its __all__
+from adavar.output.plots import __all__ as __all__

@@ -7,14 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.pipeline.precompile import (
-    STAGES,
-    PrecompileResult,
-    precompile,
-)
-
-__all__ = [
-    "STAGES",
-    "PrecompileResult",
-    "precompile",
-]
+from adavar.pipeline.precompile import *  # noqa: F403 - the names of its __all__
+from adavar.pipeline.precompile import __all__ as __all__

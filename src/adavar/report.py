@@ -7,24 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.output.report import (
-    MAX_SERIES_POINTS,
-    MAX_SURFACE_TAUS,
-    MAX_SURFACE_TIMES,
-    build_report,
-    channel_section,
-    channels_page,
-    series_rows,
-    write_report,
-)
-
-__all__ = [
-    "MAX_SERIES_POINTS",
-    "MAX_SURFACE_TAUS",
-    "MAX_SURFACE_TIMES",
-    "build_report",
-    "channel_section",
-    "channels_page",
-    "series_rows",
-    "write_report",
-]
+from adavar.output.report import *  # noqa: F403 - the names of its __all__
+from adavar.output.report import __all__ as __all__

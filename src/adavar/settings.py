@@ -7,52 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.core.settings import (
-    ANALYSIS_DEFAULTS,
-    BAND_ONLY,
-    CALIBRATED_ONLY,
-    CALIBRATED_REPLACES,
-    CONTROLLER,
-    DATA_TYPE_DEFAULT,
-    DEPENDENCE_FIRST,
-    EFFICIENT_CHUNK,
-    FIT,
-    HOURLY_FALSE_ALARMS,
-    HOURLY_ONLY,
-    PAPER,
-    RATE_AGREEMENT,
-    RATE_DEFAULT,
-    STREAM_LMAX_SECONDS,
-    THRESHOLDS,
-    ControllerSettings,
-    FileDefault,
-    FitSettings,
-    RateDefault,
-    requested_threads,
-    threshold_mode,
-)
-
-__all__ = [
-    "ANALYSIS_DEFAULTS",
-    "BAND_ONLY",
-    "CALIBRATED_ONLY",
-    "CALIBRATED_REPLACES",
-    "CONTROLLER",
-    "DATA_TYPE_DEFAULT",
-    "DEPENDENCE_FIRST",
-    "EFFICIENT_CHUNK",
-    "FIT",
-    "HOURLY_FALSE_ALARMS",
-    "HOURLY_ONLY",
-    "PAPER",
-    "RATE_AGREEMENT",
-    "RATE_DEFAULT",
-    "STREAM_LMAX_SECONDS",
-    "THRESHOLDS",
-    "ControllerSettings",
-    "FileDefault",
-    "FitSettings",
-    "RateDefault",
-    "requested_threads",
-    "threshold_mode",
-]
+from adavar.core.settings import *  # noqa: F403 - the names of its __all__
+from adavar.core.settings import __all__ as __all__

@@ -7,46 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.stats.stream import (
-    DEFAULT_CHUNK,
-    PARALLEL_MIN,
-    ArraySource,
-    ChunkedSource,
-    DaskSource,
-    DifferencedSource,
-    HDF5Source,
-    NpyFileSource,
-    ParquetSource,
-    as_source,
-    available_memory,
-    check_chunk_size,
-    is_chunked,
-    is_dask,
-    memmap_source,
-    noise_types,
-    open_record,
-    read_extended,
-    threads_for,
-)
-
-__all__ = [
-    "DEFAULT_CHUNK",
-    "PARALLEL_MIN",
-    "ArraySource",
-    "ChunkedSource",
-    "DaskSource",
-    "DifferencedSource",
-    "HDF5Source",
-    "NpyFileSource",
-    "ParquetSource",
-    "as_source",
-    "available_memory",
-    "check_chunk_size",
-    "is_chunked",
-    "is_dask",
-    "memmap_source",
-    "noise_types",
-    "open_record",
-    "read_extended",
-    "threads_for",
-]
+from adavar.stats.stream import *  # noqa: F403 - the names of its __all__
+from adavar.stats.stream import __all__ as __all__

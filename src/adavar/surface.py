@@ -7,17 +7,6 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.dynamic.surface import (
-    STATS,
-    DavarStatResult,
-    davar,
-    edf_table,
-)
+from adavar.dynamic.surface import *  # noqa: F403 - the names of its __all__
+from adavar.dynamic.surface import __all__ as __all__
 from adavar.dynamic.surface import davar_blocks as davar_blocks  # documented, not in __all__
-
-__all__ = [
-    "STATS",
-    "DavarStatResult",
-    "davar",
-    "edf_table",
-]

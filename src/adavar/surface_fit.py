@@ -7,24 +7,5 @@ modules inside adavar import from there, never from here.
 
 from __future__ import annotations
 
-from adavar.dynamic.surface_fit import (
-    FIT_ROWS,
-    BlockFit,
-    concatenate_fits,
-    drawn_rows,
-    fit_adaptive_in_blocks,
-    fit_blocks,
-    fit_davar_in_blocks,
-    fit_rows,
-)
-
-__all__ = [
-    "FIT_ROWS",
-    "BlockFit",
-    "concatenate_fits",
-    "drawn_rows",
-    "fit_adaptive_in_blocks",
-    "fit_blocks",
-    "fit_davar_in_blocks",
-    "fit_rows",
-]
+from adavar.dynamic.surface_fit import *  # noqa: F403 - the names of its __all__
+from adavar.dynamic.surface_fit import __all__ as __all__
