@@ -195,3 +195,16 @@ def test_run_takes_options_by_the_flags_names(gyro_csv):
     done = run({"file": str(gyro_csv), "column": "gy", "units": "deg/s", "window": "10s",
                 "step": 100})  # fmt: skip
     assert done.request.window.window == 1000 and done.channels["gy"].surface is not None
+
+
+def test_the_comparison_takes_the_controller_settings_object():
+    from adavar.settings import PAPER
+
+    scenario = adavar.simulate.paper_scenario(1, seed=2)
+    settings = dataclasses.replace(PAPER, k2=3.4, l=80)
+    typed = adavar.compare(scenario, methods=["a-davar"], settings=settings)
+    plain = adavar.compare(scenario, methods=["a-davar"], k2=3.4, l=80)
+    np.testing.assert_array_equal(typed.methods["a-davar"].window, plain.methods["a-davar"].window)
+    np.testing.assert_array_equal(typed.methods["a-davar"].arw, plain.methods["a-davar"].arw)
+    with pytest.raises(AdavarInputError, match="false_alarm_per_hour"):
+        adavar.compare(scenario, settings=ANALYSIS_CONTROLLER)

@@ -62,8 +62,9 @@ from typing import Any
 import numpy as np
 
 from adavar.core.errors import AdavarInputError
+from adavar.core.request import settings_keywords
 from adavar.core.results import DavarResult
-from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
+from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB, ControllerSettings
 from adavar.dynamic.adaptive import Schedule, adaptive_schedule
 from adavar.dynamic.surface import davar
 from adavar.dynamic.surface_common import edf_table
@@ -505,6 +506,7 @@ def compare(
     step: int | None = None,
     max_memory: float = DEFAULT_MAX_MEMORY_MB,
     chunk_size: int | None = None,
+    settings: ControllerSettings | None = None,
 ) -> Comparison:
     """Run DAVAR-Lmin, DAVAR-Lmax, DAVAR-K and A-DAVAR (or other methods) on one record.
 
@@ -569,6 +571,11 @@ def compare(
         Samples the controllers and surfaces (``keep="figures"``) read at a time, for a
         record read piece by piece. Default: :data:`adavar.io.sources.DEFAULT_CHUNK` with a
         ``step`` > 1 (the same windows), else each function's own.
+    settings : ControllerSettings, optional
+        The controller's keywords (``lmax`` ... ``false_alarm``) as one object
+        (:class:`adavar.ControllerSettings`, the paper's by default); its fields replace
+        those keywords, a keyword also given with another value is an error, and
+        ``false_alarm_per_hour`` must stay None (the comparison's thresholds are per step).
 
     Returns
     -------
@@ -580,6 +587,9 @@ def compare(
         Bad data, an unknown method, ``"oracle"`` without change times, a truth of the
         wrong length, or bad controller settings.
     """
+    if settings is not None:
+        given = {k: v for k, v in locals().items() if k not in ("data", "settings")}
+        return compare(data, **settings_keywords(compare, given, (settings, ControllerSettings)))
     return run_comparison(
         data, methods=methods, rate=rate, change_times=change_times, truth=truth,
         intervals=intervals, controller=dict(

@@ -44,7 +44,7 @@ from adavar.cli.output import (
     text_table,
 )
 from adavar.core.errors import AdavarInputError
-from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB
+from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB, ControllerSettings
 from adavar.core.terms import TERM_NAMES
 from adavar.io.writers import (
     atomic_directory,
@@ -519,11 +519,7 @@ def _run_compare(args: argparse.Namespace) -> int:
         }  # fmt: skip
         description = (f"{meta['path']}, column {meta['column']!r}: {samples.size} samples at "
                        f"{1.0 / tau0:g} Hz in {units}")  # fmt: skip
-    controller = dict(
-        lmax=args.lmax, lmin=args.lmin, k1=args.k1, k2=args.k2, s1=args.s1, s2=args.s2,
-        l=args.segment, dl0=args.dl0, dl1=args.dl1, s_test=args.s_test,
-        combine=args.combine, thresholds=args.thresholds, false_alarm=args.false_alarm,
-    )  # fmt: skip
+    controller = ControllerSettings.from_options(args)  # the controller's flags, once
     crossing_window = args.crossing_window or args.lmax
     status("running " + ", ".join(args.methods) if args.methods else "running the methods")
     comp = compare(
@@ -531,7 +527,7 @@ def _run_compare(args: argparse.Namespace) -> int:
         terms=terms, units=units, description=description, truth=truth,
         intervals=args.intervals, confidence=args.confidence, noise_type=args.noise_type,
         points_per_decade=args.points_per_decade, keep="figures", step=args.step,
-        max_memory=args.max_memory, chunk_size=args.chunk_size, **controller,
+        max_memory=args.max_memory, chunk_size=args.chunk_size, settings=controller,
     )  # fmt: skip
     chosen = comp.parameters["step"]
     resolution = None
@@ -554,7 +550,7 @@ def _run_compare(args: argparse.Namespace) -> int:
                 args.scenario, range(args.seed, args.seed + args.seeds),
                 variance_reading=args.variance_reading, methods=args.methods,
                 taus=args.taus or "octave", terms=terms, crossing_thresholds=fig8,
-                crossing_window=args.crossing_window, progress=bar, **controller,
+                crossing_window=args.crossing_window, progress=bar, settings=controller,
             )  # fmt: skip
         finally:
             bar.close()

@@ -22,7 +22,8 @@ import numpy as np
 
 from adavar.comparison import EdfCache, as_record, check_rate, run_comparison, threads_for
 from adavar.core.errors import AdavarInputError
-from adavar.core.settings import CONTROLLER
+from adavar.core.request import settings_keywords
+from adavar.core.settings import CONTROLLER, ControllerSettings
 from adavar.fit.noise_model import TERM_NAMES
 from adavar.io.writers import jsonable
 from adavar.paper.nodes import NODE_NAMES
@@ -546,6 +547,7 @@ def compare_seeds(
     thresholds: str = CONTROLLER.thresholds,
     false_alarm: float = CONTROLLER.false_alarm,
     progress: Callable[[int, int], None] | None = None,
+    settings: ControllerSettings | None = None,
 ) -> SeedStudy:
     """:func:`~adavar.comparison.compare` on many realisations of a paper scenario, and Fig. 8.
 
@@ -583,11 +585,17 @@ def compare_seeds(
     progress : callable, optional
         Called as ``progress(done, total)`` before each realisation (the command line draws
         a progress bar with it).
+    settings : ControllerSettings, optional
+        The controller settings as one object, as in :func:`adavar.comparison.compare`.
 
     Returns
     -------
     SeedStudy
     """
+    if settings is not None:
+        given = {k: v for k, v in locals().items() if k not in ("scenario", "seeds", "settings")}
+        keywords = settings_keywords(compare_seeds, given, (settings, ControllerSettings))
+        return compare_seeds(scenario, seeds, **keywords)
     start = _time.perf_counter()
     seed_list = tuple(int(s) for s in seeds)
     if not seed_list:
