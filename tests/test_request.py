@@ -208,3 +208,18 @@ def test_the_comparison_takes_the_controller_settings_object():
     np.testing.assert_array_equal(typed.methods["a-davar"].arw, plain.methods["a-davar"].arw)
     with pytest.raises(AdavarInputError, match="false_alarm_per_hour"):
         adavar.compare(scenario, settings=ANALYSIS_CONTROLLER)
+
+
+def test_a_fixed_and_an_adaptive_window_together_are_an_error(gyro_csv, capsys):
+    # before 0.3 the adaptive window won and the fixed one was dropped without a word
+    with pytest.raises(AdavarInputError, match="fixed window and adaptive=True"):
+        WindowSettings(window=1000, adaptive=True)
+    from adavar.batch import run_batch
+
+    with pytest.raises(AdavarInputError, match="give one of them"):
+        run_batch([str(gyro_csv)], out="never", options={"units": "deg/s", "column": "gx",
+                                                         "window": 100, "adaptive": True})
+    code = cli.main(["report", str(gyro_csv), "--column", "gx", "--units", "deg/s",
+                     "--window", "1000", "--adaptive", "-o", "r.html"])  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 2 and "--window L asks for a fixed window and --adaptive" in err

@@ -378,6 +378,11 @@ def check_arguments(args: argparse.Namespace) -> None:
                 f"--s-test band flags S outside [S1, S2], but --s1 {args.s1:g} is not below "
                 f"--s2 {args.s2:g}: give --s1 < --s2"
             )
+    if getattr(args, "adaptive", False) and getattr(args, "window", None) is not None:
+        raise UsageError(
+            "--window L asks for a fixed window and --adaptive for the adaptive one: give one "
+            "of them (the adaptive window's lengths are --lmax and --lmin)"
+        )
     check_controller_flags(args)
     check_chunk_size(args)
     if getattr(args, "f_h", None) is not None and getattr(args, "power_law", None) == "off":

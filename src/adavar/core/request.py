@@ -202,6 +202,14 @@ class WindowSettings:
     t0: float = 0.0
     edge_edf: str = "distinct"
 
+    def __post_init__(self) -> None:
+        if self.adaptive and self.window is not None:
+            raise AdavarInputError(
+                f"window={self.window!r} asks for a fixed window and adaptive=True for the "
+                "adaptive one: give one of them (the adaptive window's lengths are the "
+                "controller's lmax and lmin)"
+            )
+
     @property
     def surface(self) -> bool:
         """Whether a DAVAR surface is asked for."""

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from adavar.core.errors import AdavarInputError
-from adavar.core.request import AnalysisRequest
+from adavar.core.request import AnalysisRequest, WindowSettings
 from adavar.core.terms import TERM_NAMES
 from adavar.dynamic.adaptive import record_windows
 from adavar.io import sources
@@ -81,7 +81,8 @@ def report_options(
     Raises
     ------
     AdavarInputError
-        An unknown option name (unless ``ignore_unknown``).
+        An unknown option name (unless ``ignore_unknown``), or both ``window`` and
+        ``adaptive``.
     """
     defaults = dict(_report_defaults())
     if options is None:
@@ -100,6 +101,7 @@ def report_options(
                 f"unknown analysis option {key!r}: use the names of the flags of 'adavar "
                 f"report' ({', '.join(sorted(defaults))})"
             )
+    WindowSettings(window=out["window"], adaptive=out["adaptive"])  # both: an error, now
     return out
 
 
