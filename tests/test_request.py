@@ -54,6 +54,15 @@ def test_a_request_built_in_code_equals_the_one_the_command_line_builds(gyro_csv
     # the analyses' controller is the library's: windows from the record, hourly thresholds
     assert ANALYSIS_CONTROLLER.lmax is None and ANALYSIS_CONTROLLER.thresholds == "calibrated"
     assert ANALYSIS_CONTROLLER != PAPER
+    from types import SimpleNamespace
+
+    from adavar.settings import ANALYSIS_DEFAULTS
+
+    # one definition: the settings' own defaults are the command line's
+    assert ControllerSettings() == ANALYSIS_CONTROLLER
+    assert ControllerSettings.from_options(SimpleNamespace(**ANALYSIS_DEFAULTS)) == (
+        ControllerSettings()
+    )
 
 
 def test_the_request_given_is_never_changed(gyro_csv):
@@ -206,8 +215,8 @@ def test_the_comparison_takes_the_controller_settings_object():
     plain = adavar.compare(scenario, methods=["a-davar"], k2=3.4, l=80)
     np.testing.assert_array_equal(typed.methods["a-davar"].window, plain.methods["a-davar"].window)
     np.testing.assert_array_equal(typed.methods["a-davar"].arw, plain.methods["a-davar"].arw)
-    with pytest.raises(AdavarInputError, match="false_alarm_per_hour"):
-        adavar.compare(scenario, settings=ANALYSIS_CONTROLLER)
+    with pytest.raises(AdavarInputError, match=r"false_alarm_per_hour=0\.1 .* set it to None"):
+        adavar.compare(scenario, settings=ControllerSettings(lmax=600, lmin=400, l=100))
 
 
 def test_a_fixed_and_an_adaptive_window_together_are_an_error(gyro_csv, capsys):

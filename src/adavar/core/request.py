@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, fields
 from types import SimpleNamespace
 from typing import Any
@@ -296,10 +296,10 @@ _OPTION_NAMES = frozenset(
     | {"windows_from"}
 )
 
-#: The adaptive window of an analysis when none is given: windows from the record,
-#: thresholds calibrated for :data:`adavar.core.settings.HOURLY_FALSE_ALARMS` false events per
-#: stationary hour (the library's and every command's but ``compare``).
-ANALYSIS_CONTROLLER = ControllerSettings.from_options(SimpleNamespace(**ANALYSIS_DEFAULTS))
+#: The adaptive window of an analysis when none is given: ``ControllerSettings()``, windows
+#: from the record, thresholds calibrated for :data:`adavar.core.settings.HOURLY_FALSE_ALARMS`
+#: false events per stationary hour (the library's and every command's but ``compare``).
+ANALYSIS_CONTROLLER = ControllerSettings()
 
 
 @dataclass(frozen=True)
@@ -407,7 +407,10 @@ class AnalysisRequest:
 
 
 def settings_keywords(
-    function: Callable[..., Any], given: Mapping[str, Any], *objects: tuple[Any, type]
+    function: Callable[..., Any],
+    given: Mapping[str, Any],
+    *objects: tuple[Any, type],
+    inapplicable: Collection[str] = (),
 ) -> dict[str, Any]:
     """A function's keywords with the fields of settings objects filled in.
 
@@ -416,7 +419,8 @@ def settings_keywords(
     :func:`adavar.fit_noise` ``settings=``): ``given`` are the keywords the caller passed
     (their values, defaults included); ``objects`` are ``(object, its class)`` pairs (None:
     not given), and each object's fields (its ``keywords()`` if it has one) replace the
-    keywords of the same names.
+    keywords of the same names. A field the function does not take must be None, or (the
+    names in ``inapplicable``, options that mean nothing there) keep its default.
 
     Raises
     ------
@@ -438,12 +442,12 @@ def settings_keywords(
         defaults = {f.name: f.default for f in fields(obj)}
         for name, value in values.items():
             if name not in parameters:  # an option this function has not (change_times live)
-                if _same(value, defaults.get(name, value)):
+                if value is None or (name in inapplicable and _same(value, defaults[name])):
                     continue
+                way_out = "None" if name not in inapplicable else repr(defaults[name])
                 raise AdavarInputError(
                     f"{name}={value!r} of the {type(obj).__name__} is not an option of "
-                    f"{function.__qualname__.removesuffix('.__init__')}: leave it at its "
-                    "default"
+                    f"{function.__qualname__.removesuffix('.__init__')}: set it to {way_out}"
                 )
             default = parameters[name].default
             mine = given.get(name, default)

@@ -1,9 +1,9 @@
 """Parameter objects: the adaptive controller's settings and the noise fit's options, with
 their defaults in one place.
 
-:class:`ControllerSettings` holds the thirteen keywords of the adaptive window
-(docs/method.md section 8) with the paper's values (:data:`PAPER`); :class:`FitSettings` the
-keywords of :func:`adavar.fit_noise`. The command line takes its flags' defaults from them, the
+:class:`ControllerSettings` holds the fourteen keywords of the adaptive window
+(docs/method.md section 8) with the library's and the commands' defaults (:data:`PAPER`:
+the paper's values); :class:`FitSettings` the keywords of :func:`adavar.fit_noise`. The command line takes its flags' defaults from them, the
 library's functions and :mod:`adavar.pipeline.batch` their keywords, so a default is written once.
 
 The adaptive window's defaults are the same in the library (:func:`adavar.adaptive_davar`,
@@ -50,21 +50,37 @@ __all__ = [
 ]
 
 
+#: False events per hour of stationary data the default thresholds are calibrated for
+#: (the library's and the command line's).
+HOURLY_FALSE_ALARMS = 0.1
+#: The thresholds of :func:`adavar.adaptive_davar`, :class:`adavar.OnlineAdaptive` and the
+#: commands ``adaptive``, ``report``, ``batch`` and ``monitor``: calibrated for
+#: :data:`HOURLY_FALSE_ALARMS` false events per stationary hour (:func:`threshold_mode`).
+#: ``"paper"`` gives the paper's K1, K2, S2 (a 6 s window at 100 Hz then flags about 5
+#: false changes a minute of white noise).
+THRESHOLDS = "calibrated"
+
+
 @dataclass(frozen=True)
 class ControllerSettings:
-    """The adaptive window's settings (the paper's values by default).
+    """The adaptive window's settings, with the defaults of the library and of every
+    command but ``compare``: windows from the record (``lmax``, ``lmin``, ``l`` None:
+    :func:`adavar.dynamic.adaptive.record_windows`) and thresholds calibrated for
+    :data:`HOURLY_FALSE_ALARMS` false events per stationary hour. :data:`PAPER` holds the
+    paper's values (600, 400, 100 samples and its K1, K2, S2), which ``compare`` and
+    :mod:`adavar.paper` use. (Before 0.3 the defaults were the paper's.)
 
     Attributes
     ----------
-    lmax, lmin : int
-        Longest and shortest window, samples.
+    lmax, lmin : int, str or None
+        Longest and shortest window, samples or a duration (None: from the record).
     k1, k2 : float
         Kurtosis band of the f1 test.
     s1, s2 : float
         Thresholds of the f2 test on the contribution coefficient S (``s1`` for the band
         test only).
-    l : int
-        Leading segment of the S test, samples.
+    l : int, str or None
+        Leading segment of the S test, samples or a duration (None: from ``lmax``).
     dl0, dl1 : int
         Regrow and shrink steps, samples.
     s_test : {"upper", "band", "abs"}
@@ -82,20 +98,20 @@ class ControllerSettings:
         calibrated thresholds).
     """
 
-    lmax: int = 600
-    lmin: int = 400
+    lmax: Any = None
+    lmin: Any = None
     k1: float = 2.5
     k2: float = 3.3
     s1: float = 0.0
     s2: float = 0.07
-    l: int = 100  # noqa: E741 - the paper's name
+    l: Any = None  # noqa: E741 - the paper's name
     dl0: int = 2
     dl1: int = 2
     s_test: str = "upper"
     combine: str = "or"
-    thresholds: str = "paper"
-    false_alarm: float | None = 0.01
-    false_alarm_per_hour: float | None = None
+    thresholds: str = THRESHOLDS
+    false_alarm: float | None = None
+    false_alarm_per_hour: float | None = HOURLY_FALSE_ALARMS
 
     def keywords(self) -> dict[str, Any]:
         """The keywords of :func:`adavar.adaptive_davar` / :func:`adavar.adaptive_schedule`."""
@@ -158,15 +174,6 @@ BAND_ONLY = ("s1",)
 #: memory, 0.90 s at 4096, 1.6 s at 64, 4.0 s at 16, 22 s at 1).
 EFFICIENT_CHUNK = 4096
 
-#: False events per hour of stationary data the default thresholds are calibrated for
-#: (the library's and the command line's).
-HOURLY_FALSE_ALARMS = 0.1
-#: The thresholds of :func:`adavar.adaptive_davar`, :class:`adavar.OnlineAdaptive` and the
-#: commands ``adaptive``, ``report``, ``batch`` and ``monitor``: calibrated for
-#: :data:`HOURLY_FALSE_ALARMS` false events per stationary hour (:func:`threshold_mode`).
-#: ``"paper"`` gives the paper's K1, K2, S2 (a 6 s window at 100 Hz then flags about 5
-#: false changes a minute of white noise).
-THRESHOLDS = "calibrated"
 #: Longest window (s) of a stream, whose length is not known (:class:`adavar.OnlineAdaptive`,
 #: ``adavar monitor``): a tenth of a 30-minute record, as a record's Lmax is a tenth of it
 #: (:func:`adavar.dynamic.adaptive.record_windows`). Lmin and l follow it in the same proportions.
@@ -219,7 +226,8 @@ MAX_SAMPLES = 1_000_000_000
 #: The paper's controller (read-only): its windows (600, 400, 100 samples) and thresholds,
 #: which :func:`adavar.compare` and :mod:`adavar.paper` reproduce; the other keywords'
 #: defaults everywhere.
-PAPER = ControllerSettings()
+PAPER = ControllerSettings(lmax=600, lmin=400, l=100, thresholds="paper", false_alarm=0.01,
+                           false_alarm_per_hour=None)  # fmt: skip
 #: The same instance, by its historical name.
 CONTROLLER = PAPER
 #: The noise fit's defaults everywhere (read-only).

@@ -750,9 +750,9 @@ def adaptive_davar(
         before 0.2). Not used with ``thresholds="paper"``.
     settings : ControllerSettings, optional
         The controller's keywords (``lmax`` ... ``false_alarm_per_hour``) as one object
-        (:class:`adavar.core.settings.ControllerSettings`; the analyses' default is
-        :data:`adavar.core.request.ANALYSIS_CONTROLLER`); its fields replace those keywords. A
-        keyword also given with another value is an error.
+        (:class:`adavar.core.settings.ControllerSettings`, whose defaults are this
+        function's; :data:`adavar.core.settings.PAPER` the paper's); its fields replace those
+        keywords. A keyword also given with another value is an error.
     method_options : MethodOptions, optional
         ``method``, ``change_times``, ``dependence``, ``kurtosis_reference`` and the ICI
         keywords as one object (:class:`adavar.core.request.MethodOptions`), as ``settings``.

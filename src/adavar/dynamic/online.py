@@ -340,6 +340,7 @@ class OnlineAdaptive:
                 given,
                 (settings, ControllerSettings),
                 (method_options, MethodOptions),
+                inapplicable=("ici_long_tau",),  # a stream's long-tau changes: not live
             )
             if keywords["ici_edf_samples"] is None:  # a stream has no whole record to read
                 keywords["ici_edf_samples"] = ICI_EDF_SAMPLES
