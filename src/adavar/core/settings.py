@@ -3,8 +3,9 @@ their defaults in one place.
 
 :class:`ControllerSettings` holds the fourteen keywords of the adaptive window
 (docs/method.md section 8) with the library's and the commands' defaults (:data:`PAPER`:
-the paper's values); :class:`FitSettings` the keywords of :func:`adavar.fit_noise`. The command line takes its flags' defaults from them, the
-library's functions and :mod:`adavar.pipeline.batch` their keywords, so a default is written once.
+the paper's values); :class:`FitSettings` the keywords of :func:`adavar.fit_noise`. The
+command line takes its flags' defaults from them, the library's functions and
+:mod:`adavar.pipeline.batch` their keywords, so a default is written once.
 
 The adaptive window's defaults are the same in the library (:func:`adavar.adaptive_davar`,
 :class:`adavar.OnlineAdaptive`) and on the command line (``adaptive``, ``report``, ``batch``,
