@@ -369,10 +369,7 @@ class AnalysisRequest:
         base.update(_pick(ControllerSettings, options, {"l": "segment"}))
         base["segment"] = base.pop("l", ANALYSIS_DEFAULTS["segment"])
         controller = ControllerSettings.from_options(SimpleNamespace(**base))
-        fit_values = _pick(FitSettings, options, {"method": "fit_method"})
-        if fit_values.get("terms") is not None:
-            fit_values["terms"] = tuple(fit_values["terms"])
-        fit = FitSettings(**fit_values)
+        fit = FitSettings.from_options(options)
         method = MethodOptions.from_options(options)
         return cls(record=record, window=window, controller=controller, fit=fit,
                    method_options=method,
@@ -388,10 +385,6 @@ class AnalysisRequest:
             controller=dataclasses.replace(self.controller, **lengths),
             windows_from=windows_from,
         )  # fmt: skip
-
-    def with_record(self, **changes: Any) -> AnalysisRequest:
-        """A copy with the record's fields replaced (the rate and data type as read)."""
-        return dataclasses.replace(self, record=dataclasses.replace(self.record, **changes))
 
     def options(self) -> SimpleNamespace:
         """Every setting by the flags' names, flat (for the report's parameter table)."""

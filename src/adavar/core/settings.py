@@ -152,6 +152,17 @@ class FitSettings:
     #: (benchmarks/bench_validation.py)
     bound_level: float = 0.99
 
+    @classmethod
+    def from_options(cls, options: Any) -> FitSettings:
+        """From an object with the command line's option names (``fit_method`` for
+        ``method``); an option it has not takes its default."""
+        values = {f.name: getattr(options, "fit_method" if f.name == "method" else f.name)
+                  for f in fields(cls)
+                  if hasattr(options, "fit_method" if f.name == "method" else f.name)}  # fmt: skip
+        if values.get("terms") is not None:
+            values["terms"] = tuple(values["terms"])
+        return cls(**values)
+
     def keywords(self) -> dict[str, Any]:
         """The keywords of :func:`adavar.fit_noise` (``terms`` None: all five)."""
         from adavar.core.terms import TERM_NAMES

@@ -11,7 +11,7 @@ for one file as ``adavar report FILE`` and every task of ``adavar batch`` comput
 
 The keyword layer: :func:`analyse_channel` and :func:`resolve_lengths` also take an
 options object with the flags' names (an ``argparse.Namespace``), and
-:func:`fit_keywords`, :func:`controller_settings` and :func:`chunk_keywords` turn a request
+:func:`fit_keywords` and :func:`controller_settings` turn a request
 or options into the library functions' keywords, in one place. Problems with the input
 raise :class:`adavar.core.errors.AdavarInputError`; nothing is printed.
 """
@@ -37,7 +37,7 @@ from adavar.dynamic.adaptive import (
     window_lengths,
 )
 from adavar.dynamic.surface import davar
-from adavar.fit.noise_model import TERM_NAMES, fit_noise
+from adavar.fit.noise_model import fit_noise
 from adavar.io import sources
 from adavar.stats.statistics import deviation
 
@@ -46,7 +46,6 @@ __all__ = [
     "ChannelAnalysis",
     "LoadedInput",
     "analyse_channel",
-    "chunk_keywords",
     "controller_settings",
     "fit_keywords",
     "rate_keywords",
@@ -649,29 +648,12 @@ def controller_settings(args: Any) -> dict[str, Any]:
 
 
 def fit_keywords(args: Any) -> dict[str, Any]:
-    """The keywords of :func:`adavar.fit_noise` from a request (or options)."""
-    settings = _fit_settings(args)
-    return dict(terms=settings.terms or TERM_NAMES, n_reweight=settings.n_reweight,
-                spacing=settings.spacing, method=settings.method, select=settings.select,
-                significance=settings.significance, exclude=settings.exclude,
-                rolloff=settings.rolloff, tau_range=settings.tau_range,
-                bandwidth=settings.bandwidth, markov=settings.markov,
-                bound_level=settings.bound_level)  # fmt: skip
-
-
-def _fit_settings(args: Any) -> FitSettings:
-    """The fit settings of a request, of options by the flags' names, or as given."""
-    if isinstance(args, FitSettings):
-        return args
+    """The keywords of :func:`adavar.fit_noise` from a request, fit settings or options."""
     if isinstance(args, AnalysisRequest):
-        return args.fit
-    return FitSettings(
-        **{
-            f.name: getattr(args, "fit_method" if f.name == "method" else f.name)
-            for f in dataclasses.fields(FitSettings)
-            if hasattr(args, "fit_method" if f.name == "method" else f.name)
-        }
-    )
+        return args.fit.keywords()
+    if isinstance(args, FitSettings):
+        return args.keywords()
+    return FitSettings.from_options(args).keywords()
 
 
 def window_fit_keywords(args: Any, whole: Any) -> dict[str, Any]:
@@ -685,11 +667,3 @@ def window_fit_keywords(args: Any, whole: Any) -> dict[str, Any]:
     ):
         keywords["reference"] = whole
     return keywords
-
-
-def chunk_keywords(args: Any) -> dict[str, Any]:
-    """``chunk_size`` for the library, only when one is given."""
-    if isinstance(args, AnalysisRequest):
-        return args.record.chunk_keywords()
-    size = getattr(args, "chunk_size", None)
-    return {} if size is None else {"chunk_size": size}
