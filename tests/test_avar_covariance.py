@@ -52,4 +52,3 @@ def test_cross_equals_the_loop_bit_for_bit(mi, mj, tau0, lags, integer, tau_c):
         s[0] = 0.0
     np.testing.assert_array_equal(ac._cross(s, mi, mj, tau0, tau_c),
                                   _slow_cross(s, mi, mj, tau0, tau_c))  # fmt: skip
-

@@ -226,8 +226,11 @@ def test_a_fixed_and_an_adaptive_window_together_are_an_error(gyro_csv, capsys):
     from adavar.batch import run_batch
 
     with pytest.raises(AdavarInputError, match="give one of them"):
-        run_batch([str(gyro_csv)], out="never", options={"units": "deg/s", "column": "gx",
-                                                         "window": 100, "adaptive": True})
+        run_batch(
+            [str(gyro_csv)],
+            out="never",
+            options={"units": "deg/s", "column": "gx", "window": 100, "adaptive": True},
+        )
     code = cli.main(["report", str(gyro_csv), "--column", "gx", "--units", "deg/s",
                      "--window", "1000", "--adaptive", "-o", "r.html"])  # fmt: skip
     err = capsys.readouterr().err

@@ -117,7 +117,7 @@ def _lawson_hanson(G, h, n_terms, sub_idx, sub_size, L, dsc, x, xcur):  # pragma
     Returns the bit mask of the positive coefficients, or -1 if the iteration fails to
     converge (rounding in a degenerate problem); the caller verifies the KKT conditions.
     """
-    passive = 0
+    passive = np.int64(0)
     for k in range(n_terms):
         xcur[k] = 0.0
     for _outer in range(3 * n_terms + 3):
@@ -238,7 +238,7 @@ def nnls_blocks(
         chi2[i] = np.nan
         if n < n_terms:
             continue
-        best_mask = 0
+        best_mask = np.int64(0)
         best_obj = 0.0
         for _pass in range(n_reweight + 1):
             for j in range(n_tau):
@@ -269,7 +269,7 @@ def nnls_blocks(
             lh = -1
             held = -1  # the active set whose factor of this pass's G is in L, dsc
             # the empty set (all zero) is always feasible: the fallback's start
-            best_mask = 0
+            best_mask = np.int64(0)
             best_obj = yy
             for k in range(n_terms):
                 best_x[k] = 0.0

@@ -242,7 +242,7 @@ def fill2(x0, x1, x2, lo, hi, m, hh, hl, out):  # pragma: no cover - compiled
     coefs = SECOND
     i = lo
     while i < hi:
-        e = segment_end(i, hi, m, 3)
+        e = segment_end(i, hi, m, np.int64(3))
         c = anchor_combo(hh, hl, i, m, coefs)
         _fill_run(x0, x1, x2, c, i - lo, e - lo, out)
         i = e

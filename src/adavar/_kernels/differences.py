@@ -395,10 +395,10 @@ def _overlap_partials(
                 continue
             m = ms[t]
             if gaps is None:
-                acc, n = squares(r, m, 0, lo_t, hi_t, m, hh, hl, coefs, None)
+                acc, n = squares(r, m, np.int64(0), lo_t, hi_t, m, hh, hl, coefs, None)
             else:
                 cnt, ws, pm = gaps
-                acc, n = squares(r, m, 0, lo_t, hi_t, m, hh, hl, coefs, (cnt, ws[t], pm))
+                acc, n = squares(r, m, np.int64(0), lo_t, hi_t, m, hh, hl, coefs, (cnt, ws[t], pm))
             partial[sb * nt + t] = acc
             kept[sb * nt + t] = n
 
@@ -451,12 +451,14 @@ def strided_sums_kernel(r, hh, hl, ms, counts, coefs, gaps):  # pragma: no cover
     kept = np.zeros(nt, dtype=np.int64)
     for t in range(nt):
         m = ms[t]
+        zero = np.int64(0)
         if gaps is None:
-            out[t], kept[t] = strided_run(r[::m], 0, counts[t], m, hh, hl, coefs, 0.0, 0, None)
+            out[t], kept[t] = strided_run(r[::m], zero, counts[t], m, hh, hl, coefs, 0.0, zero,
+                                          None)  # fmt: skip
         else:
             cnt, ws, pm = gaps
             missing = (cnt[::m], cnt[ws[t] :: m], pm[::m])
-            out[t], kept[t] = strided_run(r[::m], 0, counts[t], m, hh, hl, coefs, 0.0, 0,
+            out[t], kept[t] = strided_run(r[::m], zero, counts[t], m, hh, hl, coefs, 0.0, zero,
                                           missing)  # fmt: skip
     return out, kept
 
@@ -477,13 +479,13 @@ def _modified_part(r, hh, hl, m, j0, j1, cnt, w):  # pragma: no cover - compiled
     s, c = accumulate(first, m, 0.0, 0.0)
     total = s + c
     acc = 0.0
-    n = 0
+    n = np.int64(0)
     keep_first = True
     if cnt is not None:
         keep_first = cnt[j0 + w] == cnt[j0]
     if keep_first:
         acc = total * total
-        n = 1
+        n = np.int64(1)
     enter = np.empty(min(_MOD_CHUNK, max(j1 - j0 - 1, 0)))  # no more than one chunk needs
     leave = np.empty(enter.size)
     j = j0 + 1

@@ -97,7 +97,7 @@ def lag1_moments(z, ok, coef, dmax):  # pragma: no cover - compiled
     zero = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
     a0 = a1 = a2 = a3 = zero
     q0 = q1 = q2 = q3 = 0.0  # previous entries of each order
-    k0 = k1 = k2 = k3 = False  # ... and whether they are kept
+    k0 = k1 = k2 = k3 = np.bool_(False)  # ... and whether they are kept
     for k in range(n):
         t = (k - kc) / h
         x0 = z[k] - (c0 + t * (c1 + t * c2))

@@ -251,6 +251,7 @@ def left_sums(u, m, integrate, middle, block):  # pragma: no cover - compiled
     e2g = np.empty(terms + 2)
     e2f = np.empty(terms + 2)
     tmp = np.empty(MEDIAN_SAMPLES)
+    zero = np.int64(0)  # typed: a literal 0 compiles the callees a second time
     tot = 0.0
     tot_c = 0.0
     mid = 0.0
@@ -258,15 +259,15 @@ def left_sums(u, m, integrate, middle, block):  # pragma: no cover - compiled
     for n0 in range(0, ns, block):
         nb = min(block, ns - n0)
         count = nb + L - 1
-        _local_prefix(u, n0, count, integrate, True, tmp, pp)
+        _local_prefix(u, n0, count, integrate, np.bool_(True), tmp, pp)
         top = nb - 1 + m  # last index of G and F that a term reads
         for i in range(top + 1):
             gp[i] = 3.0 * pp[i] - 3.0 * pp[i + m] + pp[i + 2 * m]
             fp[i] = pp[i + m] - 3.0 * pp[i]
         origin = nb // 2
-        _moments(pp, 0, top, origin, mom_p)
-        _moments(gp, 0, top, origin, mom_g)
-        _moments(fp, 0, top, origin, mom_f)
+        _moments(pp, zero, top, origin, mom_p)
+        _moments(gp, zero, top, origin, mom_g)
+        _moments(fp, zero, top, origin, mom_f)
         for t in range(nb):
             pt = pp[t]
             s = ((pp[t + L] - pp[t + L - h]) - (pp[t + h] - pt)) * slope_norm
@@ -276,8 +277,8 @@ def left_sums(u, m, integrate, middle, block):  # pragma: no cover - compiled
             sb = mom_g[0, hi] - mom_g[0, lo]
             qa = mom_p[3, hi] - mom_p[3, lo]
             qb = mom_g[3, hi] - mom_g[3, lo]
-            wa = _weighted(mom_p, 0, t, t + m, t, origin, a0, a1, a2)
-            wb = _weighted(mom_g, 0, t, t + m, t, origin, b0, b1, b2)
+            wa = _weighted(mom_p, zero, t, t + m, t, origin, a0, a1, a2)
+            wb = _weighted(mom_g, zero, t, t + m, t, origin, b0, b1, b2)
             c = -2.0 * pt
             t1 = qa + qb + (m + 1) * c * c + s * s * s1q
             t1 += 2.0 * c * (sa + sb) - 2.0 * s * (wa + wb) - 2.0 * c * s * s1
@@ -285,7 +286,7 @@ def left_sums(u, m, integrate, middle, block):  # pragma: no cover - compiled
             if m > 1:
                 sf = mom_f[0, t + m] - mom_f[0, t + 1]
                 qf = mom_f[3, t + m] - mom_f[3, t + 1]
-                wf = _weighted(mom_f, 0, t + 1, t + m - 1, t, origin, g0, g1, g2)
+                wf = _weighted(mom_f, zero, t + 1, t + m - 1, t, origin, g0, g1, g2)
                 c2 = 4.0 * pt
                 t2 = 2.0 * qf + (m - 1) * c2 * c2 + s * s * s2q
                 t2 += 4.0 * c2 * sf - 4.0 * s * wf - 2.0 * c2 * s * s2
@@ -294,7 +295,7 @@ def left_sums(u, m, integrate, middle, block):  # pragma: no cover - compiled
                 d = (pp[t + L] - pt) - 3.0 * (pp[t + 2 * m] - pp[t + m])
                 mid, mid_c = _add(mid, mid_c, d * d)
         # the cross terms, summed over the block's subsequences (stride-2 prefix sums)
-        _stride2(gp, 0, top, e2g)
+        _stride2(gp, zero, top, e2g)
         cross = 0.0
         for i in range(nb + m):
             tl = max(0, i - m)
@@ -304,7 +305,7 @@ def left_sums(u, m, integrate, middle, block):  # pragma: no cover - compiled
             cross += pp[i] * (e2g[jh + 2] - e2g[jl])
         tot, tot_c = _add(tot, tot_c, 4.0 * cross)
         if m > 1:
-            _stride2(fp, 0, top, e2f)
+            _stride2(fp, zero, top, e2f)
             cross = 0.0
             for i in range(1, nb + m - 1):
                 tl = max(0, i - m + 1)
@@ -332,6 +333,7 @@ def pvar_sums(u, m, block):  # pragma: no cover - compiled
     d = np.empty(size)
     mom = np.empty((4, size))
     tmp = np.empty(MEDIAN_SAMPLES)
+    zero = np.int64(0)  # typed: a literal 0 compiles the callees a second time
     half = 0.5 * (m - 1)
     tot = 0.0
     tot_c = 0.0
@@ -339,12 +341,12 @@ def pvar_sums(u, m, block):  # pragma: no cover - compiled
         nb = min(block, count_terms - i0)
         count = nb + 2 * m - 1
         # the local phase is the prefix sum of the local rate: pp[k] = x[i0 + k] - line
-        _local_prefix(u, i0, count - 1, False, False, tmp, pp)
+        _local_prefix(u, i0, count - 1, np.bool_(False), np.bool_(False), tmp, pp)
         top = nb + m - 2
         for j in range(top + 1):
             d[j] = pp[j] - pp[j + m]
         origin = nb // 2
-        _moments(d, 0, top, origin, mom)
+        _moments(d, zero, top, origin, mom)
         for t in range(nb):
             sd = mom[0, t + m] - mom[0, t]
             sk = (mom[1, t + m] - mom[1, t]) + (origin - t) * sd

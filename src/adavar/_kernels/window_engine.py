@@ -112,11 +112,11 @@ def _own_sum(work, kc, kind, m, w, first, j0, n, gaps):  # pragma: no cover - co
     q = work[5:]
     _fill(work, kind, m, first, n)
     if gaps is None:
-        _prefix_squares(work[4], n, q, False)
+        _prefix_squares(work[4], n, q, np.bool_(False))
         return q[0, n] + q[1, n], n
     cnt, pm = gaps
     _mask_terms(work[4], kc, j0, n, m, w, kind, cnt, pm)
-    _prefix_squares(work[4], n, q, False)
+    _prefix_squares(work[4], n, q, np.bool_(False))
     return q[0, n] + q[1, n], kc[n]
 
 
@@ -133,7 +133,7 @@ def _one_window(
             row[t] = np.nan
             continue
         n = _terms(kind, L, m)
-        s, c = _own_sum(work, kc, kind, m, ws[t], 0, a, n, gaps)
+        s, c = _own_sum(work, kc, kind, m, ws[t], np.int64(0), a, n, gaps)
         kept[t] = c
         row[t] = np.nan if c == 0 else max(s, 0.0) * (_norm(kind, m, scale) / c)
 
@@ -236,7 +236,7 @@ def window_kernel(
             _local_prefix(u, lo, hi, sample_median(u, lo, hi, tmp), work[0], work[1])
             aloc = np.empty(size, dtype=np.int64)
             runs = np.empty(size + 1, dtype=np.int64)
-            n_runs = 0
+            n_runs = np.int64(0)
             for k in range(size):
                 aloc[k] = starts[k] - lo
                 # runs of one length with consecutive starts take the contiguous fast path
@@ -252,7 +252,7 @@ def window_kernel(
                 norm = _norm(kind, m, scale)
                 # span of this m's terms, and whether one prefix over it pays (the windows
                 # overlap)
-                span = 0
+                span = np.int64(0)
                 total = 0
                 for k in range(size):
                     if 3 * m <= lens[k]:
@@ -260,9 +260,9 @@ def window_kernel(
                         span = max(span, aloc[k] + n)
                         total += n
                 if total > 0 and span <= 2 * total:
-                    _fill(work, kind, m, 0, span)
+                    _fill(work, kind, m, np.int64(0), span)
                     if gaps is None:
-                        big = _prefix_squares(work[4], span, q, False)
+                        big = _prefix_squares(work[4], span, q, np.bool_(False))
                         _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res)
                         # a window's error is at most n 2**-53 big, i.e. 2**-50 of its sum
                         # when its value (sum * norm / n) is at least big * norm / 8: else
@@ -270,15 +270,15 @@ def window_kernel(
                         floor = big * norm / 8.0
                         for k in range(size):
                             if res[k] < floor:
-                                _prefix_squares(work[4], span, q, True)
+                                _prefix_squares(work[4], span, q, np.bool_(True))
                                 _eval_runs(q, aloc, lens, runs, n_runs, kind, m, norm, res)
                                 break
                     else:
                         cnt, pm = gaps
                         _mask_terms(work[4], kc, lo, span, m, w, kind, cnt, pm)
-                        big = _prefix_squares(work[4], span, q, False)
+                        big = _prefix_squares(work[4], span, q, np.bool_(False))
                         if _eval_kept(q, kc, aloc, lens, kind, m, norm, big, res, counts):
-                            _prefix_squares(work[4], span, q, True)
+                            _prefix_squares(work[4], span, q, np.bool_(True))
                             _eval_kept(q, kc, aloc, lens, kind, m, norm, 0.0, res, counts)
                 else:
                     for k in range(size):

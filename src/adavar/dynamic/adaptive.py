@@ -40,6 +40,7 @@ import numpy as np
 
 from adavar.core.durations import Length, is_duration, to_samples
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import DATA_TYPE_ALIASES, as_samples, refuse_masked, scaled
 from adavar.core.request import MethodOptions, settings_keywords
 from adavar.core.results import DavarResult
 from adavar.core.settings import (
@@ -66,8 +67,8 @@ from adavar.dynamic.window_defaults import (
 )
 from adavar.dynamic.windows import centre_range, oracle_lengths, oracle_schedule
 from adavar.io import sources
-from adavar.io.inputs import DATA_TYPE_ALIASES, as_samples, refuse_masked, scaled, scaled_source
 from adavar.io.sampling import RATE_DEFAULT, resolve_rate, resolve_tau0
+from adavar.io.scaling import scaled_source
 from adavar.io.sources import ChunkedSource
 
 __all__ = [

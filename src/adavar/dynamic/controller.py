@@ -326,7 +326,7 @@ def _reconcile(
     """
     if not adapt:
         return start_length
-    last = -1
+    last = np.int64(-1)
     for k in range(bounds.size - 1):
         s0 = bounds[k]
         s1_ = bounds[k + 1]

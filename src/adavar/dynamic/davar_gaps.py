@@ -49,6 +49,7 @@ from adavar._kernels import differences as diff
 from adavar._kernels.window_engine import window_gaps
 from adavar.core.durations import to_samples
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import data_exponent, tau_factors, unscale
 from adavar.core.results import DavarResult
 from adavar.dynamic.surface_common import (
     DavarStatResult,
@@ -62,7 +63,6 @@ from adavar.dynamic.surface_common import (
 )
 from adavar.dynamic.windows import check_window_times, window_overhang, window_schedule
 from adavar.io import sources
-from adavar.io.inputs import data_exponent, tau_factors, unscale
 from adavar.stats.gaps import (
     GAP_RULES,
     GapLayout,

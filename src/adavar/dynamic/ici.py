@@ -66,10 +66,10 @@ from scipy.special import ndtr
 from adavar._kernels import differences as diff
 from adavar._kernels.window_engine import window_variance
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import as_samples
 from adavar.core.settings import ICI_EDF, ICI_GAMMA, ICI_SIDES
 from adavar.dynamic import ici_episodes as episodes_mod
 from adavar.dynamic.surface_common import edf_table
-from adavar.io.inputs import as_samples
 from adavar.stats import edf as edf_mod
 from adavar.stats.statistics import record_noise_types
 

@@ -69,8 +69,8 @@ from adavar._kernels.double_double import (
 )
 from adavar._kernels.window_avar import sample_median
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import as_samples, scaled
 from adavar.dynamic.windows import window_schedule
-from adavar.io.inputs import as_samples, scaled
 
 __all__ = ["MIN_COMPLEMENT", "REFERENCES", "kurtosis_contribution", "sliding_kurtosis"]
 
@@ -220,10 +220,10 @@ def _central_dd(P, a, b, n):  # pragma: no cover - compiled
     ``M3 = S3 - delta (3 S2 - 2 delta S1)``, ``M4 = S4 - delta (4 S3 - delta (6 S2 - 3 delta
     S1))``. Returns the high parts.
     """
-    s1h, s1l = _raw_dd(P, a, b, 0)
-    s2h, s2l = _raw_dd(P, a, b, 1)
-    s3h, s3l = _raw_dd(P, a, b, 2)
-    s4h, s4l = _raw_dd(P, a, b, 3)
+    s1h, s1l = _raw_dd(P, a, b, np.int64(0))
+    s2h, s2l = _raw_dd(P, a, b, np.int64(1))
+    s3h, s3l = _raw_dd(P, a, b, np.int64(2))
+    s4h, s4l = _raw_dd(P, a, b, np.int64(3))
     dh, dl = dd_div_d(s1h, s1l, float(n))
     # delta * S1
     th, tl = dd_mul(dh, dl, s1h, s1l)
@@ -547,7 +547,7 @@ def _record(
                     continue
                 # the record before s from forward sums, after s from backward sums: neither
                 # holds s, so a shock in s cannot swamp them
-                p = _piece(P, 0, a - lo, a - lo, offset)
+                p = _piece(P, np.int64(0), a - lo, a - lo, offset)
                 q = _piece(Q, hi - lo, b - lo, hi - b, offset)
                 left = _merge(
                     pre[g_lo, 0],

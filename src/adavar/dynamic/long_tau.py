@@ -42,9 +42,9 @@ import numpy as np
 from scipy.special import ndtr, ndtri
 
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import as_samples
 from adavar.core.settings import ICI_GAMMA
 from adavar.dynamic import ici_episodes
-from adavar.io.inputs import as_samples
 from adavar.io.sampling import resolve_tau0
 
 __all__ = [

@@ -83,6 +83,7 @@ from adavar._kernels._jit import get_num_threads
 from adavar._kernels.window_engine import window_variance
 from adavar.core.durations import Length
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import data_exponent, refuse_masked, tau_factors, unscale
 from adavar.core.request import MethodOptions, settings_keywords
 from adavar.core.settings import (
     CONTROLLER,
@@ -101,7 +102,6 @@ from adavar.dynamic.online_rows import Rows, check_noise_type
 from adavar.dynamic.surface_common import edf_table
 from adavar.dynamic.window_defaults import dependence_stages, resolve_windows, stage_controller
 from adavar.fit.noise_model import fit_avar
-from adavar.io.inputs import data_exponent, refuse_masked, tau_factors, unscale
 from adavar.io.sampling import resolve_tau0
 
 __all__ = ["ONLINE_METHODS", "OnlineAdaptive"]

@@ -41,6 +41,15 @@ from adavar._kernels._jit import jit, read_only
 from adavar._kernels.window_engine import window_variance
 from adavar.core.durations import Length, to_samples
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import (
+    DATA_TYPE_ALIASES,
+    as_samples,
+    check_confidence,
+    refuse_masked,
+    scaled,
+    tau_factors,
+    unscale,
+)
 from adavar.core.results import DavarResult
 from adavar.dynamic.surface_common import (
     STATS,
@@ -55,17 +64,8 @@ from adavar.dynamic.surface_common import (
 )
 from adavar.dynamic.windows import check_window_times, window_classes, window_schedule
 from adavar.io import sources
-from adavar.io.inputs import (
-    DATA_TYPE_ALIASES,
-    as_samples,
-    check_confidence,
-    refuse_masked,
-    scaled,
-    scaled_source,
-    tau_factors,
-    unscale,
-)
 from adavar.io.sampling import RATE_DEFAULT, resolve_rate
+from adavar.io.scaling import scaled_source
 from adavar.stats import stream
 from adavar.stats.statistics import OMIT_HINT, deviation, record_noise_types
 

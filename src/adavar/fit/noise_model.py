@@ -93,6 +93,7 @@ from typing import Any
 import numpy as np
 
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import SAFE_EXPONENT, unscale
 from adavar.core.request import settings_keywords
 from adavar.core.results import ADEQUATE_P, MarkovTerm, NoiseFit, NoiseTerm
 from adavar.core.settings import FitSettings
@@ -111,7 +112,6 @@ from adavar.fit.stack_fit import (
     row_blocks,
     stack_edf,
 )
-from adavar.io.inputs import SAFE_EXPONENT, unscale
 from adavar.stats.slopes import read_slopes
 
 __all__ = [

@@ -23,7 +23,7 @@ from __future__ import annotations
 import datetime
 import os
 import stat
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,10 +33,10 @@ import numba
 import numpy as np
 
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import check_exact_integers
 
 __all__ = [
     "DEFAULT_CHUNK",
-    "EXACT_INTEGER",
     "ArraySource",
     "ChunkedSource",
     "DaskSource",
@@ -49,7 +49,6 @@ __all__ = [
     "available_memory",
     "changed_error",
     "check_chunk_size",
-    "check_exact_integers",
     "check_unchanged",
     "file_state",
     "is_chunked",
@@ -64,9 +63,6 @@ __all__ = [
 DEFAULT_CHUNK = 1 << 22
 #: pieces shorter than this are integrated on the calling thread only
 PARALLEL_MIN = 1 << 16
-#: the largest integer magnitude float64 holds exactly (2**53); integer samples beyond it
-#: would be rounded (by up to 128 at 2**60), which can flatten a record's noise to zero
-EXACT_INTEGER = 1 << 53
 
 
 @dataclass(frozen=True)
@@ -130,27 +126,6 @@ def check_unchanged(path: str | os.PathLike[str], before: FileState | None, name
     after = file_state(path)
     if after != before:
         raise changed_error(name, before, after)
-
-
-def check_exact_integers(
-    values: np.ndarray, name: str, start: int = 0, where: Callable[[int], str] | None = None
-) -> None:
-    """Fail when integer ``values`` (samples ``start ..`` of ``name``; ``where(i)`` names
-    sample ``i`` otherwise) hold one beyond :data:`EXACT_INTEGER`, which float64, the
-    precision of every sum, cannot hold."""
-    if values.dtype.kind not in "iu" or values.dtype.itemsize < 8 or values.size == 0:
-        return
-    low, high = int(values.min()), int(values.max())
-    if -EXACT_INTEGER <= low and high <= EXACT_INTEGER:
-        return
-    first = int(np.argmax((values > EXACT_INTEGER) | (values < -EXACT_INTEGER)))
-    at = f"sample {start + first}" if where is None else where(first)
-    raise AdavarInputError(
-        f"{at} of {name} is the integer {int(values[first])}, beyond 2**53 (9.007e15), "
-        "which float64 cannot hold exactly (its noise would be rounded away): subtract an "
-        "offset in integers first (e.g. the first value), or give the samples in a larger "
-        "unit"
-    )
 
 
 class ChunkedSource:

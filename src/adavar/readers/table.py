@@ -19,7 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from adavar.io.sources import ChunkedSource, check_exact_integers, memmap_source
+from adavar.core.inputs import check_exact_integers
+from adavar.io.sources import ChunkedSource, memmap_source
 from adavar.readers.errors import fail, locate
 
 #: Values of ``time_format``.

@@ -49,8 +49,8 @@ import numpy as np
 from scipy.special import gammaincinv, ndtri
 
 from adavar.core.errors import AdavarInputError
+from adavar.core.inputs import as_samples, check_confidence
 from adavar.core.results import DeviationResult
-from adavar.io.inputs import as_samples, check_confidence
 from adavar.stats.statistics import deviation
 
 __all__ = ["CodeviationResult", "CorneredHatResult", "cornered_hat", "gcodev"]

@@ -88,9 +88,10 @@ from adavar._kernels.gaps import (
     lag1_moments,
 )
 from adavar.core import extended_statistics as ext
+from adavar.core import inputs
 from adavar.core.errors import AdavarInputError
 from adavar.core.results import DeviationResult
-from adavar.io import inputs, sources
+from adavar.io import sources
 from adavar.io.sampling import resolve_tau0
 from adavar.stats import edf as edf_mod
 from adavar.stats.noise_id import (

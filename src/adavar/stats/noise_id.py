@@ -822,9 +822,9 @@ def _rate_noise_kernel(
         if fused_level and level < fused.shape[0] and fused[level, 3] > 0:
             r1[0], den[0], scale = fused[level, 0], fused[level, 1], fused[level, 2]
         else:
-            r1_0, den_0, scale = cluster_lag1_sums(r, hh, hl, m, count, 0)
+            r1_0, den_0, scale = cluster_lag1_sums(r, hh, hl, m, count, np.int64(0))
             r1[0], den[0] = r1_0[0], den_0[0]
-        orders = 0
+        orders = np.int64(0)
         if not (r1[0] == -1.0 or r1[0] / (1.0 + r1[0]) < 0.25):  # r1 = -1 stops too
             r1_all, den_all, scale = cluster_lag1_sums(r, hh, hl, m, count, rate_orders)
             for d in range(rate_orders + 1):
@@ -833,10 +833,10 @@ def _rate_noise_kernel(
         for d in range(orders + 1):
             sizes[d] = max(count - d, 0)
         status, alpha, _ = _lag1_decision_compiled(
-            r1, den, sizes, scale, 0, 0, orders, averaged and m >= 2
+            r1, den, sizes, scale, np.int64(0), np.int64(0), orders, averaged and m >= 2
         )
         if status == 0:
-            out[t] = _clamp_alpha_compiled(alpha, dmax)
+            out[t] = _clamp_alpha_compiled(float(alpha), dmax)
 
 
 def _passes_over_the_data(

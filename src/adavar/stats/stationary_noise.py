@@ -57,8 +57,9 @@ from scipy.special import gammaincc
 from adavar._kernels import differences
 from adavar._kernels._jit import grouped_items, jit, read_only, threaded_jit
 from adavar.core.errors import AdavarInputError
-from adavar.io.inputs import DATA_TYPE_ALIASES, as_samples, scaled_source
+from adavar.core.inputs import DATA_TYPE_ALIASES, as_samples
 from adavar.io.sampling import resolve_tau0
+from adavar.io.scaling import scaled_source
 from adavar.io.sources import DEFAULT_CHUNK, check_chunk_size, is_chunked, open_record
 
 __all__ = ["DEFAULT_LEVEL", "MIN_BLOCK", "StationarityResult", "stationarity"]

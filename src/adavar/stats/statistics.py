@@ -20,14 +20,10 @@ from adavar._kernels import differences as diff
 from adavar._kernels.moments import difference_moments
 from adavar.core import extended_statistics as ext
 from adavar.core.errors import AdavarInputError
-from adavar.core.results import DeviationResult
-from adavar.core.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, RATE_DEFAULT, STATISTICS
-from adavar.io import sources
-from adavar.io.inputs import (
+from adavar.core.inputs import (
     DATA_TYPE_ALIASES,
     DATA_TYPES,
     SAFE_EXPONENT,
-    ScaledSource,
     as_samples,
     check_confidence,
     data_exponent,
@@ -36,11 +32,14 @@ from adavar.io.inputs import (
     refuse_masked,
     samples_and_range,
     scaled,
-    scaled_source,
     tau_factors,
     unscale,
 )
+from adavar.core.results import DeviationResult
+from adavar.core.settings import ALL_STATISTICS, MAX_POINTS_PER_DECADE, RATE_DEFAULT, STATISTICS
+from adavar.io import sources
 from adavar.io.sampling import resolve_rate, resolve_tau0
+from adavar.io.scaling import ScaledSource, scaled_source
 from adavar.stats import edf as edf_mod
 from adavar.stats import record_sums, stream
 from adavar.stats.noise_id import (

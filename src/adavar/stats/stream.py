@@ -241,7 +241,8 @@ def _cluster_pass(
                 if c == 0:
                     last[c, :] = q[t]
                 else:  # four values ahead rebuild every difference order's previous value
-                    _lag_moments(zs[i0 - 4 : i0], 4, k0 + i0 - 4, a, b, count, last[c], part[c])
+                    four = np.int64(4)
+                    _lag_moments(zs[i0 - 4 : i0], four, k0 + i0 - 4, a, b, count, last[c], part[c])
                     part[c, :, :] = 0.0
                 _lag_moments(zs[i0:i1], i1 - i0, k0 + i0, a, b, count, last[c], part[c])
             for d in range(4):

@@ -2,9 +2,11 @@
 
 What a statistic asks of its input before computing anything: the data type
 (:data:`DATA_TYPE_ALIASES`), the confidence level, real finite samples in a 1-D array
-(:func:`as_samples`; masked arrays refused), the exact power-of-two scaling of a record
+(:func:`as_samples`; masked arrays refused, integers beyond 2**53 refused by
+:func:`check_exact_integers`), the exact power-of-two scaling of a record
 whose magnitude would under- or overflow the double-double sums (:func:`scaled`,
-:func:`scaled_source`, :func:`unscale`), and the averaging factors of ``taus=``
+:func:`unscale`; a streamed record: :func:`adavar.io.scaling.scaled_source`), and the
+averaging factors of ``taus=``
 (:func:`tau_factors`, :func:`largest_factor`). :mod:`adavar.stats.statistics`,
 :mod:`adavar.stats.gaps`, :mod:`adavar.stats.stationary_noise` and the DAVAR engines use them.
 """
@@ -12,27 +14,26 @@ whose magnitude would under- or overflow the double-double sums (:func:`scaled`,
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 from adavar.core.errors import AdavarInputError
 from adavar.core.settings import MAX_POINTS_PER_DECADE
 from adavar.core.taus import averaging_factors
-from adavar.io.sources import ChunkedSource, check_exact_integers
 
 __all__ = [
     "DATA_TYPES",
     "DATA_TYPE_ALIASES",
+    "EXACT_INTEGER",
     "SAFE_EXPONENT",
-    "ScaledSource",
     "as_samples",
     "check_confidence",
+    "check_exact_integers",
     "data_exponent",
     "largest_factor",
     "refuse_masked",
     "scaled",
-    "scaled_source",
     "tau_factors",
     "unscale",
 ]
@@ -42,10 +43,10 @@ DATA_TYPE_ALIASES = {"rate": "rate", "freq": "rate", "frequency": "rate", "phase
 #: a record whose largest magnitude lies in ``2**-SAFE_EXPONENT .. 2**SAFE_EXPONENT`` is
 #: used as it is; one outside is first scaled by a power of two (:func:`scaled`)
 SAFE_EXPONENT = 64
-#: samples of a streamed record whose largest magnitude sets its scale, and pieces tried
-_SCALE_SAMPLES = 1 << 10
-_SCALE_PIECES = 64
 _TINY = float(np.finfo(np.float64).tiny)
+#: the largest integer magnitude float64 holds exactly (2**53); integer samples beyond it
+#: would be rounded (by up to 128 at 2**60), which can flatten a record's noise to zero
+EXACT_INTEGER = 1 << 53
 
 
 def check_confidence(confidence: object) -> None:
@@ -80,6 +81,27 @@ def refuse_masked(data: object) -> None:
             "interpolate over x.filled(np.nan) (what read_record(..., nan='interpolate') and "
             "--nan interpolate do), or pass x.compressed() if dropping them shifts no time"
         )
+
+
+def check_exact_integers(
+    values: np.ndarray, name: str, start: int = 0, where: Callable[[int], str] | None = None
+) -> None:
+    """Fail when integer ``values`` (samples ``start ..`` of ``name``; ``where(i)`` names
+    sample ``i`` otherwise) hold one beyond :data:`EXACT_INTEGER`, which float64, the
+    precision of every sum, cannot hold."""
+    if values.dtype.kind not in "iu" or values.dtype.itemsize < 8 or values.size == 0:
+        return
+    low, high = int(values.min()), int(values.max())
+    if -EXACT_INTEGER <= low and high <= EXACT_INTEGER:
+        return
+    first = int(np.argmax((values > EXACT_INTEGER) | (values < -EXACT_INTEGER)))
+    at = f"sample {start + first}" if where is None else where(first)
+    raise AdavarInputError(
+        f"{at} of {name} is the integer {int(values[first])}, beyond 2**53 (9.007e15), "
+        "which float64 cannot hold exactly (its noise would be rounded away): subtract an "
+        "offset in integers first (e.g. the first value), or give the samples in a larger "
+        "unit"
+    )
 
 
 def as_samples(data: object, *, min_length: int = 3, missing_hint: str = "") -> np.ndarray:
@@ -166,35 +188,6 @@ def scaled(x: np.ndarray) -> tuple[np.ndarray, int]:
     """
     k = data_exponent(x)
     return (np.ldexp(x, -k) if k else x), k
-
-
-class ScaledSource(ChunkedSource):
-    """A streamed record times ``2**-exponent`` (exact): :func:`scaled` out of core."""
-
-    def __init__(self, source: ChunkedSource, exponent: int) -> None:
-        self.source = source
-        self.exponent = int(exponent)
-        self.size = source.size
-        self.name = source.name
-
-    def _read_raw(self, start: int, stop: int) -> np.ndarray:
-        return np.ldexp(self.source.read(start, stop), -self.exponent)
-
-
-def scaled_source(source: ChunkedSource) -> tuple[ChunkedSource, int]:
-    """``(source * 2**-k, k)`` for a streamed record.
-
-    ``k`` comes from its first 1024 samples (from the first piece of 1024 that is not all
-    zeros, within the first 64): any exponent is exact, it only has to keep the sums in
-    range, and a record does not change its scale by 2**64 within itself.
-    """
-    k = 0
-    for start in range(0, min(source.size, _SCALE_PIECES * _SCALE_SAMPLES), _SCALE_SAMPLES):
-        piece = source.read(start, min(source.size, start + _SCALE_SAMPLES))
-        if np.any(piece):
-            k = data_exponent(piece)
-            break
-    return (ScaledSource(source, k) if k else source), k
 
 
 def unscale(values: np.ndarray, exponent: int, what: str, *, underflow: bool = True) -> np.ndarray:
