@@ -235,3 +235,43 @@ def test_a_fixed_and_an_adaptive_window_together_are_an_error(gyro_csv, capsys):
                      "--window", "1000", "--adaptive", "-o", "r.html"])  # fmt: skip
     err = capsys.readouterr().err
     assert code == 2 and "--window L asks for a fixed window and --adaptive" in err
+
+
+def test_a_unit_per_group_of_channels(gyro_csv):
+    from adavar.core.request import UnitGroup
+
+    groups = (UnitGroup(("gx",), "deg/s", "--gyro-units"), UnitGroup(("gy",), "g", "--accel-units"))
+    request = RecordRequest(str(gyro_csv), column=["gx", "gy"], unit_groups=groups)
+    loaded = read_input(request, several=True)
+    assert loaded.units == {"gx": "deg/s", "gy": "g"}
+    # a group without a unit, in a file that declares none: the flags are named
+    missing = dataclasses.replace(request, unit_groups=(groups[0], UnitGroup(("gy",))))
+    with pytest.raises(AdavarInputError, match=r"--gyro-units .* and --units .*never guesses"):
+        read_input(missing, several=True)
+    # one way to declare the units, and groups of names
+    with pytest.raises(AdavarInputError, match="give one of them"):
+        RecordRequest(str(gyro_csv), units="deg/s", unit_groups=groups)
+    with pytest.raises(AdavarInputError, match="tuple of column names"):
+        UnitGroup("gx", "deg/s")
+    with pytest.raises(AdavarInputError, match="UnitGroup objects"):
+        RecordRequest(str(gyro_csv), unit_groups=("deg/s",))
+
+
+def test_kalibr_runs_the_pipeline_with_a_unit_per_sensor(tmp_path):
+    from adavar.cli.kalibr import kalibr_request
+
+    rng = np.random.default_rng(4)
+    n = 6000
+    cols = [np.arange(n) / 200.0] + [1e-3 * rng.standard_normal(n) for _ in range(6)]
+    path = tmp_path / "imu.csv"
+    np.savetxt(path, np.column_stack(cols), delimiter=",", header="time,gx,gy,gz,ax,ay,az",
+               comments="")  # fmt: skip
+    args = build_parser().parse_args(["kalibr", str(path), "--gyro-units", "deg/s",
+                                      "--accel-units", "g", "-o", "imu.yaml"])  # fmt: skip
+    request = kalibr_request(args)
+    done = run(request, whole="fit")
+    assert [c.units for c in done.channels.values()] == ["deg/s"] * 3 + ["g"] * 3
+    assert done.request.record.rate == 200.0
+    # the pipeline's fit is the library's on the same samples
+    direct = adavar.fit_noise(adavar.deviation(cols[4], rate=200.0, units="g"))
+    np.testing.assert_array_equal(done.channels["ax"].fit.coefficients, direct.coefficients)

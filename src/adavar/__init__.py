@@ -21,9 +21,9 @@ The public entry points:
 - :func:`fit_noise`: the IEEE-952 noise coefficients (Q, N, B, K, R) of a deviation curve, or
   of every DAVAR window at once (N(t), B(t), ...);
 - :mod:`adavar.simulate`: seeded generators of the noise processes;
-- :class:`AnalysisRequest` (:class:`RecordRequest`, :class:`WindowSettings`,
-  :class:`DeviationSettings`, :class:`ControllerSettings`, :class:`FitSettings`,
-  :class:`MethodOptions`): one analysis of a file as typed settings, which
+- :class:`AnalysisRequest` (:class:`RecordRequest` and its :class:`UnitGroup`,
+  :class:`WindowSettings`, :class:`DeviationSettings`, :class:`ControllerSettings`,
+  :class:`FitSettings`, :class:`MethodOptions`): one analysis of a file as typed settings, which
   :func:`adavar.pipeline.analysis.run` computes (the pipeline behind the commands).
 """
 
@@ -51,6 +51,7 @@ _LAZY = {
     "DeviationSettings": "adavar.core.request",
     "MethodOptions": "adavar.core.request",
     "RecordRequest": "adavar.core.request",
+    "UnitGroup": "adavar.core.request",
     "WindowSettings": "adavar.core.request",
     "ControllerSettings": "adavar.core.settings",
     "FitSettings": "adavar.core.settings",
@@ -85,6 +86,7 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
         DeviationSettings,
         MethodOptions,
         RecordRequest,
+        UnitGroup,
         WindowSettings,
     )
     from adavar.core.results import DavarResult, DeviationResult, MarkovTerm
@@ -138,6 +140,7 @@ __all__ = [
     "PowerLawFit",
     "RecordRequest",
     "StationarityResult",
+    "UnitGroup",
     "WindowSettings",
     "adaptive_davar",
     "adaptive_schedule",

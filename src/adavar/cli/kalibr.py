@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -11,54 +12,60 @@ from adavar import __version__
 from adavar.cli.options import EXIT_OK, UsageError, parse_names, positive_float
 from adavar.cli.output import Status, check_output_file, output_error
 from adavar.core.errors import AdavarInputError
+from adavar.core.request import AnalysisRequest, RecordRequest, UnitGroup
 from adavar.io.writers import dumps
 
 
-def _cmd_kalibr(args: argparse.Namespace) -> int:
-    from adavar.fit.noise_model import fit_noise
-    from adavar.output.export import kalibr_imu_yaml, kalibr_values, write_text
-    from adavar.readers import read_record
-    from adavar.stats.statistics import deviation
-
-    output = check_output_file(args.output, args.force, (".yaml", ".yml"))
+def kalibr_request(args: argparse.Namespace) -> AnalysisRequest:
+    """The request of ``adavar kalibr``: six columns, a unit for the gyro's three and one
+    for the accelerometer's, the deviation and fit of the library's defaults."""
     if len(args.gyro) != 3 or len(args.accel) != 3:
         raise UsageError("--gyro and --accel take three columns each (x,y,z)")
-    status = Status()
-    status(f"reading {args.file}")
-    record = read_record(
-        args.file, columns=[*args.gyro, *args.accel], rate=args.rate,
-        time_column=args.time_column, topic=args.topic, gaps=args.gaps, memory_map=False,
+    groups = (
+        UnitGroup(tuple(args.gyro), args.gyro_units, "--gyro-units", "rad/s, deg/s"),
+        UnitGroup(tuple(args.accel), args.accel_units, "--accel-units", "m/s^2, g"),
+    )
+    record = RecordRequest(
+        file=str(args.file), column=[*args.gyro, *args.accel], rate=args.rate,
+        time_column=args.time_column, topic=args.topic, gaps=args.gaps, unit_groups=groups,
     )  # fmt: skip
-    # units given must agree with those the file declares (a ROS bag: rad/s, m/s^2)
-    gyro_units = record.units_of(args.gyro_units, names=args.gyro, flag="--gyro-units")[
-        args.gyro[0]
-    ]
-    accel_units = record.units_of(args.accel_units, names=args.accel, flag="--accel-units")[
-        args.accel[0]
-    ]
-    if not gyro_units or not accel_units:
-        raise UsageError(
-            "declare the units with --gyro-units (e.g. rad/s, deg/s) and --accel-units "
-            "(e.g. m/s^2, g); adavar never guesses units"
-        )
-    fits = {}
-    for k, (name, units) in enumerate([*((g, gyro_units) for g in args.gyro),
-                                       *((a, accel_units) for a in args.accel)]):  # fmt: skip
-        status(f"fitting the noise terms of {name} ({k + 1}/6)")
-        result = deviation(record.channel(name), rate=record.rate, units=units)
-        if result.dev.size and not np.any(result.dev):  # every sample equal
-            raise AdavarInputError(
-                f"column {name!r} is constant: it has no noise to fit; check "
-                f"{'--gyro' if k < 3 else '--accel'} (the columns of the axes) and that the "
-                "sensor was recording"
-            )
-        try:
-            fits[name] = fit_noise(result)
-        except ValueError as exc:
-            raise AdavarInputError(f"column {name!r}: {exc}") from None
+    return AnalysisRequest(record=record)
+
+
+def _no_constant_axis(args: argparse.Namespace) -> Callable[..., None]:
+    """The check of :func:`adavar.pipeline.analysis.run`: a constant column (a dead axis,
+    or the wrong column) has no noise to fit."""
+
+    def check(request: AnalysisRequest, loaded: Any) -> None:
+        for name, samples in loaded.channels.items():
+            x = np.asarray(samples)
+            if x.size and np.all(x == x[0]):
+                flag = "--gyro" if name in args.gyro else "--accel"
+                raise AdavarInputError(
+                    f"column {name!r} is constant: it has no noise to fit; check {flag} (the "
+                    "columns of the axes) and that the sensor was recording"
+                )
+
+    return check
+
+
+def _cmd_kalibr(args: argparse.Namespace) -> int:
+    from adavar.output.export import kalibr_imu_yaml, kalibr_values, write_text
+    from adavar.pipeline.analysis import run
+
+    output = check_output_file(args.output, args.force, (".yaml", ".yml"))
+    request = kalibr_request(args)
+    status = Status()
+    done = run(request, status=status, channels="chosen", whole="fit",
+               check=_no_constant_axis(args))  # fmt: skip
+    fits = {name: channel.fit for name, channel in done.channels.items()}
+    units = {name: channel.units for name, channel in done.channels.items()}
+    rate = float(done.request.record.rate)  # as read: declared or from the time stamps
+    n_samples = done.channels[args.gyro[0]].samples
+    gyro_units, accel_units = units[args.gyro[0]], units[args.accel[0]]
     kwargs = dict(
         gyro_fits=[fits[g] for g in args.gyro], accel_fits=[fits[a] for a in args.accel],
-        rate=record.rate, topic=args.topic or "/imu0", gyro_units=gyro_units,
+        rate=rate, topic=args.topic or "/imu0", gyro_units=gyro_units,
         accel_units=accel_units, combine=args.combine, inflate=args.inflate,
         pinned=args.pinned, gyro_names=args.gyro, accel_names=args.accel,
     )  # fmt: skip
@@ -80,14 +87,14 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
                 {
                     "adavar_version": __version__,
                     "output": str(output),
-                    "rate": record.rate,
-                    "n_samples": record.n_samples,
+                    "rate": rate,
+                    "n_samples": n_samples,
                     "kalibr": values,
                 }
             )
         )
         return EXIT_OK
-    print(f"{args.file}: {record.n_samples} samples at {record.rate:g} Hz; wrote {output}")
+    print(f"{args.file}: {n_samples} samples at {rate:g} Hz; wrote {output}")
     print(text)
     return EXIT_OK
 

@@ -4,8 +4,9 @@ A command builds one :class:`AnalysisRequest` from its flags
 (:meth:`AnalysisRequest.from_options`) and hands it to :func:`adavar.pipeline.analysis.run`; a
 script builds the same objects directly. The request is made of
 
-- :class:`RecordRequest`: the file, its channels, rate or tau0, unit, data type and the
-  reader's policies (gaps, NaN, preprocessing, pieces);
+- :class:`RecordRequest`: the file, its channels, rate or tau0, unit (or a unit per group of
+  channels, :class:`UnitGroup`), data type and the reader's policies (gaps, NaN,
+  preprocessing, pieces);
 - :class:`DeviationSettings`: the whole record's statistic and its intervals;
 - :class:`WindowSettings`: the DAVAR window (fixed length or adaptive), its taus and
   centres, the per-cell statistic and bounds;
@@ -46,9 +47,44 @@ __all__ = [
     "DeviationSettings",
     "MethodOptions",
     "RecordRequest",
+    "UnitGroup",
     "WindowSettings",
     "settings_keywords",
 ]
+
+
+@dataclass(frozen=True)
+class UnitGroup:
+    """Channels that share one declared unit, and the flag that declares it.
+
+    A record of two sensors (``adavar kalibr``: three gyro and three accelerometer axes)
+    declares a unit for each: ``RecordRequest(unit_groups=(UnitGroup(("gx", "gy", "gz"),
+    "rad/s", "--gyro-units"), UnitGroup(("ax", "ay", "az"), "m/s^2", "--accel-units")))``.
+
+    Attributes
+    ----------
+    columns : tuple of str
+        The channels.
+    units : str or None
+        Their unit (None: the one the file declares for the group's first channel, as a
+        ROS bag does).
+    flag : str
+        The option named in an error about it.
+    example : str
+        Units named as examples when none is declared.
+    """
+
+    columns: tuple[str, ...]
+    units: str | None = None
+    flag: str = "--units"
+    example: str = "deg/s"
+
+    def __post_init__(self) -> None:
+        if isinstance(self.columns, str) or not self.columns:
+            raise AdavarInputError(
+                f"UnitGroup(columns=...) takes a tuple of column names, got {self.columns!r}"
+            )
+        object.__setattr__(self, "columns", tuple(str(c) for c in self.columns))
 
 
 @dataclass(frozen=True)
@@ -67,6 +103,8 @@ class RecordRequest:
         time stamps.
     units : str or None
         The samples' unit (None: the file's own, as a ROS bag declares it).
+    unit_groups : tuple of UnitGroup
+        A unit per group of channels instead of one ``units`` (empty: ``units`` for all).
     data_type : {"rate", "phase"}
         Rate samples or their integral (a Stable32 ``.phd`` file says phase).
     time_column, time_format, gap_tolerance, lazy, dataset, topic
@@ -98,6 +136,17 @@ class RecordRequest:
     topic: str | None = None
     preprocess: Any = None
     chunk_size: int | None = None
+    unit_groups: tuple[UnitGroup, ...] = ()
+
+    def __post_init__(self) -> None:
+        groups = tuple(self.unit_groups or ())
+        if not all(isinstance(g, UnitGroup) for g in groups):
+            raise AdavarInputError("RecordRequest(unit_groups=...) takes UnitGroup objects")
+        if groups and self.units is not None:
+            raise AdavarInputError(
+                f"units={self.units!r} and unit_groups both declare the units: give one of them"
+            )
+        object.__setattr__(self, "unit_groups", groups)
 
     @classmethod
     def from_options(cls, options: Any) -> RecordRequest:

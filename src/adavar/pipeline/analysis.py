@@ -91,6 +91,31 @@ class LoadedInput:
         return self.channels[name], self.units[name]
 
 
+def _channel_units(record: RecordRequest, read: Any) -> dict[str, str | None]:
+    """The unit of every channel read: ``units`` (or each of ``unit_groups``), which must
+    agree with the units the file declares, else the file's own; none is an error."""
+    if not record.unit_groups:
+        given = record.units.strip() if record.units and record.units.strip() else None
+        units_of = read.units_of(given)
+        if not all(units_of.values()):
+            raise AdavarInputError(
+                "declare the unit of the samples with --units (e.g. --units deg/s); adavar "
+                "never guesses units"
+            )
+        return units_of
+    units_of: dict[str, str | None] = {}
+    for group in record.unit_groups:
+        given = group.units.strip() if group.units and group.units.strip() else None
+        declared = read.units_of(given, names=list(group.columns), flag=group.flag)
+        # one unit a group (a sensor): the declared one, else its first channel's
+        units_of.update(dict.fromkeys(group.columns, declared[group.columns[0]]))
+    missing = [c for c in read.names if not units_of.get(c)]
+    if missing:
+        flags = " and ".join(f"{g.flag} (e.g. {g.example})" for g in record.unit_groups)
+        raise AdavarInputError(f"declare the units with {flags}; adavar never guesses units")
+    return units_of
+
+
 def read_input(
     record: RecordRequest,
     *,
@@ -138,13 +163,7 @@ def read_input(
             f"{record.file} has {len(read.names)} channels ({', '.join(read.names)}): "
             f"choose one with --column{hint}"
         )
-    given = record.units.strip() if record.units and record.units.strip() else None
-    units_of = read.units_of(given)  # --units must agree with the units the file declares
-    if not all(units_of.values()):
-        raise AdavarInputError(
-            "declare the unit of the samples with --units (e.g. --units deg/s); adavar never "
-            "guesses units"
-        )
+    units_of = _channel_units(record, read)
     rate = float(read.rate)
     steps: list[dict[str, Any]] = []
     channels: dict[str, Any] = {}
@@ -540,11 +559,11 @@ def run(
 ) -> AnalysisRun:
     """Read the record of ``request`` and analyse each of its channels.
 
-    The pipeline behind ``adavar report``, ``davar``, ``adaptive`` and (one channel a file)
-    ``batch``: :func:`read_input` (the file, piece by piece where it can), the window-like
-    lengths in samples of the record (:func:`resolve_lengths`), the surface's taus and
-    centres when left to adavar (:func:`resolve_resolution`), then :func:`analyse_channel`
-    for each channel.
+    The pipeline behind ``adavar avar``, ``davar``, ``adaptive``, ``report``, ``kalibr``
+    and (one channel a file) ``batch``: :func:`read_input` (the file, piece by piece where
+    it can), the window-like lengths in samples of the record (:func:`resolve_lengths`), the
+    surface's taus and centres when left to adavar (:func:`resolve_resolution`), then
+    :func:`analyse_channel` for each channel.
 
     Parameters
     ----------
