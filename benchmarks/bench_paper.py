@@ -279,20 +279,10 @@ def main() -> None:
         "   (calibrated: K1, K2 per window length for a 1 % per-step false alarm of f1, S2 "
         "for 1 % of f2; f2 is computed but unused by DAVAR-K)"
     )
-    # adaptive_schedule recomputes the calibrated thresholds (about 1 s: a seeded simulation
-    # of the S quantile) on every call; they depend only on (lmin, lmax, l, false_alarm), so
-    # this script computes them once.
-    import functools
-
-    import adavar.dynamic.adaptive
-
-    original = adavar.dynamic.adaptive.calibrated_thresholds
-    adavar.dynamic.adaptive.calibrated_thresholds = functools.lru_cache(maxsize=8)(original)
+    # the calibrated thresholds (a seeded simulation of the S quantile) are computed once
+    # per (lmin, lmax, l, false_alarm): adavar.dynamic.thresholds caches them
     t = time.perf_counter()
-    try:
-        s1c = compare_seeds(1, seeds, thresholds="calibrated", methods=methods)
-    finally:
-        adavar.dynamic.adaptive.calibrated_thresholds = original
+    s1c = compare_seeds(1, seeds, thresholds="calibrated", methods=methods)
     print(
         f"Scenario 1 with calibrated thresholds, {len(s1c.seeds)} seeds "
         f"({time.perf_counter() - t:.1f} s)"

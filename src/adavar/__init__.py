@@ -37,7 +37,7 @@ from typing import TYPE_CHECKING, Any
 _LAZY = {
     "AdaptiveResult": "adavar.dynamic.adaptive",
     "adaptive_davar": "adavar.dynamic.adaptive",
-    "adaptive_schedule": "adavar.dynamic.adaptive",
+    "adaptive_schedule": "adavar.dynamic.schedule",
     "compare": "adavar.comparison",
     "CodeviationResult": "adavar.stats.cornered_hat",
     "CorneredHatResult": "adavar.stats.cornered_hat",
@@ -91,10 +91,11 @@ if TYPE_CHECKING:  # pragma: no cover - for type checkers and IDEs
     )
     from adavar.core.results import DavarResult, DeviationResult, MarkovTerm
     from adavar.core.settings import ControllerSettings, FitSettings
-    from adavar.dynamic.adaptive import AdaptiveResult, adaptive_davar, adaptive_schedule
+    from adavar.dynamic.adaptive import AdaptiveResult, adaptive_davar
     from adavar.dynamic.kurtosis import kurtosis_contribution, sliding_kurtosis
     from adavar.dynamic.long_tau import LongTauChanges, long_tau_changes
     from adavar.dynamic.online import OnlineAdaptive
+    from adavar.dynamic.schedule import adaptive_schedule
     from adavar.dynamic.surface import davar
     from adavar.fit.noise_model import NoiseFit, NoiseTerm, fit_avar, fit_noise
     from adavar.fit.power_law import PowerLawFit, fit_power_law

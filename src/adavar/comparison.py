@@ -66,7 +66,7 @@ from adavar.core.inputs import as_samples
 from adavar.core.request import settings_keywords
 from adavar.core.results import DavarResult
 from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB, ControllerSettings
-from adavar.dynamic.adaptive import Schedule, adaptive_schedule
+from adavar.dynamic.schedule import Schedule, adaptive_schedule
 from adavar.dynamic.surface import davar
 from adavar.dynamic.surface_common import edf_table
 from adavar.dynamic.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows

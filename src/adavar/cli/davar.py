@@ -255,8 +255,9 @@ def _fixed_window_changes(
 ) -> list[float]:
     """Change times flagged by the controller's tests in the fixed window (no adaptation);
     the record in pieces, only the runs of flags kept (memory: one piece)."""
-    from adavar.dynamic.adaptive import adaptive_schedule, record_windows
     from adavar.dynamic.events import run_change_times
+    from adavar.dynamic.schedule import adaptive_schedule
+    from adavar.dynamic.window_defaults import record_windows
 
     length = int(args.window)
     sched = adaptive_schedule(
@@ -270,7 +271,7 @@ def _fixed_window_changes(
 
 def _schedule_of(result: Any) -> Any:
     """The controller record of an AdaptiveResult as a Schedule (for the Fig. 10 panels)."""
-    from adavar.dynamic.adaptive import Schedule
+    from adavar.dynamic.schedule import Schedule
     from adavar.dynamic.thresholds import thresholds_for
 
     p = result.parameters

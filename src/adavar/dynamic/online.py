@@ -94,11 +94,11 @@ from adavar.core.settings import (
     threshold_mode,
 )
 from adavar.core.terms import TERM_NAMES
-from adavar.dynamic.adaptive import window_lengths
 from adavar.dynamic.controller import REANCHOR, Controller, needs_head
 from adavar.dynamic.events import Event, EventTracker, stretch_summary
 from adavar.dynamic.online_ici import ICI_EDF_SAMPLES, IciTracker
 from adavar.dynamic.online_rows import Rows, check_noise_type
+from adavar.dynamic.schedule import window_lengths
 from adavar.dynamic.surface_common import edf_table
 from adavar.dynamic.window_defaults import dependence_stages, resolve_windows, stage_controller
 from adavar.fit.noise_model import fit_avar

@@ -19,7 +19,7 @@ if TYPE_CHECKING:  # matplotlib is imported when a figure is made (fast CLI star
     from matplotlib.figure import Figure
 
     from adavar.comparison import Comparison
-    from adavar.dynamic.adaptive import Schedule
+    from adavar.dynamic.schedule import Schedule
     from adavar.paper.studies import KurtosisStudy, ThresholdStudy
 
 __all__ = [

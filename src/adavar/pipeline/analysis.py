@@ -34,8 +34,8 @@ from adavar.dynamic.adaptive import (
     adaptive_davar,
     record_windows,
     surface_resolution,
-    window_lengths,
 )
+from adavar.dynamic.schedule import window_lengths
 from adavar.dynamic.surface import davar
 from adavar.fit.noise_model import fit_noise
 from adavar.io import sources

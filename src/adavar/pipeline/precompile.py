@@ -71,7 +71,7 @@ def _surface() -> None:
 
 
 def _controller() -> None:
-    from adavar.dynamic.adaptive import adaptive_schedule
+    from adavar.dynamic.schedule import adaptive_schedule
 
     adaptive_schedule(_white(3000, 4), rate=1.0, lmax=300, lmin=200, l=50)
 

@@ -275,7 +275,7 @@ class ReportAnalysis:
         self, find_events: Any, run_change_times: Any, terms: dict, t0: float,
         duration: float,
     ) -> dict[str, Any]:  # fmt: skip
-        from adavar.dynamic.adaptive import adaptive_schedule
+        from adavar.dynamic.schedule import adaptive_schedule
 
         length = int(self.options["window"])
         settings = controller_settings(argparse.Namespace(**self.options))
