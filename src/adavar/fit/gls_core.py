@@ -8,6 +8,7 @@ of a Gauss-Markov term (:data:`MARKOV`; 0 without one).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -43,6 +44,7 @@ __all__ = [
 ]
 
 MAX_TAUS = 64  # denser grids are thinned for the covariance (4 per octave)
+MEMO_SIZE = 512  # results a Problem remembers (a fit asks for a few hundred)
 DIAG_FLOOR = 0.25  # Cov_jj >= this * 2 model^2 / edf (a deterministic ramp has no variance)
 MARKOV = 5  # index of the Gauss-Markov variance after the five IEEE coefficients
 _SCORE_CAP = 38.0  # |normal score| of an estimate beyond any float64 tail probability
@@ -96,6 +98,9 @@ class Problem:
         self.phi[:, :5] = tau[:, None] ** powers[None, :]  # (M, 6)
         self.basis = avar_covariance.covariance_basis(ms[covered], n_points, tau0)
         self.markov_tau: float | None = None
+        # results of cov() and whitened() by their exact inputs: the model selection and
+        # the profile bounds ask for about a third of them again (read-only arrays)
+        self.memo: dict[tuple, Any] = {}
         # adev/totdev: the oadev correlation with the statistic's own variance
         if stat == "oadev":
             self.scale = np.ones(tau.size)
@@ -111,6 +116,7 @@ class Problem:
         if tau_c == self.markov_tau:
             return
         self.markov_tau = tau_c
+        self.memo.clear()
         ms = self.ms[self.covered]
         if tau_c is None:
             self.phi[:, MARKOV] = 0.0
@@ -124,28 +130,56 @@ class Problem:
     def model(self, coef: np.ndarray) -> np.ndarray:
         return self.phi @ coef
 
+    def remembered(self, key: tuple, compute: Callable[[], Any]) -> Any:
+        """``compute()``, once for each ``key`` while the model's columns stay
+        (:meth:`set_markov` forgets); a key holds every input the result depends on."""
+        if key not in self.memo:
+            if len(self.memo) >= MEMO_SIZE:
+                self.memo.clear()
+            self.memo[key] = compute()
+        return self.memo[key]
+
     def cov(self, coef: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        """The covariance of the estimates at ``idx`` (taus the problem covers)."""
+        """The covariance of the estimates at ``idx`` (taus the problem covers); read-only."""
+        key = ("cov", np.asarray(idx).tobytes(), np.asarray(coef, dtype=float).tobytes())
+        return self.remembered(key, lambda: _read_only(self._cov(coef, idx)))
+
+    def _cov(self, coef: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        basis, scales, tails, phi, edf = self.remembered(
+            ("taus", np.asarray(idx).tobytes()), lambda: self._at(idx)
+        )
+        markov = coef[MARKOV] if self.markov_tau is not None else 0.0
+        c = avar_covariance.covariance(basis, coef[:5], markov_var=markov)
+        c *= scales
+        if tails is not None:
+            c += tails * max(coef[1], 0.0) ** 2
+        model = phi @ coef
+        floor = DIAG_FLOOR * _weights_from_edf(model, edf)
+        diagonal = np.arange(c.shape[0])
+        c[diagonal, diagonal] = np.maximum(c[diagonal, diagonal], floor)
+        return c
+
+    def _at(self, idx: np.ndarray) -> tuple:
+        """What the covariance at ``idx`` takes of the problem (the same for every model)."""
         pos = self.position[idx]
         if np.any(pos < 0):
             raise ValueError("internal: a covariance asked at taus the problem does not cover")
-        basis = self.basis[np.ix_(pos, pos)]
-        markov = coef[MARKOV] if self.markov_tau is not None else 0.0
-        c = avar_covariance.covariance(basis, coef[:5], markov_var=markov)
-        c *= np.outer(self.scale[idx], self.scale[idx])
-        if self.tails is not None:
-            c += self.tails[np.ix_(pos, pos)] * max(coef[1], 0.0) ** 2
-        model = self.phi[idx] @ coef
-        floor = DIAG_FLOOR * _weights_from_edf(model, self.edf[idx])
-        d = np.diag(c)
-        c[np.diag_indices_from(c)] = np.maximum(d, floor)
-        return c
+        rows = np.ix_(pos, pos)
+        tails = None if self.tails is None else _read_only(self.tails[rows])
+        return (
+            _read_only(self.basis[rows]),
+            _read_only(np.outer(self.scale[idx], self.scale[idx])),
+            tails,
+            _read_only(self.phi[idx]),
+            _read_only(self.edf[idx]),
+        )
 
 
 def whiten(cov: np.ndarray, scale: np.ndarray):
     """Cholesky factor of the covariance in relative units (``cov / (scale scale^T)``)."""
     rel = cov / np.outer(scale, scale)
-    rel[np.diag_indices_from(rel)] *= 1.0 + 1e-10
+    diagonal = np.arange(rel.shape[0])
+    rel[diagonal, diagonal] *= 1.0 + 1e-10
     try:
         return np.linalg.cholesky(rel)
     except np.linalg.LinAlgError:
@@ -292,7 +326,13 @@ class Whitened:
 def whitened(prob: Problem, idx: np.ndarray, coef: np.ndarray, *, data: bool = False) -> Whitened:
     """The data and design whitened by the covariance of the model ``coef``; with ``data``,
     by the model's correlation and the data's own scale (each estimate's sd in proportion
-    to itself), under which a model far above the data is as far off as one below."""
+    to itself), under which a model far above the data is as far off as one below.
+    Read-only arrays, computed once for the same inputs (:meth:`Problem.remembered`)."""
+    key = ("whitened", np.asarray(idx).tobytes(), np.asarray(coef, dtype=float).tobytes(), data)
+    return prob.remembered(key, lambda: _whitened(prob, idx, coef, data))
+
+
+def _whitened(prob: Problem, idx: np.ndarray, coef: np.ndarray, data: bool) -> Whitened:
     a = prob.avar[idx]
     model = prob.phi[idx] @ coef
     scale = a if data else np.where(model > 0, model, a)
@@ -302,7 +342,12 @@ def whitened(prob: Problem, idx: np.ndarray, coef: np.ndarray, *, data: bool = F
         cov = cov * np.outer(ratio, ratio)
     chol = whiten(cov, scale)
     both = np.linalg.solve(chol, np.column_stack([prob.phi[idx] / scale[:, None], a / scale]))
-    return Whitened(chol, scale, both[:, :-1], both[:, -1])
+    return Whitened(*map(_read_only, (chol, scale, both[:, :-1], both[:, -1])))
+
+
+def _read_only(values: np.ndarray) -> np.ndarray:
+    values.setflags(write=False)
+    return values
 
 
 def solve(w: Whitened, cols, signed: bool, markov: np.ndarray | None = None):
@@ -323,8 +368,14 @@ def neg2_log_likelihood(prob: Problem, idx: np.ndarray, coef: np.ndarray) -> flo
     Gaussian copula whose correlation is the model's: ``sum -2 ln f_i(a_i) + z^T R^-1 z -
     z^T z + ln det R`` with ``z`` the normal scores. Both the scale and the correlation
     depend on the model, so unlike a chi-square under one covariance this compares a model
-    that overshoots the data fairly with one that undershoots it.
+    that overshoots the data fairly with one that undershoots it. Computed once for the
+    same inputs (:meth:`Problem.remembered`).
     """
+    key = ("neg2", np.asarray(idx).tobytes(), np.asarray(coef, dtype=float).tobytes())
+    return prob.remembered(key, lambda: _neg2_log_likelihood(prob, idx, coef))
+
+
+def _neg2_log_likelihood(prob: Problem, idx: np.ndarray, coef: np.ndarray) -> float:
     from scipy.special import gammaln
 
     a = prob.avar[idx]
