@@ -379,3 +379,78 @@ def test_every_face_exports_exactly_its_modules_public_names(face):
     if not hasattr(public, "__path__"):  # a package face also holds its submodules
         extra = {n for n in vars(public) if not n.startswith("_")} - set(module.__all__)
         assert extra <= FACE_EXTRAS.get(face, set()) | {"annotations"}, extra
+
+
+def _top_level(body: list[ast.stmt]):
+    """A module's top-level statements, those under ``if`` (``TYPE_CHECKING``) and ``try``."""
+    for node in body:
+        yield node
+        if isinstance(node, ast.If):
+            yield from _top_level(node.body)
+            yield from _top_level(node.orelse)
+        elif isinstance(node, ast.Try):
+            yield from _top_level(node.body)
+
+
+@cache
+def _definitions() -> dict[str, tuple[frozenset[str], dict[str, tuple[str, str]]]]:
+    """Per module: the names it defines, and those it imports (name -> module, name)."""
+    out = {}
+    for path, tree in _modules().items():
+        defined: set[str] = set()
+        imported: dict[str, tuple[str, str]] = {}
+        for node in _top_level(tree.body):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+                defined.add(node.name)
+            elif isinstance(node, (ast.Assign, ast.AnnAssign, ast.AugAssign)):
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                defined.update(n.id for t in targets for n in ast.walk(t)
+                               if isinstance(n, ast.Name))  # fmt: skip
+            elif isinstance(node, ast.ImportFrom) and node.module and not node.level:
+                for alias in node.names:
+                    imported[alias.asname or alias.name] = (node.module, alias.name)
+        out[_module_name(path)] = (frozenset(defined), imported)
+    return out
+
+
+def _defined_in(module: str, name: str) -> str | None:
+    """The module that defines ``name`` as ``module`` gives it (None: not followed)."""
+    for _ in range(20):
+        if module not in _definitions():
+            return None
+        defined, imported = _definitions()[module]
+        if name in defined:
+            return module
+        if name not in imported or imported[name][1] != name:
+            return None
+        module = imported[name][0]
+    return None
+
+
+def test_the_library_imports_each_name_from_the_module_that_defines_it():
+    """No module goes through another's re-exports (a shim the library would lean on): a
+    name comes from where it is defined. The public faces, the readers' package (their
+    documented face) and a module's deliberate re-exports (``noqa: F401``, ``name as name``)
+    are the exceptions."""
+    faces = set(FACES) | OTHER_FACES | {"adavar", "adavar.readers"}
+    found = []
+    for path, tree in _modules().items():
+        here = _module_name(path)
+        if here in faces:
+            continue
+        lines = path.read_text().splitlines()
+        for node in ast.walk(tree):
+            if not (isinstance(node, ast.ImportFrom) and node.module and not node.level):
+                continue
+            if node.module in faces or not node.module.startswith("adavar"):
+                continue
+            if "noqa: F401" in " ".join(lines[node.lineno - 1 : node.end_lineno]):
+                continue
+            for alias in node.names:
+                if alias.asname == alias.name:
+                    continue
+                source = _defined_in(node.module, alias.name)
+                if source is not None and source != node.module:
+                    found.append(f"{here}:{node.lineno} takes {alias.name} from "
+                                 f"{node.module}, defined in {source}")  # fmt: skip
+    assert found == []

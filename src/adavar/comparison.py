@@ -64,15 +64,16 @@ import numpy as np
 from adavar.core.errors import AdavarInputError
 from adavar.core.inputs import as_samples
 from adavar.core.request import settings_keywords
-from adavar.core.results import DavarResult
+from adavar.core.results import DavarResult, NoiseFit
 from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB, ControllerSettings
+from adavar.core.terms import TERM_NAMES
 from adavar.dynamic.schedule import Schedule, adaptive_schedule
 from adavar.dynamic.surface import davar
 from adavar.dynamic.surface_common import edf_table
 from adavar.dynamic.surface_fit import drawn_rows, fit_davar_in_blocks, fit_rows
 from adavar.dynamic.window_defaults import comparison_step
 from adavar.dynamic.windows import window_overhang
-from adavar.fit.noise_model import TERM_NAMES, NoiseFit, fit_avar, fit_noise
+from adavar.fit.noise_model import fit_avar, fit_noise
 from adavar.io.sources import DEFAULT_CHUNK, check_chunk_size, is_chunked, open_record
 from adavar.io.writers import jsonable
 from adavar.paper.metrics import ChangeMetrics, Metrics, interval_means, tracking_metrics

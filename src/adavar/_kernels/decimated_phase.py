@@ -53,7 +53,8 @@ import math
 import numpy as np
 
 from adavar._kernels._jit import jit
-from adavar._kernels.differences import BLOCK, SHIFT, AnchoredPhase, cluster_sum
+from adavar._kernels.difference_runs import BLOCK, SHIFT
+from adavar._kernels.differences import AnchoredPhase, cluster_sum
 
 __all__ = [
     "decimated_phase_lag1",

@@ -34,16 +34,10 @@ from adavar.cli.output import (
     output_error,
     safe_name,
 )
+from adavar.core.atomic import atomic_directory, check_output_directory
 from adavar.core.errors import AdavarInputError
 from adavar.core.settings import ALL_STATISTICS, DATA_TYPE_DEFAULT
-from adavar.io.writers import (
-    atomic_directory,
-    check_output_directory,
-    deviation_json,
-    dumps,
-    fit_json,
-    write_deviation_csv,
-)
+from adavar.io.writers import deviation_json, dumps, fit_json, write_deviation_csv
 
 
 def _cmd_avar(args: argparse.Namespace) -> int:

@@ -108,7 +108,9 @@ def _quiet_cluster_logs(cluster: bool, debug: bool) -> Iterator[None]:
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:
-    from adavar.pipeline.batch import STATUS_ABSENT, collect_files, report_options, run_batch
+    from adavar.pipeline.batch import collect_files, run_batch
+    from adavar.pipeline.batch_state import STATUS_ABSENT
+    from adavar.pipeline.report_analysis import report_options
 
     check_arguments(args)
     files = collect_files(args.inputs, files_from=args.files_from)

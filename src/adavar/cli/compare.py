@@ -43,17 +43,12 @@ from adavar.cli.output import (
     output_error,
     text_table,
 )
+from adavar.core.atomic import atomic_directory, check_output_directory
+from adavar.core.csv_tables import block_rows, csv_pieces, write_pieces
 from adavar.core.errors import AdavarInputError
 from adavar.core.settings import CONTROLLER, DEFAULT_MAX_MEMORY_MB, ControllerSettings
 from adavar.core.terms import TERM_NAMES
-from adavar.io.writers import (
-    atomic_directory,
-    block_rows,
-    check_output_directory,
-    csv_pieces,
-    dumps,
-    write_pieces,
-)
+from adavar.io.writers import dumps
 
 
 def _fmt_time(value: float) -> str:
@@ -133,7 +128,7 @@ def _compare_interval_lines(comp: Any, study: Any) -> list[str]:
                      *(f"{v:.3f}" for v in pr)])  # fmt: skip
     unit = None
     if comp.units:
-        from adavar.output.plots import term_unit
+        from adavar.core.units import term_unit
 
         unit = term_unit("angle_random_walk", comp.units)
     what = f"N in {unit}" if unit else "N in sample unit x sqrt(s)"

@@ -14,7 +14,7 @@ from adavar import __version__
 from adavar.core.terms import TERM_NAMES
 
 if _TYPE_CHECKING:  # pragma: no cover - annotations only
-    from adavar.fit.noise_model import NoiseFit
+    from adavar.core.results import NoiseFit
 from adavar.cli.avar import allow_gaps_omit
 from adavar.cli.options import (
     EXIT_OK,
@@ -31,21 +31,16 @@ from adavar.cli.options import (
     window_length,
 )
 from adavar.cli.output import Status, channel_folders, guard_replacement, output_error, text_table
+from adavar.core.atomic import atomic_directory, check_output_directory, write_marker
+from adavar.core.csv_tables import block_rows, csv_pieces, csv_text, write_pieces
 from adavar.core.results import DavarResult
 from adavar.core.settings import HOURLY_FALSE_ALARMS
 from adavar.dynamic.windows import MIN_WINDOW
 from adavar.io.writers import (
     SURFACE_FORMATS,
-    atomic_directory,
-    block_rows,
-    check_output_directory,
     check_surface_format,
     conventional,
-    csv_pieces,
-    csv_text,
     dumps,
-    write_marker,
-    write_pieces,
     write_surface,
 )
 
@@ -591,7 +586,7 @@ def _channel_figures(args: argparse.Namespace, run: dict[str, Any]) -> dict[str,
         "davar_heatmap": davar_heatmap_figure(result),
     }
     if adaptive and result.method != "ici":  # ICI runs no kurtosis test: nothing to draw
-        from adavar.output.plots import controller_figure
+        from adavar.output.paper_figures import controller_figure
 
         figures["controller"] = controller_figure(
             _schedule_of(result), result.time, change_times=args.change_times or (),

@@ -19,17 +19,15 @@ from adavar.cli.output import (
     output_error,
     text_table,
 )
-from adavar.core.errors import AdavarInputError
-from adavar.io.writers import (
+from adavar.core.atomic import (
     DEMO_MARKER,
     atomic_directory,
     check_output_directory,
-    deviation_json,
-    dumps,
-    fit_json,
     is_adavar_folder,
-    write_pieces,
 )
+from adavar.core.csv_tables import write_pieces
+from adavar.core.errors import AdavarInputError
+from adavar.io.writers import deviation_json, dumps, fit_json
 
 # DEMO_MARKER (adavar.io.writers) marks a folder written by ``adavar demo``: such a folder is
 # replaced by the next run; --force replaces another folder adavar wrote, never a foreign one.

@@ -16,7 +16,7 @@ from adavar.core.results import DeviationResult
 from adavar.core.terms import TERM_NAMES
 
 if TYPE_CHECKING:  # pragma: no cover
-    from adavar.fit.noise_model import NoiseFit
+    from adavar.core.results import NoiseFit
 from adavar.io.writers import conventional
 
 

@@ -18,9 +18,10 @@ from adavar.cli.options import (
     positive_int,
 )
 from adavar.cli.output import Status, check_output_file, output_error
+from adavar.core.atomic import atomic_file
 from adavar.core.errors import AdavarInputError
 from adavar.core.settings import MAX_SAMPLES
-from adavar.io.writers import atomic_file, dumps
+from adavar.io.writers import dumps
 
 #: Bytes of memory per sample of ``adavar simulate`` (the generators' arrays; the CSV text
 #: is written :data:`CSV_ROWS` rows at a time), for the check of --n.

@@ -31,6 +31,7 @@ from adavar.core.settings import (
     CONTROLLER,
     HOURLY_FALSE_ALARMS,
     ICI_GAMMA,
+    RATE_DEFAULT,
     THRESHOLDS,
     ControllerSettings,
 )
@@ -53,7 +54,7 @@ from adavar.dynamic.window_defaults import (
 )
 from adavar.dynamic.windows import oracle_schedule
 from adavar.io import sources
-from adavar.io.sampling import RATE_DEFAULT, resolve_rate
+from adavar.io.sampling import resolve_rate
 from adavar.io.sources import ChunkedSource
 
 __all__ = [

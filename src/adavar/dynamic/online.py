@@ -88,6 +88,7 @@ from adavar.core.request import MethodOptions, settings_keywords
 from adavar.core.settings import (
     CONTROLLER,
     HOURLY_FALSE_ALARMS,
+    ICI_EDF_SAMPLES,
     ICI_GAMMA,
     THRESHOLDS,
     ControllerSettings,
@@ -96,7 +97,7 @@ from adavar.core.settings import (
 from adavar.core.terms import TERM_NAMES
 from adavar.dynamic.controller import REANCHOR, Controller, needs_head
 from adavar.dynamic.events import Event, EventTracker, stretch_summary
-from adavar.dynamic.online_ici import ICI_EDF_SAMPLES, IciTracker
+from adavar.dynamic.online_ici import IciTracker
 from adavar.dynamic.online_rows import Rows, check_noise_type
 from adavar.dynamic.schedule import window_lengths
 from adavar.dynamic.surface_common import edf_table

@@ -51,6 +51,7 @@ from adavar.core.inputs import (
     unscale,
 )
 from adavar.core.results import DavarResult
+from adavar.core.settings import RATE_DEFAULT
 from adavar.dynamic.surface_common import (
     STATS,
     DavarStatResult,
@@ -64,7 +65,7 @@ from adavar.dynamic.surface_common import (
 )
 from adavar.dynamic.windows import check_window_times, window_classes, window_schedule
 from adavar.io import sources
-from adavar.io.sampling import RATE_DEFAULT, resolve_rate
+from adavar.io.sampling import resolve_rate
 from adavar.io.scaling import scaled_source
 from adavar.stats import stream
 from adavar.stats.statistics import OMIT_HINT, deviation, record_noise_types

@@ -16,15 +16,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from adavar.core.atomic import atomic_directory, atomic_file, check_output_directory
 from adavar.core.errors import AdavarInputError
-from adavar.io.writers import (
-    SURFACE_FORMATS,
-    atomic_directory,
-    atomic_file,
-    check_output_directory,
-    check_surface_format,
-    write_surface,
-)
+from adavar.io.writers import SURFACE_FORMATS, check_surface_format, write_surface
 from adavar.readers.textscan import COMMENT_PREFIXES
 
 if TYPE_CHECKING:

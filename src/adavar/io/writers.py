@@ -58,8 +58,7 @@ from adavar.core.csv_tables import (
 from adavar.core.errors import AdavarInputError
 
 if TYPE_CHECKING:
-    from adavar.core.results import DavarResult, DeviationResult
-    from adavar.fit.noise_model import NoiseFit
+    from adavar.core.results import DavarResult, DeviationResult, NoiseFit
 
 __all__ = [
     "BATCH_MARKER",

@@ -25,6 +25,8 @@ from typing import Any
 
 import numpy as np
 
+from adavar.core.atomic import atomic_file
+from adavar.core.csv_tables import csv_text
 from adavar.core.errors import AdavarInputError
 from adavar.core.terms import LETTERS
 from adavar.core.units import (
@@ -33,7 +35,6 @@ from adavar.core.units import (
     convert_coefficient,
     rate_unit_info,
 )
-from adavar.io.writers import atomic_file, csv_text
 
 __all__ = [
     "COEFFICIENT_COLUMNS",

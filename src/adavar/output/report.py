@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar.io.writers import atomic_file
+from adavar.core.atomic import atomic_file
 from adavar.output.plots import STAT_NAMES
 from adavar.output.report_parts import (
     MAX_SERIES_POINTS,

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from adavar.core.terms import TERM_NAMES
 from adavar.core.thinning import spread_indices, spread_log
 from adavar.core.units import (
     conventional_units,
@@ -31,7 +32,6 @@ from adavar.core.units import (
     rate_unit,
     term_unit,
 )
-from adavar.fit.noise_model import TERM_NAMES
 from adavar.output.plots import STAT_NAMES, TERM_LABELS, term_label
 
 __all__ = [

@@ -24,7 +24,7 @@ from adavar.comparison import EdfCache, as_record, check_rate, run_comparison, t
 from adavar.core.errors import AdavarInputError
 from adavar.core.request import settings_keywords
 from adavar.core.settings import CONTROLLER, ControllerSettings
-from adavar.fit.noise_model import TERM_NAMES
+from adavar.core.terms import TERM_NAMES
 from adavar.io.writers import jsonable
 from adavar.paper.nodes import NODE_NAMES
 from adavar.paper.reference import (

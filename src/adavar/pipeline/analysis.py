@@ -30,13 +30,10 @@ from adavar.core.durations import to_samples
 from adavar.core.errors import AdavarInputError
 from adavar.core.request import AnalysisRequest, RecordRequest
 from adavar.core.settings import ControllerSettings, FitSettings
-from adavar.dynamic.adaptive import (
-    adaptive_davar,
-    record_windows,
-    surface_resolution,
-)
+from adavar.dynamic.adaptive import adaptive_davar
 from adavar.dynamic.schedule import window_lengths
 from adavar.dynamic.surface import davar
+from adavar.dynamic.window_defaults import record_windows, surface_resolution
 from adavar.fit.noise_model import fit_noise
 from adavar.io import sources
 from adavar.stats.statistics import deviation
@@ -627,7 +624,7 @@ def _fit_in_blocks(
 ) -> Any:  # fmt: skip
     """The surface of ``analyse_channel(..., keep="figures")``: a :class:`BlockFit`."""
     from adavar.dynamic.surface_fit import fit_adaptive_in_blocks, fit_davar_in_blocks
-    from adavar.output.report import MAX_SURFACE_TIMES, series_rows
+    from adavar.output.report_parts import MAX_SURFACE_TIMES, series_rows
 
     # the windows' coefficients only: no per-cell residuals (a surface's size); no
     # per-cell bounds (neither the report nor the fit reads them); the whole fit of the

@@ -67,9 +67,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from adavar.core.atomic import BATCH_MARKER
 from adavar.core.errors import AdavarInputError
 from adavar.core.terms import LETTERS
-from adavar.io.writers import BATCH_MARKER
 from adavar.pipeline.analysis import surface_shape
 from adavar.pipeline.batch_cluster import (
     DEFAULT_WORKER_TIMEOUT,
@@ -305,7 +305,8 @@ def _write_error_folder(
     message), in place of its earlier results. Returns the row (its error extended if even
     that could not be written)."""
     from adavar import __version__
-    from adavar.io.writers import atomic_directory, dumps
+    from adavar.core.atomic import atomic_directory
+    from adavar.io.writers import dumps
 
     payload = {
         "adavar_version": __version__, "status": "error", "file": row["file"],
@@ -519,7 +520,7 @@ def _write_summary(
     """``summary.csv``, ``summary.parquet`` (with pyarrow) and ``summary.json`` (what the
     columns mean, the counts, the notes), each atomically."""
     from adavar import __version__
-    from adavar.io.writers import atomic_file
+    from adavar.core.atomic import atomic_file
     from adavar.output.export import write_json, write_table_csv
 
     csv_path = Path(write_table_csv(out / "summary.csv", rows, SUMMARY_COLUMNS))
@@ -623,7 +624,7 @@ def run_batch(
         the folder's lock, :func:`adavar.pipeline.batch_state.locked`): the message names its pid,
         and nothing of this run is written.
     """
-    from adavar.io.writers import sweep_partial_files, sweep_stale_temporaries
+    from adavar.core.atomic import sweep_partial_files, sweep_stale_temporaries
 
     start = time.perf_counter()
     target = _check_out(out)

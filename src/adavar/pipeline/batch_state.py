@@ -308,7 +308,7 @@ class BatchState:
 
     def _adopt(self) -> None:
         """Take over the folders of an older batch (each result.json names its file)."""
-        from adavar.io.writers import OUTPUT_MARKER, write_marker
+        from adavar.core.atomic import OUTPUT_MARKER, write_marker
 
         found: dict[str, tuple[str, str, str]] = {}  # key -> (finished, name, file)
         for folder in self._folders():
@@ -390,7 +390,7 @@ class BatchState:
     def save(self) -> None:
         """Write :data:`BATCH_STATE` atomically."""
         from adavar import __version__
-        from adavar.io.writers import atomic_file
+        from adavar.core.atomic import atomic_file
 
         payload = {
             "adavar_version": __version__,

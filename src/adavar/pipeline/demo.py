@@ -33,9 +33,10 @@ from adavar._kernels import _workers
 from adavar._kernels._jit import compilations
 from adavar.comparison import Comparison, compare
 from adavar.core.datasets import nist_1000
-from adavar.core.results import DeviationResult
+from adavar.core.results import DeviationResult, NoiseFit
+from adavar.core.terms import TERM_NAMES
 from adavar.core.units import ConvertedNoise, conventional_units, convert_coefficient
-from adavar.fit.noise_model import TERM_NAMES, NoiseFit, fit_noise
+from adavar.fit.noise_model import fit_noise
 from adavar.paper.scenarios import paper_scenario
 from adavar.paper.studies import (
     KurtosisStudy,

@@ -22,7 +22,7 @@ import numpy as np
 from adavar.core.errors import AdavarInputError
 from adavar.core.request import AnalysisRequest, WindowSettings
 from adavar.core.terms import TERM_NAMES
-from adavar.dynamic.adaptive import record_windows
+from adavar.dynamic.window_defaults import record_windows
 from adavar.io import sources
 from adavar.pipeline.analysis import (
     LoadedInput,

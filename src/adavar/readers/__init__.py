@@ -56,7 +56,7 @@ from adavar.readers.lazy import LAZY_BYTES as LAZY_BYTES
 from adavar.readers.record import GAP_POLICIES, NAN_POLICIES, Record
 from adavar.readers.stable32 import file_data_type
 from adavar.readers.table import TIME_FORMATS
-from adavar.readers.text import COMMENT_PREFIXES as COMMENT_PREFIXES
+from adavar.readers.textscan import COMMENT_PREFIXES as COMMENT_PREFIXES
 
 __all__ = [
     "GAP_POLICIES",

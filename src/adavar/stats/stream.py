@@ -15,7 +15,15 @@ import numpy as np
 
 from adavar._kernels import differences as diff
 from adavar._kernels._jit import jit
-from adavar._kernels.differences import SHIFT, cluster_sum
+from adavar._kernels.decimated_phase import (
+    decimated_phase_lag1,
+    phase_lag1_result,
+    phase_moments,
+    phase_residual_lag,
+    quadratic_fit,
+)
+from adavar._kernels.difference_runs import SHIFT
+from adavar._kernels.differences import cluster_sum
 from adavar._kernels.double_double import dd_add
 from adavar.io.sources import (
     DEFAULT_CHUNK,
@@ -39,13 +47,6 @@ from adavar.io.sources import (
 )
 from adavar.stats import noise_id as nid
 from adavar.stats import record_sums
-from adavar.stats.noise_id import (
-    decimated_phase_lag1,
-    phase_lag1_result,
-    phase_moments,
-    phase_residual_lag,
-    quadratic_fit,
-)
 
 __all__ = [
     "DEFAULT_CHUNK",
@@ -204,10 +205,10 @@ def _cluster_pass(
         # the cluster sums S[(k+1) m] - S[k m] that end in this piece (increments p0 .. p1-1)
         k = p0 // m
         k0 = k
-        nz = 0
+        nz = np.int64(0)
         if k < count and k * m < p0 and (k + 1) * m <= p1:
             zs[0] = _straddling_sum(r, hh, hl, (k + 1) * m - p0, carry[t])
-            nz = 1
+            nz = np.int64(1)
             k += 1
         full = max(0, min(count, p1 // m) - k)
         for i in range(full):  # the clusters wholly inside the piece
