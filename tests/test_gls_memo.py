@@ -67,3 +67,10 @@ def test_remembered_arrays_cannot_be_changed_by_a_caller():
     prob.set_markov(1.0)  # another model's columns: nothing remembered is used
     assert prob.memo == {}
     assert not np.array_equal(prob.cov(coef, idx), cov) or prob.cov(coef, idx) is not cov
+
+
+def test_keys_tell_apart_arrays_of_the_same_bytes():
+    # int32 [1, 0] and int64 [1] have the same eight bytes: other taus, another key
+    assert gls_core._exact(np.array([1, 0], np.int32)) != gls_core._exact(np.array([1]))
+    assert gls_core._exact(np.zeros(2)) != gls_core._exact(np.zeros((1, 2)))
+    assert gls_core._exact(np.arange(3)) == gls_core._exact(np.arange(3))

@@ -141,12 +141,12 @@ class Problem:
 
     def cov(self, coef: np.ndarray, idx: np.ndarray) -> np.ndarray:
         """The covariance of the estimates at ``idx`` (taus the problem covers); read-only."""
-        key = ("cov", np.asarray(idx).tobytes(), np.asarray(coef, dtype=float).tobytes())
+        key = ("cov", _exact(idx), _exact(coef))
         return self.remembered(key, lambda: _read_only(self._cov(coef, idx)))
 
     def _cov(self, coef: np.ndarray, idx: np.ndarray) -> np.ndarray:
         basis, scales, tails, phi, edf = self.remembered(
-            ("taus", np.asarray(idx).tobytes()), lambda: self._at(idx)
+            ("taus", _exact(idx)), lambda: self._at(idx)
         )
         markov = coef[MARKOV] if self.markov_tau is not None else 0.0
         c = avar_covariance.covariance(basis, coef[:5], markov_var=markov)
@@ -328,7 +328,7 @@ def whitened(prob: Problem, idx: np.ndarray, coef: np.ndarray, *, data: bool = F
     by the model's correlation and the data's own scale (each estimate's sd in proportion
     to itself), under which a model far above the data is as far off as one below.
     Read-only arrays, computed once for the same inputs (:meth:`Problem.remembered`)."""
-    key = ("whitened", np.asarray(idx).tobytes(), np.asarray(coef, dtype=float).tobytes(), data)
+    key = ("whitened", _exact(idx), _exact(coef), data)
     return prob.remembered(key, lambda: _whitened(prob, idx, coef, data))
 
 
@@ -343,6 +343,12 @@ def _whitened(prob: Problem, idx: np.ndarray, coef: np.ndarray, data: bool) -> W
     chol = whiten(cov, scale)
     both = np.linalg.solve(chol, np.column_stack([prob.phi[idx] / scale[:, None], a / scale]))
     return Whitened(*map(_read_only, (chol, scale, both[:, :-1], both[:, -1])))
+
+
+def _exact(values: Any) -> tuple:
+    """An array as a memo key: its type, shape and bytes (equal keys, equal arrays)."""
+    values = np.asarray(values)
+    return values.dtype.str, values.shape, values.tobytes()
 
 
 def _read_only(values: np.ndarray) -> np.ndarray:
@@ -371,7 +377,7 @@ def neg2_log_likelihood(prob: Problem, idx: np.ndarray, coef: np.ndarray) -> flo
     that overshoots the data fairly with one that undershoots it. Computed once for the
     same inputs (:meth:`Problem.remembered`).
     """
-    key = ("neg2", np.asarray(idx).tobytes(), np.asarray(coef, dtype=float).tobytes())
+    key = ("neg2", _exact(idx), _exact(coef))
     return prob.remembered(key, lambda: _neg2_log_likelihood(prob, idx, coef))
 
 
