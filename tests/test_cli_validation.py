@@ -316,3 +316,16 @@ def test_a_tiny_chunk_size_warns(capsys, gyro_csv):
     assert line.startswith("adavar: warning: --chunk-size 16") and str(EFFICIENT_CHUNK) in line
     code, _, err = run(capsys, avar(gyro_csv, "--chunk-size", str(EFFICIENT_CHUNK)))
     assert code == 0 and err == ""
+
+
+def test_kalibr_constant_check_reads_pieces_and_sees_a_change_in_any():
+    from adavar.cli.kalibr import _constant
+    from adavar.io.sources import ArraySource
+
+    flat = np.full(10, 2.5)
+    assert _constant(ArraySource(flat), chunk_size=3)
+    late = flat.copy()
+    late[-1] = 2.0  # in the last piece only
+    assert not _constant(ArraySource(late), chunk_size=3)
+    assert not _constant(ArraySource(np.array([np.nan, np.nan])), chunk_size=1)
+    assert not _constant(ArraySource(np.array([], dtype=float)), chunk_size=3)

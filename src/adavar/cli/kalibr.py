@@ -32,14 +32,31 @@ def kalibr_request(args: argparse.Namespace) -> AnalysisRequest:
     return AnalysisRequest(record=record)
 
 
+def _constant(source: Any, chunk_size: int | None = None) -> bool:
+    """Whether every sample equals the first (NaN equals nothing), read a piece at a time:
+    a streamed record is not loaded for the check (``source``: a
+    :class:`adavar.io.sources.ChunkedSource`)."""
+    from adavar.io.sources import DEFAULT_CHUNK
+
+    chunk_size = DEFAULT_CHUNK if chunk_size is None else chunk_size
+    if source.size == 0:
+        return False
+    first = source.read_unchecked(0, 1)[0]
+    for start in range(0, source.size, chunk_size):
+        if not np.all(source.read_unchecked(start, min(source.size, start + chunk_size)) == first):
+            return False
+    return True
+
+
 def _no_constant_axis(args: argparse.Namespace) -> Callable[..., None]:
     """The check of :func:`adavar.pipeline.analysis.run`: a constant column (a dead axis,
     or the wrong column) has no noise to fit."""
 
     def check(request: AnalysisRequest, loaded: Any) -> None:
+        from adavar.io.sources import as_source
+
         for name, samples in loaded.channels.items():
-            x = np.asarray(samples)
-            if x.size and np.all(x == x[0]):
+            if _constant(as_source(samples, name=name)):
                 flag = "--gyro" if name in args.gyro else "--accel"
                 raise AdavarInputError(
                     f"column {name!r} is constant: it has no noise to fit; check {flag} (the "
