@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from adavar import simulate
-from adavar.dynamic.adaptive import oracle_schedule
+from adavar.dynamic.adaptive import adaptive_davar, oracle_schedule
 from adavar.dynamic.events import change_times, find_events
 
 from .cli_helpers import run
@@ -149,3 +149,44 @@ def test_find_events_reads_ranges_as_the_masks_did(seed):
     want = _events_by_masks(window, centre, time[shuffled], lmax, tau0,
                             {k: v[shuffled] for k, v in values.items()}, 5.0, duration)  # fmt: skip
     assert [[e.before, e.during, e.after] for e in got] == want
+
+
+def test_no_event_time_lies_outside_the_record():
+    # every 10th centre of 10 000 samples at 0.01 s, Lmax 1000: the windows of the last
+    # half-window shrink (their leading edges in the mirrored extension, 100.0-104.9 s), and
+    # those at the very start are short and regrow with the trailing edge before t0
+    t0 = 5.0
+    centre = np.arange(0, 10_000, 10)
+    time = t0 + centre * 0.01
+    window = np.full(centre.size, 1000)
+    window[980:] = 1000 - 2 * np.arange(1, 21)  # shrinking to the end
+    window[:30] = np.minimum(700 + 20 * np.arange(30), 1000)  # short at the start, regrowing
+    n = np.ones(centre.size)
+    duration = t0 + 100.0
+    events = find_events(window, centre, time, 1000, 0.01, {"angle_random_walk": n}, t0=t0,
+                         duration=duration)  # fmt: skip
+    assert len(events) == 2
+    for event in events:
+        for when in (event.start_s, event.end_s):
+            assert when is None or t0 <= when <= duration, (event.start_s, event.end_s)
+    # the lead in the extension (107.9 s before 0.3) is put at the record's end
+    assert events[-1].start_s == duration and events[-1].end_s is None
+
+
+def test_a_white_record_gives_no_event_after_its_end():
+    # white noise whose last windows shrink on the mirrored extension (found by an
+    # independent audit: an event at 1887.8 s in a record that ends at 1800 s)
+    x = np.random.default_rng(404).standard_normal(180_000)
+    result = adaptive_davar(x, rate=100.0, units="deg/s", taus=[1, 100], step=50)
+    for event in result.events:
+        for when in (event.start_s, event.end_s):
+            assert when is None or 0.0 <= when <= 1800.0, (event.start_s, event.end_s)
+
+
+def test_the_live_tracker_puts_a_lead_past_the_end_at_the_end():
+    from adavar.dynamic.events import EventTracker
+
+    tracker = EventTracker(100, 0.1, lambda low, high, names=None: {}, level=None, t0=0.0)
+    tracker.start(60.0)  # a lead in the extension of a record that ends at 50 s
+    (event,) = tracker.advance(np.inf, final=True, end_of_record=50.0)
+    assert (event.start_s, event.end_s) == (50.0, None)

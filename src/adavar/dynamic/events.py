@@ -304,6 +304,12 @@ class _Episode:
         self.trail, self.ended = trail, True
         self.lo, self.hi = min(self.lo, trail), max(self.hi, trail)
 
+    def clip(self, end: float) -> None:
+        """No time past ``end``, the end of the record."""
+        self.lead, self.lo, self.hi = min(self.lead, end), min(self.lo, end), min(self.hi, end)
+        if self.trail is not None:
+            self.trail = min(self.trail, end)
+
     def absorb(self, other: _Episode) -> None:
         """``other``, the run after this one, is part of it."""
         self.trail, self.ended = other.trail, other.ended
@@ -333,6 +339,9 @@ class EventTracker:
         term ``summaries`` does not give: every episode is an event of its own.
     pairing : {"level", "parity"}
         See :func:`find_events`.
+    t0 : float
+        Time of the record's first sample: no trail is put before it (a window regrowing
+        at the start of the record reaches back into the mirrored extension).
     """
 
     def __init__(
@@ -343,6 +352,7 @@ class EventTracker:
         *,
         level: str | None = "angle_random_walk",
         pairing: str = "level",
+        t0: float = -math.inf,
     ) -> None:
         if pairing not in PAIRINGS:
             raise AdavarInputError(
@@ -355,6 +365,7 @@ class EventTracker:
         self._summaries = summaries
         self.level = level
         self.pairing = pairing
+        self.t0 = float(t0)
         self._pending: list[_Episode] = []  # not yet decided, in time order
         self._previous = -np.inf  # end (hi) of the last decided episode
         self._open: dict[str, Any] | None = None  # the stretch opened and not yet closed
@@ -379,7 +390,7 @@ class EventTracker:
     def end(self, trail: float) -> None:
         """The current run ends (its trail, s)."""
         episode = self._pending[-1]
-        episode.close(trail)
+        episode.close(max(trail, self.t0))
         if self.pairing == "level" and len(self._pending) > 1:
             # its trail came before its lead (a step down is seen late): no whole window
             # may be left between it and the run before, which then it joins
@@ -403,9 +414,14 @@ class EventTracker:
         """The events decided once every window up to ``horizon`` (s) is known.
 
         ``final``: the record has ended (at ``end_of_record``, s): every episode is
-        decided, an open stretch lasts to the end, every summary is made final.
+        decided, an open stretch lasts to the end, every summary is made final. A lead
+        past ``end_of_record`` (a window whose leading edge reached into the mirrored
+        extension, where no sample is new) is put at the end of the record.
         """
         new: list[Event] = []
+        if final and end_of_record is not None:
+            for episode in self._pending:
+                episode.clip(float(end_of_record))
         while self._pending:
             episode = self._pending[0]
             following = self._pending[1].lead if len(self._pending) > 1 else None
@@ -602,7 +618,7 @@ def find_events(
                 for name, v in chosen.items()}  # fmt: skip
 
     usable = level if level in sources else None
-    tracker = EventTracker(lmax, tau0, summaries, level=usable, pairing=pairing)
+    tracker = EventTracker(lmax, tau0, summaries, level=usable, pairing=pairing, t0=t0)
     for lead, trail in episodes:
         tracker.start(float(lead))
         if trail is not None:

@@ -453,7 +453,7 @@ class OnlineAdaptive:
         # state at the last kept row: shortened or not, its centre and length, and the
         # first row of the regrowth under way (where the trailing edge is pinned)
         self._tracker = EventTracker(
-            lmax, dt, self._values, pairing=pairing,
+            lmax, dt, self._values, pairing=pairing, t0=self.t0,
             level="angle_random_walk" if "angle_random_walk" in self.terms else None,
         )  # fmt: skip
         self._last_short = False
