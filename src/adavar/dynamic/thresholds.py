@@ -414,11 +414,11 @@ def hourly_thresholds(
     nodes = np.unique(np.round(np.geomspace(lmin, lmax, 9)).astype(np.int64))
     lo, hi, sv = [], [], []
     for n in nodes:
-        q = _step_probability(per_sample, float(n) * c4)
+        q = _step_probability(per_sample, float(n))
         z = -ndtri(q)
         lo.append(float(_ag_inverse(-z, n / c4)))
         hi.append(float(_ag_inverse(z, n / c4)))
-        qs = _step_probability(per_sample, float(segment) * c4)
+        qs = _step_probability(per_sample, float(segment))
         sv.append(_s_upper_quantile(qs / 2 if s_test == "abs" else qs, int(n), segment, c2, c4))
     inv = 1.0 / np.arange(lmin, lmax + 1)
     for table, values in ((k1, lo), (k2, hi), (s2, sv)):
