@@ -158,17 +158,17 @@ def test_band_limited_noise_gets_the_target_rate_of_false_events():
 
     from adavar.dynamic.schedule import adaptive_schedule
 
-    rate, hours, target, lmax = 100.0, 20, 3.0, 18_000
+    rate, hours, target, lmax = 100.0, 10, 6.0, 6_000
     b, a = signal.butter(4, 10.0 / (rate / 2))
     episodes = 0
     for seed in range(hours // 5):
         x = signal.lfilter(b, a, np.random.default_rng(9000 + seed).standard_normal(1_800_000))
-        schedule = adaptive_schedule(x, rate=rate, lmax=lmax, lmin=12_000, l=3_000,
+        schedule = adaptive_schedule(x, rate=rate, lmax=lmax, lmin=4_000, l=1_000,
                                      false_alarm_per_hour=target)  # fmt: skip
         short = np.asarray(schedule.window) < lmax
         edges = np.diff(np.concatenate(([0], short.astype(np.int8), [0])))
         starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
         if starts.size:  # runs less than Lmax/4 apart are one episode
             episodes += 1 + int(np.sum(starts[1:] - ends[:-1] > lmax / 4))
-    # Poisson: 60 expected, sd 8; the old thresholds gave 187
-    assert 0.5 * target * hours <= episodes <= 1.6 * target * hours, episodes
+    # at most 60 expected (nearby excursions merge); the old thresholds gave 157
+    assert 0.4 * target * hours <= episodes <= 1.6 * target * hours, episodes

@@ -52,9 +52,11 @@ _MARKOV_CANDIDATES = 4  # term sets judged with a Gauss-Markov term under their 
 _MARKOV_REACH = 3.0  # octaves either side of the screened correlation time the likelihood scans
 
 
-def markov_grid(tau: np.ndarray, step: float = 0.25) -> np.ndarray:
-    """Correlation times whose hump lies inside the fitted taus (it peaks near 1.9 T)."""
-    lo, hi = math.log2(tau.min()), math.log2(tau.max() / 4.0)
+def markov_grid(tau: np.ndarray, step: float = 0.25, floor: float = 0.0) -> np.ndarray:
+    """Correlation times whose hump lies inside the fitted taus (it peaks near 1.9 T), and
+    not below ``floor``."""
+    lo = math.log2(max(tau.min(), floor))
+    hi = math.log2(tau.max() / 4.0)
     if hi < lo:
         return np.empty(0)
     return 2.0 ** np.arange(lo, hi + 1e-9, step)
@@ -91,10 +93,11 @@ def own_fit(prob: Problem, idx: np.ndarray, cols, coef: np.ndarray, signed: bool
 def subset_choice(
     prob: Problem, idx: np.ndarray, coef_full: np.ndarray, terms: tuple[int, ...],
     signed: bool, penalty: float, markov: bool, forced: tuple[int, ...] = (),
+    markov_floor: float = 0.0,
 ) -> Choice:  # fmt: skip
-    """The subset of ``terms`` holding ``forced`` (with or without a Gauss-Markov term) of
-    the least ``-2 ln L + penalty * parameters``, each model judged under its own
-    covariance."""
+    """The subset of ``terms`` holding ``forced`` (with or without a Gauss-Markov term of
+    correlation time at least ``markov_floor``) of the least ``-2 ln L + penalty *
+    parameters``, each model judged under its own covariance."""
     prob.set_markov(None)
     w_full = whitened(prob, idx, coef_full)
 
@@ -150,7 +153,7 @@ def subset_choice(
     bar = chi2_ieee + penalty * len(ieee_best.cols)
     ranked: dict[tuple, float] = {}  # term set -> its best screened criterion
     screened = math.inf, math.nan  # the best screened criterion and its time
-    for t in markov_grid(tau, step=0.5):
+    for t in markov_grid(tau, step=0.5, floor=markov_floor):
         col = w_ieee.column(markov_avar(tau, 1.0, float(t)))
         for cols in within:
             x, chi2 = solve(w_ieee, cols, signed, col)
@@ -182,7 +185,7 @@ def subset_choice(
 
     # the likelihood's times: an octave apart, up to _MARKOV_REACH octaves either side of
     # the screen's (which an overshooting IEEE model pulls short by two or three)
-    grid = markov_grid(tau, step=1.0)
+    grid = markov_grid(tau, step=1.0, floor=markov_floor)
     near = np.abs(np.log2(grid / screened[1])) <= _MARKOV_REACH
     scan = [(trial(float(t)), float(t)) for t in (grid[near] if near.any() else grid)]
     scan = [(c, t) for c, t in scan if c is not None]
@@ -191,6 +194,8 @@ def subset_choice(
     top, t_top = min(scan, key=lambda ct: ct[0].criterion)
     for step in (0.5, 0.25, 0.125):  # a finer time around the best
         for tc in (t_top * 2.0**-step, t_top * 2.0**step):
+            if tc < markov_floor:
+                continue
             choice = trial(tc)
             if choice is not None and choice.criterion < top.criterion:
                 top, t_top = choice, tc
@@ -272,10 +277,11 @@ def profile_bound(prob: Problem, idx: np.ndarray, cols: list[int], k: int,
     return hi
 
 
-def choose(prob, idx, all_cols, n_iter, signed, select, significance, markov, forced=()):
+def choose(prob, idx, all_cols, n_iter, signed, select, significance, markov, forced=(),
+           markov_floor=0.0):  # fmt: skip
     """The columns of the final model (IEEE indices, then 5 for a Gauss-Markov term, whose
-    correlation time is left set in ``prob``) and the candidate terms dropped; ``forced``
-    terms stay in every model compared."""
+    correlation time is left set in ``prob``, at least ``markov_floor``) and the candidate
+    terms dropped; ``forced`` terms stay in every model compared."""
     prob.set_markov(None)
     if select in ("none", "significance"):
         cols = all_cols.copy()
@@ -296,6 +302,7 @@ def choose(prob, idx, all_cols, n_iter, signed, select, significance, markov, fo
     coef, *_ = fit_terms(prob, idx, all_cols, n_iter, signed)
     terms = tuple(int(c) for c in all_cols)
     forced = tuple(c for c in forced if c in terms)
-    choice = subset_choice(prob, idx, coef, terms, signed, penalty, markov, forced)
+    choice = subset_choice(prob, idx, coef, terms, signed, penalty, markov, forced,
+                           markov_floor)  # fmt: skip
     cols = np.array(choice.cols + ((MARKOV,) if choice.markov_tau else ()), dtype=np.int64)
     return cols, [int(c) for c in all_cols if c not in choice.cols]
