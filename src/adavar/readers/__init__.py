@@ -20,9 +20,11 @@ ROS 1 ``.bag``                     "ros1"        rosbags
 Nothing is guessed silently: the sampling rate comes from a time column (or time stamps)
 or is declared with ``rate``; a numeric time column is in seconds unless its name carries
 a unit (``t_ms``, ``time [us]``, ``stamp_ns``) or ``time_format`` says otherwise, and one
-that could as well be in another unit (whole numbers 2 or more apart, values past the year
-5000 in seconds) is an error asking for the unit; the rate is the nominal one the stamps
-bear out exactly (``1.7e9 + k / 200`` s: 200 Hz), else their mean regular interval; units
+that could as well be in another unit (a median step of more than 1, values past the year
+5000 in seconds) is an error asking for the unit, as is a ``time_format`` contradicting the
+unit in the name; the time column is never analysed as a channel (unless
+``time_column="none"``); the rate is the nominal one the stamps bear out exactly
+(``1.7e9 + k / 200`` s: 200 Hz), else their mean regular interval; units
 the format declares (ROS bags, HDF5 attributes) are checked against the user's
 (:meth:`Record.units_of`); every step taken (rows dropped, gaps split or filled, samples
 interpolated) is listed in :attr:`Record.meta` so a result can be reproduced.

@@ -154,13 +154,18 @@ def read_record(
         ``time_s``, ``t [ms]``, ``stamp_ns``), else the only column of ISO 8601 or datetime
         values; none otherwise. For a two-column Stable32 file, the first column (MJD time
         tags). For ROS bags: ``"header"`` (header stamps; the default unless they are all
-        zero) or ``"bag"`` (recording time stamps).
+        zero) or ``"bag"`` (recording time stamps). ``"none"``: no time column (give
+        ``rate``); the columns named like one are then data. A channel in ``columns`` that
+        is the time column is an error.
     time_format : {"auto", "s", "ms", "us", "ns", "iso", "mjd"}
         The time column's unit: ``"auto"`` reads strings as ISO 8601 (naive times as UTC)
         and numbers in the unit written in the column name, else in seconds (recorded in
-        ``meta["time_unit_source"]`` as assumed), unless that is unclear: whole numbers 2
-        or more apart (5 apart: 0.2 Hz in seconds, 200 Hz in milliseconds) or values past
-        the year 5000 in seconds are an error asking for the unit.
+        ``meta["time_unit_source"]`` as assumed), unless that is unclear: stamps whose
+        median step is more than 1 (5 apart: 0.2 Hz in seconds, 200 Hz in milliseconds;
+        whole numbers or not, so a few fractional or jittery stamps change nothing) or
+        values past the year 5000 in seconds are an error asking for the unit; whole
+        seconds 1 apart (1 Hz clocks) are read. A unit given here that contradicts the
+        one written in the column name is an error.
     gaps : {"error", "split", "interpolate", "nan"}
         What to do when an interval between time stamps is longer than
         ``(1 + gap_tolerance)`` times the median (a gap) or shorter than

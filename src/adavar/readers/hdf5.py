@@ -16,7 +16,7 @@ import numpy as np
 
 from adavar.io.sources import HDF5Source
 from adavar.readers.errors import fail, one_line, require
-from adavar.readers.lazy import lazy_refused, lazy_wanted
+from adavar.readers.lazy import has_time_column, lazy_refused, lazy_wanted
 from adavar.readers.record import RawRecord
 from adavar.readers.table import Table, array_table, channels_from_table, dt64_ns, numeric_kind
 
@@ -121,7 +121,7 @@ def _lazy_hdf5_ok(obj: Any, opts: dict[str, Any], src: str) -> bool:
         why = "a compound or date-time dataset"
     elif obj.ndim not in (1, 2):
         why = f"shape {obj.shape}"
-    elif opts.get("time_column") is not None:
+    elif has_time_column(opts):
         why = "a time column needs every time stamp in memory"
     if why is not None and opts.get("lazy"):
         raise lazy_refused(src, why)

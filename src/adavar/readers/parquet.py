@@ -15,7 +15,7 @@ import numpy as np
 
 from adavar.io.sources import ParquetSource
 from adavar.readers.errors import fail, one_line, require
-from adavar.readers.lazy import lazy_refused, lazy_wanted
+from adavar.readers.lazy import has_time_column, lazy_refused, lazy_wanted, no_time_column
 from adavar.readers.record import RawRecord
 from adavar.readers.table import Table, channels_from_table, is_iso, time_name_unit
 
@@ -41,13 +41,14 @@ def _lazy_parquet(path: Path, src: str, opts: dict[str, Any], pa: Any, pq: Any) 
         if time_name_unit(n)[0] or pa.types.is_timestamp(typ) or pa.types.is_date(typ)
         or pa.types.is_string(typ) or pa.types.is_large_string(typ)
     ]  # fmt: skip
-    if timed or opts.get("time_column") is not None:
+    no_time = no_time_column(opts.get("time_column"), schema.names)
+    if (timed and not no_time) or has_time_column(opts, schema.names):
         if opts.get("lazy"):
             raise lazy_refused(src, "a time column needs every time stamp in memory")
         return None
     channels, rel, t0, info = channels_from_table(
-        tab, columns=opts["columns"], time_column=None, time_format=opts["time_format"],
-        src=src,
+        tab, columns=opts["columns"], time_column=opts["time_column"] if no_time else None,
+        time_format=opts["time_format"], src=src,
     )  # fmt: skip
     return RawRecord(channels, rel, t0, None, "sample", info)
 

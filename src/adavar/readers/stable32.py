@@ -18,7 +18,7 @@ from typing import Any
 from adavar.core.settings import FileDefault
 from adavar.readers.errors import fail
 from adavar.readers.record import RawRecord
-from adavar.readers.table import channels_from_table
+from adavar.readers.table import channels_from_table, time_name_unit
 from adavar.readers.text import text_table
 
 #: Stable32 suffix -> the data type of its samples (``data_type`` of the analyses)
@@ -73,7 +73,7 @@ def read_stable32(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
         )
     if len(tab.names) == 2 and time_column is None:
         time_column = tab.names[0]
-        if time_format == "auto":
+        if time_format == "auto" and time_name_unit(time_column)[1] is None:
             time_format = "mjd"  # Stable32 time tags are Modified Julian Dates
     data_name = tab.names[-1]
     if columns is None:

@@ -5,7 +5,9 @@ numbers, ISO 8601 strings, datetime nanoseconds or unusable text, and a way to g
 column); :func:`channels_from_table` then chooses the channels (``columns``) and the time
 column (``time_column``, else found by its name or as the only date-time column), and
 reads the time column in its unit (``time_format``, else the unit written in the column
-name, else seconds) as seconds from the first stamp.
+name, else seconds) as seconds from the first stamp. ``time_format`` contradicting the unit
+written in the column name is an error, as is a column taken for the time column (by its
+name) asked for as a channel; ``time_column="none"`` reads no time column.
 """
 
 from __future__ import annotations
@@ -19,9 +21,11 @@ from typing import Any
 
 import numpy as np
 
+from adavar.core.errors import AdavarInputError
 from adavar.core.inputs import check_exact_integers
 from adavar.io.sources import ChunkedSource, memmap_source
 from adavar.readers.errors import fail, locate
+from adavar.readers.lazy import no_time_column
 
 #: Values of ``time_format``.
 TIME_FORMATS = ("auto", "s", "ms", "us", "ns", "iso", "mjd")
@@ -31,6 +35,9 @@ MISSING = frozenset({"", "na", "n/a", "nan", "null", "none", "nat", "-nan", "+na
 _UNIT_FACTOR = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "mjd": 86400.0}
 _UNIT_ALIASES = {"sec": "s", "secs": "s", "seconds": "s", "µs": "us", "μs": "us"}
 _MJD_UNIX_EPOCH = 40587.0
+#: The longest median step (in the column's numbers) of a time column of no declared unit
+#: read as seconds: whole seconds 1 apart (1 Hz clocks), with room for jittery stamps.
+_MAX_ASSUMED_STEP = 1.01
 #: Column / field / key names taken for a time column when ``time_column`` is not given.
 _TIME_NAME = re.compile(
     r"^(?:t|time|times|timestamp|timestamps|time_stamp|datetime|date_time|stamp|epoch|utc"
@@ -115,9 +122,20 @@ class Table:
     bad: dict[str, tuple[int, str]] = field(default_factory=dict)  # text: first bad cell
 
 
+def _time_column_chosen(name: str, src: str) -> AdavarInputError:
+    """The error for the time column ``name`` asked for as a channel."""
+    return fail(
+        f"column {name!r} of {src} is the time column: leave it out of --column (columns), "
+        "name another time column with --time-column NAME, or analyse it as data with "
+        "--time-column none (time_column='none') and --rate HZ"
+    )
+
+
 def _pick_time(
     tab: Table, time_column: str | int | None, exclude: set[str], src: str
 ) -> str | None:
+    if no_time_column(time_column, tab.names):
+        return None
     if time_column is not None:
         name = resolve(time_column, tab.names, src, "time column")
         if tab.kinds[name] == "text":
@@ -127,10 +145,11 @@ def _pick_time(
             )
         return name
     candidates = [
-        n for n in tab.names
-        if n not in exclude and tab.kinds[n] != "text" and time_name_unit(n)[0]
+        n for n in tab.names if tab.kinds[n] != "text" and time_name_unit(n)[0]
     ]  # fmt: skip
     if candidates:
+        if candidates[0] in exclude:  # a channel: the stamps would be analysed as data
+            raise _time_column_chosen(candidates[0], src)
         return candidates[0]
     dated = [n for n in tab.names if n not in exclude and tab.kinds[n] in ("iso", "ns")]
     if len(dated) == 1:
@@ -171,6 +190,12 @@ def _time_from_table(
             "time_format 's', 'ms', 'us', 'ns' or 'mjd' (or 'auto' for seconds)"
         )
     _, named_unit = time_name_unit(name)
+    if time_format != "auto" and named_unit is not None and time_format != named_unit:
+        raise fail(
+            f"time_format {time_format!r} (--time-format {time_format}) contradicts the "
+            f"unit written in the name of time column {name!r} of {src} ({named_unit}): "
+            "leave out --time-format, or correct it (or the column name)"
+        )
     if time_format != "auto":
         unit, how = time_format, "declared"
     elif named_unit is not None:
@@ -202,8 +227,10 @@ def _time_from_table(
 
 def _check_seconds(values: np.ndarray, first: float, name: str, src: str) -> None:
     """Fail when a time column of no declared unit cannot be in seconds, or could as well be
-    in ms, us or ns: stamps after the year 5000, or whole numbers 2 or more apart (5 apart:
-    0.2 Hz in seconds, 200 Hz in milliseconds). Whole seconds 1 apart (1 Hz) are read."""
+    in ms, us or ns: stamps after the year 5000, or a median step of more than 1 (5 apart:
+    0.2 Hz in seconds, 200 Hz in milliseconds), whole numbers or not: the median is not
+    moved by a few fractional, jittery or missing stamps or by gaps. Whole seconds 1 apart
+    (1 Hz) are read."""
     named = f"or in the column name (e.g. {name.strip()}_ms)"
     if math.isfinite(first) and abs(first) > 1e11:
         raise fail(
@@ -213,24 +240,24 @@ def _check_seconds(values: np.ndarray, first: float, name: str, src: str) -> Non
         )
     if values.size < 2:
         return
+    stamps = values
     if values.dtype.kind == "f":
-        head = values[:64]
-        if not np.array_equal(head, np.round(head), equal_nan=True):
-            return  # a fraction among the first stamps: not whole numbers
-        finite = values[np.isfinite(values)]
-        if finite.size < 2 or not np.array_equal(finite, np.round(finite)):
-            return
-        steps = np.diff(finite)
+        finite = np.isfinite(values)
+        stamps = values if finite.all() else values[finite]
+    if stamps.size < 2:
+        return
+    step = float(np.median(np.diff(stamps)))
+    if not step > _MAX_ASSUMED_STEP:  # also NaN: stamps going back are reported later
+        return
+    if stamps.dtype.kind != "f" or np.array_equal(stamps, np.round(stamps)):
+        held = f"whole numbers {step:g} apart"
     else:
-        steps = np.diff(values)
-    step = float(np.median(steps))
-    if step >= 2:
-        raise fail(
-            f"time column {name!r} of {src} holds whole numbers {step:g} apart, so its unit "
-            f"is unclear ({1 / step:.4g} Hz if they are seconds, {1000 / step:.4g} Hz if "
-            f"milliseconds): give its unit with time_format 's', 'ms', 'us' or 'ns' "
-            f"(--time-format), {named}"
-        )
+        held = f"stamps {step:.6g} apart (the median interval)"
+    raise fail(
+        f"time column {name!r} of {src} holds {held}, so its unit is unclear "
+        f"({1 / step:.4g} Hz if they are seconds, {1000 / step:.4g} Hz if milliseconds): "
+        f"give its unit with time_format 's', 'ms', 'us' or 'ns' (--time-format), {named}"
+    )
 
 
 def _iso_seconds(
@@ -302,10 +329,7 @@ def channels_from_table(
                 "with --column"
             )
         if name == tname:
-            raise fail(
-                f"column {name!r} of {src} is the time column: choose other columns, or "
-                "another time column with --time-column"
-            )
+            raise _time_column_chosen(name, src)
     if len(set(chosen)) != len(chosen):
         raise fail(f"a column is named twice in --column ({', '.join(chosen)}): name each once")
     channels = {n: as_channel(tab.get(n), n, src, tab.rows) for n in chosen}
