@@ -471,7 +471,7 @@ def _run_compare(args: argparse.Namespace) -> int:
     from adavar.paper.reference import PAPER_FIG6_WINDOWS, PAPER_FIG8_THRESHOLDS
     from adavar.paper.scenarios import paper_scenario
     from adavar.paper.studies import compare_seeds, kurtosis_study, threshold_study
-    from adavar.pipeline.analysis import read_input, resolve_lengths
+    from adavar.pipeline.analysis import read_input, refuse_constant_channels, resolve_lengths
 
     units: str | None = None
     tau0 = 1.0
@@ -500,6 +500,7 @@ def _run_compare(args: argparse.Namespace) -> int:
         status(f"reading {args.file}")
         # read piece by piece where the file allows: the methods stream it
         loaded = read_input(RecordRequest.from_options(args), out_of_core=True, hint="")
+        refuse_constant_channels(loaded, "the windows to compare")
         samples, units = loaded.first
         meta, tau0, used_rate = loaded.meta, loaded.tau0, loaded.record.rate
         args = resolve_lengths(args, tau0)

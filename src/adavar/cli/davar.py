@@ -323,6 +323,7 @@ def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
 
     from adavar.cli.options import check_change_times
     from adavar.core.request import AnalysisRequest
+    from adavar.pipeline.analysis import refuse_constant_channels
     from adavar.pipeline.analysis import run as run_analysis
 
     status = Status()
@@ -332,6 +333,8 @@ def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
     )
 
     def check(request: AnalysisRequest, loaded: Any) -> None:
+        what = "the adaptive window to follow" if adaptive else "a dynamic Allan variance"
+        refuse_constant_channels(loaded, what)
         if adaptive:
             samples, _ = loaded.first
             check_change_times(args.change_times, int(getattr(samples, "size", np.size(samples))),

@@ -6,10 +6,14 @@ import argparse
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-
 from adavar import __version__
-from adavar.cli.options import EXIT_OK, UsageError, parse_names, positive_float
+from adavar.cli.options import (
+    EXIT_OK,
+    UsageError,
+    parse_names,
+    positive_float,
+    sample_rate,
+)
 from adavar.cli.output import Status, check_output_file, output_error
 from adavar.core.errors import AdavarInputError
 from adavar.core.request import AnalysisRequest, RecordRequest, UnitGroup
@@ -33,19 +37,10 @@ def kalibr_request(args: argparse.Namespace) -> AnalysisRequest:
 
 
 def _constant(source: Any, chunk_size: int | None = None) -> bool:
-    """Whether every sample equals the first (NaN equals nothing), read a piece at a time:
-    a streamed record is not loaded for the check (``source``: a
-    :class:`adavar.io.sources.ChunkedSource`)."""
-    from adavar.io.sources import DEFAULT_CHUNK
+    """:func:`adavar.pipeline.analysis.is_constant` (the record read a piece at a time)."""
+    from adavar.pipeline.analysis import is_constant
 
-    chunk_size = DEFAULT_CHUNK if chunk_size is None else chunk_size
-    if source.size == 0:
-        return False
-    first = source.read_unchecked(0, 1)[0]
-    for start in range(0, source.size, chunk_size):
-        if not np.all(source.read_unchecked(start, min(source.size, start + chunk_size)) == first):
-            return False
-    return True
+    return is_constant(source, chunk_size)
 
 
 def _no_constant_axis(args: argparse.Namespace) -> Callable[..., None]:
@@ -156,7 +151,7 @@ def add_kalibr_parser(sub: Any) -> argparse.ArgumentParser:
     kal.add_argument(
         "--rate",
         metavar="HZ",
-        type=positive_float("Hz"),
+        type=sample_rate("--rate"),
         help="sample rate, if the file has no time stamps",
     )
     kal.add_argument("--time-column", metavar="NAME", help="column of time stamps")

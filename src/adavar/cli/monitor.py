@@ -42,6 +42,7 @@ from adavar.cli.options import (
     parse_terms,
     positive_float,
     positive_int,
+    sample_rate,
 )
 from adavar.core.errors import AdavarInputError
 from adavar.core.settings import ICI_EDF_SAMPLES, STREAM_LMAX_SECONDS
@@ -81,8 +82,8 @@ def add_monitor_parser(sub: Any) -> argparse.ArgumentParser:
     )
     cmd.add_argument("source", metavar="SOURCE",
                      help="- (standard input), a file path, or udp://HOST:PORT")  # fmt: skip
-    cmd.add_argument("--rate", metavar="HZ", type=positive_float("Hz"), required=True,
-                     help="sample rate in Hz (required)")  # fmt: skip
+    cmd.add_argument("--rate", metavar="HZ", type=sample_rate("--rate"), required=True,
+                     help="sample rate in Hz, 1e-12 .. 1e12 (required)")  # fmt: skip
     cmd.add_argument("--units", metavar="UNIT", required=True,
                      help="unit of the samples, e.g. deg/s, rad/s, m/s^2 (required)")  # fmt: skip
     cmd.add_argument(

@@ -111,6 +111,32 @@ def positive_float(what: str) -> Callable[[str], float]:
     return parse
 
 
+#: The sample rates ``--rate`` accepts, Hz (``--tau0``: their inverses, 1 ps .. about
+#: 31,700 years between samples). No sensor or clock samples outside them, and far beyond
+#: them the taus, the fit's design matrix and the time axis leave float64 (``--rate 1e300``
+#: divided by zero in the fit, ``1e-300`` overflowed, ``1e100`` failed to converge).
+MIN_RATE, MAX_RATE = 1e-12, 1e12
+
+
+def sample_rate(flag: str) -> Callable[[str], float]:
+    """The type of ``--rate`` (``flag="--rate"``, Hz) or ``--tau0`` (seconds): a positive
+    number within :data:`MIN_RATE` .. :data:`MAX_RATE` Hz."""
+    interval = flag == "--tau0"
+    unit = "seconds" if interval else "Hz"
+    lo, hi = (1.0 / MAX_RATE, 1.0 / MIN_RATE) if interval else (MIN_RATE, MAX_RATE)
+
+    def parse(text: str) -> float:
+        value = positive_float(unit)(text)
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(
+                f"must lie in {lo:g} .. {hi:g} {unit} (a sample every 1 ps to 31,700 years), "
+                f"got {text!r}: check the unit ({flag} is in {unit})"
+            )
+        return value
+
+    return parse
+
+
 def figure_formats(text: str) -> tuple[str, ...]:
     """``--figures``: comma-separated formats (each once, in order), or ``none`` for ()."""
     items = [item.strip().lower() for item in text.split(",") if item.strip()]
@@ -528,7 +554,7 @@ def add_input_arguments(
     cmd.add_argument(
         "--time-column", metavar="NAME",
         help="column of time stamps (default: one named time, t, timestamp, ...; "
-        "'header' or 'bag' for ROS bags)",
+        "'header' or 'bag' for ROS bags; 'none': no time column, give --rate)",
     )  # fmt: skip
     cmd.add_argument(
         "--time-format", default="auto", choices=("auto", "s", "ms", "us", "ns", "iso", "mjd"),
@@ -571,12 +597,12 @@ def add_input_arguments(
         else "header name or 0-based index of the column (needed if there are several)",
     )  # fmt: skip
     cmd.add_argument(
-        "--rate", metavar="HZ", type=positive_float("Hz"),
-        help="sample rate in Hz (required, or --tau0)",
+        "--rate", metavar="HZ", type=sample_rate("--rate"),
+        help="sample rate in Hz, 1e-12 .. 1e12 (required, or --tau0)",
     )  # fmt: skip
     cmd.add_argument(
-        "--tau0", metavar="SECONDS", type=positive_float("seconds"),
-        help="sample interval in seconds, instead of --rate",
+        "--tau0", metavar="SECONDS", type=sample_rate("--tau0"),
+        help="sample interval in seconds, 1e-12 .. 1e12, instead of --rate",
     )  # fmt: skip
     cmd.add_argument(
         "--units", metavar="UNIT",

@@ -66,10 +66,13 @@ def averaging_factors(
         raise AdavarInputError("taus must be a keyword or a non-empty list of seconds")
     if not np.all(np.isfinite(req)) or np.any(req <= 0):
         raise AdavarInputError("taus must be positive, finite numbers of seconds")
-    m = np.round(req / tau0).astype(np.int64)
-    if np.any(np.abs(m * tau0 - req) > 1e-9 * req):
+    with np.errstate(over="ignore"):  # a tau of 1e300 s: beyond every record
+        ratio = np.round(req / tau0)
+        off = np.abs(ratio * tau0 - req) > 1e-9 * req
+    if np.any(off & np.isfinite(ratio)):
         notes.append(f"taus rounded to whole multiples of tau0 = {tau0:g} s")
-    bad = (m < 1) | (m > m_max)
+    bad = ~((ratio >= 1) & (ratio <= m_max))
+    m = np.where(bad, 0.0, ratio).astype(np.int64)  # only the factors in range are cast
     if np.any(bad):
         notes.append(
             f"dropped {int(bad.sum())} tau(s) outside {tau0:g} s .. {m_max * tau0:g} s "

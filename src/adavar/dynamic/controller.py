@@ -465,6 +465,20 @@ def check_whole(name: str, value: object, minimum: int) -> int:
     return int(value)
 
 
+def _refuse_constant_head(x: np.ndarray) -> None:
+    """The head the thresholds are calibrated on (its correlation, its kurtosis) must have
+    noise: a constant one (a dead sensor, the wrong column, a stream that starts with a
+    held value) has none, and every statistic of it is 0 / 0."""
+    x = np.asarray(x)
+    if x.size and bool(np.all(x == x[0])):
+        raise AdavarInputError(
+            f"the first {x.size} samples of the record are constant ({float(x[0]):g} in "
+            "every one): the thresholds are calibrated on the noise of this head and it has "
+            "none; check the column and that the sensor was recording, or leave out the "
+            "constant start"
+        )
+
+
 def make_controller(
     *,
     method: str,
@@ -572,6 +586,7 @@ def make_controller(
                 "kurtosis): give the record, or thresholds='paper'"
             )
         x = head(DEPENDENCE_SAMPLES)
+        _refuse_constant_head(x)
         measured = tuple(round(c, 3) for c in noise_dependence(x))
         if hourly and dependence is None:
             dependence = measured

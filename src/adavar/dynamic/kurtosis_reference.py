@@ -333,6 +333,8 @@ def record_reference(
     centre = float(np.median(x))
     rows = x[: x.size // block * block].reshape(-1, block)
     scale = math.sqrt(float(np.median(rows.var(axis=1))))
+    if not scale > centre_noise(centre):  # most blocks constant (to rounding): no transform
+        return KurtosisReference(0.0, 0.0, 1.0, 0.0, block, int(kurt.size), raw, target)
     if rows.shape[0] * block > POOL:  # whole blocks, spread over the head
         rows = rows[np.linspace(0, rows.shape[0] - 1, max(MIN_BLOCKS, POOL // block)).astype(int)]
     pool = rows.ravel()
@@ -353,6 +355,11 @@ def record_reference(
         theta, offset = float(brentq(excess, lo, hi, xtol=2e-3)), 0.0
     return KurtosisReference(round(theta, 6), centre, scale, float(offset), block,
                              int(kurt.size), raw, target, float(error))  # fmt: skip
+
+
+def centre_noise(centre: float) -> float:
+    """The spread rounding alone gives samples near ``centre`` (a few ulps of it)."""
+    return 4.0 * math.ulp(abs(centre)) if math.isfinite(centre) else 0.0
 
 
 def _residual(

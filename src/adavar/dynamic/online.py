@@ -101,7 +101,12 @@ from adavar.dynamic.online_ici import IciTracker
 from adavar.dynamic.online_rows import Rows, check_noise_type
 from adavar.dynamic.schedule import window_lengths
 from adavar.dynamic.surface_common import edf_table
-from adavar.dynamic.window_defaults import dependence_stages, resolve_windows, stage_controller
+from adavar.dynamic.window_defaults import (
+    check_stream_memory,
+    dependence_stages,
+    resolve_windows,
+    stage_controller,
+)
 from adavar.fit.noise_model import fit_avar
 from adavar.io.sampling import resolve_tau0
 
@@ -358,6 +363,7 @@ class OnlineAdaptive:
         dt = resolve_tau0(rate, None)
         lmax, lmin, l = resolve_windows(None, dt, lmax, lmin, l)  # noqa: E741
         lmax, lmin, seg, step = window_lengths(dt, lmax=lmax, lmin=lmin, l=l, step=step)
+        check_stream_memory(lmax, dt)  # before the thresholds of every length are built
         thresholds, false_alarm, false_alarm_per_hour = threshold_mode(
             thresholds, false_alarm, false_alarm_per_hour
         )

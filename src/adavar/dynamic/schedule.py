@@ -285,6 +285,11 @@ def adaptive_schedule(
         false_alarm_per_hour=false_alarm_per_hour, rate=1.0 / dt,
         kurtosis_reference=kurtosis_reference,
     )  # fmt: skip
+    # a record shorter than lmax is refused before the thresholds of every window length
+    # are built (lmax = 1e21 samples would not fit in memory)
+    size = record_size(data, chunked)
+    if 0 < size < lmax:
+        raise AdavarInputError(f"the record has {size} samples; at least {lmax} are needed")
     # the settings checked before the record is read (the calibration waits for it)
     quick = settings | {"thresholds": "paper"} if thresholds == "calibrated" else settings
     make_controller(**quick)

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from adavar.core.durations import Length, seconds, to_samples
+from adavar.core.errors import AdavarInputError
 from adavar.core.settings import (
     DEFAULT_MAX_MEMORY_MB,
     DEPENDENCE_FIRST,
@@ -37,6 +38,8 @@ from adavar.dynamic.thresholds import DEPENDENCE_SAMPLES
 __all__ = [
     "CELL_BYTES",
     "COMPARISON_CENTRE_BYTES",
+    "STREAM_BYTES_PER_LMAX",
+    "check_stream_memory",
     "comparison_step",
     "dependence_stages",
     "record_windows",
@@ -46,6 +49,30 @@ __all__ = [
     "staged_controllers",
     "surface_resolution",
 ]
+
+
+#: Peak bytes a stream's pass holds per sample of ``lmax``: the samples it keeps and the
+#: controller's thresholds for every window length, 217 B measured at ``lmax = 2e6`` (the
+#: calibrated thresholds being computed when the head has arrived)
+STREAM_BYTES_PER_LMAX = 224
+
+
+def check_stream_memory(lmax: int, dt: float) -> None:
+    """A one-line error, before any work, when a window of ``lmax`` samples would not fit
+    in the free memory (a stream has no length to bound it by)."""
+    from adavar.io.sources import available_memory
+
+    free = available_memory()
+    if free is None:  # pragma: no cover - not Linux
+        return
+    most = max(1, int(0.8 * free) // STREAM_BYTES_PER_LMAX)
+    if lmax > most:
+        raise AdavarInputError(
+            f"lmax (--lmax) of {lmax} samples ({lmax * dt:.3g} s) needs about "
+            f"{lmax * STREAM_BYTES_PER_LMAX / 2**30:.3g} GiB for the samples and thresholds of its "
+            f"windows, but {free / 2**30:.1f} GiB of memory is free: give an lmax of {most} "
+            f"samples ({most * dt:.3g} s) or fewer"
+        )
 
 
 def record_windows(n_samples: int, lmax: int | None = None) -> tuple[int, int, int]:

@@ -346,8 +346,10 @@ def _reference_columns(
     if reference is not None:
         if not isinstance(reference, NoiseFit) or np.ndim(reference.coefficients) != 1:
             raise AdavarInputError("reference must be the NoiseFit of one whole-record curve")
-        used = reference.used
-        shortest = float(np.min(reference.tau[np.asarray(used)])) if used is not None else 0.0
+        used = None if reference.used is None else np.asarray(reference.used)
+        # a reference that fitted no tau (a constant record, a tau range beside its curve)
+        # has no shortest fitted tau: nothing is left out below it
+        shortest = float(np.min(reference.tau[used])) if used is not None and used.any() else 0.0
         low = tau < shortest * (1.0 - 1e-9)
         for j in np.flatnonzero(low):
             reasons[j] = reasons[j] or f"below the whole-record fit's shortest tau {shortest:.3g} s"
@@ -416,6 +418,34 @@ def _tau_selection(
                 keep[j] = False
                 reasons[j] = f"below {BANDWIDTH_FACTOR:g} / bandwidth = {limit:.3g} s"
     return keep, reasons
+
+
+def _check_some_tau_kept(
+    tau: np.ndarray, keep: np.ndarray, tau_range: Any, bandwidth: float | None
+) -> None:
+    """A stack of curves (a surface's windows) of which ``tau_range`` and ``bandwidth``
+    leave no tau has nothing to fit in any window: a one-line error naming the taus there
+    are (one curve is reported "not fitted" instead)."""
+    if tau.size == 0 or keep.any():
+        return
+    span = f"{float(np.min(tau)):.3g} .. {float(np.max(tau)):.3g} s"
+    if tau_range is not None:
+        lo, hi = tau_bounds(tau_range)
+        in_range = (tau >= lo) & (tau <= hi)
+        if not in_range.any():
+            raise AdavarInputError(
+                f"no tau of the windows lies in tau_range (--tau-range) [{lo:g}, {hi:g}] s: "
+                f"their taus are {span} (up to a third of the window); choose a range that "
+                "overlaps them, or a longer window"
+            )
+    bw = float(bandwidth)  # type: ignore[arg-type]  # what else leaves out a tau
+    limit = BANDWIDTH_FACTOR / bw
+    raise AdavarInputError(
+        f"bandwidth (--bandwidth) {bw:g} Hz leaves no tau of the windows to fit: it "
+        f"drops every tau below {BANDWIDTH_FACTOR:g} / bandwidth = {limit:.3g} s and their "
+        f"taus are {span} (up to a third of the window); give the sensor's bandwidth in Hz, "
+        "or a longer window"
+    )
 
 
 def _readoff_reach(result: Any) -> float | None:
@@ -638,6 +668,8 @@ def fit_noise(
     tau = np.asarray(result.tau, dtype=float)
     keep, reasons = _tau_selection(tau, tau_range, bandwidth)
     one = avar.ndim == 1
+    if not one:
+        _check_some_tau_kept(tau, keep, tau_range, bandwidth)
     slopes = None
     if one:
         dev = np.sqrt(avar)

@@ -45,8 +45,10 @@ __all__ = [
     "analyse_channel",
     "controller_settings",
     "fit_keywords",
+    "is_constant",
     "rate_keywords",
     "read_input",
+    "refuse_constant_channels",
     "resolve_lengths",
     "resolve_resolution",
     "run",
@@ -241,6 +243,32 @@ def _lengths(
     return out
 
 
+def is_constant(samples: Any, chunk_size: int | None = None) -> bool:
+    """Whether every sample equals the first (NaN equals nothing), read a piece at a time:
+    a streamed record (a :class:`adavar.io.sources.ChunkedSource`) is not loaded for it."""
+    source = sources.as_source(samples)
+    chunk_size = sources.DEFAULT_CHUNK if chunk_size is None else chunk_size
+    if source.size == 0:
+        return False
+    first = source.read_unchecked(0, 1)[0]
+    for start in range(0, source.size, chunk_size):
+        if not np.all(source.read_unchecked(start, min(source.size, start + chunk_size)) == first):
+            return False
+    return True
+
+
+def refuse_constant_channels(loaded: LoadedInput, what: str) -> None:
+    """A one-line error for a constant channel of ``loaded`` (a dead axis, or the wrong
+    column): it has no noise for ``what`` (e.g. "a dynamic Allan variance")."""
+    for name, samples in loaded.channels.items():
+        if is_constant(samples):
+            value = float(sources.as_source(samples).read_unchecked(0, 1)[0])
+            raise AdavarInputError(
+                f"column {name!r} is constant ({value:g} in every sample): it has no noise "
+                f"for {what}; check --column and that the sensor was recording"
+            )
+
+
 def resolve_lengths(args: Any, tau0: float, n_samples: int | None = None) -> Any:
     """The request (or options) with the window-like lengths (``window``, ``lmax``,
     ``lmin``, ``segment`` = ``l``, ``step``) in samples of this record: a copy, the one
@@ -293,8 +321,11 @@ def resolve_resolution(
     """
     w = request.window
     longest = request.controller.lmax if w.adaptive else w.window
+    # a window longer than the record is refused by the statistic, in its own words; its
+    # taus here are those of the record (a window of 1e21 samples has no tau grid)
+    longest = min(int(longest), max(int(n_samples), 1))
     taus, step, why = surface_resolution(
-        int(longest), n_samples, tau0, taus=w.taus, step=w.step,
+        longest, n_samples, tau0, taus=w.taus, step=w.step,
         points_per_decade=w.points_per_decade, max_memory=w.max_memory, channels=channels,
     )  # fmt: skip
     request = request.with_lengths(taus=taus, step=step)
