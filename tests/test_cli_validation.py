@@ -273,8 +273,9 @@ def test_a_flag_the_mode_ignores_is_an_error(capsys, gyro_csv, extra, fragments)
 @pytest.mark.parametrize("command", ["report", "batch", "monitor"])
 def test_every_command_with_the_controller_refuses_ignored_flags(capsys, gyro_csv, tmp_path,
                                                                  command):  # fmt: skip
-    where = {"report": ["--column", "gyro_x", "-o", str(tmp_path / "r.html")],
-             "batch": ["--column", "gyro_x", "--out", str(tmp_path / "o")],
+    # report and batch: with --adaptive (without it, every controller flag is unused)
+    where = {"report": ["--column", "gyro_x", "-o", str(tmp_path / "r.html"), "--adaptive"],
+             "batch": ["--column", "gyro_x", "--out", str(tmp_path / "o"), "--adaptive"],
              "monitor": []}[command]  # fmt: skip
     code, out, err = run(capsys, [command, str(gyro_csv), "--rate", "10", "--units", "deg/s",
                                   *where, "--k1", "2"])  # fmt: skip

@@ -382,7 +382,7 @@ def test_cli_adaptive_method_ici(capsys, scenario_csv):
         (["--ici-gamma", "-1"], "--ici-gamma"),
         (["--ici-lengths", "10,x"], "--ici-lengths"),
         (["--ici-sides", "up"], "--ici-sides"),
-        (["--ici-lengths", "10,20"], "ici_lengths must hold lmin"),
+        (["--ici-lengths", "10,20"], "ici_lengths (--ici-lengths) must hold lmin"),
     ],
 )
 def test_cli_bad_ici_option(capsys, scenario_csv, flags, fragment):

@@ -61,6 +61,7 @@ from typing import Any
 
 import numpy as np
 
+from adavar.core.durations import count_text
 from adavar.core.errors import AdavarInputError
 from adavar.core.inputs import as_samples
 from adavar.core.request import settings_keywords
@@ -723,7 +724,8 @@ def run_comparison(
     for s in specs:
         if s.kind == "fixed" and s.window > n:
             raise AdavarInputError(
-                f"{s.label}: a window of {s.window} samples is longer than the record ({n})"
+                f"DAVAR-{count_text(s.window)}: a window of {count_text(s.window)} samples is "
+                f"longer than the record ({n})"
             )
 
     if not isinstance(x, np.ndarray) and (

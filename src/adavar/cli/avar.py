@@ -128,6 +128,8 @@ def allow_gaps_omit(parser: argparse.ArgumentParser, split: str = "") -> None:
     ``split`` describes ``--gaps split`` where the command has it."""
     gaps = parser.option("--gaps")
     gaps.choices = (*gaps.choices, "omit")
+    # the ways out of a gap error: split only where the command splits (avar)
+    parser.gap_ways = ("split", "interpolate", "omit") if split else ("interpolate", "omit")
     gaps.help = (
         f"a gap in the time stamps is an error (default), {split}is filled by linear "
         "interpolation, or (omit) its missing samples, and NaN/empty cells, are left out of "

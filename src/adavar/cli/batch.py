@@ -21,6 +21,7 @@ from adavar.cli.options import (
     positive_int,
 )
 from adavar.cli.output import ProgressBar, text_table
+from adavar.cli.report import check_adaptive_only_flags
 from adavar.io.writers import dumps
 from adavar.pipeline.batch_cluster import DEFAULT_WORKER_TIMEOUT
 
@@ -112,6 +113,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     from adavar.pipeline.batch_state import STATUS_ABSENT
     from adavar.pipeline.report_analysis import report_options
 
+    check_adaptive_only_flags(args)  # as adavar report: no adaptive window without --adaptive
     check_arguments(args)
     files = collect_files(args.inputs, files_from=args.files_from)
     options = report_options(args, ignore_unknown=True)

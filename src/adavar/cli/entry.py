@@ -93,6 +93,8 @@ def main(argv: Sequence[str] | None = None, *, process_exits: bool = False) -> i
     """
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv or os.environ.get("ADAVAR_DEBUG", "").strip() not in ("", "0")
+    args: argparse.Namespace | None = None
+    parser: Parser | None = None
     try:
         parser = build_parser()
         argv = with_config(parser, argv)
@@ -111,7 +113,9 @@ def main(argv: Sequence[str] | None = None, *, process_exits: bool = False) -> i
         return code if isinstance(code, int) else (EXIT_OK if code is None else EXIT_USAGE)
     except (UsageError, AdavarInputError) as exc:
         clear_status_line()
-        print(f"adavar: error: {one_line(str(exc))}", file=sys.stderr)
+        command = parser.commands.get(args.command) if parser and args else None
+        ways = command.gap_ways if command is not None else ()
+        print(f"adavar: error: {one_line(gap_way_out(exc, ways))}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt:
         print("adavar: interrupted", file=sys.stderr)
@@ -133,6 +137,18 @@ def main(argv: Sequence[str] | None = None, *, process_exits: bool = False) -> i
             file=sys.stderr,
         )
         return EXIT_INTERNAL
+
+
+def gap_way_out(exc: Exception, ways: Sequence[str]) -> str:
+    """The message of ``exc``; for a gap in the time stamps (:class:`GapError`), with the
+    ``--gaps`` policies ``ways`` that get this command past it (its parser's
+    :attr:`~adavar.cli.parser.Parser.gap_ways`), not the reader's list of every policy
+    (``--gaps split`` is for ``adavar avar`` only, ``omit`` for ``avar`` and ``davar``)."""
+    from adavar.readers.errors import GapError
+
+    if not isinstance(exc, GapError) or not ways:
+        return str(exc)
+    return f"{exc.problem}: use {' or '.join(f'--gaps {way}' for way in ways)}"
 
 
 def run() -> None:

@@ -10,6 +10,7 @@ from adavar import __version__
 from adavar.cli.options import (
     EXIT_OK,
     UsageError,
+    check_not_stdin,
     parse_names,
     positive_float,
     sample_rate,
@@ -25,6 +26,16 @@ def kalibr_request(args: argparse.Namespace) -> AnalysisRequest:
     for the accelerometer's, the deviation and fit of the library's defaults."""
     if len(args.gyro) != 3 or len(args.accel) != 3:
         raise UsageError("--gyro and --accel take three columns each (x,y,z)")
+    seen: dict[str, str] = {}  # column -> the flag that named it first
+    for flag, column in [("--gyro", c) for c in args.gyro] + [("--accel", c) for c in args.accel]:
+        if column in seen:  # the reader would say "named twice in --column"
+            where = flag if seen[column] == flag else f"{seen[column]} and {flag}"
+            raise UsageError(
+                f"column {column!r} is named twice in {where} (--gyro {','.join(args.gyro)} "
+                f"--accel {','.join(args.accel)}): each axis needs its own column; name each "
+                "once"
+            )
+        seen[column] = flag
     groups = (
         UnitGroup(tuple(args.gyro), args.gyro_units, "--gyro-units", "rad/s, deg/s"),
         UnitGroup(tuple(args.accel), args.accel_units, "--accel-units", "m/s^2, g"),
@@ -65,6 +76,7 @@ def _cmd_kalibr(args: argparse.Namespace) -> int:
     from adavar.output.export import kalibr_imu_yaml, kalibr_values, write_text
     from adavar.pipeline.analysis import run
 
+    check_not_stdin(args)
     output = check_output_file(args.output, args.force, (".yaml", ".yml"))
     request = kalibr_request(args)
     status = Status()
@@ -192,5 +204,6 @@ def add_kalibr_parser(sub: Any) -> argparse.ArgumentParser:
     kal.add_argument(
         "--debug", action="store_true", default=argparse.SUPPRESS, help=argparse.SUPPRESS
     )
+    kal.gap_ways = ("interpolate",)
     kal.set_defaults(handler=_cmd_kalibr)
     return kal

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 from collections.abc import Callable
 
@@ -385,6 +386,22 @@ def parse_preprocess(text: str) -> str:
     return text.strip()
 
 
+def check_not_stdin(args: argparse.Namespace) -> None:
+    """FILE ``-`` (standard input) is an error naming the way out: the commands that read a
+    FILE read it whole, from its path (``-`` said "-: no such file"); ``adavar monitor``
+    reads a stream on standard input. A file named ``-`` is read as before."""
+    file = getattr(args, "file", None)
+    if file == "-" and not os.path.exists(file):
+        command = getattr(args, "command", None) or "this command"
+        live = ("" if command == "kalibr" else  # monitor writes no imu.yaml
+                ", or run the adaptive window on the live stream with 'adavar monitor -' "
+                "(see 'adavar monitor --help')")  # fmt: skip
+        raise UsageError(
+            f"adavar {command} does not read standard input (FILE -): save the samples to a "
+            f"file and give its path{live}"
+        )
+
+
 def warn(message: str) -> None:
     """One ``adavar: warning:`` line on stderr."""
     print(f"adavar: warning: {' '.join(message.split())}", file=sys.stderr)
@@ -394,6 +411,7 @@ def check_arguments(args: argparse.Namespace) -> None:
     """Flags that contradict or miss each other, before any work: ``--force`` without
     ``--out``, an empty ``--s-test band``, ``--change-times`` that no method uses (a
     warning), and an ``--units`` adavar does not know (a warning: it is a free label)."""
+    check_not_stdin(args)
     if getattr(args, "force", False) and "out" in vars(args) and args.out is None:
         raise UsageError(
             "--force replaces an existing --out folder: give --out DIR as well, or drop --force"
@@ -438,20 +456,33 @@ def check_arguments(args: argparse.Namespace) -> None:
     if isinstance(units, str) and units.strip():
         data_type = getattr(args, "data_type", "rate")
         if not is_known_unit(units, data_type):
-            warn(
-                f"--units {units.strip()!r} is not a unit adavar knows ({', '.join(RATE_UNITS)};"
-                " with --data-type phase their integrals, or s): the results are in it as "
-                "given, without conventional units"
-            )
+            warn(_unknown_units(units.strip(), data_type))
 
 
-def _listed_flags(flags: list[str]) -> str:
+def _unknown_units(units: str, data_type: str) -> str:
+    """The warning for ``--units`` that :func:`is_known_unit` does not take for
+    ``data_type``, listing the ones it takes (for phase data: those it knows, not every
+    rate unit's integral; a rate unit given with --data-type phase is said to be one)."""
+    from adavar.core.units import known_phase_units
+
+    free = "the results are in it as given, without conventional units"
+    if data_type != "phase":
+        known = f"{', '.join(RATE_UNITS)}; or a fractional frequency: 1, ns/s"
+        return f"--units {units!r} is not a unit adavar knows for rate data ({known}): {free}"
+    phase = f"a rate's integral or a clock's time error: {', '.join(known_phase_units())}"
+    if is_known_unit(units, "rate"):
+        return (f"--units {units!r} is a unit of rate data, not of --data-type phase ({phase})"
+                f": drop --data-type phase if the samples are the rate; else {free}")  # fmt: skip
+    return f"--units {units!r} is not a unit adavar knows for phase data ({phase}): {free}"
+
+
+def listed_flags(flags: list[str]) -> str:
     return ", ".join(flags[:-1]) + f" and {flags[-1]}" if len(flags) > 1 else flags[0]
 
 
-def _ignored(flags: list[str], why: str, way_out: str) -> UsageError:
+def ignored(flags: list[str], why: str, way_out: str) -> UsageError:
     verb = "are" if len(flags) > 1 else "is"
-    return UsageError(f"{_listed_flags(flags)} {verb} not used {why}: {way_out}")
+    return UsageError(f"{listed_flags(flags)} {verb} not used {why}: {way_out}")
 
 
 def check_controller_flags(args: argparse.Namespace) -> None:
@@ -467,14 +498,14 @@ def check_controller_flags(args: argparse.Namespace) -> None:
     method = getattr(args, "method", None)
     ici = [flag for dest, flag in given.items() if dest.startswith("ici_")]
     if ici and method != "ici":
-        raise _ignored(ici, f"by --method {method or 'adaptive'} (only --method ici uses "
+        raise ignored(ici, f"by --method {method or 'adaptive'} (only --method ici uses "
                        f"{'them' if len(ici) > 1 else 'it'})",
-                       f"add --method ici, or drop {_listed_flags(ici)}")  # fmt: skip
+                       f"add --method ici, or drop {listed_flags(ici)}")  # fmt: skip
     if method == "ici":
         kurtosis = [flag for dest, flag in given.items() if dest in KURTOSIS_CONTROLLER]
         if kurtosis:
-            way_out = f"drop {_listed_flags(kurtosis)}, or choose --method adaptive"
-            raise _ignored(kurtosis, "by --method ici (it has no kurtosis or S test)", way_out)
+            way_out = f"drop {listed_flags(kurtosis)}, or choose --method adaptive"
+            raise ignored(kurtosis, "by --method ici (it has no kurtosis or S test)", way_out)
         return
     thresholds = getattr(args, "thresholds", None)
     if thresholds is None:
@@ -491,24 +522,24 @@ def check_controller_flags(args: argparse.Namespace) -> None:
         if replaced:
             per_hour = "false_alarm" not in given and hasattr(args, "false_alarm_per_hour")
             rate = "--false-alarm-per-hour" if per_hour else "--false-alarm"
-            raise _ignored(replaced, f"with {how} (its K1, K2, S2 come from {rate})",
+            raise ignored(replaced, f"with {how} (its K1, K2, S2 come from {rate})",
                            f"add --thresholds paper to use {'them' if len(replaced) > 1 else 'it'}"
-                           f", or drop {_listed_flags(replaced)}")  # fmt: skip
+                           f", or drop {listed_flags(replaced)}")  # fmt: skip
         hourly = [given[d] for d in HOURLY_ONLY if d in given]
         if hourly and "false_alarm" in given:
-            raise _ignored(hourly, f"with {given['false_alarm']} (per-step thresholds)",
+            raise ignored(hourly, f"with {given['false_alarm']} (per-step thresholds)",
                            f"drop {given['false_alarm']} for the hourly thresholds, or drop "
-                           f"{_listed_flags(hourly)}")  # fmt: skip
+                           f"{listed_flags(hourly)}")  # fmt: skip
     else:
         calibrated = [given[d] for d in CALIBRATED_ONLY if d in given]
         if calibrated:
-            way_out = f"add --thresholds calibrated, or drop {_listed_flags(calibrated)}"
-            raise _ignored(calibrated, "with --thresholds paper (K1, K2, S2 as given)", way_out)
+            way_out = f"add --thresholds calibrated, or drop {listed_flags(calibrated)}"
+            raise ignored(calibrated, "with --thresholds paper (K1, K2, S2 as given)", way_out)
     s_test = getattr(args, "s_test", None)
     band = [given[d] for d in BAND_ONLY if d in given]
     if band and s_test != "band":
-        raise _ignored(band, f"with --s-test {s_test} (S1 bounds --s-test band only)",
-                       f"add --s-test band, or drop {_listed_flags(band)}")  # fmt: skip
+        raise ignored(band, f"with --s-test {s_test} (S1 bounds --s-test band only)",
+                       f"add --s-test band, or drop {listed_flags(band)}")  # fmt: skip
 
 
 def check_chunk_size(args: argparse.Namespace) -> None:
@@ -565,6 +596,7 @@ def add_input_arguments(
         help="a gap in the time stamps is an error (default), splits the record into "
         "gap-free pieces analysed one by one (avar), or is filled by linear interpolation",
     )  # fmt: skip
+    cmd.gap_ways = ("interpolate",)  # type: ignore[attr-defined]  # a Parser's; avar widens it
     cmd.add_argument(
         "--gap-tolerance", type=_fraction, default=0.5, metavar="F",
         help="an interval longer than (1 + F) or shorter than (1 - F) times the median is a "

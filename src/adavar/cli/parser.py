@@ -25,6 +25,8 @@ class Parser(argparse.ArgumentParser):
         self.options: list[tuple[tuple[str, ...], dict[str, Any], argparse.Action]] = []
         self.commands: dict[str, Parser] = {}
         self.summaries: dict[str, str] = {}  # command -> its one-line help
+        #: the --gaps policies that get this command past a gap (its message names them)
+        self.gap_ways: tuple[str, ...] = ()
         super().__init__(*args, **kwargs)
 
     def add_argument(self, *args: Any, **kwargs: Any) -> argparse.Action:

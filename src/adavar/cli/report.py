@@ -9,11 +9,15 @@ from typing import TYPE_CHECKING, Any
 from adavar import __version__
 from adavar.cli.options import (
     EXIT_OK,
+    KURTOSIS_CONTROLLER,
     add_controller_arguments,
     add_fit_arguments,
     add_input_arguments,
     check_arguments,
+    given_flags,
+    ignored,
     length_arg,
+    listed_flags,
     parse_taus,
     parse_terms,
     window_length,
@@ -26,7 +30,38 @@ if TYPE_CHECKING:
     from adavar.pipeline.analysis import ChannelAnalysis
 
 
+#: The controller's settings that a fixed window (``report --window L``: its events come
+#: from the controller's test on that one window) does not use: it neither grows nor shrinks.
+FIXED_WINDOW_UNUSED = ("lmax", "lmin", "dl0", "dl1")
+
+
+def check_adaptive_only_flags(args: argparse.Namespace) -> None:
+    """``adavar report`` and ``batch``: the adaptive window's flags without ``--adaptive``
+    are an error (exit 2), not silently dropped (``--lmax 100`` wrote the report of no
+    adaptive window). With ``--window L`` the controller's test runs on that fixed window (its
+    events), so only the lengths and steps of a changing window are refused."""
+    if getattr(args, "adaptive", False):
+        return
+    given = given_flags(args)
+    flags = {dest: flag for dest, flag in (("lmax", "--lmax"), ("lmin", "--lmin"),
+                                           ("segment", "--l"))
+             if getattr(args, dest, None) is not None}  # fmt: skip
+    flags.update((d, f) for d, f in given.items() if d in KURTOSIS_CONTROLLER)
+    if getattr(args, "window", None) is not None:
+        unused = [flag for dest, flag in flags.items() if dest in FIXED_WINDOW_UNUSED]
+        if unused:
+            raise ignored(unused, "with --window (a fixed window; only --adaptive grows and "
+                           "shrinks one)", f"give --adaptive instead of --window, or drop "
+                           f"{listed_flags(unused)}")  # fmt: skip
+        return
+    if flags:
+        unused = list(flags.values())
+        raise ignored(unused, "without --adaptive (the report has no adaptive window)",
+                       f"add --adaptive, or drop {listed_flags(unused)}")  # fmt: skip
+
+
 def _cmd_report(args: argparse.Namespace) -> int:
+    check_adaptive_only_flags(args)
     check_arguments(args)
     output = check_output_file(args.output, args.force, (".html", ".htm"))
     return _run_report(args, output)

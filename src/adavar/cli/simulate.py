@@ -10,8 +10,10 @@ import numpy as np
 from adavar import __version__
 from adavar.cli.options import (
     EXIT_OK,
+    Given,
     UsageError,
     finite_float,
+    given_flags,
     number_tuple,
     parse_seed,
     positive_float,
@@ -28,6 +30,13 @@ from adavar.io.writers import dumps
 BYTES_PER_SAMPLE = 256
 #: Rows of the CSV formatted at a time.
 CSV_ROWS = 1 << 16
+#: The options of a simulated sensor's record that ``--scenario`` (the paper's record, 6000
+#: samples at 1 Hz) has no use for: refused with it rather than dropped.
+SENSOR_SHAPE = ("n", "rate", "bandwidth", "filter_order", "lsb")
+#: The flag of each noise coefficient, for the messages.
+TERM_FLAGS = {"quantization": "--quantization", "angle_random_walk": "--arw",
+              "bias_instability": "--bias-instability", "rate_random_walk": "--rrw",
+              "rate_ramp": "--rate-ramp"}  # fmt: skip
 
 
 def _check_memory(n: int) -> None:
@@ -73,19 +82,32 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                 "--scenario simulates the paper's record; the sensor terms (--arw, --bias, "
                 "--markov, ...) describe another one: drop them or --scenario"
             )
+        # the paper's record has its own length and rate (paper_scenario takes neither)
+        shape = [flag for dest, flag in given_flags(args).items() if dest in SENSOR_SHAPE]
+        if shape:
+            verb = "are" if len(shape) > 1 else "is"
+            raise UsageError(
+                f"{' and '.join(shape)} {verb} not used with --scenario (the paper's record: "
+                f"6000 samples at 1 Hz): drop {' and '.join(shape)}, or --scenario"
+            )
         status(f"simulating scenario {args.scenario}")
         sc = paper_scenario(args.scenario, seed=args.seed, variance_reading=args.variance_reading)
         x, rate, what = np.asarray(sc.data), float(sc.rate), sc.description
     else:
         if args.variance_reading:
             raise UsageError("--variance-reading chooses a --scenario's disturbance")
+        negative = [(TERM_FLAGS[k], v) for k, v in terms.items() if v < 0]
+        if negative:  # before the check of none given: --arw -1 gives no positive one
+            flag, value = negative[0]
+            raise UsageError(
+                f"{flag} {value:g}: noise coefficients must not be negative (a coefficient "
+                "is the size of a noise term): give 0 or more"
+            )
         if not any(v > 0 for v in terms.values()) and not (args.markov or args.sinusoid):
             raise UsageError(
                 "give at least one noise coefficient (--arw, --bias-instability, --rrw, "
                 "--quantization, --rate-ramp, --markov, --sinusoid) or --scenario 1|2"
             )
-        if any(v < 0 for v in terms.values()):
-            raise UsageError("noise coefficients must not be negative")
         _check_memory(args.n)
         status(f"simulating {args.n} samples")
         try:  # an overflow is the one-line error of _check_finite, not numpy's warning
@@ -161,6 +183,7 @@ def add_simulate_parser(sub: Any) -> argparse.ArgumentParser:
     )
     sim.add_argument(
         "--n",
+        action=Given,
         type=positive_int,
         default=100_000,
         metavar="N",
@@ -169,6 +192,7 @@ def add_simulate_parser(sub: Any) -> argparse.ArgumentParser:
     )
     sim.add_argument(
         "--rate",
+        action=Given,
         type=positive_float("Hz"),
         default=100.0,
         metavar="HZ",
@@ -198,12 +222,12 @@ def add_simulate_parser(sub: Any) -> argparse.ArgumentParser:
                      metavar="AMP,HZ[,PHASE]",
                      help="deterministic sinusoid: amplitude (unit), frequency (Hz) and "
                      "phase (rad, default 0)")  # fmt: skip
-    sim.add_argument("--bandwidth", type=positive_float("Hz"), metavar="HZ",
+    sim.add_argument("--bandwidth", action=Given, type=positive_float("Hz"), metavar="HZ",
                      help="the sensor's low-pass filter: -3 dB bandwidth in Hz, below "
                      "rate/2 (default: none)")  # fmt: skip
-    sim.add_argument("--filter-order", type=positive_int, default=2, metavar="N",
+    sim.add_argument("--filter-order", action=Given, type=positive_int, default=2, metavar="N",
                      help="order of that Butterworth filter (default: 2)")  # fmt: skip
-    sim.add_argument("--lsb", type=positive_float("units"), metavar="STEP",
+    sim.add_argument("--lsb", action=Given, type=positive_float("units"), metavar="STEP",
                      help="quantise the output to this step (the sensor's LSB, in the "
                      "unit; default: none)")  # fmt: skip
     sim.add_argument("--variance-reading", action="store_true",

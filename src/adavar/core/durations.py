@@ -24,11 +24,26 @@ __all__ = [
     "UNITS",
     "Duration",
     "Length",
+    "count_text",
     "is_duration",
     "parse_duration",
     "seconds",
     "to_samples",
 ]
+
+#: Sample counts up to this are written out in messages; larger ones (a duration of 1e300 s
+#: in samples, 301 digits) as ``1e+302``.
+EXACT_COUNT = 10**15
+
+
+def count_text(n: Any) -> str:
+    """A sample count for a message: every digit up to :data:`EXACT_COUNT`, then ``:g``."""
+    try:
+        big = abs(n) > EXACT_COUNT
+    except TypeError:
+        return str(n)
+    return f"{float(n):g}" if big else str(n)
+
 
 #: Units of a duration string, in seconds.
 UNITS: dict[str, float] = {

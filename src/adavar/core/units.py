@@ -52,6 +52,7 @@ __all__ = [
     "deviation_unit",
     "format_pm",
     "is_known_unit",
+    "known_phase_units",
     "rate_unit",
     "rate_unit_info",
     "sensor_kind",
@@ -440,14 +441,17 @@ def is_known_unit(units: str, data_type: str = "rate") -> bool:
     units : str
         Declared unit of the samples.
     data_type : {"rate", "phase"}
-        Rate samples must be in one of :data:`RATE_UNITS` (or an alias); phase samples in
-        their integral (``deg``, ``rad``, ``m/s``, ...) or ``s`` (a clock's time error,
+        Rate samples must be in one of :data:`RATE_UNITS` (or an alias) or a fractional
+        frequency (``1``, ``ns/s``, ...); phase samples in their integral (``deg``, ``rad``,
+        ``m/s``, ...) or a clock's time error (``s``, ``ns``, ...: :data:`CLOCK_PHASE_UNITS`,
         whose rate is a dimensionless fractional frequency).
 
     Returns
     -------
     bool
     """
+    if sensor_kind(units, data_type) == "clock":  # a time error (ns) or fractional frequency
+        return True
     rate = rate_unit(units, data_type)
     if rate == "":
         return True
@@ -456,6 +460,16 @@ def is_known_unit(units: str, data_type: str = "rate") -> bool:
     except (TypeError, ValueError):
         return False
     return True
+
+
+def known_phase_units() -> tuple[str, ...]:
+    """The units of phase samples :func:`is_known_unit` takes: the integrals of
+    :data:`RATE_UNITS` it recognises (``rad``, ``deg``, ``m/s``), then a clock's time error
+    (:data:`CLOCK_PHASE_UNITS`)."""
+    integrals = (_times_seconds(u, 1.0) for u in RATE_UNITS)
+    known = [u for u in integrals if is_known_unit(u, "phase")]
+    clock = [u for u in ("s", "ms", "us", "ns", "ps", "fs") if u in CLOCK_PHASE_UNITS]
+    return tuple(dict.fromkeys([*known, *clock]))
 
 
 def deviation_unit(stat: str, units: str | None) -> str | None:

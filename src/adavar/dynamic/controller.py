@@ -30,6 +30,7 @@ import numpy as np
 
 from adavar._kernels._jit import jit, read_only, threaded_jit, work_items
 from adavar._kernels.double_double import two_sum
+from adavar.core.durations import count_text
 from adavar.core.errors import AdavarInputError
 from adavar.dynamic.kurtosis_reference import (
     KurtosisReference,
@@ -553,7 +554,10 @@ def make_controller(
     dl0 = check_whole("dl0", dl0, 0)
     dl1 = check_whole("dl1", dl1, 0)
     if lmin > lmax:
-        raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
+        raise AdavarInputError(
+            f"lmin (--lmin) {count_text(lmin)} must not exceed lmax (--lmax) "
+            f"{count_text(lmax)}: give a shorter lmin or a longer lmax"
+        )
     if (lmax - lmin) % 2 or dl0 % 2 or dl1 % 2:
         raise AdavarInputError(
             "lmax - lmin, dl0 and dl1 must be even: the window keeps the parity of its length "

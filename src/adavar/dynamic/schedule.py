@@ -32,13 +32,14 @@ change times), ``"fixed"`` (DAVAR-L with ``L = lmax``, its kurtosis and S record
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from adavar.core.durations import Length, is_duration, to_samples
+from adavar.core.durations import Length, count_text, is_duration, to_samples
 from adavar.core.errors import AdavarInputError
 from adavar.core.inputs import as_samples, refuse_masked, scaled
 from adavar.core.settings import (
@@ -289,7 +290,7 @@ def adaptive_schedule(
     # are built (lmax = 1e21 samples would not fit in memory)
     size = record_size(data, chunked)
     if 0 < size < lmax:
-        raise AdavarInputError(f"the record has {size} samples; at least {lmax} are needed")
+        raise AdavarInputError(_lmax_too_long(size, lmax))
     # the settings checked before the record is read (the calibration waits for it)
     quick = settings | {"thresholds": "paper"} if thresholds == "calibrated" else settings
     make_controller(**quick)
@@ -300,7 +301,7 @@ def adaptive_schedule(
         source, _ = scaled_source(sources.as_source(data))
         n = source.size
         if n < lmax:
-            raise AdavarInputError(f"the record has {n} samples; at least {lmax} are needed")
+            raise AdavarInputError(_lmax_too_long(n, lmax))
 
         def head(k: int) -> np.ndarray:  # in pieces of the chunk size (bounded reads)
             k = min(n, k)
@@ -425,6 +426,35 @@ def adaptive_schedule(
     )  # fmt: skip
 
 
+def _lmax_too_long(size: int, lmax: int) -> str:
+    """The message of a record shorter than the longest window."""
+    return (
+        f"the record has {size} samples; at least {count_text(lmax)} are needed for the "
+        f"longest window, lmax (--lmax) {count_text(lmax)}: give an lmax of at most {size} "
+        "samples, or a longer record"
+    )
+
+
+#: The keywords of the ICI options of :func:`adaptive_schedule` in ici.py's messages.
+_ICI_KEYWORDS = re.compile(r"\bici_(gamma|lengths|taus|sides|edf_samples|edf)\b")
+
+
+def _ici_flags(message: str) -> str:
+    """``message`` with each ICI keyword followed by its flag, once (``ici_lengths
+    (--ici-lengths)``), as the other messages name ``chunk_size (--chunk-size)``."""
+    seen: set[str] = set()
+
+    def flag(match: re.Match[str]) -> str:
+        word = match.group(0)
+        option = "--" + word.replace("_", "-")
+        if word in seen or option in message:
+            return word
+        seen.add(word)
+        return f"{word} ({option})"
+
+    return _ICI_KEYWORDS.sub(flag, message)
+
+
 def _ici(
     data: Any, *, lmax: int, lmin: int, seg: int, edges: str, step: int, dt: float,
     options: dict, long_tau: bool = False,
@@ -434,10 +464,16 @@ def _ici(
     detected steps, samples; ``"ici_ramps"``: the ramps; ``"ici_long_tau"``: the changes
     of :func:`adavar.dynamic.long_tau.long_tau_changes`, with ``long_tau``)."""
     if lmin > lmax:
-        raise AdavarInputError(f"lmin ({lmin}) must not exceed lmax ({lmax})")
+        raise AdavarInputError(
+            f"lmin (--lmin) {count_text(lmin)} must not exceed lmax (--lmax) "
+            f"{count_text(lmax)}: give a shorter lmin or a longer lmax"
+        )
     refuse_masked(data)
     x, _ = scaled(as_samples(data, min_length=lmax))  # scale-free: run at scale 1 (exact)
-    ici = ici_schedule(x, lmax=lmax, lmin=lmin, edges=edges, step=step, **options)
+    try:
+        ici = ici_schedule(x, lmax=lmax, lmin=lmin, edges=edges, step=step, **options)
+    except AdavarInputError as exc:  # ici.py names its keywords: add the flags
+        raise AdavarInputError(_ici_flags(str(exc))) from None
     size = ici.centre.size
     nan = np.full(lmax + 1, np.nan)
     # no kurtosis test runs: its thresholds are recorded as NaN, never as numbers

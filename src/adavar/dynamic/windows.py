@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from adavar.core.durations import count_text
 from adavar.core.errors import AdavarInputError
 
 __all__ = [
@@ -268,7 +269,8 @@ def _as_lengths(window: Any, n_samples: int) -> np.ndarray | int:
         )
     if hi > n_samples:
         raise AdavarInputError(
-            f"window of {hi} samples is longer than the record ({n_samples} samples): "
+            f"window of {count_text(hi)} samples is longer than the record ({n_samples} "
+            "samples): "
             "choose a shorter window"
         )
     return lengths

@@ -378,7 +378,10 @@ def _fit_unit(fits: list[Any], given: str | None, what: str, sensor: str, defaul
             if sensor == "gyro"
             else ("an acceleration (m/s^2, g, mg, ug)")
         )
-        raise _fail(f"{what}_units {unit!r} is not {kind}: declare the unit of the {what} data")
+        raise _fail(
+            f"{what}_units {unit!r} (--{what}-units) is not {kind}: declare the unit of the "
+            f"{what} data"
+        )
     return unit
 
 

@@ -89,6 +89,7 @@ from adavar.pipeline.batch_state import (
     read_result,
 )
 from adavar.pipeline.report_analysis import ReportAnalysis, analyse_file, report_options
+from adavar.readers.errors import GapError
 
 __all__ = [
     "BATCH_MARKER",
@@ -382,6 +383,8 @@ def _analyse_and_write(
         }  # fmt: skip
         _write_outputs(Path(out) / name, analysis, payload, start, row, html)
         return row
+    except GapError as exc:  # the reader names --gaps split and omit: not batch's
+        error_type, message = "input", f"{exc.problem}: use --gaps interpolate"
     except AdavarInputError as exc:
         error_type, message = "input", _one_line(exc)
     except Exception as exc:  # a bug in one file's task is that file's row, not the batch's

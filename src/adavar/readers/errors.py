@@ -21,6 +21,16 @@ def fail(message: str) -> AdavarInputError:
     return AdavarInputError(" ".join(str(message).split()))
 
 
+class GapError(AdavarInputError):
+    """A gap in the time stamps, with ``gaps="error"``. ``problem`` is the message without
+    its way out, for a command to name the ``--gaps`` policies it has (only ``avar``
+    splits the record, only ``avar`` and ``davar`` omit the missing samples)."""
+
+    def __init__(self, problem: str, way_out: str) -> None:
+        self.problem = " ".join(str(problem).split())
+        super().__init__(f"{self.problem}: {way_out}")
+
+
 def one_line(exc: BaseException) -> str:
     """An exception's message on one line (at most 160 characters), to quote in ours."""
     text = " ".join(str(exc).split()) or type(exc).__name__

@@ -21,7 +21,7 @@ import numpy as np
 from adavar.core.errors import AdavarInputError
 from adavar.core.settings import RATE_AGREEMENT
 from adavar.io.sources import DEFAULT_CHUNK, ChunkedSource, NpyFileSource, memmap_source
-from adavar.readers.errors import fail, locate
+from adavar.readers.errors import GapError, fail, locate
 from adavar.readers.table import resolve
 
 #: Values of ``gaps``: what to do with gaps and non-uniform sampling in a time base.
@@ -213,6 +213,11 @@ class RawRecord:
     rows: np.ndarray | None  # file line numbers, for messages
     word: str  # "row", "sample", "message": how a sample is named without line numbers
     meta: dict[str, Any]
+
+
+#: The times of the messages count from the first time stamp (a file whose stamps start at
+#: 1e6 s said "t = 4.99 s"): said so.
+_FROM_FIRST = "after the first stamp"
 
 
 def _fmt_t(value: float) -> str:
@@ -485,8 +490,9 @@ def finish_record(
         i = int(back[0])
         what = "repeats" if dt[i] == 0 else "goes back"
         raise fail(
-            f"{src}: time {what} at {where(i + 1)} (t = {_fmt_t(t[i + 1])} after "
-            f"{_fmt_t(t[i])}): sort the rows by time and remove duplicates"
+            f"{src}: time {what} at {where(i + 1)} (t = {_fmt_t(t[i + 1])} {_FROM_FIRST}, "
+            + (f"as in {where(i)}" if dt[i] == 0 else f"before {where(i)}'s {_fmt_t(t[i])}")
+            + "): sort the rows by time and remove duplicates"
         )
     step = float(np.median(dt))  # robust: gaps and outliers do not move it
     resolution = float(meta.get("time_resolution", 0.0)) + float(np.spacing(t[-1]))
@@ -515,13 +521,13 @@ def finish_record(
         for i in long_[:_MAX_LISTED]
     ]
 
-    def gap_error() -> AdavarInputError:
+    def gap_error() -> GapError:
         i = int(long_[0])
         more = f" and {long_.size - 1} more" if long_.size > 1 else ""
-        return fail(
-            f"{src}: gap of {dt[i]:.4g} s after {where(i)} (t = {_fmt_t(t[i])}; the median "
-            f"interval is {step:.4g} s){more}: use --gaps split or --gaps interpolate (adavar "
-            "avar: --gaps omit)"
+        return GapError(
+            f"{src}: gap of {dt[i]:.4g} s after {where(i)} (t = {_fmt_t(t[i])} {_FROM_FIRST}; "
+            f"the median interval is {step:.4g} s){more}",
+            "use --gaps split or --gaps interpolate (adavar avar: --gaps omit)",
         )
 
     def uneven_error() -> AdavarInputError:
@@ -529,7 +535,7 @@ def finish_record(
         more = f" and {short.size - 1} more" if short.size > 1 else ""
         return fail(
             f"{src}: non-uniform sampling: interval of {dt[i]:.4g} s after {where(i)} "
-            f"(t = {_fmt_t(t[i])}) is more than {tol:.0%} shorter than the median "
+            f"(t = {_fmt_t(t[i])} {_FROM_FIRST}) is more than {tol:.0%} shorter than the median "
             f"{step:.4g} s{more}: use --gaps interpolate to resample onto a uniform grid"
         )
 

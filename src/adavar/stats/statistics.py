@@ -553,6 +553,13 @@ def _extended_deviation(
     family = spec.family()
     stat = spec.name
     n_points = u.size + 1
+    if family.m_max(stat, n_points) < 1:  # the generic "at least 3" is not this stat's
+        least = next(k for k in range(n_points + 1, n_points + 64) if family.m_max(stat, k) >= 1)
+        least -= 1 if dtype == "rate" else 0  # phase points -> samples of this data type
+        raise AdavarInputError(
+            f"the record has {n_samples} samples; stat={stat!r} (--stat {stat}) needs at least "
+            f"{least} samples of {dtype} data: give a longer record"
+        )
     step_mantissa, step_exponent = math.frexp(step)  # ``exponent`` holds -step_exponent
     ms, notes = tau_factors(taus, family.m_max(stat, n_points), step, points_per_decade)
     ms, more = family.factors(stat, ms)

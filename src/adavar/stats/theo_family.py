@@ -289,13 +289,14 @@ def ratio_factors(n_points: int, terms: int | None = None) -> tuple[np.ndarray, 
     if n_points < MIN_POINTS_THEOBR:
         raise AdavarInputError(
             f"theobr/theoh need at least {MIN_POINTS_THEOBR} phase points for the bias "
-            f"ratio, got {n_points}: give a longer record or use stat='theo1'"
+            f"ratio, got {n_points}: give a longer record or use stat='theo1' (--stat theo1)"
         )
     i = np.arange(n_points // 6 - 3 + 1, dtype=np.int64)
     if terms is not None:
         if isinstance(terms, bool) or not isinstance(terms, (int, np.integer)) or terms < 2:
             raise AdavarInputError(
-                f"theo_ratio_terms must be a whole number >= 2 (or None for all), got {terms!r}"
+                "theo_ratio_terms (--theo-ratio-terms) must be a whole number >= 2 (or None "
+                f"for all), got {terms!r}"
             )
         if terms < i.size:
             i = np.unique(np.round(np.linspace(0, i[-1], int(terms))).astype(np.int64))
@@ -304,7 +305,7 @@ def ratio_factors(n_points: int, terms: int | None = None) -> tuple[np.ndarray, 
     if not keep.any():  # N = 18: the one pair's AVAR (m = 9) needs 19 points
         raise AdavarInputError(
             f"theobr/theoh: no AVAR/Theo1 pair for the bias ratio on {n_points} phase points "
-            "(AVAR at m = 9 needs 19): give a longer record or use stat='theo1'"
+            "(AVAR at m = 9 needs 19): give a longer record or use stat='theo1' (--stat theo1)"
         )
     return m_avar[keep], (12 + 4 * i)[keep]
 
@@ -316,7 +317,8 @@ def _ratio(u: np.ndarray, m_avar: np.ndarray, theo: np.ndarray) -> float:
     if not ok.any():
         raise AdavarInputError(
             "theobr/theoh: Theo1 is zero at every tau of the bias ratio (a constant or "
-            "linear phase): the bias-removed statistic is undefined, use stat='theo1'"
+            "linear phase): the bias-removed statistic is undefined, use stat='theo1' "
+            "(--stat theo1)"
         )
     return float(np.mean(avar[ok] / theo[ok]))
 
