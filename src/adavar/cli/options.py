@@ -22,6 +22,7 @@ from adavar.core.settings import (
     ICI_SIDES,
     MAX_ALL_TAUS,
     MAX_POINTS_PER_DECADE,
+    RATE_LIMITS,
 )
 from adavar.core.taus import TAU_KEYWORDS
 from adavar.core.terms import ALIASES, TERM_NAMES, TERMS
@@ -112,11 +113,8 @@ def positive_float(what: str) -> Callable[[str], float]:
     return parse
 
 
-#: The sample rates ``--rate`` accepts, Hz (``--tau0``: their inverses, 1 ps .. about
-#: 31,700 years between samples). No sensor or clock samples outside them, and far beyond
-#: them the taus, the fit's design matrix and the time axis leave float64 (``--rate 1e300``
-#: divided by zero in the fit, ``1e-300`` overflowed, ``1e100`` failed to converge).
-MIN_RATE, MAX_RATE = 1e-12, 1e12
+#: The sample rates ``--rate`` accepts, Hz (``--tau0``: their inverses): the library's
+MIN_RATE, MAX_RATE = RATE_LIMITS
 
 
 def sample_rate(flag: str) -> Callable[[str], float]:

@@ -40,6 +40,7 @@ __all__ = [
     "PAPER",
     "RATE_AGREEMENT",
     "RATE_DEFAULT",
+    "RATE_LIMITS",
     "STREAM_LMAX_SECONDS",
     "THRESHOLDS",
     "ControllerSettings",
@@ -230,6 +231,11 @@ ALL_STATISTICS = (
 #: agree within this fraction; a time index whose steps differ from their median by more
 #: is irregular.
 RATE_AGREEMENT = 0.01
+#: The sample rates accepted, Hz (sample intervals: their inverses, 1 ps .. about 31,700
+#: years). No sensor or clock samples outside them, and far beyond them the taus, the fit's
+#: design matrix and the time axis leave float64 (a rate of 1e300 divided by zero in the
+#: fit, 1e-300 overflowed, 1e100 failed to converge).
+RATE_LIMITS = (1e-12, 1e12)
 #: The most samples a generator makes (``n``): 8 GB for the float64 result alone, and the
 #: generators hold a few arrays of that size while they work. Longer records exhaust the
 #: memory of most machines rather than fail cleanly.

@@ -21,11 +21,10 @@ import math
 import numpy as np
 
 from adavar.core.errors import AdavarInputError
-from adavar.core.settings import RATE_AGREEMENT, RATE_DEFAULT, RateDefault
+from adavar.core.settings import RATE_AGREEMENT, RATE_DEFAULT, RATE_LIMITS, RateDefault
 
 __all__ = ["RATE_DEFAULT", "index_interval", "resolve_rate", "resolve_tau0"]
 
-_TINY = float(np.finfo(np.float64).tiny)  # the smallest normal float64
 
 #: a step this many times the median misses samples (a gap), as ``read_record``'s default
 #: ``gap_tolerance`` reads a file's time column
@@ -158,9 +157,9 @@ def index_interval(data: object) -> tuple[float, str] | None:
 def resolve_tau0(rate: float | None, tau0: float | None) -> float:
     """Sample interval from either a sample rate (Hz) or an interval (s), not both.
 
-    ``rate=None`` needs ``tau0``; a ``bool`` is not a rate. A rate whose interval lies
-    outside the normal float64 range (below about 2.2e-308 s or above 1.8e308 s) is refused
-    rather than carried into infinite or digit-less taus.
+    ``rate=None`` needs ``tau0``; a ``bool`` is not a rate. A rate outside
+    :data:`adavar.core.settings.RATE_LIMITS` (``tau0`` outside their inverses) is refused
+    rather than carried into infinite or digit-less taus and a fit that divides by zero.
     """
     if tau0 is not None:
         if rate is not None and not (_is_real(rate) and float(rate) == 1.0):
@@ -180,13 +179,15 @@ def resolve_tau0(rate: float | None, tau0: float | None) -> float:
         raise AdavarInputError(f"{name} must be a number, got {value!r}") from None
     if not math.isfinite(value) or value <= 0:
         raise AdavarInputError(f"{name} must be a positive number, got {value!r}")
-    step = value if name == "tau0" else 1.0 / value  # a Python float: inf, not an error
-    if not (_TINY <= step < math.inf):
+    lo, hi = RATE_LIMITS
+    if not lo <= (1.0 / value if name == "tau0" else value) <= hi:  # 1 / tiny: inf
+        unit = "s" if name == "tau0" else "Hz"
+        bounds = f"{1 / hi:g} .. {1 / lo:g} s" if name == "tau0" else f"{lo:g} .. {hi:g} Hz"
         raise AdavarInputError(
-            f"{name} = {value!r} gives a sample interval of {step!r} s, outside the normal "
-            "float64 range (2.2e-308 .. 1.8e308): give the rate in Hz (or tau0 in seconds)"
+            f"{name} = {value:g} {unit} lies outside {bounds} (a sample every 1 ps to "
+            f"31,700 years): check its unit ({name} is in {unit})"
         )
-    return step
+    return value if name == "tau0" else 1.0 / value
 
 
 def _is_real(value: object) -> bool:
