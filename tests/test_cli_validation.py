@@ -319,9 +319,9 @@ def test_a_tiny_chunk_size_warns(capsys, gyro_csv):
     assert code == 0 and err == ""
 
 
-def test_kalibr_constant_check_reads_pieces_and_sees_a_change_in_any():
-    from adavar.cli.kalibr import _constant
+def test_the_constant_check_reads_pieces_and_sees_a_change_in_any():
     from adavar.io.sources import ArraySource
+    from adavar.pipeline.analysis import is_constant as _constant
 
     flat = np.full(10, 2.5)
     assert _constant(ArraySource(flat), chunk_size=3)

@@ -47,22 +47,15 @@ def kalibr_request(args: argparse.Namespace) -> AnalysisRequest:
     return AnalysisRequest(record=record)
 
 
-def _constant(source: Any, chunk_size: int | None = None) -> bool:
-    """:func:`adavar.pipeline.analysis.is_constant` (the record read a piece at a time)."""
-    from adavar.pipeline.analysis import is_constant
-
-    return is_constant(source, chunk_size)
-
-
 def _no_constant_axis(args: argparse.Namespace) -> Callable[..., None]:
     """The check of :func:`adavar.pipeline.analysis.run`: a constant column (a dead axis,
     or the wrong column) has no noise to fit."""
 
     def check(request: AnalysisRequest, loaded: Any) -> None:
-        from adavar.io.sources import as_source
+        from adavar.pipeline.analysis import is_constant  # reads a piece at a time
 
         for name, samples in loaded.channels.items():
-            if _constant(as_source(samples, name=name)):
+            if is_constant(samples):
                 flag = "--gyro" if name in args.gyro else "--accel"
                 raise AdavarInputError(
                     f"column {name!r} is constant: it has no noise to fit; check {flag} (the "
