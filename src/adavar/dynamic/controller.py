@@ -133,15 +133,32 @@ def _window_mean(x, a, b):  # pragma: no cover - compiled
     return (h + lo) / (b - a)
 
 
+@jit
+def _tested_length(L, p, ends):  # pragma: no cover - compiled
+    """The effective size of the window of length ``L`` at centre ``p`` (``ends`` as in
+    :func:`_run`): ``L^2 / (L + 2 M)`` when it holds ``M`` mirrored samples, each the
+    repeat of a sample it also holds (docs/method.md section 8); -1 if it holds none."""
+    g = ends[0] + p
+    h = (L - 1) // 2
+    mirrored = max(0, h - g) + max(0, g - h + L - ends[1])
+    if mirrored == 0:
+        return -1
+    w = L + 2 * mirrored
+    return max((L * L + w // 2) // w, ends[2])
+
+
 @jit(error_model="numpy")  # a window emptied of its variance by cancellation gives NaN
 def _run(
     x, offset, p_start, p_end, record_from, L, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
-    s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
+    s_test, use_f2, use_and, adapt, given, ends, e1, e2, window, kurt, scoef, f1, f2, f,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Run the controller over centres ``p_start .. p_end - 1`` from length ``L``.
 
     docs/method.md section 8. ``x`` is the extended record, centre ``p`` at ``x[p + offset]``.
-    ``k1[L]``, ``k2[L]``, ``s2[L]`` are the thresholds for a window of length ``L``. With
+    ``k1[L]``, ``k2[L]``, ``s2[L]`` are the thresholds for a window of length ``L``; a
+    window that reaches into the mirror-extended ends takes ``e1`` and ``e2`` at its
+    effective size instead (:func:`_tested_length`; ``ends`` = (record index of centre 0,
+    record length or 0 for no mirror, shortest length of those tables)). With
     ``adapt`` false the lengths come from ``given`` and only the kurtosis, S and flags are
     recorded. Outputs are written for ``p >= record_from``. Returns the length in force
     at ``record_from`` and the length after the last update.
@@ -241,7 +258,10 @@ def _run(
         ok_x = m2x > 0.0
         ok = ok_x and m2c > 0.0
         vx = m2x * m2x
-        flag1 = not (ok_x and k1[L] * vx <= m4x <= k2[L] * vx)
+        lt = _tested_length(L, p, ends) if ends[1] > 0 else np.int64(-1)
+        lo_k = k1[L] if lt < 0 else e1[lt]
+        hi_k = k2[L] if lt < 0 else e2[lt]
+        flag1 = not (ok_x and lo_k * vx <= m4x <= hi_k * vx)
         lhs = m4x * (m2c * m2c)  # kx - kc > t kx  <=>  (1 - t) m4x m2c^2 > m4c m2x^2
         rhs = m4c * vx
         above = ok and (1.0 - s2[L]) * lhs > rhs
@@ -288,8 +308,8 @@ def _segment_bounds(n, n_segments):  # pragma: no cover - compiled
 @threaded_jit
 def _speculate(
     x, offset, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and, adapt,
-    given, window, kurt, scoef, f1, f2, f, bounds, warm_up, start_length, start_state,
-    end_state, k_lo, k_hi,
+    given, ends, e1, e2, window, kurt, scoef, f1, f2, f, bounds, warm_up, start_length,
+    start_state, end_state, k_lo, k_hi,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Segments ``k_lo .. k_hi - 1`` of the controller pass, each from a guessed length.
 
@@ -309,14 +329,15 @@ def _speculate(
         L0 = given[p0] if not adapt else (start_length if k == 0 else lmax)
         start_state[k], end_state[k] = _run(
             x, offset, p0, s1_, s0, L0, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test,
-            use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
+            use_f2, use_and, adapt, given, ends, e1, e2, window, kurt, scoef, f1, f2, f,
         )  # fmt: skip
 
 
 @jit(error_model="numpy")
 def _reconcile(
     x, offset, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1, s_test, use_f2, use_and, adapt,
-    given, window, kurt, scoef, f1, f2, f, bounds, start_length, start_state, end_state,
+    given, ends, e1, e2, window, kurt, scoef, f1, f2, f, bounds, start_length, start_state,
+    end_state,
 ):  # fmt: skip  # pragma: no cover - compiled
     """Check the speculative segments in order; returns the length after the last update.
 
@@ -336,7 +357,7 @@ def _reconcile(
         if last >= 0 and start_state[k] != last:  # the guess did not coalesce: rerun
             start_state[k], end_state[k] = _run(
                 x, offset, s0, s1_, s0, last, lmax, lmin, k1, k2, s1, s2, seg, dl0, dl1,
-                s_test, use_f2, use_and, adapt, given, window, kurt, scoef, f1, f2, f,
+                s_test, use_f2, use_and, adapt, given, ends, e1, e2, window, kurt, scoef, f1, f2, f,
             )  # fmt: skip
         last = end_state[k]
     return last
@@ -409,6 +430,7 @@ class Controller:
         given: np.ndarray | None = None,
         *,
         segments: int | None = None,
+        record: tuple[int, int] | None = None,
     ) -> tuple[tuple[np.ndarray, ...], int]:
         """The pass over centres ``0 .. m - 1``, centre ``q`` at ``ext[q + offset]``.
 
@@ -429,6 +451,12 @@ class Controller:
             The lengths for ``"oracle"`` and ``"fixed"``.
         segments : int, optional
             Speculative parallel segments (default: a few per thread on long stretches).
+        record : (int, int), optional
+            ``(first, size)``: centre 0 is sample ``first`` of a record of ``size`` samples
+            whose ends are mirror-extended (``size``: any number beyond the samples yet
+            known, live). A window that reaches into the mirror repeats samples it holds,
+            and its kurtosis is tested at its effective size (docs/method.md section 8).
+            None: the windows stay inside the record (``edges="valid"``).
 
         Returns
         -------
@@ -443,6 +471,10 @@ class Controller:
         if self.reference is not None:  # the tests see the record's noise made Gaussian
             ext = self.reference.apply(ext)  # (itself for a Gaussian record)
         th = self.thresholds
+        ends = np.zeros(3, dtype=np.int64)
+        if record is not None:
+            shortest = int(np.argmax(np.isfinite(th.edge_k1) & np.isfinite(th.edge_k2)))
+            ends[:] = int(record[0]), max(1, int(record[1])), shortest
         n_segments = _segments(m) if segments is None else int(segments)
         bounds = _segment_bounds(m, n_segments)
         start_state = np.zeros(n_segments, dtype=np.int64)
@@ -451,7 +483,7 @@ class Controller:
             read_only(ext, np.float64), int(offset), self.lmax, self.lmin, th.k1, th.k2,
             self.s1, th.s2, self.seg, self.dl0, self.dl1, _S_TEST_CODE[self.s_test],
             self.method != "kurtosis", self.combine == "and", self.adapts,
-            read_only(given, np.int64), *out, bounds,
+            read_only(given, np.int64), ends, th.edge_k1, th.edge_k2, *out, bounds,
         )  # fmt: skip
         # about eight inner steps per centre (moments, tests, the length update)
         _speculate.run(8 * m, n_segments, *args, WARM_UP, int(start_length), start_state, end_state)

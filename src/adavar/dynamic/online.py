@@ -125,6 +125,8 @@ FIT_ROWS = 1 << 15
 #: calibrated thresholds exist are a backlog of a million centres, whose per-centre
 #: outputs would otherwise be held all at once
 BACKLOG_CENTRES = 1 << 16
+#: the record's length while it is still arriving: no window reaches past its end yet
+_UNKNOWN_END = 1 << 60
 
 
 class OnlineAdaptive:
@@ -786,8 +788,9 @@ class OnlineAdaptive:
         end_length, a = self._length, q
         while a < avail:
             b = min(avail, starts[k + 1]) if k + 1 < len(starts) else avail
+            end = self._n if final else _UNKNOWN_END
             out, end_length = self._stages[k][1].run(
-                ext[a - q :], pad, b - a, end_length, segments=segments
+                ext[a - q :], pad, b - a, end_length, segments=segments, record=(a, end)
             )
             window[a - q : b - q] = out[0]
             a, k = b, k + 1

@@ -349,7 +349,9 @@ def adaptive_schedule(
             stage = len(stages) - 1
             while stages[stage][0] > q0:
                 stage -= 1
-            return stages[stage][1].run(ext, offset, q1 - q0, start_length, given(q0, q1))
+            record = None if edges == "valid" else (q0, n)
+            lengths = given(q0, q1)
+            return stages[stage][1].run(ext, offset, q1 - q0, start_length, lengths, record=record)
         out = controller_outputs(q1 - q0)
         length = start_length
         for a, b in zip([q0, *cuts], [*cuts, q1], strict=True):

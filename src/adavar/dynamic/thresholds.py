@@ -26,6 +26,7 @@ __all__ = [
     "hourly_thresholds",
     "noise_dependence",
     "shifted",
+    "shortest_length",
     "thresholds_for",
 ]
 
@@ -107,14 +108,39 @@ def _row_kurtosis(x: np.ndarray) -> np.ndarray:
         return np.where(zero, np.nan, m4 / m2**2.0)
 
 
+def shortest_length(lmin: int) -> int:
+    """The shortest length whose ``K1`` and ``K2`` the calibrated tables hold: ``lmin // 2``
+    (at least 8, at most ``lmin``).
+
+    A window that reaches into the mirror-extended end of the record repeats up to half of
+    its samples, and is tested at its effective size, down to half its length
+    (docs/method.md section 8, "Windows at the record's ends").
+    """
+    return max(lmin // 2, min(lmin, 8))
+
+
 @dataclass(frozen=True)
 class Thresholds:
-    """Per-length thresholds of the controller: ``k1[L]``, ``k2[L]``, ``s2[L]``."""
+    """Per-length thresholds of the controller: ``k1[L]``, ``k2[L]``, ``s2[L]``.
+
+    ``k1`` and ``k2`` of calibrated tables also cover the effective sizes of the windows
+    that reach into the mirror-extended ends, down to :func:`shortest_length`.
+    """
 
     k1: np.ndarray
     k2: np.ndarray
     s2: np.ndarray
     source: str
+    #: ``K1``, ``K2`` of a window that reaches into the mirror, by its effective size
+    #: (default: ``k1``, ``k2``)
+    edge_k1: np.ndarray | None = None
+    edge_k2: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.edge_k1 is None:
+            object.__setattr__(self, "edge_k1", self.k1)
+        if self.edge_k2 is None:
+            object.__setattr__(self, "edge_k2", self.k2)
 
 
 @lru_cache(maxsize=32)
@@ -169,14 +195,17 @@ def calibrated_thresholds(
     k1 = np.full(size, np.nan)
     k2 = np.full(size, np.nan)
     s2 = np.full(size, np.nan)
-    lengths = np.arange(lmin, lmax + 1)
     # the quantiles are smooth in L: solve at a few lengths, interpolate in 1/L
-    nodes = np.unique(np.round(np.geomspace(lmin, lmax, 9)).astype(np.int64))
-    lo = [_kurtosis_quantile(false_alarm / 2, int(n)) for n in nodes]
-    hi = [_kurtosis_quantile(1 - false_alarm / 2, int(n)) for n in nodes]
-    inv = 1.0 / lengths
-    k1[lmin:] = np.interp(inv, 1.0 / nodes[::-1], np.array(lo)[::-1])
-    k2[lmin:] = np.interp(inv, 1.0 / nodes[::-1], np.array(hi)[::-1])
+    for a, b, count in ((lmin, lmax, 9), (shortest_length(lmin), lmin - 1, 4)):
+        if a > b:
+            continue
+        nodes = np.unique(np.round(np.geomspace(a, b, count)).astype(np.int64))
+        lo = [_kurtosis_quantile(false_alarm / 2, int(n)) for n in nodes]
+        hi = [_kurtosis_quantile(1 - false_alarm / 2, int(n)) for n in nodes]
+        inv = 1.0 / np.arange(a, b + 1)
+        k1[a : b + 1] = np.interp(inv, 1.0 / nodes[::-1], np.array(lo)[::-1])
+        k2[a : b + 1] = np.interp(inv, 1.0 / nodes[::-1], np.array(hi)[::-1])
+    inv = 1.0 / np.arange(lmin, lmax + 1)
     ends = sorted({lmin, lmax})
     sv = [_s_quantile(1 - sq, int(n), segment, draws, seed) for n in ends]
     if len(ends) == 1:
@@ -251,7 +280,8 @@ def shifted(th: Thresholds, offset: float, margin: float = 0.0) -> Thresholds:
         return th
     return Thresholds(k1=th.k1 + offset - margin, k2=th.k2 + offset + margin, s2=th.s2,
                       source=f"{th.source}, kurtosis band moved by {offset:+.4g} and "
-                      f"widened by {margin:.3g}")  # fmt: skip
+                      f"widened by {margin:.3g}", edge_k1=th.edge_k1 + offset - margin,
+                      edge_k2=th.edge_k2 + offset + margin)  # fmt: skip
 
 
 #: Lags of the autocorrelation summed by :func:`noise_dependence`.
@@ -423,9 +453,21 @@ def hourly_thresholds(
     inv = 1.0 / np.arange(lmin, lmax + 1)
     for table, values in ((k1, lo), (k2, hi), (s2, sv)):
         table[lmin:] = np.interp(inv, 1.0 / nodes[::-1], np.array(values)[::-1])
+    # a window at the record's ends: the excursions of a window of lmax samples (where
+    # the ends start), its kurtosis spread at the effective size (docs/method.md section 8)
+    shortest = shortest_length(lmin)
+    z = -ndtri(_step_probability(per_sample, float(lmax)))
+    nodes = np.unique(np.round(np.geomspace(shortest, lmax, 9)).astype(np.int64))
+    inv = 1.0 / np.arange(shortest, lmax + 1)
+    e1 = np.full(size, np.nan)
+    e2 = np.full(size, np.nan)
+    for table, sign in ((e1, -1.0), (e2, 1.0)):
+        values = [float(_ag_inverse(sign * z, n / c4)) for n in nodes]
+        table[shortest:] = np.interp(inv, 1.0 / nodes[::-1], np.array(values)[::-1])
     return Thresholds(
         k1=k1, k2=k2, s2=s2,
         source=f"calibrated, {per_hour:g} false events per stationary hour",
+        edge_k1=e1, edge_k2=e2,
     )  # fmt: skip
 
 
