@@ -41,7 +41,7 @@ import importlib.util, sys
 spec = importlib.util.spec_from_file_location("previous_monitor", sys.argv[1])
 module = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(module)
-from adavar.cli.options import Parser
+from adavar.cli.parser import Parser
 parser = Parser(prog="adavar")
 module.add_monitor_parser(parser.add_subparsers(dest="command", parser_class=Parser))
 args = parser.parse_args(["monitor", *sys.argv[2:]])

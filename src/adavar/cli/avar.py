@@ -18,12 +18,6 @@ from adavar.cli.options import (
     add_input_arguments,
     add_output_arguments,
     check_arguments,
-    parse_confidence,
-    parse_taus,
-    parse_terms,
-    points_per_decade,
-    positive_float,
-    positive_int,
     warn,
 )
 from adavar.cli.output import (
@@ -33,6 +27,14 @@ from adavar.cli.output import (
     guard_replacement,
     output_error,
     safe_name,
+)
+from adavar.cli.values import (
+    parse_confidence,
+    parse_taus,
+    parse_terms,
+    points_per_decade,
+    positive_float,
+    positive_int,
 )
 from adavar.core.atomic import atomic_directory, check_output_directory
 from adavar.core.errors import AdavarInputError

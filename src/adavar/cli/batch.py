@@ -12,16 +12,10 @@ from collections.abc import Iterator
 from typing import Any
 
 from adavar import __version__
-from adavar.cli.options import (
-    EXIT_INTERNAL,
-    EXIT_OK,
-    EXIT_USAGE,
-    check_arguments,
-    positive_float,
-    positive_int,
-)
+from adavar.cli.options import EXIT_INTERNAL, EXIT_OK, EXIT_USAGE, check_arguments
 from adavar.cli.output import ProgressBar, text_table
 from adavar.cli.report import check_adaptive_only_flags
+from adavar.cli.values import positive_float, positive_int
 from adavar.io.writers import dumps
 from adavar.pipeline.batch_cluster import DEFAULT_WORKER_TIMEOUT
 

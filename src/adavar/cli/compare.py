@@ -21,6 +21,15 @@ from adavar.cli.options import (
     add_input_arguments,
     add_output_arguments,
     check_arguments,
+)
+from adavar.cli.output import (
+    ProgressBar,
+    Status,
+    guard_replacement,
+    output_error,
+    text_table,
+)
+from adavar.cli.values import (
     length_arg,
     parse_confidence,
     parse_intervals,
@@ -35,13 +44,6 @@ from adavar.cli.options import (
     seconds_list,
     threshold_list,
     window_length,
-)
-from adavar.cli.output import (
-    ProgressBar,
-    Status,
-    guard_replacement,
-    output_error,
-    text_table,
 )
 from adavar.core.atomic import atomic_directory, check_output_directory
 from adavar.core.csv_tables import block_rows, csv_pieces, write_pieces

@@ -27,10 +27,9 @@ from adavar.cli.options import (
     add_kurtosis_reference_argument,
     add_output_arguments,
     add_surface_arguments,
-    seconds_list,
-    window_length,
 )
 from adavar.cli.output import Status, channel_folders, guard_replacement, output_error, text_table
+from adavar.cli.values import seconds_list, window_length
 from adavar.core.atomic import atomic_directory, check_output_directory, write_marker
 from adavar.core.csv_tables import block_rows, csv_pieces, csv_text, write_pieces
 from adavar.core.results import DavarResult

@@ -10,7 +10,7 @@ from typing import Any
 
 from adavar import __version__
 from adavar.cli.compare import compare_report, compare_tables, crossings_json
-from adavar.cli.options import EXIT_OK, add_figures_argument, parse_seed, positive_int
+from adavar.cli.options import EXIT_OK, add_figures_argument
 from adavar.cli.output import (
     Status,
     deviation_table,
@@ -19,6 +19,7 @@ from adavar.cli.output import (
     output_error,
     text_table,
 )
+from adavar.cli.values import parse_seed, positive_int
 from adavar.core.atomic import (
     DEMO_MARKER,
     atomic_directory,

@@ -7,15 +7,9 @@ from collections.abc import Callable
 from typing import Any
 
 from adavar import __version__
-from adavar.cli.options import (
-    EXIT_OK,
-    UsageError,
-    check_not_stdin,
-    parse_names,
-    positive_float,
-    sample_rate,
-)
+from adavar.cli.options import EXIT_OK, UsageError, check_not_stdin
 from adavar.cli.output import Status, check_output_file, output_error
+from adavar.cli.values import parse_names, positive_float, sample_rate
 from adavar.core.errors import AdavarInputError
 from adavar.core.request import AnalysisRequest, RecordRequest, UnitGroup
 from adavar.io.writers import dumps

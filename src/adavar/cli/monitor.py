@@ -35,6 +35,8 @@ from adavar.cli.options import (
     add_ici_arguments,
     add_kurtosis_reference_argument,
     check_arguments,
+)
+from adavar.cli.values import (
     finite_float,
     length_arg,
     parse_noise_type,

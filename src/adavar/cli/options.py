@@ -1,16 +1,34 @@
-"""Command-line options: exit codes, the usage error, flag-value parsers and the option groups
-shared by several commands."""
+"""Command-line options: exit codes, the usage error, the checks of flags against each other
+and the option groups shared by several commands (the values of single flags are parsed by
+:mod:`adavar.cli.values`)."""
 
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
-from collections.abc import Callable
 
-from adavar.core.durations import parse_duration
-from adavar.core.errors import AdavarInputError
+from adavar.cli.values import (
+    confidence_or_none,
+    figure_formats,
+    finite_float,
+    fraction,
+    length_arg,
+    number_tuple,
+    parse_confidence,
+    parse_noise_type,
+    parse_preprocess,
+    parse_seed,
+    parse_taus,
+    parse_terms,
+    points_per_decade,
+    positive_float,
+    positive_int,
+    probability,
+    sample_rate,
+    tau_range,
+    whole_list,
+)
 from adavar.core.settings import (
     CONTROLLER,
     DATA_TYPE_DEFAULT,
@@ -21,14 +39,11 @@ from adavar.core.settings import (
     ICI_GAMMA,
     ICI_SIDES,
     MAX_ALL_TAUS,
-    MAX_POINTS_PER_DECADE,
-    RATE_LIMITS,
 )
-from adavar.core.taus import TAU_KEYWORDS
-from adavar.core.terms import ALIASES, TERM_NAMES, TERMS
+from adavar.core.terms import TERMS
 from adavar.core.units import RATE_UNITS, is_known_unit
-from adavar.dynamic.windows import EDGES, MIN_WINDOW
-from adavar.io.preprocess import MAX_DETREND_ORDER, parse_steps
+from adavar.dynamic.windows import EDGES
+from adavar.io.preprocess import MAX_DETREND_ORDER
 from adavar.io.writers import (
     SURFACE_FORMATS,
 )
@@ -98,290 +113,6 @@ def given_flags(args: argparse.Namespace) -> dict[str, str]:
     """The flags of ``args`` given on the command line (or in ``--config``), among those
     parsed by :class:`Given`: destination -> the flag as typed."""
     return dict(getattr(args, GIVEN, None) or {})
-
-
-def positive_float(what: str) -> Callable[[str], float]:
-    def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and value > 0):
-            raise argparse.ArgumentTypeError(f"must be a positive number of {what}, got {text!r}")
-        return value
-
-    return parse
-
-
-#: The sample rates ``--rate`` accepts, Hz (``--tau0``: their inverses): the library's
-MIN_RATE, MAX_RATE = RATE_LIMITS
-
-
-def sample_rate(flag: str) -> Callable[[str], float]:
-    """The type of ``--rate`` (``flag="--rate"``, Hz) or ``--tau0`` (seconds): a positive
-    number within :data:`MIN_RATE` .. :data:`MAX_RATE` Hz."""
-    interval = flag == "--tau0"
-    unit = "seconds" if interval else "Hz"
-    lo, hi = (1.0 / MAX_RATE, 1.0 / MIN_RATE) if interval else (MIN_RATE, MAX_RATE)
-
-    def parse(text: str) -> float:
-        value = positive_float(unit)(text)
-        if not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(
-                f"must lie in {lo:g} .. {hi:g} {unit} (a sample every 1 ps to 31,700 years), "
-                f"got {text!r}: check the unit ({flag} is in {unit})"
-            )
-        return value
-
-    return parse
-
-
-def figure_formats(text: str) -> tuple[str, ...]:
-    """``--figures``: comma-separated formats (each once, in order), or ``none`` for ()."""
-    items = [item.strip().lower() for item in text.split(",") if item.strip()]
-    if items == ["none"]:
-        return ()
-    unknown = [item for item in items if item not in FIGURE_FORMATS]
-    if not items or unknown:
-        raise argparse.ArgumentTypeError(
-            f"must be comma-separated formats among {', '.join(FIGURE_FORMATS)}, or none; "
-            f"got {text!r}"
-        )
-    return tuple(dict.fromkeys(items))
-
-
-def positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
-    return value
-
-
-def points_per_decade(text: str) -> int:
-    """``--points-per-decade``: 1 to the library's ``MAX_POINTS_PER_DECADE``."""
-    value = positive_int(text)
-    if value > MAX_POINTS_PER_DECADE:
-        raise argparse.ArgumentTypeError(
-            f"must be at most {MAX_POINTS_PER_DECADE}, got {text!r}: denser taus add no "
-            "information (use --taus all for every averaging factor)"
-        )
-    return value
-
-
-def parse_confidence(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.0 < value < 1.0:
-        raise argparse.ArgumentTypeError(
-            f"must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), got {text!r}"
-        )
-    return value
-
-
-def _confidence_or_none(text: str) -> float | None:
-    if text.strip().lower() in ("none", "off"):
-        return None
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.0 < value < 1.0:
-        raise argparse.ArgumentTypeError(
-            "must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), or none "
-            f"for no bounds and no fit, got {text!r}"
-        )
-    return value
-
-
-def window_length(text: str) -> int | str:
-    """Samples (at least MIN_WINDOW), or a duration (``600s``, ``10min``) kept as text until
-    the record's rate is known."""
-    return length_arg(MIN_WINDOW, "(one Allan-variance term at m = 1)")(text)
-
-
-def length_arg(minimum: int, why: str = "") -> Callable[[str], int | str]:
-    """A window-like flag: whole samples (at least ``minimum``) or a duration string."""
-
-    def parse(text: str) -> int | str:
-        stripped = text.strip()
-        whole = stripped.isdigit()
-        if not whole:
-            try:
-                float(stripped)
-            except ValueError:  # not a number: a duration, or nothing we know
-                try:
-                    parse_duration(stripped)
-                except AdavarInputError as exc:
-                    raise argparse.ArgumentTypeError(str(exc)) from None
-                return stripped
-        if not whole or int(stripped) < minimum:
-            samples = (
-                "a positive integer (samples)"
-                if minimum == 1
-                else f"a whole number of samples, at least {minimum}{' ' + why if why else ''}"
-            )
-            raise argparse.ArgumentTypeError(
-                f"must be {samples}, or a duration such as 600s or 10min; got {text!r}"
-            )
-        return int(stripped)
-
-    return parse
-
-
-def _items(text: str) -> list[str]:
-    """The comma-separated items of a list flag; an empty one (a trailing or doubled comma)
-    is an error rather than dropped."""
-    parts = [part.strip() for part in text.split(",")]
-    if text.strip() and not all(parts):
-        raise argparse.ArgumentTypeError(
-            f"empty item in {text!r}: remove the trailing or doubled comma"
-        )
-    return [part for part in parts if part]
-
-
-def parse_taus(text: str) -> str | list[float]:
-    key = text.strip().lower()
-    if key in TAU_KEYWORDS:
-        return key
-    try:
-        values = [float(part) for part in _items(text)]
-    except ValueError:
-        values = []
-    if not values or not all(math.isfinite(v) and v > 0 for v in values):
-        raise argparse.ArgumentTypeError(
-            f"expected {', '.join(TAU_KEYWORDS)} or comma-separated positive seconds "
-            f"(e.g. 0.1,1,10), got {text!r}"
-        )
-    return values
-
-
-def _between(text: str, low: float, high: float, what: str) -> float:
-    """``text`` as a number strictly between ``low`` and ``high``, or ``what`` as the error."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not low < value < high:
-        raise argparse.ArgumentTypeError(f"{what}, got {text!r}")
-    return value
-
-
-def _fraction(text: str) -> float:
-    return _between(text, 0.0, 1.0, "must be a fraction between 0 and 1")
-
-
-def parse_seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must be a non-negative integer, got {text!r}")
-    return value
-
-
-def finite_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
-    return value
-
-
-def _positive_list(what: str, example: str) -> Callable[[str], list[float]]:
-    """A parser of comma-separated positive finite numbers (``what`` names them)."""
-
-    def parse(text: str) -> list[float]:
-        try:
-            values = [float(part) for part in _items(text)]
-        except ValueError:
-            values = []
-        if not values or not all(math.isfinite(v) and v > 0 for v in values):
-            raise argparse.ArgumentTypeError(
-                f"expected comma-separated positive {what} (e.g. {example}), got {text!r}"
-            )
-        return values
-
-    return parse
-
-
-seconds_list = _positive_list("times in seconds", "3000,4000")
-
-
-threshold_list = _positive_list("kurtosis thresholds", "3.3,4")
-
-
-def parse_intervals(text: str) -> list[tuple[float, float]]:
-    out = []
-    for part in _items(text):
-        try:
-            a, b = (float(v) for v in part.split(":"))
-        except ValueError:
-            a = b = math.nan
-        if not (math.isfinite(a) and math.isfinite(b) and 0 <= a < b):
-            raise argparse.ArgumentTypeError(
-                f"expected comma-separated A:B intervals in seconds with A < B (e.g. "
-                f"0:3000,3000:4000), got {part.strip()!r}"
-            )
-        out.append((a, b))
-    if not out:
-        raise argparse.ArgumentTypeError("give at least one A:B interval")
-    return out
-
-
-def number_tuple(flag: str, least: int, most: int) -> Callable[[str], tuple[float, ...]]:
-    def parse(text: str) -> tuple[float, ...]:
-        try:
-            values = tuple(float(part) for part in text.split(","))
-        except ValueError:
-            values = ()
-        if not least <= len(values) <= most or not all(math.isfinite(v) for v in values):
-            raise argparse.ArgumentTypeError(
-                f"{flag} takes {least}{'' if least == most else f' or {most}'} comma-separated "
-                f"numbers, got {text!r}"
-            )
-        return values
-
-    return parse
-
-
-def parse_names(text: str) -> list[str]:
-    names = [part.lower() for part in _items(text)]
-    if not names:
-        raise argparse.ArgumentTypeError("give at least one method, e.g. davar-400,a-davar")
-    return names
-
-
-def parse_terms(text: str) -> tuple[str, ...]:
-    out = []
-    for key in _items(text):
-        name = key if key in TERM_NAMES else ALIASES.get(key.lower())
-        if name is None:
-            raise argparse.ArgumentTypeError(
-                f"unknown noise term {key!r}: use {', '.join(TERM_NAMES)} or the letters "
-                "Q, N, B, K, R"
-            )
-        if name not in out:
-            out.append(name)
-    if not out:
-        raise argparse.ArgumentTypeError("give at least one noise term")
-    return tuple(out)
-
-
-def parse_preprocess(text: str) -> str:
-    """``--preprocess``: the steps checked now (before the record is read), kept as text."""
-    try:
-        parse_steps(text)
-    except AdavarInputError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
-    return text.strip()
 
 
 def check_not_stdin(args: argparse.Namespace) -> None:
@@ -596,7 +327,7 @@ def add_input_arguments(
     )  # fmt: skip
     cmd.gap_ways = ("interpolate",)  # type: ignore[attr-defined]  # a Parser's; avar widens it
     cmd.add_argument(
-        "--gap-tolerance", type=_fraction, default=0.5, metavar="F",
+        "--gap-tolerance", type=fraction, default=0.5, metavar="F",
         help="an interval longer than (1 + F) or shorter than (1 - F) times the median is a "
         "gap or non-uniform sampling (default: 0.5)",
     )  # fmt: skip
@@ -729,46 +460,6 @@ def add_controller_arguments(cmd: argparse.ArgumentParser, *, hourly: bool = Tru
     )
 
 
-def parse_noise_type(text: str) -> str | int | list[int]:
-    value = text.strip().lower()
-    if value == "record":
-        return "record"
-    try:
-        alphas = [int(part) for part in value.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"{text!r}: use 'record', an integer alpha from -2 to 2, or one per tau "
-            "(comma-separated)"
-        ) from None
-    if not all(-2 <= alpha <= 2 for alpha in alphas):
-        raise argparse.ArgumentTypeError(f"{text!r}: alpha must lie in -2 .. 2")
-    return alphas[0] if len(alphas) == 1 else alphas
-
-
-def _tau_range(text: str) -> tuple[float | None, float | None]:
-    """``MIN:MAX`` seconds, either side may be empty (open)."""
-    parts = text.split(":")
-    try:
-        if len(parts) != 2:
-            raise ValueError
-        lo, hi = (float(p) if p.strip() else None for p in parts)
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"--tau-range takes MIN:MAX in seconds (either may be empty), got {text!r}"
-        ) from None
-    for v in (lo, hi):
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise argparse.ArgumentTypeError(f"--tau-range bounds must be positive, got {text!r}")
-    if lo is not None and hi is not None and not lo < hi:
-        raise argparse.ArgumentTypeError(f"--tau-range {text!r}: MIN must be below MAX")
-    return lo, hi
-
-
-def _probability(text: str) -> float:
-    """A one-sided confidence level strictly between 0.5 and 1."""
-    return _between(text, 0.5, 1.0, "takes a probability between 0.5 and 1")
-
-
 def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
     """The noise fit's options (:func:`adavar.fit_noise`)."""
     cmd.add_argument(
@@ -796,7 +487,7 @@ def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
         "has a hump the IEEE terms cannot describe (default auto), or never",
     )  # fmt: skip
     cmd.add_argument(
-        "--bound-level", type=_probability, default=FIT.bound_level, metavar="P",
+        "--bound-level", type=probability, default=FIT.bound_level, metavar="P",
         help="gls: one-sided level of the upper bound of a term left out (default 0.99)",
     )  # fmt: skip
     cmd.add_argument(
@@ -810,7 +501,7 @@ def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
         "or keep Q >= 0",
     )  # fmt: skip
     cmd.add_argument(
-        "--tau-range", type=_tau_range, metavar="MIN:MAX",
+        "--tau-range", type=tau_range, metavar="MIN:MAX",
         help="fit only the taus from MIN to MAX seconds (either may be empty)",
     )  # fmt: skip
     cmd.add_argument(
@@ -885,7 +576,7 @@ def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
         "file, else rate",
     )  # fmt: skip
     cmd.add_argument(
-        "--confidence", default=0.683, type=_confidence_or_none, metavar="P",
+        "--confidence", default=0.683, type=confidence_or_none, metavar="P",
         help="two-sided confidence level of the per-cell bounds (default: 0.683); none: no "
         "bounds and no noise fit (faster, a third of the memory)",
     )  # fmt: skip
@@ -905,19 +596,6 @@ def add_surface_arguments(cmd: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     add_fit_arguments(cmd)
     add_chunk_argument(cmd)
-
-
-def whole_list(text: str) -> list[int]:
-    """Comma-separated whole numbers >= 1 (``--ici-lengths``, ``--ici-taus``)."""
-    try:
-        values = [int(part) for part in text.replace(" ", "").split(",") if part]
-    except ValueError:
-        values = []
-    if not values or min(values) < 1:
-        raise argparse.ArgumentTypeError(
-            f"expected comma-separated whole numbers >= 1 (e.g. 50,100,400,600), got {text!r}"
-        )
-    return values
 
 
 def add_dependence_argument(cmd: argparse.ArgumentParser) -> None:

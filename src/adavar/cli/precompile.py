@@ -5,8 +5,9 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from adavar.cli.options import EXIT_OK, UsageError, positive_int
+from adavar.cli.options import EXIT_OK, UsageError
 from adavar.cli.output import Status
+from adavar.cli.values import positive_int
 
 
 def _cmd_precompile(args: argparse.Namespace) -> int:

@@ -16,13 +16,10 @@ from adavar.cli.options import (
     check_arguments,
     given_flags,
     ignored,
-    length_arg,
     listed_flags,
-    parse_taus,
-    parse_terms,
-    window_length,
 )
 from adavar.cli.output import Status, check_output_file, fit_lines, output_error
+from adavar.cli.values import length_arg, parse_taus, parse_terms, window_length
 from adavar.core.settings import DATA_TYPE_DEFAULT
 from adavar.io.writers import dumps, fit_json
 

@@ -8,18 +8,9 @@ from typing import Any
 import numpy as np
 
 from adavar import __version__
-from adavar.cli.options import (
-    EXIT_OK,
-    Given,
-    UsageError,
-    finite_float,
-    given_flags,
-    number_tuple,
-    parse_seed,
-    positive_float,
-    positive_int,
-)
+from adavar.cli.options import EXIT_OK, Given, UsageError, given_flags
 from adavar.cli.output import Status, check_output_file, output_error
+from adavar.cli.values import finite_float, number_tuple, parse_seed, positive_float, positive_int
 from adavar.core.atomic import atomic_file
 from adavar.core.errors import AdavarInputError
 from adavar.core.settings import MAX_SAMPLES
