@@ -84,6 +84,23 @@ def test_whitespace_with_comments(tmp_path):
     np.testing.assert_array_equal(rec.channel("gz"), [2, 4, 6])
 
 
+def test_rostopic_echo_csv_header_and_nanoseconds(tmp_path):
+    """``rostopic echo -p``: the header is a "comment" starting with %time (ns)."""
+    head = ("%time,field.header.seq,field.header.stamp,field.header.frame_id,"
+            "field.angular_velocity.x,field.angular_velocity.z\n")  # fmt: skip
+    rows = "".join(f"{1_700_000_000_000_000_000 + 5_000_000 * i + 7},{i},"
+                   f"{1_700_000_000_000_000_000 + 5_000_000 * i},imu,{i % 3},{-i}\n"
+                   for i in range(40))  # fmt: skip
+    path = write(tmp_path, "imu.csv", head + rows)
+    rec = read_record(path, columns="field.angular_velocity.x,field.angular_velocity.z")
+    assert rec.rate == pytest.approx(200.0)
+    assert rec.meta["time_format"] == "ns"
+    np.testing.assert_array_equal(rec.channel("field.angular_velocity.z"), -np.arange(40))
+    # a MATLAB comment that only starts like it, or %time further down, stays a comment
+    text = "% timing test\n%time of day\nt,x\n0,1\n0.5,2\n1.0,3\n"
+    assert read_record(write(tmp_path, "m.csv", text)).names == ["x"]
+
+
 def test_multichannel_selection(tmp_path):
     text = "t;gx;gy;gz\n" + "".join(f"{i / 10};{i};{10 + i};{20 + i}\n" for i in range(8))
     path = write(tmp_path, "s.csv", text)
@@ -645,3 +662,33 @@ def test_lazy_refuses_text_files_and_nan_policies(tmp_path):
         f["x"] = np.arange(100.0)
     with pytest.raises(AdavarInputError, match="nan='drop' needs the whole record"):
         read_record(tmp_path / "a.h5", rate=1.0, lazy=True, nan="drop")
+
+
+def _receive_stamps(n: int, rate: float, seed: int) -> np.ndarray:
+    """Stamps taken on receipt: even samples, each stamped after an exponential delay of
+    0.3 of an interval on average, kept in order (as a ROS subscriber sees them)."""
+    k = np.arange(n)
+    arrival = k / rate + np.random.default_rng(seed).exponential(0.3 / rate, n)
+    return 1.7e9 + np.maximum.accumulate(arrival - k * 2e-5) + k * 2e-5
+
+
+def test_receive_time_jitter_is_not_taken_for_gaps(tmp_path):
+    """Receive-time stamps jitter both ways: the intervals within 50 % of the median are a
+    biased sample (200.9 Hz for 200), and --gaps interpolate added 0.4 % more samples."""
+    n = 20_000
+    t = _receive_stamps(n, 200.0, 4)
+    x = np.random.default_rng(5).standard_normal(n)
+    path = write(tmp_path, "rx.csv", "time,gx\n" + "".join(
+        f"{a:.6f},{b:.9e}\n" for a, b in zip(t, x, strict=True)))  # fmt: skip
+    message = fails(r"the time stamps jitter: .* no sample seems missing", path)
+    assert "--time-column none --rate 200" in message and "--gaps interpolate" in message
+    rec = read_record(path, gaps="interpolate")
+    assert rec.rate == pytest.approx(200.0, rel=1e-4) and rec.n_samples == n
+    # the way out the message names: the stamps ignored, the declared rate
+    rec = read_record(path, time_column="none", rate=200.0)
+    np.testing.assert_allclose(rec.channel("gx"), x, rtol=1e-9)
+    assert rec.rate == 200.0 and rec.n_samples == n
+    # a dropped sample among even stamps is still a gap
+    even = 1.7e9 + np.delete(np.arange(n), 777) / 200.0
+    path = write(tmp_path, "gap.csv", "time,gx\n" + "".join(f"{a:.6f},1\n" for a in even))
+    fails(r"gap of 0.01 s after", path)

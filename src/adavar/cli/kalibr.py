@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any
 
 from adavar import __version__
 from adavar.cli.options import EXIT_OK, UsageError, check_not_stdin
 from adavar.cli.output import Status, check_output_file, output_error
-from adavar.cli.values import parse_names, positive_float, sample_rate
+from adavar.cli.values import parse_names, positive_float, sample_rate, tau_range
 from adavar.core.errors import AdavarInputError
 from adavar.core.request import AnalysisRequest, RecordRequest, UnitGroup
+from adavar.core.settings import FIT
 from adavar.io.writers import dumps
 
 
@@ -36,9 +38,13 @@ def kalibr_request(args: argparse.Namespace) -> AnalysisRequest:
     )
     record = RecordRequest(
         file=str(args.file), column=[*args.gyro, *args.accel], rate=args.rate,
-        time_column=args.time_column, topic=args.topic, gaps=args.gaps, unit_groups=groups,
+        time_column=args.time_column, time_format=args.time_format, topic=args.topic,
+        gaps=args.gaps, unit_groups=groups,
     )  # fmt: skip
-    return AnalysisRequest(record=record)
+    # the sensor's filter, when the user knows it, leaves its roll-off out up front (the
+    # automatic exclusion misses a roll-off that only bends the curve a little)
+    fit = replace(FIT, bandwidth=args.bandwidth, tau_range=args.tau_range)
+    return AnalysisRequest(record=record, fit=fit)
 
 
 def _no_constant_axis(args: argparse.Namespace) -> Callable[..., None]:
@@ -153,7 +159,24 @@ def add_kalibr_parser(sub: Any) -> argparse.ArgumentParser:
         type=sample_rate("--rate"),
         help="sample rate, if the file has no time stamps",
     )
-    kal.add_argument("--time-column", metavar="NAME", help="column of time stamps")
+    kal.add_argument(
+        "--time-column", metavar="NAME",
+        help="column of time stamps (default: one named time, t, timestamp, ...; 'header' or "
+        "'bag' for ROS bags; 'none': no time column, give --rate)",
+    )  # fmt: skip
+    kal.add_argument(
+        "--time-format", default="auto", choices=("auto", "s", "ms", "us", "ns", "iso", "mjd"),
+        help="unit or format of the time column (default: auto; ROS stamps: ns)",
+    )  # fmt: skip
+    kal.add_argument(
+        "--bandwidth", type=positive_float("Hz"), metavar="HZ",
+        help="the IMU's bandwidth (Hz, its low-pass filter setting): taus below 2/bandwidth "
+        "are left out of the fits",
+    )  # fmt: skip
+    kal.add_argument(
+        "--tau-range", type=tau_range, metavar="MIN:MAX",
+        help="fit only taus in MIN..MAX seconds (either may be empty)",
+    )  # fmt: skip
     kal.add_argument("--topic", metavar="TOPIC", help="IMU topic of a ROS bag")
     kal.add_argument(
         "--gaps",
@@ -168,9 +191,10 @@ def add_kalibr_parser(sub: Any) -> argparse.ArgumentParser:
         help="how the three axes are combined (default: max, conservative)",
     )
     kal.add_argument(
-        "--pinned", default="error", choices=("error", "bound"),
+        "--pinned", default="error", choices=("error", "bound", "sigma"),
         help="an axis whose N or K the fit pins at 0 (e.g. K of a short record) is an error "
-        "(default) or contributes its 1-sigma upper bound",
+        "(default), or contributes its 99 %% upper bound (bound), or its 84 %% one (sigma: "
+        "below the truth most of the time; the 'bound' of adavar 0.2)",
     )  # fmt: skip
     kal.add_argument(
         "--inflate",

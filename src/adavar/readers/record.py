@@ -32,6 +32,7 @@ NAN_POLICIES = ("error", "drop", "interpolate", "keep")
 _MAX_LISTED = 50  # gaps / dropped rows listed one by one in meta
 _NOMINAL = "nominal rate of the time stamps (every interval equals it within their resolution)"
 _MEAN = "mean time interval (gaps excluded)"
+_SPAN = "the stamps' span over their count (jittering stamps: every interval counted)"
 
 
 @dataclass
@@ -510,10 +511,22 @@ def finish_record(
         rate = found
         meta["rate_source"] = _NOMINAL if nominal else _MEAN
         grid_step = interval
-    meta["median_interval"] = step
-    meta["mean_interval"] = interval if not nominal else 1.0 / found
     long_ = np.flatnonzero(dt > (1.0 + tol) * step)
     short = np.flatnonzero(dt < (1.0 - tol) * step)
+    # stamps that jitter: intervals off the median both ways, in numbers (not one stamp
+    # out of place), whose short ones make up for at least half of what the long ones add
+    # (a gap adds time, nothing takes it back). Receive-time stamps (ROS, serial loggers)
+    # do this; the intervals within tol of the median are then a biased sample (200.9 Hz
+    # for 200), their sum over the record is not
+    jitter = bool(long_.size and short.size >= max(3, 1e-3 * (n - 1))) and (
+        float(np.sum(step - dt[short])) >= 0.5 * float(np.sum(dt[long_] - step))
+    )
+    if jitter and meta["rate_source"] in (_NOMINAL, _MEAN):
+        interval = float(t[-1]) / (n - 1)
+        rate, grid_step = 1.0 / interval, interval
+        meta["rate_source"] = _SPAN
+    meta["median_interval"] = step
+    meta["mean_interval"] = interval if not nominal or jitter else 1.0 / found
     meta["max_jitter"] = _farthest(float(dt.min()), float(dt.max()), step) / step
     meta["n_gaps"] = int(long_.size)
     meta["gap_list"] = [
@@ -539,9 +552,22 @@ def finish_record(
             f"{step:.4g} s{more}: use --gaps interpolate to resample onto a uniform grid"
         )
 
+    def jitter_error() -> AdavarInputError:
+        off = long_.size + short.size
+        return fail(
+            f"{src}: the time stamps jitter: {off} of {n - 1} intervals lie more than "
+            f"{tol:.0%} from the median {step:.4g} s, yet they span {n - 1} intervals of "
+            f"{t[-1] / (n - 1):.6g} s, so no sample seems missing. Stamps taken on receipt "
+            "(ROS, a serial logger) jitter like this while the sensor samples evenly: ignore "
+            f"them with --time-column none --rate {1.0 / (t[-1] / (n - 1)):.6g}; if the "
+            "sensor sampled at these times, --gaps interpolate resamples onto a uniform grid"
+        )
+
     channels = dict(raw.channels)
     segments = None
     if gaps == "error" or (gaps in ("split", "nan") and short.size):
+        if jitter:
+            raise jitter_error()
         if short.size and (not long_.size or short[0] < long_[0]):
             raise uneven_error()
         if long_.size:

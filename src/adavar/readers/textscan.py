@@ -52,6 +52,10 @@ TAIL = 64 << 10
 MAX_LINE = 16 << 20
 #: Lines starting with one of these (after leading blanks) are comments in text files.
 COMMENT_PREFIXES = ("#", "%")
+#: ``rostopic echo -p`` writes its CSV header as a comment, ``%time,field.header.seq,...``:
+#: as the file's first line it is the header, ``%time`` read as ``time_ns`` (the receive
+#: time in nanoseconds, as rostopic writes it)
+ROSTOPIC_HEADER = "%time"
 
 _CHECKED = 8192  # first bytes checked for binary data
 _FORMATS = (
@@ -154,7 +158,10 @@ def _content_lines(
             text = buf[pos:stop].decode("utf-8").strip()
         except UnicodeDecodeError:
             raise not_utf8(src, f" (row {number})") from None
-        if text and not text.startswith(COMMENT_PREFIXES):
+        if not out and text.startswith(ROSTOPIC_HEADER + ","):
+            text = "time_ns" + text[len(ROSTOPIC_HEADER) :]  # the header, and its unit
+            out.append((number, pos, text))
+        elif text and not text.startswith(COMMENT_PREFIXES):
             out.append((number, pos, text))
         number += 1
         pos = stop + 1
