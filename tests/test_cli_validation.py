@@ -330,3 +330,35 @@ def test_the_constant_check_reads_pieces_and_sees_a_change_in_any():
     assert not _constant(ArraySource(late), chunk_size=3)
     assert not _constant(ArraySource(np.array([np.nan, np.nan])), chunk_size=1)
     assert not _constant(ArraySource(np.array([], dtype=float)), chunk_size=3)
+
+
+def test_kalibr_reads_nanosecond_stamps_and_takes_the_filter(capsys, tmp_path):
+    """ROS-style integer ns stamps: the error names --time-format, which kalibr has; the
+    IMU's bandwidth leaves the short taus out of every axis' fit."""
+    rng = np.random.default_rng(4)
+    n = 6000
+    stamps = 1_700_000_000_000_000_000 + 5_000_000 * np.arange(n, dtype=np.int64)
+    path = tmp_path / "imu.csv"
+    with open(path, "w") as f:
+        f.write("timestamp,gx,gy,gz,ax,ay,az\n")
+        for k in range(n):
+            cells = ",".join(f"{v:.6e}" for v in 1e-3 * rng.standard_normal(6))
+            f.write(f"{stamps[k]},{cells}\n")
+    base = ["kalibr", str(path), "--gyro-units", "rad/s", "--accel-units", "m/s^2",
+            "--pinned", "bound", "-o", str(tmp_path / "imu.yaml"), "--force", "--json"]  # fmt: skip
+    code, stdout, err = run(capsys, base)
+    assert_one_line_error(code, stdout, err, "timestamp", "--time-format")
+    code, stdout, err = run(capsys, [*base, "--time-format", "ns"])
+    assert code == 0, err
+    assert json.loads(stdout)["rate"] == 200.0
+    code, stdout, err = run(capsys, [*base, "--time-column", "none", "--rate", "200",
+                                     "--bandwidth", "20"])  # fmt: skip
+    assert code == 0, err
+    text = (tmp_path / "imu.yaml").read_text()
+    assert "99 %" in text and json.loads(stdout)["n_samples"] == n
+    from adavar.cli.entry import build_parser
+    from adavar.cli.kalibr import kalibr_request
+
+    args = build_parser().parse_args([*base, "--bandwidth", "20", "--tau-range", "0.5:"])
+    fit = kalibr_request(args).fit
+    assert fit.bandwidth == 20.0 and fit.tau_range == (0.5, None)
