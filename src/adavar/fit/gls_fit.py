@@ -115,6 +115,8 @@ _EXCLUDE_REACH = 1.0 / 3.0
 _EXCLUDE_LOOK = 3  # the shortest fitted taus whose residuals decide an exclusion
 _EXCLUDE_OCTAVES = 4  # ... or those this close to it, when the model misses the curve
 _ROLLOFF_Z = 1.0  # an excluded point lies this far below the model's noise terms
+#: ... and, without a 3-sigma miss, leaving it out lowers the rest's chi-square this much
+_BEND_CHI2 = 9.0
 _FAIR_P = 0.01  # an exclusion is kept when the fit of the rest reaches this p-value...
 _MARKOV_GATE_P = 1e-6  # ... and a Gauss-Markov term when its model reaches this one
 #: next to a roll-off, a Gauss-Markov time at least this many octaves above the first tau
@@ -277,7 +279,7 @@ def fit_curve(
         cols, dropped = choose(prob, idx, all_cols, n_iter, signed, select, significance,
                                 False, forced)  # fmt: skip
         state = evaluate(idx, cols)
-        if last is not None and not _improves(state, idx.size, *last[3:]):
+        if last is not None and not _improves(state, idx.size, *last[3:5], last[5]):
             # leaving the point out did not make the model describe the rest better: the
             # misfit is not a roll-off (a bump the model lacks); keep it
             j_back, reason_back, (idx, cols, dropped, state) = last[0], last[1], last[2]
@@ -301,15 +303,32 @@ def fit_curve(
                 near |= tau[idx] <= tau[j0] * 2.0**_EXCLUDE_OCTAVES
             short = idx[near & (tau[idx] < _EXCLUDE_REACH * tau_min_dev)]
             worst = float(np.max(np.abs(state.resid[short])))
-            if worst > EXCLUDE_Z:
-                last = (j0, reasons[j0], (idx, cols, dropped, state), state.gof,
-                        idx.size - state.n_params)  # fmt: skip
+            # ... or, short of 3 sigma, one the model leans to while the taus above it sit
+            # off the other way (behind a filter: -2.7 sigma there, +1.6 to +2.2 above, N
+            # 1-2 % low): kept out if the rest is then better described by _BEND_CHI2
+            rest = idx[1:]
+            cov_rest = prob.cov(state.coef, rest)
+            d = np.sqrt(np.diag(cov_rest))
+            bend = decorrelated_chi2(state.resid[rest], cov_rest / np.outer(d, d))
+            if worst > EXCLUDE_Z or state.resid[j0] < 0.0:
+                last = (
+                    j0,
+                    reasons[j0],
+                    (idx, cols, dropped, state),
+                    state.gof,
+                    idx.size - state.n_params,
+                    None if worst > EXCLUDE_Z else bend,
+                )
                 used[j0] = False
                 reasons[j0] = (
                     f"short-tau roll-off: the model misses the short taus by up to "
                     f"{worst:.1f} sigma (a sensor filter or correlated noise the model "
                     "cannot describe)"
-                )
+                    if worst > EXCLUDE_Z else
+                    "short-tau roll-off: the model leans to this tau and misses the taus "
+                    "above it (a sensor filter or correlated noise the model cannot "
+                    "describe)"
+                )  # fmt: skip
                 continue
         break
     # then a Gauss-Markov term, on that tau range; where the fit may not take one, its
@@ -416,10 +435,15 @@ def _rolloff_forced(signed: bool, reasons: list[str], usable: np.ndarray) -> tup
     return (0,) if any(r.startswith(hints) for r in reasons) else ()
 
 
-def _improves(state: _State, n_points: int, gof_before: float, dof_before: int) -> bool:
+def _improves(
+    state: _State, n_points: int, gof_before: float, dof_before: int, bend: float | None = None
+) -> bool:
     """Whether a fit after an exclusion describes its points better than before it: its
     adequacy p-value is fair, or its adequacy chi-square per degree of freedom fell by a
-    tenth."""
+    tenth. ``bend`` (the chi-square of the same points under the fit before, for a point
+    left out without a 3-sigma miss): the chi-square must have fallen by ``_BEND_CHI2``."""
+    if bend is not None:
+        return bend - state.gof > _BEND_CHI2
     dof = n_points - state.n_params
     if dof <= 0 or dof_before <= 0:
         return True
