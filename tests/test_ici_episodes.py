@@ -58,6 +58,11 @@ def test_segmentation_and_pairing():
     assert len(cuts) == 3
     assert abs(cuts[0] - 2000) <= 3 and abs(cuts[1] - 2020) <= 3 and abs(cuts[2] - 4000) <= 60
     assert ep.kuiper_quantile(0.05) == pytest.approx(1.747, abs=2e-3)
+    # a significant range whose extremes both lie within min_segment of a piece's ends
+    # kept the piece on the stack for ever (a record with a 60 s stretch interpolated)
+    flat = rng.standard_normal(600) ** 2
+    flat[5:] *= 1e-6
+    assert ep.segment_squares(flat, 2.0, 3.0, min_segment=10) == []
     assert ep.pair_changes([True, False, True, True, False, False]) == [(0, 1), (2, 4), (5, None)]
     assert ep.pair_changes([]) == []
     ramp = ep.Episode(start=100, end=900, ramp=True, rise=True, before=1.0, after=9.0,

@@ -337,6 +337,8 @@ def segment_squares(
         if (bridge[j] - bridge[i]) / (math.sqrt(n) * root * total / n) <= range_crit:
             continue
         new = sorted(k for k in (i, j) if min_segment <= k <= n - min_segment)
+        if not new:  # both extremes too near the ends to cut: the piece stays whole
+            continue
         cuts += [a + k for k in new]
         edges = [a, *(a + k for k in new), b]
         stack += list(pairwise(edges))
