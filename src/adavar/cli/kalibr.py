@@ -8,7 +8,7 @@ from dataclasses import replace
 from typing import Any
 
 from adavar import __version__
-from adavar.cli.options import EXIT_OK, UsageError, check_not_stdin
+from adavar.cli.options import EXIT_OK, UsageError, add_time_arguments, check_not_stdin
 from adavar.cli.output import Status, check_output_file, output_error
 from adavar.cli.values import parse_names, positive_float, sample_rate, tau_range
 from adavar.core.errors import AdavarInputError
@@ -159,15 +159,7 @@ def add_kalibr_parser(sub: Any) -> argparse.ArgumentParser:
         type=sample_rate("--rate"),
         help="sample rate, if the file has no time stamps",
     )
-    kal.add_argument(
-        "--time-column", metavar="NAME",
-        help="column of time stamps (default: one named time, t, timestamp, ...; 'header' or "
-        "'bag' for ROS bags; 'none': no time column, give --rate)",
-    )  # fmt: skip
-    kal.add_argument(
-        "--time-format", default="auto", choices=("auto", "s", "ms", "us", "ns", "iso", "mjd"),
-        help="unit or format of the time column (default: auto; ROS stamps: ns)",
-    )  # fmt: skip
+    add_time_arguments(kal)
     kal.add_argument(
         "--bandwidth", type=positive_float("Hz"), metavar="HZ",
         help="the IMU's bandwidth (Hz, its low-pass filter setting): taus below 2/bandwidth "

@@ -299,6 +299,19 @@ def check_change_times(times: list[float] | None, n_samples: int, tau0: float) -
         )
 
 
+def add_time_arguments(cmd: argparse.ArgumentParser) -> None:
+    """``--time-column`` and ``--time-format``: where the time stamps are, in what unit."""
+    cmd.add_argument(
+        "--time-column", metavar="NAME",
+        help="column of time stamps (default: one named time, t, timestamp, ...; "
+        "'header' or 'bag' for ROS bags; 'none': no time column, give --rate)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--time-format", default="auto", choices=("auto", "s", "ms", "us", "ns", "iso", "mjd"),
+        help="unit or format of the time column (default: auto; ROS stamps: ns)",
+    )  # fmt: skip
+
+
 def add_input_arguments(
     cmd: argparse.ArgumentParser, *, optional_file: bool = False, several: bool = True
 ) -> None:
@@ -311,15 +324,7 @@ def add_input_arguments(
         "ROS 1 .bag or ROS 2 bag folder (sensor_msgs/Imu: gx gy gz ax ay az), Stable32 "
         ".phd/.frd",
     )  # fmt: skip
-    cmd.add_argument(
-        "--time-column", metavar="NAME",
-        help="column of time stamps (default: one named time, t, timestamp, ...; "
-        "'header' or 'bag' for ROS bags; 'none': no time column, give --rate)",
-    )  # fmt: skip
-    cmd.add_argument(
-        "--time-format", default="auto", choices=("auto", "s", "ms", "us", "ns", "iso", "mjd"),
-        help="unit or format of the time column (default: auto)",
-    )  # fmt: skip
+    add_time_arguments(cmd)
     cmd.add_argument(
         "--gaps", default="error", choices=("error", "split", "interpolate"),
         help="a gap in the time stamps is an error (default), splits the record into "
