@@ -8,9 +8,15 @@ from dataclasses import replace
 from typing import Any
 
 from adavar import __version__
-from adavar.cli.options import EXIT_OK, UsageError, add_time_arguments, check_not_stdin
+from adavar.cli.options import (
+    EXIT_OK,
+    UsageError,
+    add_fit_range_arguments,
+    add_time_arguments,
+    check_not_stdin,
+)
 from adavar.cli.output import Status, check_output_file, output_error
-from adavar.cli.values import parse_names, positive_float, sample_rate, tau_range
+from adavar.cli.values import parse_names, positive_float, sample_rate
 from adavar.core.errors import AdavarInputError
 from adavar.core.request import AnalysisRequest, RecordRequest, UnitGroup
 from adavar.core.settings import FIT
@@ -160,15 +166,7 @@ def add_kalibr_parser(sub: Any) -> argparse.ArgumentParser:
         help="sample rate, if the file has no time stamps",
     )
     add_time_arguments(kal)
-    kal.add_argument(
-        "--bandwidth", type=positive_float("Hz"), metavar="HZ",
-        help="the IMU's bandwidth (Hz, its low-pass filter setting): taus below 2/bandwidth "
-        "are left out of the fits",
-    )  # fmt: skip
-    kal.add_argument(
-        "--tau-range", type=tau_range, metavar="MIN:MAX",
-        help="fit only taus in MIN..MAX seconds (either may be empty)",
-    )  # fmt: skip
+    add_fit_range_arguments(kal)
     kal.add_argument("--topic", metavar="TOPIC", help="IMU topic of a ROS bag")
     kal.add_argument(
         "--gaps",

@@ -465,6 +465,19 @@ def add_controller_arguments(cmd: argparse.ArgumentParser, *, hourly: bool = Tru
     )
 
 
+def add_fit_range_arguments(cmd: argparse.ArgumentParser) -> None:
+    """``--tau-range`` and ``--bandwidth``: the taus the noise fit may use."""
+    cmd.add_argument(
+        "--tau-range", type=tau_range, metavar="MIN:MAX",
+        help="fit only the taus from MIN to MAX seconds (either may be empty)",
+    )  # fmt: skip
+    cmd.add_argument(
+        "--bandwidth", type=positive_float("Hz"), metavar="HZ",
+        help="the sensor's bandwidth (Hz, datasheet or filter setting): taus below "
+        "2/bandwidth are left out of the fit",
+    )  # fmt: skip
+
+
 def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
     """The noise fit's options (:func:`adavar.fit_noise`)."""
     cmd.add_argument(
@@ -505,15 +518,7 @@ def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
         help="gls: let the tau^-2 term go negative to model a filter's roll-off (default) "
         "or keep Q >= 0",
     )  # fmt: skip
-    cmd.add_argument(
-        "--tau-range", type=tau_range, metavar="MIN:MAX",
-        help="fit only the taus from MIN to MAX seconds (either may be empty)",
-    )  # fmt: skip
-    cmd.add_argument(
-        "--bandwidth", type=positive_float("Hz"), metavar="HZ",
-        help="the sensor's bandwidth (Hz, datasheet or filter setting): taus below "
-        "2/bandwidth are left out of the fit",
-    )  # fmt: skip
+    add_fit_range_arguments(cmd)
     cmd.add_argument(
         "--n-reweight", type=parse_seed, default=FIT.n_reweight, metavar="N",
         help="reweighting passes of the noise fit after the first, with the model's "
