@@ -21,12 +21,17 @@ from adavar.io.preprocess import parse_steps
 from adavar.output._figures import FIGURE_FORMATS
 
 
+def number(text: str) -> float:
+    """``text`` as a float, NaN if it is not a number (the parsers' errors then say why)."""
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
 def positive_float(what: str) -> Callable[[str], float]:
     def parse(text: str) -> float:
-        try:
-            value = float(text)
-        except ValueError:
-            value = math.nan
+        value = number(text)
         if not (math.isfinite(value) and value > 0):
             raise argparse.ArgumentTypeError(f"must be a positive number of {what}, got {text!r}")
         return value
@@ -93,10 +98,7 @@ def points_per_decade(text: str) -> int:
 
 
 def parse_confidence(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = number(text)
     if not 0.0 < value < 1.0:
         raise argparse.ArgumentTypeError(
             f"must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), got {text!r}"
@@ -107,10 +109,7 @@ def parse_confidence(text: str) -> float:
 def confidence_or_none(text: str) -> float | None:
     if text.strip().lower() in ("none", "off"):
         return None
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = number(text)
     if not 0.0 < value < 1.0:
         raise argparse.ArgumentTypeError(
             "must be a probability strictly between 0 and 1 (e.g. 0.683 or 0.95), or none "
@@ -183,10 +182,7 @@ def parse_taus(text: str) -> str | list[float]:
 
 def _between(text: str, low: float, high: float, what: str) -> float:
     """``text`` as a number strictly between ``low`` and ``high``, or ``what`` as the error."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = number(text)
     if not low < value < high:
         raise argparse.ArgumentTypeError(f"{what}, got {text!r}")
     return value
@@ -207,10 +203,7 @@ def parse_seed(text: str) -> int:
 
 
 def finite_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = number(text)
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
     return value
