@@ -336,7 +336,7 @@ def test_kalibr_reads_nanosecond_stamps_and_takes_the_filter(capsys, tmp_path):
     """ROS-style integer ns stamps: the error names --time-format, which kalibr has; the
     IMU's bandwidth leaves the short taus out of every axis' fit."""
     rng = np.random.default_rng(4)
-    n = 6000
+    n = 2500
     stamps = 1_700_000_000_000_000_000 + 5_000_000 * np.arange(n, dtype=np.int64)
     path = tmp_path / "imu.csv"
     with open(path, "w") as f:
