@@ -164,15 +164,21 @@ def _items(text: str) -> list[str]:
     return [part for part in parts if part]
 
 
+def _positive_numbers(text: str) -> list[float]:
+    """Comma-separated positive finite numbers, or [] if any item is not one."""
+    try:
+        values = [float(part) for part in _items(text)]
+    except ValueError:
+        return []
+    return values if all(math.isfinite(v) and v > 0 for v in values) else []
+
+
 def parse_taus(text: str) -> str | list[float]:
     key = text.strip().lower()
     if key in TAU_KEYWORDS:
         return key
-    try:
-        values = [float(part) for part in _items(text)]
-    except ValueError:
-        values = []
-    if not values or not all(math.isfinite(v) and v > 0 for v in values):
+    values = _positive_numbers(text)
+    if not values:
         raise argparse.ArgumentTypeError(
             f"expected {', '.join(TAU_KEYWORDS)} or comma-separated positive seconds "
             f"(e.g. 0.1,1,10), got {text!r}"
@@ -213,11 +219,8 @@ def _positive_list(what: str, example: str) -> Callable[[str], list[float]]:
     """A parser of comma-separated positive finite numbers (``what`` names them)."""
 
     def parse(text: str) -> list[float]:
-        try:
-            values = [float(part) for part in _items(text)]
-        except ValueError:
-            values = []
-        if not values or not all(math.isfinite(v) and v > 0 for v in values):
+        values = _positive_numbers(text)
+        if not values:
             raise argparse.ArgumentTypeError(
                 f"expected comma-separated positive {what} (e.g. {example}), got {text!r}"
             )
