@@ -67,7 +67,7 @@ def commands(files, out):
         "compare": (["compare", two, *gyro, "--column", "gx", "--change-times", "75",
                      "--lmax", "200", "--lmin", "100", "--l", "30", "--taus", "octave"],
                     ["reading", "running the methods", "kurtosis threshold crossings"]),
-        "demo": (["demo", "--out", str(out / "demo")],
+        "demo": (["demo", "--out", str(out / "demo"), "--workers", "1"],
                  ["NIST check values", "drawing the figures", "building the HTML report",
                   "writing"]),
     }  # fmt: skip
@@ -75,12 +75,14 @@ def commands(files, out):
 
 @pytest.fixture
 def quick_demo(monkeypatch):
-    """The demo without the paper's scenario (its part is timed by test_cli)."""
+    """The demo without the paper's scenario (its part is timed by test_cli), on a tenth of
+    the gyro's samples (the status lines are the same)."""
     import adavar.pipeline.demo
 
     monkeypatch.setattr(
         adavar.pipeline.demo, "run_demo", partial(adavar.pipeline.demo.run_demo, paper=False)
     )
+    monkeypatch.setattr(adavar.pipeline.demo, "GYRO_SAMPLES", 100_000)
 
 
 @pytest.mark.parametrize(
