@@ -496,7 +496,7 @@ def test_a_failed_write_leaves_no_half_written_folder(small_records, tmp_path, m
     ("extra", "fragments"),
     [
         (["{dir}/nothing/*.csv"], ["no file matches", "nothing/*.csv", "quote"]),
-        (["{file}", "--scheduler", "tcp://127.0.0.1:{port}", "--timeout", "1"],
+        (["{file}", "--scheduler", "tcp://127.0.0.1:{port}", "--timeout", "0.2"],
          ["tcp://127.0.0.1:", "dask scheduler", "--workers N"]),
         (["{file}", "--scheduler", "nonsense"], ["'nonsense'", "tcp://HOST:PORT"]),
         (["{file}", "--scheduler", "tcp://127.0.0.1:1", "--workers", "2"], ["not both"]),
