@@ -20,14 +20,18 @@ from .independent_noise import changing, record, white
 SEEDS = range(50_000, 50_004)
 
 
-def _fits(mix, **options):
+def _curves(mix):
+    """The Allan deviation and the truth of each record of ``mix``."""
     out = []
     for seed in SEEDS:
         x, truth = record(mix, 3600, 100.0, seed)
-        r = adavar.deviation(x, rate=100.0)
-        out.append((adavar.fit_noise(r, bandwidth=truth.extras.get("bandwidth_hz"), **options),
-                    truth))  # fmt: skip
+        out.append((adavar.deviation(x, rate=100.0), truth))
     return out
+
+
+def _fits(curves, **options):
+    return [(adavar.fit_noise(r, bandwidth=truth.extras.get("bandwidth_hz"), **options), truth)
+            for r, truth in curves]  # fmt: skip
 
 
 @pytest.mark.parametrize(
@@ -38,20 +42,22 @@ def test_dominant_terms_are_right_and_calibrated(mix):
     truth and every record within 4 of its own uncertainties (heavy tails and a filter
     included, which made the uncertainty 2x too small before issue 39); B, where it
     carries an octave, within 25 % in each record."""
-    for fit, truth in _fits(mix):
+    fits = _fits(_curves(mix))
+    for fit, truth in fits:
         n = fit.angle_random_walk
         assert abs(n.value - truth.N) < 4 * n.uncertainty, (mix, n, truth.N)
         if truth.B:
             assert fit.bias_instability.value == pytest.approx(truth.B, rel=0.25)
         assert bool(fit.adequate)
-    mean = np.mean([f.angle_random_walk.value / t.N for f, t in _fits(mix)])
+    mean = np.mean([f.angle_random_walk.value / t.N for f, t in fits])
     assert mean == pytest.approx(1.0, abs=0.01)
 
 
 def test_an_unmodelled_process_is_not_adequate_and_the_default_names_it():
-    for fit, _ in _fits("white+RRW+markov", markov="none"):
+    curves = _curves("white+RRW+markov")
+    for fit, _ in _fits(curves, markov="none"):
         assert not bool(fit.adequate)
-    named = _fits("white+RRW+markov")
+    named = _fits(curves)
     assert sum(f.markov is not None for f, _ in named) >= 3
     for fit, truth in named:
         if fit.markov is not None:
