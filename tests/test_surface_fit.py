@@ -140,11 +140,18 @@ def test_blocks_and_rows_of_a_record_read_piece_by_piece(gyro, tmp_path, read):
     np.testing.assert_allclose(got.fit.coefficients, want.fit.coefficients, rtol=1e-9, atol=0)
 
 
-@pytest.mark.parametrize("block_values", [1, 30_000, 10**9])
-def test_fit_in_blocks_is_the_fit_of_the_whole_surface(gyro, block_values):
+@pytest.fixture(scope="module")
+def whole_fit(gyro):
+    """The gyro's whole surface at every tau and its fit (read by each block size)."""
     x, window = gyro
     whole = adavar.davar(x, window=window, rate=RATE, taus="all")
-    fit = adavar.fit_noise(whole, cells=False)
+    return whole, adavar.fit_noise(whole, cells=False)
+
+
+@pytest.mark.parametrize("block_values", [1, 30_000, 10**9])
+def test_fit_in_blocks_is_the_fit_of_the_whole_surface(gyro, whole_fit, block_values):
+    x, window = gyro
+    whole, fit = whole_fit
     got = fit_davar_in_blocks(
         x, window=window, rate=RATE, taus="all", fit_options={"cells": False},
         drawn=50, block_values=block_values,
@@ -175,15 +182,16 @@ def test_concatenate_fits_joins_the_curves(gyro):
     x, _ = gyro
     surface = adavar.davar(x, window=600, rate=RATE)
     fit = adavar.fit_noise(surface)
-    parts = [adavar.fit_noise(adavar.davar(x, window=600, rate=RATE, rows=r))
-             for r in [(0, 1000), (1000, 1001), (1001, 6000)]]  # fmt: skip
+    blocks = [adavar.davar(x, window=600, rate=RATE, rows=r)
+              for r in [(0, 1000), (1000, 1001), (1001, 6000)]]  # fmt: skip
+    parts = [adavar.fit_noise(block) for block in blocks]
     joined = concatenate_fits(parts)
     for name in ("coefficients", "coefficient_uncertainty", "chi2", "reduced_chi2", "used"):
         np.testing.assert_array_equal(getattr(joined, name), getattr(fit, name), err_msg=name)
+    # the next block's windows fitted with other terms
+    other = adavar.fit_noise(blocks[1], terms=["angle_random_walk", "rate_random_walk"])
     with pytest.raises(ValueError, match="terms and taus"):
-        concatenate_fits(
-            [parts[0], adavar.fit_noise(surface, terms=["angle_random_walk", "rate_random_walk"])]
-        )
+        concatenate_fits([parts[0], other])
 
 
 @pytest.mark.parametrize(("edges", "step"), [("mirror", 7), ("valid", 1), ("valid", 5)])
