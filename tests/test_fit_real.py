@@ -140,6 +140,12 @@ def mems():
     return adavar.deviation(w, rate=RATE, taus="octave", units="deg/s")
 
 
+@pytest.fixture(scope="module")
+def mems_fit(mems):
+    """The default fit of ``mems`` (read, never changed, by several tests)."""
+    return adavar.fit_noise(mems)
+
+
 def _within(result, fit, conf_level=0.95, tol=0.10):
     """Model inside the interval at ``conf_level`` or within ``tol`` at each fitted tau."""
     from adavar.stats.edf import chi2_interval
@@ -165,8 +171,8 @@ def test_default_fit_follows_bandwidth_limited_quantised_curves():
     assert follows == 3 and old_follows == 0
 
 
-def test_default_fit_of_a_bandwidth_limited_quantised_curve(mems):
-    fit = adavar.fit_noise(mems)
+def test_default_fit_of_a_bandwidth_limited_quantised_curve(mems, mems_fit):
+    fit = mems_fit
     assert fit.method == "gls"
     assert fit.angle_random_walk.value == pytest.approx(MEMS["angle_random_walk"], rel=0.03)
     assert fit.bias_instability.value == pytest.approx(MEMS["bias_instability"], rel=0.10)
@@ -190,8 +196,8 @@ def test_previous_fit_misses_the_same_curve(mems):
     assert not ok and np.nanmax(ratio) > 2.0
 
 
-def test_rolloff_none_biases_n_low_and_model_fixes_it(mems):
-    signed = adavar.fit_noise(mems)
+def test_rolloff_none_biases_n_low_and_model_fixes_it(mems, mems_fit):
+    signed = mems_fit
     plain = adavar.fit_noise(mems, rolloff="none")
     n_true = MEMS["angle_random_walk"]
     assert abs(signed.angle_random_walk.value / n_true - 1) < abs(
@@ -212,10 +218,10 @@ def test_bandwidth_and_tau_range_exclusions_are_reported(mems):
             assert used and why == ""
 
 
-def test_fit_figure_marks_the_excluded_taus(mems):
+def test_fit_figure_marks_the_excluded_taus(mems, mems_fit):
     from adavar.output import plots
 
-    fit = adavar.fit_noise(mems)
+    fit = mems_fit
     fig = plots.deviation_figure(mems, fit)
     labels = fig.axes[0].get_legend_handles_labels()[1]
     assert any(label.startswith("not fitted") for label in labels)
@@ -338,9 +344,9 @@ def test_slope_readoffs_of_exact_curves():
     assert ramp.values["rate_ramp"] == pytest.approx(0.2, rel=1e-9)
 
 
-def test_slopes_method_returns_the_readoffs(mems):
+def test_slopes_method_returns_the_readoffs(mems, mems_fit):
     fit = adavar.fit_noise(mems, method="slopes")
-    read = adavar.fit_noise(mems).slopes
+    read = mems_fit.slopes
     assert fit.method == "slopes"
     for name in ("angle_random_walk", "bias_instability"):
         assert fit.term(name).value == pytest.approx(read.values[name], rel=1e-12)
