@@ -353,14 +353,21 @@ def test_joined_rows_are_the_concatenation(sizes, offset, kind):
     assert np.shares_memory(got, base) == (kind == "views")  # view-then-copy ends in a copy
 
 
+@pytest.fixture(scope="module")
+def step_gyro_fit(step_gyro):
+    """The fit of the whole adaptive surface of ``step_gyro`` at octave taus."""
+    common = dict(rate=RATE, taus="octave", lmax=300, lmin=100, l=50)
+    return adavar.fit_noise(adavar.adaptive_davar(step_gyro, **common), cells=False)
+
+
 @pytest.mark.parametrize("fit_rows", ["drawn", lambda n: np.array([0, 5, n // 2, n - 1])])
-def test_fit_rows_keep_the_whole_fit_of_some_windows(step_gyro, fit_rows):
+def test_fit_rows_keep_the_whole_fit_of_some_windows(step_gyro, step_gyro_fit, fit_rows):
     """Every window's coefficients, and the whole fit (uncertainties, chi-square) of the
     windows asked for only; the same numbers as the fit of the whole surface."""
     from adavar.dynamic.surface_fit import fit_adaptive_in_blocks
 
     common = dict(rate=RATE, taus="octave", lmax=300, lmin=100, l=50)
-    whole = adavar.fit_noise(adavar.adaptive_davar(step_gyro, **common), cells=False)
+    whole = step_gyro_fit
     got = fit_adaptive_in_blocks(step_gyro, fit_options={"cells": False}, drawn=30,
                                  block_values=2000, fit_rows=fit_rows, **common)  # fmt: skip
     n = whole.time.size
