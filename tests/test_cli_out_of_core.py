@@ -60,10 +60,8 @@ COMMANDS = {
 }  # fmt: skip
 
 
-@pytest.mark.parametrize("command", list(COMMANDS))
-@pytest.mark.parametrize("source", ["x.npy", "x.h5", "x.parquet"])
-def test_file_backed_records_match_the_csv_run(capsys, files, monkeypatch, command, source):
-    # count how the analyses read: piece by piece, never the whole record at once
+def _counting_reads(monkeypatch):
+    """The sizes of the pieces the analyses read through ``ChunkedSource.read``."""
     sizes = []
     original = stream.ChunkedSource.read
 
@@ -72,14 +70,51 @@ def test_file_backed_records_match_the_csv_run(capsys, files, monkeypatch, comma
         return original(self, start, stop)
 
     monkeypatch.setattr(stream.ChunkedSource, "read", counting)
+    return sizes
+
+
+@pytest.fixture(scope="module")
+def csv_runs(tmp_path_factory, signal):
+    """Each of COMMANDS' JSON on the signal as a CSV (in memory), run once for the three
+    file-backed sources it is compared with."""
+    path = tmp_path_factory.mktemp("csv") / "x.csv"
+    np.savetxt(path, signal.astype(np.float64), fmt="%.17g")
+    out = {}
+    with pytest.MonkeyPatch.context() as monkeypatch:
+        sizes = _counting_reads(monkeypatch)
+        for command, argv in COMMANDS.items():
+            code, text, err = _cli([argv[0], str(path), *argv[1:], "--json"])
+            assert code == 0, err
+            out[command] = json.loads(text)
+        assert not sizes  # the CSV is in memory: the in-memory path
+    return out
+
+
+def _cli(argv):
+    """Exit code, stdout and stderr of ``adavar ARGV`` in this process (any fixture scope)."""
+    import contextlib
+    import io
+
+    from adavar import cli
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = cli.main(argv)
+    return code, out.getvalue(), err.getvalue()
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+@pytest.mark.parametrize("source", ["x.npy", "x.h5", "x.parquet"])
+def test_file_backed_records_match_the_csv_run(capsys, files, monkeypatch, csv_runs, command,
+                                               source):  # fmt: skip
+    # count how the analyses read: piece by piece, never the whole record at once
+    sizes = _counting_reads(monkeypatch)
     argv = COMMANDS[command]
     lazy = [] if source.endswith(".npy") else ["--lazy"]
     got = _json(capsys, [argv[0], str(files / source), *argv[1:], *lazy,
                          "--chunk-size", "4096"])  # fmt: skip
     assert sizes and max(sizes) < N  # read in pieces
-    sizes.clear()
-    want = _json(capsys, [argv[0], str(files / "x.csv"), *argv[1:]])
-    assert not sizes  # the CSV is in memory: the in-memory path
+    want = csv_runs[command]
     if command == "avar":
         np.testing.assert_allclose(_numbers(got, "dev"), _numbers(want, "dev"), rtol=1e-12)
         assert got["alpha"] == want["alpha"]
