@@ -128,6 +128,7 @@ def test_demo_figures_longest_first_and_drawn_either_side(tmp_path, monkeypatch)
     from adavar.cli import demo as cli_demo
 
     monkeypatch.setattr(demo, "PAPER_SEEDS", 1)
+    monkeypatch.setattr(demo, "GYRO_SAMPLES", 100_000)  # its figure's recipe all the same
     result = demo.run_demo(keep="figures")
     recipes = cli_demo._figure_recipes(result)
     assert list(recipes) == list(cli_demo.FIGURE_ORDER)
@@ -152,6 +153,7 @@ def test_demo_bad_figure_formats_are_refused_before_any_work(capsys, tmp_path, v
 
 def test_demo_figures_in_the_formats_asked(capsys, tmp_path, monkeypatch):
     monkeypatch.setattr(demo, "run_demo", partial(demo.run_demo, paper=False))
+    monkeypatch.setattr(demo, "GYRO_SAMPLES", 100_000)  # the same files
     out_dir = tmp_path / "d"
     argv = ["demo", "--out", str(out_dir), "--workers", "1", "--figures", "pdf", "--json"]
     code, out, err = run(capsys, argv)
