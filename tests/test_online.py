@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 import adavar
 from adavar.core.errors import AdavarInputError
 from adavar.dynamic.events import find_events
+from adavar.dynamic.ici_events import ici_events
 from adavar.dynamic.online import OnlineAdaptive
 from adavar.paper.scenarios import paper_scenario
 from adavar.simulate import sensor
@@ -268,9 +269,9 @@ def ici_offline(x_key: str, step: int = 1, rate: float = RATE, **options):
     # a stream has no whole record: the live fit goes without its roll-off reference
     arw = adavar.fit_noise(result, terms=(N_TERM,), reference=None).angle_random_walk.value
     lmax = int(result.parameters["lmax"])
-    changes = [0.0 + c * (1 / rate) for c in result.parameters["ici_changes"]]  # as the CLI
-    events = find_events(result.window, result.centre, result.time, lmax, 1 / rate,
-                         {N_TERM: arw}, duration=x.size / rate, changes=changes)  # fmt: skip
+    events = ici_events(result.window, result.centre, result.time, lmax, 1 / rate,
+                        {N_TERM: arw}, t0=0.0, duration=x.size / rate,
+                        parameters=result.parameters)  # fmt: skip
     return result, arw, events
 
 

@@ -96,7 +96,8 @@ class Event:
         points; None where no window qualifies).
     ramp : bool
         True for a gradual change (the noise level drifts from ``start_s`` to ``end_s``
-        rather than stepping at each).
+        rather than stepping at each); for the ICI window's stretches, True when the change
+        into or out of it is gradual (:mod:`adavar.dynamic.ici_events`).
     tau_s : float or None
         The averaging time (s) at which the change was seen when it is a change of a
         long-tau term (rate random walk, bias instability) found at a longer tau than the

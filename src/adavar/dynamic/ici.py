@@ -755,6 +755,7 @@ def ici_schedule(
         ici_episodes=opts.episodes, ici_excess_kurtosis=noise.excess,
         ici_ramps=[[e.start, e.end] for e in ramps],
         ici_rises=[bool(e.rise) for e in found if not e.ramp] if opts.episodes else None,
+        ici_found=[e.as_dict() for e in found] if opts.episodes else None,
     )  # fmt: skip
     return IciSchedule(
         window=window, shift=shift, side=side, adapted=adapted, conflict=conflict,

@@ -39,7 +39,10 @@ maximum likelihood to block means of the squares: level ``a`` up to ``c1``, the 
 amplitude linear from ``sqrt(a)`` to ``sqrt(b)`` over ``c1 .. c2``, ``b`` after (a gamma
 likelihood with ``nu_b = 2 b / lambda`` degrees of freedom a block of ``b`` squares), and
 compared to the best single step: twice the log-likelihood ratio above ``gamma**2`` makes
-the group one ramp; otherwise each cut is a step. The step, and the ends of the best ramp,
+the group one ramp, unless the staircase of the group's own cuts (each level the mean of its
+squares) beats the ramp by more than ``gamma**2`` for each number it has beyond the ramp's
+four (``2k + 1`` for ``k`` cuts; two steps x2 then x1.5 five minutes apart were taken for
+one ramp before 0.3.1); otherwise each cut is a step. The step, and the ends of the best ramp,
 may fall inside a block (its expected mean is then that of the level over its squares): the
 block a step falls in has a mean between the two levels, which a step at a block boundary
 misfits by far when the levels are far apart, and a ramp over two blocks passed through it
@@ -149,6 +152,12 @@ class Episode:
     before: float
     after: float
     statistic: float
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON form (``parameters["ici_found"]`` of a result): every attribute."""
+        return {"start": int(self.start), "end": int(self.end), "ramp": bool(self.ramp),
+                "rise": bool(self.rise), "before": float(self.before),
+                "after": float(self.after), "statistic": float(self.statistic)}  # fmt: skip
 
 
 # ------------------------------------------------------------------------------- kurtosis
@@ -418,6 +427,23 @@ def _ramp_block_loglik(y: np.ndarray, cs: np.ndarray, size: int, k1: int, k2: in
     return float(-np.sum(np.log(v) + y / v))
 
 
+def _stairs_block_loglik(y: np.ndarray, cs: np.ndarray, size: int, cuts: list[int]) -> float:
+    """Log-likelihood (over ``nu_b / 2``) of the block means ``y`` under a staircase: the
+    level constant between the ``cuts`` (squares, increasing, inside ``0 .. y.size * size``),
+    each segment at the mean of its squares (``cs`` their cumulative sums, a leading 0
+    first); a cut inside a block gives it the mean of the levels over its squares."""
+    tiny = np.finfo(float).tiny
+    edges = np.array([0, *cuts, cs.size - 1])
+    levels = np.maximum(np.diff(cs[edges]) / np.diff(edges), tiny)
+    t = np.arange(y.size + 1) * size  # block edges, in squares
+    # the expected sum of the squares before each block edge
+    seg = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, levels.size - 1)
+    below = np.concatenate(([0.0], np.cumsum(levels * np.diff(edges))))
+    level = below[seg] + levels[seg] * (t - edges[seg])
+    v = np.maximum(np.diff(level) / size, tiny)
+    return float(-np.sum(np.log(v) + y / v))
+
+
 def _inner_ramp_loglik(y: np.ndarray, squares: np.ndarray, c1: int, c2: int, start: float) -> float:
     """The best of ``start`` and the ramps whose ends lie within a block of the blocks
     ``c1`` and ``c2`` at any square (coordinate ascent, each end on a grid of a sixteenth of a
@@ -549,6 +575,15 @@ def find_episodes(
             y = np.cumsum(span[: g * size].reshape(g, size), axis=1)[:, -1] / size
             step_ll, ramp_ll, c1, c2, a, b = _fit_ramp(y, span[: g * size])
             statistic = 2.0 * size / dispersion * (ramp_ll - step_ll)
+            if r > q:  # steps in one direction: a ramp only if it beats their staircase
+                cs = np.concatenate(([0.0], np.cumsum(span[: g * size])))
+                inner = [k - lo for k in cuts[q : r + 1] if 0 < k - lo < g * size]
+                stairs = (
+                    2.0 * size / dispersion * (_stairs_block_loglik(y, cs, size, inner) - ramp_ll)
+                )
+                # a staircase of k steps has 2k + 1 free numbers, a ramp 4: gamma**2 each
+                if len(inner) > 1 and stairs > gamma**2 * (2 * len(inner) - 3):
+                    statistic = -math.inf
             if c2 - c1 >= 2 and statistic > gamma**2:
                 ramp = Episode(start=offset + lo + c1 * size, end=offset + lo + c2 * size,
                                ramp=True, rise=rise[q], before=a, after=b,

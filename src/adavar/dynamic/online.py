@@ -97,6 +97,8 @@ from adavar.core.settings import (
 from adavar.core.terms import TERM_NAMES
 from adavar.dynamic.controller import REANCHOR, Controller, needs_head
 from adavar.dynamic.events import Event, EventTracker, stretch_summary
+from adavar.dynamic.ici_episodes import Episode
+from adavar.dynamic.ici_events import IciEventTracker
 from adavar.dynamic.online_ici import IciTracker
 from adavar.dynamic.online_rows import Rows, check_noise_type
 from adavar.dynamic.schedule import window_lengths
@@ -398,6 +400,7 @@ class OnlineAdaptive:
             self.latency = self._ici.latency
             self._pad, self._ahead = lmax, lmax - 1
             self._ici_queue: list[int] = []  # changes waiting for their rows
+            self._ici_found: list[Episode] = []  # steps and ramps waiting for their rows
         self.ici_changes: list[int] = []
         self._settings = dict(
             method=method, lmax=lmax, lmin=lmin, seg=seg, dl0=dl0, dl1=dl1, k1=k1, k2=k2,
@@ -464,6 +467,8 @@ class OnlineAdaptive:
             lmax, dt, self._values, pairing=pairing, t0=self.t0,
             level="angle_random_walk" if "angle_random_walk" in self.terms else None,
         )  # fmt: skip
+        if self._ici is not None and self._ici.episodes:  # as ici_events pairs them
+            self._tracker = IciEventTracker(lmax, dt, self._values)
         self._last_short = False
         self._last_centre: int | None = None
         self._last_window = lmax
@@ -830,8 +835,13 @@ class OnlineAdaptive:
                     self._pending.append((centres, lengths, shifts))
                     if final or start_row + centres.size - self._fitted >= self.fit_batch:
                         self._flush_fit()
-        self._ici_queue += changes
         self.ici_changes += changes
+        if tracker.episodes:  # steps and ramps, paired by ici_events' rule
+            self._ici_found += tracker.take_episodes()
+            while self._ici_found and (final or self._ici_found[0].end < tracker.emitted):
+                self._tracker.add_episode(self._ici_found.pop(0), self.t0, self.tau0)
+            changes = []
+        self._ici_queue += changes
         # a change's summaries read the rows before it: wait until they are emitted; each
         # change point is an episode of its own (find_events(changes=...))
         while self._ici_queue and (final or self._ici_queue[0] < tracker.emitted):

@@ -145,6 +145,7 @@ class IciTracker:
         self._pending: tuple[int, int, int] | None = None
         self._region_end = 0
         self._found: list[int] = []
+        self._episodes: list[ici_episodes.Episode] = []  # steps and ramps not yet taken
         self._ramps: list[ici_episodes.RampModel] = []
         self.computed = 0
         self.emitted = 0
@@ -216,6 +217,11 @@ class IciTracker:
         else:
             changes = self._changes(final) if self.both else []
         return first, window, shift, changes
+
+    def take_episodes(self) -> list[ici_episodes.Episode]:
+        """The steps and ramps found since the last call, in order (``episodes`` only)."""
+        taken, self._episodes = self._episodes, []
+        return taken
 
     # ------------------------------------------------------------------ internals
 
@@ -290,6 +296,7 @@ class IciTracker:
             self._pending = None
             self._region_end = max(self._region_end, b)
             self._found += [e.start for e in found if not e.ramp]
+            self._episodes += found
             for e in found:
                 model = ici_episodes.ramp_model(e, self.lmax, self.lmin // 2) if e.ramp else None
                 if model is not None:

@@ -463,7 +463,8 @@ def _ici(
 ) -> Schedule:  # fmt: skip
     """:func:`adavar.dynamic.ici.ici_schedule` as a :class:`Schedule` (kurtosis fields NaN/False;
     ``f``: the centred ``lmax`` window was not kept; ``parameters["ici_changes"]``: the
-    detected steps, samples; ``"ici_ramps"``: the ramps; ``"ici_long_tau"``: the changes
+    detected steps, samples; ``"ici_ramps"``: the ramps; ``"ici_found"``: both, in order
+    (:meth:`adavar.dynamic.ici_episodes.Episode.as_dict`); ``"ici_long_tau"``: the changes
     of :func:`adavar.dynamic.long_tau.long_tau_changes`, with ``long_tau``)."""
     if lmin > lmax:
         raise AdavarInputError(
@@ -471,7 +472,7 @@ def _ici(
             f"{count_text(lmax)}: give a shorter lmin or a longer lmax"
         )
     refuse_masked(data)
-    x, _ = scaled(as_samples(data, min_length=lmax))  # scale-free: run at scale 1 (exact)
+    x, k = scaled(as_samples(data, min_length=lmax))  # scale-free: run at scale 1 (exact)
     try:
         ici = ici_schedule(x, lmax=lmax, lmin=lmin, edges=edges, step=step, **options)
     except AdavarInputError as exc:  # ici.py names its keywords: add the flags
@@ -482,6 +483,11 @@ def _ici(
     parameters = dict(ici.parameters, sample_rate=1.0 / dt, thresholds="none", k1=math.nan,
                       k2=math.nan, s1=math.nan, s2=math.nan, l=seg,
                       ici_changes=ici.changes.tolist(), ici_long_tau=None)  # fmt: skip
+    if parameters.get("ici_found"):  # the levels in the record's units (squared)
+        parameters["ici_found"] = [
+            dict(e, before=math.ldexp(e["before"], 2 * k), after=math.ldexp(e["after"], 2 * k))
+            for e in parameters["ici_found"]
+        ]
     if long_tau and x.size >= LONG_TAU_SAMPLES:  # the long-tau terms' changes (events)
         found = long_tau_changes(x, tau0=dt, gamma=ici.gamma)
         parameters["ici_long_tau"] = [c.as_dict() for c in found.changes]
