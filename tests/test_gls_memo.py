@@ -74,3 +74,42 @@ def test_keys_tell_apart_arrays_of_the_same_bytes():
     assert gls_core._exact(np.array([1, 0], np.int32)) != gls_core._exact(np.array([1]))
     assert gls_core._exact(np.zeros(2)) != gls_core._exact(np.zeros((1, 2)))
     assert gls_core._exact(np.arange(3)) == gls_core._exact(np.arange(3))
+
+
+def _bisection(f, lo, hi, xtol=0.0, rtol=1e-4, maxiter=60):
+    """The reference root of the profile bounds: plain bisection of ``f(lo) <= 0 < f(hi)``
+    to ``rtol`` of the root, the upper end returned (the rule before 0.3.1)."""
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if f(mid) > 0:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= rtol * hi:
+            break
+    return hi
+
+
+def test_bounds_by_brent_are_the_bisection_bounds(monkeypatch):
+    """The 1-sigma and 99 % bounds of the terms a fit leaves out come from Brent's root of
+    the profile likelihood: the same as plain bisection's to 1e-4, the rest bit for bit."""
+    from adavar.fit import gls_select
+
+    walk, quantised, markov = (adavar.deviation(x, rate=200.0, units="deg/s") for x in _curves())
+    cases = [(walk, {}), (walk, {"select": "bic"}), (quantised, {}), (markov, {"markov": "auto"})]
+    fast = [adavar.fit_noise(c, **kw) for c, kw in cases]
+    monkeypatch.setattr(gls_select, "brentq", _bisection)
+    slow = [adavar.fit_noise(c, **kw) for c, kw in cases]
+    compared = 0
+    for a, b in zip(fast, slow, strict=True):
+        assert np.array_equal(a.coefficients, b.coefficients)
+        dropped = ~(np.asarray(a.coefficients) > 0)
+        np.testing.assert_array_equal(np.asarray(a.coefficient_uncertainty)[~dropped],
+                                      np.asarray(b.coefficient_uncertainty)[~dropped])  # fmt: skip
+        for name in ("coefficient_uncertainty", "coefficient_upper"):
+            x, y = np.asarray(getattr(a, name))[dropped], np.asarray(getattr(b, name))[dropped]
+            finite = np.isfinite(y)
+            assert np.array_equal(np.isfinite(x), finite)
+            np.testing.assert_allclose(x[finite], y[finite], rtol=2e-4, atol=0)
+            compared += int(finite.sum())
+    assert compared >= 10, compared

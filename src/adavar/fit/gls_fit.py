@@ -389,8 +389,7 @@ def fit_curve(
         z1, z2 = BOUND_Z * math.sqrt(factor), bound_z * math.sqrt(factor)
         base = coef.copy()
         base[k] = 0.0
-        unc[k] = profile_bound(prob, idx, rest, k, base, signed, z1, sigma_k)
-        upper[k] = profile_bound(prob, idx, rest, k, base, signed, z2, sigma_k)
+        unc[k], upper[k] = profile_bound(prob, idx, rest, k, base, signed, (z1, z2), sigma_k)
     return GlsOutcome(
         coefficients=coef[:5].copy(),
         coefficient_uncertainty=unc,
