@@ -52,3 +52,20 @@ def test_cross_equals_the_loop_bit_for_bit(mi, mj, tau0, lags, integer, tau_c):
         s[0] = 0.0
     np.testing.assert_array_equal(ac._cross(s, mi, mj, tau0, tau_c),
                                   _slow_cross(s, mi, mj, tau0, tau_c))  # fmt: skip
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    mi=st.integers(1, 3000),
+    mj=st.integers(1, 3000),
+    s_lo=st.integers(-6000, 3000),
+    span=st.integers(0, 6000),
+    tau0=st.sampled_from([1e-6, 1e-3, 0.01, 1.0, 3600.0]),
+    tau_c=st.one_of(st.none(), st.floats(1e-4, 1e5)),
+)
+def test_integer_lags_from_one_range_are_the_shifts_bit_for_bit(mi, mj, s_lo, span, tau0, tau_c):
+    """The exact lag sum's kernels, evaluated once on the union of the nine shifted
+    ranges, are those of :func:`_cross` at every lag."""
+    s = np.arange(s_lo, s_lo + span + 1, dtype=float)
+    np.testing.assert_array_equal(ac._cross_lags(s_lo, s_lo + span, mi, mj, tau0, tau_c),
+                                  _slow_cross(s, mi, mj, tau0, tau_c))  # fmt: skip

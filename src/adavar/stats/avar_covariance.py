@@ -110,6 +110,23 @@ def _cross(s: np.ndarray, mi: int, mj: int, tau0: float, tau_c: float | None = N
     return out
 
 
+def _cross_lags(s_lo: int, s_hi: int, mi: int, mj: int, tau0: float,
+                tau_c: float | None = None) -> np.ndarray:  # fmt: skip
+    """:func:`_cross` at every integer lag ``s_lo .. s_hi``, bit for bit: the nine shifted
+    arguments are integers of one range, so each kernel is evaluated once on that range
+    (``S + 2 (mi + mj)`` points, not ``9 S``: for lags that span more than the shifts)
+    and read at each shift."""
+    shifts = [b * mj - a * mi for a, b in _AB]
+    u_lo = s_lo + min(shifts)
+    k = _kernels(np.arange(u_lo, s_hi + max(shifts) + 1, dtype=float) * tau0, tau_c)
+    size = s_hi - s_lo + 1
+    out = np.zeros((k.shape[0], size))
+    for n, (a, b) in enumerate(_AB):
+        first = s_lo + shifts[n] - u_lo
+        out += _W[a] * _W[b] * k[:, first : first + size]
+    return out
+
+
 def _counts(s: np.ndarray, n_i: int, n_j: int) -> np.ndarray:
     """Pairs of terms (k in [0, n_i), l in [0, n_j)) with ``l - k = s``."""
     return np.clip(np.minimum(n_i, n_j - s) - np.maximum(0, -s), 0, None)
@@ -144,6 +161,11 @@ def _pair(
     if s_hi - s_lo <= _EXACT_MAX:
         s = np.arange(s_lo, s_hi + 1, dtype=float)
         weight = _counts(s, n_i, n_j)
+        # the nine shifted ranges overlap while the lags span more than the shifts
+        if 2 * (mi + mj) <= 8 * (s_hi - s_lo + 1):
+            c = _cross_lags(int(s_lo), int(s_hi), mi, mj, tau0, tau_c)
+        else:
+            c = _cross(s, mi, mj, tau0, tau_c)
     else:
         kinks = {s_lo, s_hi, 0, n_j - n_i} | {a * mi - b * mj for a in range(3) for b in range(3)}
         big = max(mi, mj)  # the flicker tail decays like s**-4: finer panels near the core
@@ -159,7 +181,7 @@ def _pair(
         half = 0.5 * (right - left)
         s = (left[:, None] + half[:, None] * (_NODES[None, :] + 1.0)).ravel()
         weight = (half[:, None] * _WEIGHTS[None, :]).ravel() * _counts(s, n_i, n_j)
-    c = _cross(s, mi, mj, tau0, tau_c)
+        c = _cross(s, mi, mj, tau0, tau_c)
     out[1:, 1:] = (c * weight) @ c.T
     return out
 
