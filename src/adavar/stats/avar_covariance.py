@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import itertools
 import math
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -67,6 +68,7 @@ _EXACT_MAX = 6000  # longest lag range summed exactly, integer by integer
 _NODES, _WEIGHTS = np.polynomial.legendre.leggauss(12)
 _FLICKER_TAIL = 16  # flicker support cut at this many times the longer cluster length
 _MARKOV_TAIL = 30  # Gauss-Markov support cut at this many correlation times (e^-30)
+_BATCH = 4096  # lags whose kernels a basis evaluates in one call (the arrays stay in cache)
 
 
 def _markov_kernel(a: np.ndarray, tau_c: float) -> np.ndarray:
@@ -132,26 +134,44 @@ def _counts(s: np.ndarray, n_i: int, n_j: int) -> np.ndarray:
     return np.clip(np.minimum(n_i, n_j - s) - np.maximum(0, -s), 0, None)
 
 
-def _pair(
-    mi: int, mj: int, n_i: int, n_j: int, tau0: float, tau_c: float | None = None
-) -> np.ndarray:
-    """``sum_s n(s) c^p(s) c^q(s)`` for the terms p, q in (Q, N, B, K[, Gauss-Markov]):
-    shape (4, 4), or (5, 5) with ``tau_c``."""
-    size = 4 if tau_c is None else 5
-    out = np.zeros((size, size))
+def _cross_many(s: np.ndarray, mi: np.ndarray, mj: np.ndarray, tau0: float,
+                tau_c: float | None = None) -> np.ndarray:  # fmt: skip
+    """:func:`_cross` of many pairs at once (``mi``, ``mj`` given for every lag): the same
+    element-wise arithmetic in the same order, so each pair's values are its own call's
+    bit for bit, without a call's overhead a pair (a basis has hundreds)."""
+    ahead = np.stack([b * mj for _, b in _AB])
+    back = np.stack([a * mi for a, _ in _AB])
+    k = _kernels((s[None, :] + ahead - back) * tau0, tau_c)
+    out = np.zeros((k.shape[0], s.size))
+    for n, (a, b) in enumerate(_AB):
+        out += _W[a] * _W[b] * k[:, n]
+    return out
+
+
+@dataclass
+class _PairGrid:
+    """The lags of one pair of averaging factors (``n_i``, ``n_j`` terms): where ``c^Q``
+    has its point masses (``pts``), and the lags ``s`` of the continuous kernels' sum,
+    exact at the integers ``s_lo .. s_hi`` (``quad`` None) or by Gauss-Legendre quadrature
+    (``quad`` its weights, before the counts of pairs)."""
+
+    mi: int
+    mj: int
+    n_i: int
+    n_j: int
+    pts: np.ndarray
+    s: np.ndarray
+    quad: np.ndarray | None
+    lags: tuple[int, int] | None  # integer lags evaluated from one range (_cross_lags)
+
+
+def _pair_grid(mi: int, mj: int, n_i: int, n_j: int, tau0: float,
+               tau_c: float | None = None) -> _PairGrid:  # fmt: skip
+    """The lags of :func:`_pair`."""
     lo, hi = -(n_i - 1), n_j - 1
     # quantization: c^Q is a point mass at each lag where some argument is 0
     pts = sorted({a * mi - b * mj for a in range(3) for b in range(3)})
     pts = np.array([p for p in pts if lo <= p <= hi], dtype=float)
-    if pts.size:
-        cq = np.zeros(pts.size)
-        for a, wa in enumerate(_W):
-            for b, wb in enumerate(_W):
-                cq += wa * wb * (np.abs(pts + b * mj - a * mi) < 0.5) / 3.0
-        cnt = _counts(pts, n_i, n_j)
-        cont = _cross(pts, mi, mj, tau0, tau_c)
-        out[0, 0] = np.sum(cnt * cq * cq)
-        out[0, 1:] = out[1:, 0] = cont @ (cnt * cq)
     # N, B, K: continuous kernels; N and K vanish outside [-2 mj, 2 mi], B decays there
     reach = _FLICKER_TAIL * max(mi, mj)
     # the Gauss-Markov term decays as e^(-|s| tau0 / tau_c) outside the clusters
@@ -160,30 +180,78 @@ def _pair(
     s_lo, s_hi = max(lo, -2 * mj - reach), min(hi, 2 * mi + reach)
     if s_hi - s_lo <= _EXACT_MAX:
         s = np.arange(s_lo, s_hi + 1, dtype=float)
-        weight = _counts(s, n_i, n_j)
         # the nine shifted ranges overlap while the lags span more than the shifts
-        if 2 * (mi + mj) <= 8 * (s_hi - s_lo + 1):
-            c = _cross_lags(int(s_lo), int(s_hi), mi, mj, tau0, tau_c)
+        lags = (int(s_lo), int(s_hi)) if 2 * (mi + mj) <= 8 * (s_hi - s_lo + 1) else None
+        return _PairGrid(mi, mj, n_i, n_j, pts, s, None, lags)
+    kinks = {s_lo, s_hi, 0, n_j - n_i} | {a * mi - b * mj for a in range(3) for b in range(3)}
+    big = max(mi, mj)  # the flicker tail decays like s**-4: finer panels near the core
+    kinks |= {2 * mi + f * big for f in (1, 2, 4, 8)} | {-2 * mj - f * big for f in (1, 2, 4, 8)}
+    if tau_c is not None:  # panels a few correlation times wide along its decay
+        step = tau_c / tau0
+        kinks |= {int(2 * mi + f * step) for f in (0.5, 1, 2, 4, 8, 16)}
+        kinks |= {int(-2 * mj - f * step) for f in (0.5, 1, 2, 4, 8, 16)}
+    edges = np.array(sorted(k for k in kinks if s_lo <= k <= s_hi), dtype=float)
+    left, right = edges[:-1], edges[1:]
+    half = 0.5 * (right - left)
+    s = (left[:, None] + half[:, None] * (_NODES[None, :] + 1.0)).ravel()
+    return _PairGrid(mi, mj, n_i, n_j, pts, s, (half[:, None] * _WEIGHTS[None, :]).ravel(), None)
+
+
+def _pair_sums(grids: list[_PairGrid], tau0: float, tau_c: float | None) -> list[np.ndarray]:
+    """``sum_s n(s) c^p(s) c^q(s)`` of each pair, shape (4, 4) or (5, 5) with ``tau_c``.
+
+    The point masses' weights, the counts of pairs and the kernels of every pair are
+    computed in one call each (element-wise, in the order of a pair's own calls: bit for
+    bit those of one pair at a time); the sums are each pair's own."""
+    size = 4 if tau_c is None else 5
+    # the kernels at the point masses, then at the lags not taken from a range
+    kernel_grids = grids + [g for g in grids if g.lags is None]
+    parts = [g.pts for g in grids] + [g.s for g in grids if g.lags is None]
+    sizes = np.array([p.size for p in parts])
+
+    def each(values: list[int]) -> np.ndarray:
+        return np.repeat(np.array(values, dtype=np.int64), sizes)
+
+    mi, mj = each([g.mi for g in kernel_grids]), each([g.mj for g in kernel_grids])
+    n_i, n_j = each([g.n_i for g in kernel_grids]), each([g.n_j for g in kernel_grids])
+    lags = np.concatenate(parts)
+    kernels = _cross_many(lags, mi, mj, tau0, tau_c)
+    counts = _counts(lags, n_i, n_j)
+    n_pts = int(sum(g.pts.size for g in grids))
+    pts, pmi, pmj = lags[:n_pts], mi[:n_pts], mj[:n_pts]
+    cq = np.zeros(n_pts)
+    for a, wa in enumerate(_W):
+        for b, wb in enumerate(_W):
+            cq += wa * wb * (np.abs(pts + b * pmj - a * pmi) < 0.5) / 3.0
+    bounds = np.concatenate(([0], np.cumsum(sizes))).tolist()
+    spans = list(itertools.pairwise(bounds))
+    rest = iter(spans[len(grids) :])
+    out = []
+    for g, (a, b) in zip(grids, spans[: len(grids)], strict=True):
+        t = np.zeros((size, size))
+        if b > a:
+            cnt, q = counts[a:b], cq[a:b]
+            t[0, 0] = np.sum(cnt * q * q)
+            t[0, 1:] = t[1:, 0] = np.ascontiguousarray(kernels[:, a:b]) @ (cnt * q)
+        if g.lags is not None:
+            c = _cross_lags(*g.lags, g.mi, g.mj, tau0, tau_c)
+            weight = _counts(g.s, g.n_i, g.n_j)
         else:
-            c = _cross(s, mi, mj, tau0, tau_c)
-    else:
-        kinks = {s_lo, s_hi, 0, n_j - n_i} | {a * mi - b * mj for a in range(3) for b in range(3)}
-        big = max(mi, mj)  # the flicker tail decays like s**-4: finer panels near the core
-        kinks |= {2 * mi + f * big for f in (1, 2, 4, 8)} | {
-            -2 * mj - f * big for f in (1, 2, 4, 8)
-        }
-        if tau_c is not None:  # panels a few correlation times wide along its decay
-            step = tau_c / tau0
-            kinks |= {int(2 * mi + f * step) for f in (0.5, 1, 2, 4, 8, 16)}
-            kinks |= {int(-2 * mj - f * step) for f in (0.5, 1, 2, 4, 8, 16)}
-        edges = np.array(sorted(k for k in kinks if s_lo <= k <= s_hi), dtype=float)
-        left, right = edges[:-1], edges[1:]
-        half = 0.5 * (right - left)
-        s = (left[:, None] + half[:, None] * (_NODES[None, :] + 1.0)).ravel()
-        weight = (half[:, None] * _WEIGHTS[None, :]).ravel() * _counts(s, n_i, n_j)
-        c = _cross(s, mi, mj, tau0, tau_c)
-    out[1:, 1:] = (c * weight) @ c.T
+            u, v = next(rest)
+            c = np.ascontiguousarray(kernels[:, u:v])
+            weight = counts[u:v] if g.quad is None else g.quad * counts[u:v]
+        t[1:, 1:] = (c * weight) @ c.T
+        out.append(t)
     return out
+
+
+def _pair(
+    mi: int, mj: int, n_i: int, n_j: int, tau0: float, tau_c: float | None = None
+) -> np.ndarray:
+    """``sum_s n(s) c^p(s) c^q(s)`` for the terms p, q in (Q, N, B, K[, Gauss-Markov]):
+    shape (4, 4), or (5, 5) with ``tau_c`` (one pair; :func:`_basis_cached` does a batch
+    at a time, bit for bit)."""
+    return _pair_sums([_pair_grid(mi, mj, n_i, n_j, tau0, tau_c)], tau0, tau_c)[0]
 
 
 @lru_cache(maxsize=16)
@@ -195,12 +263,20 @@ def _basis_cached(
     basis = np.zeros((k, k, size, size))
     terms = [n_points - 2 * m for m in ms]
     taus = [m * tau0 for m in ms]
-    for i in range(k):
-        for j in range(i, k):
-            t = _pair(ms[i], ms[j], terms[i], terms[j], tau0, tau_c)
+    pairs = [(i, j) for i in range(k) for j in range(i, k)]
+    grids = [_pair_grid(ms[i], ms[j], terms[i], terms[j], tau0, tau_c) for i, j in pairs]
+    start = 0
+    while start < len(pairs):  # batches of about _BATCH lags: the kernels' arrays in cache
+        stop, total = start, 0
+        while stop < len(pairs) and (stop == start or total < _BATCH):
+            total += grids[stop].pts.size + (grids[stop].s.size if grids[stop].lags is None else 0)
+            stop += 1
+        sums = _pair_sums(grids[start:stop], tau0, tau_c)
+        for (i, j), t in zip(pairs[start:stop], sums, strict=True):
             t /= 2.0 * terms[i] * terms[j] * taus[i] ** 2 * taus[j] ** 2
             basis[i, j] = t
             basis[j, i] = t.T
+        start = stop
     basis.setflags(write=False)
     return basis
 
