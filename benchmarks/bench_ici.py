@@ -28,8 +28,13 @@ robust ``mad``; tracking: the mean ``|N - N_true| / N_true`` within ``Lmax`` of 
   the ends), and false events per stationary hour on Gaussian and Student-t (5 degrees of
   freedom) white noise.
 
+* **compound disturbances** (``--part compound``): ramps, staircases and a step followed by
+  a ramp back (own generator, 30 min at 100 Hz): one event with both ends within 10 s and
+  the right ``ramp``, offline, and the live pass's events equal to the offline ones.
+
 Run: ``python benchmarks/bench_ici.py [--seeds 40] [--real-seeds 5] [--part all]``
-(``--part independent --independent-seeds 20``: the issue-39 part alone, about 10 min).
+(``--part independent --independent-seeds 20``: the issue-39 part alone, about 10 min;
+``--part compound --independent-seeds 10``: about 2 min).
 """
 
 from __future__ import annotations
@@ -362,6 +367,62 @@ def independent(seeds: int, hours: int) -> None:
     print(f"\n(issue-39 part: {time.perf_counter() - start:.0f} s)")
 
 
+#: compound disturbances of white noise at 100 Hz, 30 min: the amplitude through these
+#: (time s, factor) knots, and the one event each should be (start, end, ramp)
+_STEP = 1e-3
+COMPOUND = {
+    "ramp x2 over 200 s, hold, step back": (
+        [(0, 1), (500, 1), (700, 2), (1200, 2), (1200 + _STEP, 1), (1800, 1)], (500, 1200, True)),
+    "staircase x2, x1.5, x1 (5 min apart)": (
+        [(0, 1), (600, 1), (600 + _STEP, 2), (900, 2), (900 + _STEP, 1.5), (1200, 1.5),
+         (1200 + _STEP, 1), (1800, 1)], (600, 1200, False)),
+    "staircase x1.5, x2, x1": (
+        [(0, 1), (600, 1), (600 + _STEP, 1.5), (900, 1.5), (900 + _STEP, 2), (1200, 2),
+         (1200 + _STEP, 1), (1800, 1)], (600, 1200, False)),
+    "step x2.5, ramp back over 300 s": (
+        [(0, 1), (500, 1), (500 + _STEP, 2.5), (900, 2.5), (1200, 1), (1800, 1)],
+        (500, 1200, True)),
+    "ramp up and down (x2.5, 300 s each)": (
+        [(0, 1), (500, 1), (800, 2.5), (1100, 1), (1800, 1)], (500, 1100, True)),
+    "ramp x2 over 300 s to the end": ([(0, 1), (700, 1), (1000, 2), (1800, 2)], (700, 1000, True)),
+}  # fmt: skip
+
+
+def compound(seeds: int) -> None:
+    """ICI events of compound disturbances (issue 41's audit: ramps, staircases), offline
+    and live: one event with both ends within 10 s and the right ``ramp``; live = offline."""
+    from adavar.dynamic.ici_events import ici_events
+    from adavar.dynamic.online import OnlineAdaptive
+
+    rate, n = 100.0, 180_000
+    t = np.arange(n) / rate
+    print("\n| shape | one event, ends within 10 s, ramp right | live = offline |")
+    print("|---|---|---|")
+    for name, (knots, (start, end, ramp)) in COMPOUND.items():
+        right = same = 0
+        times, factors = zip(*knots, strict=True)
+        for seed in range(seeds):
+            rng = np.random.default_rng(7000 + seed)
+            x = 0.05 * rng.standard_normal(n) * np.interp(t, times, factors)
+            options = dict(method="ici", step=100, units="deg/s", ici_edf_samples=65536)
+            r = adavar.adaptive_davar(x, rate=rate, taus="octave", noise_type=0,
+                                      ici_long_tau=False, **options)  # fmt: skip
+            lmax = int(r.parameters["lmax"])
+            arw = adavar.fit_noise(r, terms=("angle_random_walk",), reference=None)
+            found = ici_events(r.window, r.centre, r.time, lmax, 1 / rate,
+                               {"angle_random_walk": arw.angle_random_walk.value}, t0=0.0,
+                               duration=n / rate, parameters=r.parameters)  # fmt: skip
+            right += (len(found) == 1 and found[0].ramp is ramp
+                      and abs(found[0].start_s - start) <= 10 and found[0].end_s is not None
+                      and abs(found[0].end_s - end) <= 10)  # fmt: skip
+            live = OnlineAdaptive(rate=rate, lmax=lmax, lmin=int(r.parameters["lmin"]), **options)
+            for i in range(0, n, 7001):
+                live.push(x[i : i + 7001])
+            live.finish()
+            same += [e.as_dict() for e in live.events] == [e.as_dict() for e in found]
+        print(f"| {name} | {right}/{seeds} | {same}/{seeds} |")
+
+
 def _verdict(ok: bool) -> str:
     return "met" if ok else "NOT met"
 
@@ -371,13 +432,17 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=40)
     parser.add_argument("--real-seeds", type=int, default=5)
     parser.add_argument("--rate", type=float, default=200.0)
-    parser.add_argument("--part", choices=("all", "paper", "independent"), default="all")
+    parser.add_argument("--part", choices=("all", "paper", "independent", "compound"),
+                        default="all")  # fmt: skip
     parser.add_argument("--independent-seeds", type=int, default=20)
     parser.add_argument("--false-hours", type=int, default=20)
     args = parser.parse_args()
     print(f"machine: {describe()}")
     if args.part == "independent":
         independent(args.independent_seeds, args.false_hours)
+        return
+    if args.part == "compound":
+        compound(args.independent_seeds)
         return
     start = time.perf_counter()
     s1 = scenario_one(args.seeds)
