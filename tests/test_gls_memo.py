@@ -98,31 +98,27 @@ def test_bounds_are_the_bisection_bounds_bit_for_bit(monkeypatch):
 
     walk, quantised, markov = (adavar.deviation(x, rate=200.0, units="deg/s") for x in _curves())
     cases = [(walk, {}), (walk, {"select": "bic"}), (quantised, {}), (markov, {"markov": "auto"})]
-    calls = []
-    original = gls_select.crossing
+    calls: list[int] = []
 
-    def counted(f, lo, hi, rtol):
-        def g(c):
-            calls[-1] += 1
-            return f(c)
+    def counting(search):
+        """``search`` with the calls it makes of the profile counted in ``calls``."""
 
-        calls.append(0)
-        return original(g, lo, hi, rtol)
+        def counted(f, lo, hi, rtol):
+            calls.append(0)
 
-    monkeypatch.setattr(gls_select, "crossing", counted)
+            def g(c):
+                calls[-1] += 1
+                return f(c)
+
+            return search(g, lo, hi, rtol)
+
+        return counted
+
+    monkeypatch.setattr(gls_select, "crossing", counting(gls_select.crossing))
     fast = [_fields(adavar.fit_noise(c, **kw)) for c, kw in cases]
     fast_calls = list(calls)
     calls.clear()
-
-    def reference(f, lo, hi, rtol):
-        def g(c):
-            calls[-1] += 1
-            return f(c)
-
-        calls.append(0)
-        return _bisection(g, lo, hi, rtol)
-
-    monkeypatch.setattr(gls_select, "crossing", reference)
+    monkeypatch.setattr(gls_select, "crossing", counting(_bisection))
     slow = [_fields(adavar.fit_noise(c, **kw)) for c, kw in cases]
     assert fast == slow
     assert len(fast_calls) >= 10 and sum(fast_calls) < 0.8 * sum(calls), (fast_calls, calls)
