@@ -252,7 +252,10 @@ class ReportAnalysis:
                 found = ici_events(window, centre, time_s, lmax, self.tau0, terms, t0=t0,
                                    duration=duration,
                                    parameters=self.adaptive.parameters)  # fmt: skip
-                rule = "the ICI window's steps (paired into stretches), ramps and long-tau changes"
+                rule = (
+                    "the ICI window's steps and ramps, paired into stretches by level, and "
+                    "its long-tau changes"
+                )
             else:
                 found = find_events(window, centre, time_s, lmax, self.tau0, terms, t0=t0,
                                     duration=duration)  # fmt: skip
