@@ -61,6 +61,7 @@ __all__ = [
     "EventTracker",
     "change_episodes",
     "change_times",
+    "comes_back",
     "find_events",
     "flag_change_times",
     "flag_runs",
@@ -281,6 +282,16 @@ def _level_kind(before: dict | None, after: dict | None) -> int | None:
     tol = max(math.log(LEVEL_RATIO), math.hypot(_log_spread(before), _log_spread(after)))
     ratio = math.log(a / b)
     return 0 if abs(ratio) < tol else (1 if ratio > 0 else -1)
+
+
+def comes_back(base: float, before: float, after: float, spread: float = 0.0) -> bool:
+    """Whether a change from the noise level ``before`` to ``after`` brings it at least
+    halfway back (in log) to ``base``, the level before the stretch, or within
+    :data:`LEVEL_RATIO` (or ``spread``, in log) of it: the change that closes a stretch
+    (amplitudes, all positive)."""
+    tol = max(math.log(LEVEL_RATIO), spread)
+    away = abs(math.log(after / base))
+    return away < max(tol, 0.5 * abs(math.log(before / base)))
 
 
 def _log_spread(summary: dict) -> float:
@@ -522,9 +533,8 @@ class EventTracker:
             return True  # no level before the stretch to come back to: the change closes it
         if (math.log(before["median"] / base) > 0) == (kind > 0):
             return False  # further from the level before the stretch
-        tol = max(math.log(LEVEL_RATIO), math.hypot(_log_spread(before), _log_spread(after)))
-        away = abs(math.log(after["median"] / base))
-        return away < max(tol, 0.5 * abs(math.log(before["median"] / base)))
+        spread = math.hypot(_log_spread(before), _log_spread(after))
+        return comes_back(base, before["median"], after["median"], spread)
 
     def _finish(self, end_of_record: float) -> list[Event]:
         self._finalise_after(np.inf)

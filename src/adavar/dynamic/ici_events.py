@@ -44,7 +44,7 @@ from typing import Any
 
 import numpy as np
 
-from adavar.dynamic.events import LEVEL_RATIO, Event, stretch_summary
+from adavar.dynamic.events import Event, comes_back, stretch_summary
 from adavar.dynamic.ici_episodes import Episode, pair_changes
 from adavar.dynamic.long_tau import LongTauChange, LongTauChanges
 
@@ -152,10 +152,9 @@ class IciEventTracker:
                 end = np.inf if end_of_record is None else float(end_of_record)
                 opener = self._group[0]
                 if len(self._group) == 1 and opener.ramp:  # a ramp to a new level
-                    self._emit(opener, opener, closed=True)
+                    self._emit(opener, opener, closed=False)
                     after = self._summaries(opener.end + self.margin, np.inf, None)
                     self.events[-1] = replace(self.events[-1], after=after)
-                    self._waiting = []
                 else:
                     self._emit(opener, None, closed=False, stop=end)
                 self._group = []
@@ -179,12 +178,10 @@ class IciEventTracker:
         opener = self._group[0]
         if change.rise == opener.rise:
             return False
-        base = opener.before
-        if not (base > 0.0 and change.before > 0.0 and change.after > 0.0):
+        levels = (opener.before, change.before, change.after)  # mean squares
+        if not all(v > 0.0 for v in levels):
             return True  # no level to compare: the change closes it, as by direction
-        away = 0.5 * abs(math.log(change.after / base))
-        reached = 0.5 * abs(math.log(change.before / base))
-        return away < max(math.log(LEVEL_RATIO), 0.5 * reached)
+        return comes_back(*(math.sqrt(v) for v in levels))
 
     def _emit(
         self, opener: _Change, closer: _Change | None, *, closed: bool, stop: float = np.inf

@@ -463,12 +463,14 @@ class OnlineAdaptive:
         # events: the episodes paired as find_events pairs them (one implementation), the
         # state at the last kept row: shortened or not, its centre and length, and the
         # first row of the regrowth under way (where the trailing edge is pinned)
-        self._tracker = EventTracker(
-            lmax, dt, self._values, pairing=pairing, t0=self.t0,
-            level="angle_random_walk" if "angle_random_walk" in self.terms else None,
-        )  # fmt: skip
-        if self._ici is not None and self._ici.episodes:  # as ici_events pairs them
+        self._tracker: EventTracker | IciEventTracker
+        if self._ici is not None and self._ici.episodes:  # steps and ramps, as ici_events
             self._tracker = IciEventTracker(lmax, dt, self._values)
+        else:
+            self._tracker = EventTracker(
+                lmax, dt, self._values, pairing=pairing, t0=self.t0,
+                level="angle_random_walk" if "angle_random_walk" in self.terms else None,
+            )  # fmt: skip
         self._last_short = False
         self._last_centre: int | None = None
         self._last_window = lmax
