@@ -50,7 +50,8 @@ def test_cross_equals_the_loop_bit_for_bit(mi, mj, tau0, lags, integer, tau_c):
     if integer:  # the exact lag sum's integer lags, zero among them
         s = np.round(s)
         s[0] = 0.0
-    np.testing.assert_array_equal(ac._cross(s, mi, mj, tau0, tau_c),
+    many = np.full(s.size, mi, dtype=np.int64), np.full(s.size, mj, dtype=np.int64)
+    np.testing.assert_array_equal(ac._cross_many(s, *many, tau0, tau_c),
                                   _slow_cross(s, mi, mj, tau0, tau_c))  # fmt: skip
 
 
@@ -65,7 +66,7 @@ def test_cross_equals_the_loop_bit_for_bit(mi, mj, tau0, lags, integer, tau_c):
 )
 def test_integer_lags_from_one_range_are_the_shifts_bit_for_bit(mi, mj, s_lo, span, tau0, tau_c):
     """The exact lag sum's kernels, evaluated once on the union of the nine shifted
-    ranges, are those of :func:`_cross` at every lag."""
+    ranges, are those of the plain loop at every lag."""
     s = np.arange(s_lo, s_lo + span + 1, dtype=float)
     np.testing.assert_array_equal(ac._cross_lags(s_lo, s_lo + span, mi, mj, tau0, tau_c),
                                   _slow_cross(s, mi, mj, tau0, tau_c))  # fmt: skip

@@ -98,23 +98,9 @@ def _kernels(h: np.ndarray, tau_c: float | None = None) -> np.ndarray:
 _AB = tuple(itertools.product(range(3), range(3)))
 
 
-def _cross(s: np.ndarray, mi: int, mj: int, tau0: float, tau_c: float | None = None) -> np.ndarray:
-    """``c_ij(s)`` of N, B, K (and the Gauss-Markov term) at lags ``s`` (samples, may be
-    fractional), shape (3 or 4, len(s))."""
-    # the kernels at all nine shifts in one call (the per-shift calls cost more than their
-    # arithmetic), summed shift by shift in the order of the loop it replaces (bit for bit)
-    ahead = np.array([b * mj for _, b in _AB])[:, None]
-    back = np.array([a * mi for a, _ in _AB])[:, None]
-    k = _kernels((s[None, :] + ahead - back) * tau0, tau_c)
-    out = np.zeros((k.shape[0], s.size))
-    for n, (a, b) in enumerate(_AB):
-        out += _W[a] * _W[b] * k[:, n]
-    return out
-
-
 def _cross_lags(s_lo: int, s_hi: int, mi: int, mj: int, tau0: float,
                 tau_c: float | None = None) -> np.ndarray:  # fmt: skip
-    """:func:`_cross` at every integer lag ``s_lo .. s_hi``, bit for bit: the nine shifted
+    """:func:`_cross_many` at every integer lag ``s_lo .. s_hi``, bit for bit: the nine shifted
     arguments are integers of one range, so each kernel is evaluated once on that range
     (``S + 2 (mi + mj)`` points, not ``9 S``: for lags that span more than the shifts)
     and read at each shift."""
@@ -136,9 +122,11 @@ def _counts(s: np.ndarray, n_i: int, n_j: int) -> np.ndarray:
 
 def _cross_many(s: np.ndarray, mi: np.ndarray, mj: np.ndarray, tau0: float,
                 tau_c: float | None = None) -> np.ndarray:  # fmt: skip
-    """:func:`_cross` of many pairs at once (``mi``, ``mj`` given for every lag): the same
-    element-wise arithmetic in the same order, so each pair's values are its own call's
-    bit for bit, without a call's overhead a pair (a basis has hundreds)."""
+    """``c_ij(s)`` of N, B, K (and the Gauss-Markov term) at lags ``s`` (samples, may be
+    fractional), shape (3 or 4, len(s)), for many pairs at once: ``mi``, ``mj`` given for
+    every lag. Each value is the sum of the nine shifted kernels in the loop's order, the
+    same element-wise arithmetic whatever the pairs beside it (one call, not one a pair:
+    a basis has hundreds)."""
     ahead = np.stack([b * mj for _, b in _AB])
     back = np.stack([a * mi for a, _ in _AB])
     k = _kernels((s[None, :] + ahead - back) * tau0, tau_c)
@@ -167,7 +155,7 @@ class _PairGrid:
 
 def _pair_grid(mi: int, mj: int, n_i: int, n_j: int, tau0: float,
                tau_c: float | None = None) -> _PairGrid:  # fmt: skip
-    """The lags of :func:`_pair`."""
+    """The lags of one pair's sums (:func:`_pair_sums`)."""
     lo, hi = -(n_i - 1), n_j - 1
     # quantization: c^Q is a point mass at each lag where some argument is 0
     pts = sorted({a * mi - b * mj for a in range(3) for b in range(3)})
@@ -243,15 +231,6 @@ def _pair_sums(grids: list[_PairGrid], tau0: float, tau_c: float | None) -> list
         t[1:, 1:] = (c * weight) @ c.T
         out.append(t)
     return out
-
-
-def _pair(
-    mi: int, mj: int, n_i: int, n_j: int, tau0: float, tau_c: float | None = None
-) -> np.ndarray:
-    """``sum_s n(s) c^p(s) c^q(s)`` for the terms p, q in (Q, N, B, K[, Gauss-Markov]):
-    shape (4, 4), or (5, 5) with ``tau_c`` (one pair; :func:`_basis_cached` does a batch
-    at a time, bit for bit)."""
-    return _pair_sums([_pair_grid(mi, mj, n_i, n_j, tau0, tau_c)], tau0, tau_c)[0]
 
 
 @lru_cache(maxsize=16)
