@@ -275,16 +275,16 @@ def crossing(f: Callable[[float], float], lo: float, hi: float, rtol: float) -> 
 
 
 def profile_bound(prob: Problem, idx: np.ndarray, cols: list[int], k: int,
-                   coef: np.ndarray, signed: bool, z: float | Sequence[float],
-                   sigma: float) -> float | list[float]:  # fmt: skip
-    """The one-sided upper bound of the coefficient ``C_k`` of a term left out: the largest
+                   coef: np.ndarray, signed: bool, zs: Sequence[float],
+                   sigma: float) -> list[float]:  # fmt: skip
+    """The one-sided upper bounds of the coefficient ``C_k`` of a term left out, one for each
+    ``z`` of ``zs``, from one profile (its values shared): each the largest
     ``c >= 0`` whose profile likelihood (``C_k = c`` fixed, the model's other columns
     ``cols`` refitted under their own covariance) is within ``z^2`` of the best over
     ``c >= 0``. The covariance grows with ``c``, so the bound is the likelihood's, not a
     chi-square under the covariance of the model without the term.
 
-    ``z`` a sequence: the bound at each, from one profile (its values are shared). Each
-    bound is the profile's :func:`crossing`, to ``BOUND_RTOL`` of itself: the bisection of
+    Each bound is the profile's :func:`crossing`, to ``BOUND_RTOL`` of itself: the bisection of
     the versions before 0.3.1, bit for bit, in about half the refits."""
     column = prob.phi[idx, k]
     markov = MARKOV in cols
@@ -335,9 +335,7 @@ def profile_bound(prob: Problem, idx: np.ndarray, cols: list[int], k: int,
 
         return crossing(excess, lo, hi, rtol=BOUND_RTOL)
 
-    if isinstance(z, (int, float)):
-        return bound(float(z))
-    return [bound(float(v)) for v in z]
+    return [bound(float(z)) for z in zs]
 
 
 def choose(prob, idx, all_cols, n_iter, signed, select, significance, markov, forced=(),
