@@ -19,11 +19,15 @@ records each; the whole-record OADEV at octave taus is fitted by the default
   (with an unmodelled process, the share that should say it does not: ``markov="none"`` on
   the Gauss-Markov mix, target <= 10 %).
 
+``selection``: the uncertainty of the terms the selection chose, conditional on the choice
+and with its doubt in it (``fit_noise(uncertainty=...)``): the pulls of the terms the record
+has, and of those it has not, at 1 and 3 hours at 100 Hz.
+
 ``events``: the adaptive window (``adaptive_davar`` defaults, the CLI's) and ICI on
 stationary records (false events per hour, heavy tails included) and on records with a
 change (step, burst, ramp, spike, long-tau changes): detection rate and start/end errors.
 
-Run: ``python benchmarks/bench_validation.py [--part fit|events|all] [--seeds 40]
+Run: ``python benchmarks/bench_validation.py [--part fit|selection|events|all] [--seeds 40]
 [--quick]``. ``--quick`` is the matrix of ``tests/test_validation.py``.
 """
 
@@ -153,6 +157,62 @@ def run_fit(seeds: int, quick: bool, mixes: list[str] | None = None) -> None:
         )
 
 
+#: every term the selection judges, by letter
+ALL_TERMS = {"Q": "quantization", **LETTERS, "R": "rate_ramp"}
+SELECTION_MIXES = ["white", "white+RRW", "white+flicker+RRW", "white+RRW+markov"]
+
+
+def selection_cell(mix: str, seconds: float, rate: float, seeds: int) -> dict:
+    """Per rule (``uncertainty="conditional"``, ``"averaged"``) and term: the pulls
+    (estimate - truth) / uncertainty where the term is in the model, split into terms the
+    record has and terms it has not (truth 0); and the records warned of a term."""
+    pulls = {rule: {"real": {}, "absent": {}} for rule in ("conditional", "averaged")}
+    warned = 0
+    for seed in range(seeds):
+        x, truth = record(mix, seconds, rate, seed=20_000 + seed)
+        r = adavar.deviation(x, rate=rate, taus="octave")
+        for rule in pulls:
+            fit = adavar.fit_noise(r, uncertainty=rule)
+            for letter, name in ALL_TERMS.items():
+                term = fit.term(name)
+                if not term.value > 0:
+                    continue
+                true = float(getattr(truth, letter))
+                kind = "real" if true > 0 else "absent"
+                pulls[rule][kind].setdefault(letter, []).append(
+                    (float(term.value) - true) / float(term.uncertainty)
+                )
+            if rule == "averaged":
+                warned += any("models without it carry" in w for w in fit.warnings)
+    return {"pulls": pulls, "warned": warned / seeds}
+
+
+def run_selection(seeds: int, quick: bool) -> None:
+    """The uncertainty of the terms a model selection chose, given the choice
+    (``"conditional"``) and with its doubt in it (``"averaged"``, the default)."""
+    cells = QUICK_CELLS[:1] if quick else QUICK_CELLS
+    print(f"\nterm uncertainty and the choice of the model: {seeds} records a cell; per "
+          "term 'sd' of the pulls where the record has the term (target 0.85-1.2), "
+          "'rms (>2 sigma)' where it has not (truth 0)")  # fmt: skip
+    for mix in SELECTION_MIXES:
+        for seconds, rate in cells:
+            cell = selection_cell(mix, seconds, rate, seeds)
+            print(f"{mix} {seconds / 3600:g} h {rate:g} Hz: warned of a term in "
+                  f"{100 * cell['warned']:.0f} % of the records")  # fmt: skip
+            for rule, kinds in cell["pulls"].items():
+                parts = []
+                for letter in ALL_TERMS:
+                    real = np.array(kinds["real"].get(letter, []))
+                    absent = np.array(kinds["absent"].get(letter, []))
+                    if real.size > 2:
+                        parts.append(f"{letter} sd {np.std(real):.2f} (n {real.size})")
+                    if absent.size:
+                        rms = math.sqrt(float(np.mean(absent**2)))
+                        big = int(np.sum(np.abs(absent) > 2))
+                        parts.append(f"{letter} absent: rms {rms:.2f} ({big}/{absent.size})")
+                print(f"  {rule:11s} " + "; ".join(parts))
+
+
 #: (kind, seconds, rate): the records with a change, and the stationary ones
 CHANGES = [("step", 3600, 100.0), ("burst", 3600, 100.0), ("ramp", 3600, 100.0),
            ("spike", 3600, 100.0), ("step", 6000, 1.0), ("rrw", 6 * 3600, 10.0),
@@ -234,7 +294,7 @@ def run_events(seeds: int, quick: bool) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("fit", "events", "all"), default="all")
+    parser.add_argument("--part", choices=("fit", "selection", "events", "all"), default="all")
     parser.add_argument("--seeds", type=int, default=40)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--mixes", nargs="*", choices=list(MIXES), help="the fit's mixes (all)")
@@ -242,6 +302,8 @@ def main() -> None:
     print(describe())
     if args.part in ("fit", "all"):
         run_fit(args.seeds, args.quick, args.mixes)
+    if args.part in ("selection", "all"):
+        run_selection(args.seeds, args.quick)
     if args.part in ("events", "all"):
         run_events(args.seeds, args.quick)
 

@@ -112,6 +112,8 @@ def keywords(function: Any) -> list[str]:
 RENAMED_IN = {
     ("fit_noise", "method"): "--fit-method",
     ("fit_avar", "method"): "--fit-method",
+    ("fit_noise", "uncertainty"): "--fit-uncertainty",
+    ("fit_avar", "uncertainty"): "--fit-uncertainty",
 }
 
 
@@ -295,13 +297,13 @@ def test_fit_noise_gets_the_fit_flags(capsys, monkeypatch, record, tmp_path, com
                                 "--select", "none", "--significance", "3", "--exclude",
                                 "none", "--rolloff", "none", "--tau-range", "1:", "--bandwidth",
                                 "1.5", "--markov", "none", "--bound-level", "0.9",
-                                *extra])  # fmt: skip
+                                "--fit-uncertainty", "conditional", *extra])  # fmt: skip
     assert code == 1 and "Stop" in err
     check(seen, adavar.fit_noise, {
         "terms": ("angle_random_walk", "rate_random_walk"), "n_reweight": 1,
         "spacing": "independent", "method": "wls", "select": "none", "significance": 3.0,
         "exclude": "none", "rolloff": "none", "tau_range": (1.0, None), "bandwidth": 1.5,
-        "markov": "none", "bound_level": 0.9,
+        "markov": "none", "bound_level": 0.9, "uncertainty": "conditional",
         "units": None,  # --units reaches the fit through the result it fits
     })  # fmt: skip
     assert seen["result"].units == "deg/s"

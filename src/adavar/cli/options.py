@@ -509,6 +509,12 @@ def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
         help="gls: one-sided level of the upper bound of a term left out (default 0.99)",
     )  # fmt: skip
     cmd.add_argument(
+        "--fit-uncertainty", default=FIT.uncertainty, choices=("conditional", "averaged"),
+        help="gls with --select aic/bic: each term's uncertainty given the model chosen "
+        "(default conditional), or with the doubt of that choice in it (averaged: the "
+        "weight of the models without the term)",
+    )  # fmt: skip
+    cmd.add_argument(
         "--exclude", default=FIT.exclude, choices=("auto", "none"),
         help="gls: leave out the short taus where the curve rolls off below the model "
         "(a sensor filter, correlated noise; default auto), or fit every tau",

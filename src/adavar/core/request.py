@@ -36,6 +36,7 @@ from adavar.core.settings import (
     DATA_TYPE_DEFAULT,
     DEFAULT_MAX_MEMORY_MB,
     FIT,
+    FIT_OPTION_NAMES,
     ICI_GAMMA,
     ControllerSettings,
     FitSettings,
@@ -341,7 +342,7 @@ _CONTROLLER_NAMES = [("segment" if f.name == "l" else f.name) for f in fields(Co
 _OPTION_NAMES = frozenset(
     {f.name for cls in (RecordRequest, WindowSettings, MethodOptions) for f in fields(cls)}
     | {("segment" if f.name == "l" else f.name) for f in fields(ControllerSettings)}
-    | {("fit_method" if f.name == "method" else f.name) for f in fields(FitSettings)}
+    | {FIT_OPTION_NAMES.get(f.name, f.name) for f in fields(FitSettings)}
     | {"windows_from"}
 )
 
@@ -390,8 +391,9 @@ class AnalysisRequest:
     @classmethod
     def from_options(cls, options: Any) -> AnalysisRequest:
         """The request of a command's options (an ``argparse.Namespace`` or a mapping with
-        the flags' destination names: ``segment`` for ``l``, ``fit_method`` for the fit's
-        ``method``); an option not present takes its default.
+        the flags' destination names: ``segment`` for ``l``, ``fit_method`` and
+        ``fit_uncertainty`` for the fit's ``method`` and ``uncertainty``); an option not
+        present takes its default.
 
         A mapping may hold only those names (a typo is an error, not a default); a
         namespace carries the command's other flags too, which are not the request's.
@@ -441,7 +443,7 @@ class AnalysisRequest:
                 **dataclasses.asdict(self.window)}  # fmt: skip
         flat.update({("segment" if k == "l" else k): v
                      for k, v in dataclasses.asdict(self.controller).items()})  # fmt: skip
-        flat.update({("fit_method" if k == "method" else k): v
+        flat.update({FIT_OPTION_NAMES.get(k, k): v
                      for k, v in dataclasses.asdict(self.fit).items()})  # fmt: skip
         flat.update(dataclasses.asdict(self.method_options))
         flat["windows_from"] = self.windows_from

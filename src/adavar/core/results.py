@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -34,6 +35,10 @@ __all__ = [
 
 #: ``p_value`` below which a full-covariance fit is flagged as not describing the data.
 ADEQUATE_P = 1e-3
+#: a term in the model whose :attr:`NoiseFit.term_support` is below this gets a warning:
+#: a model without it is within 2 of the criterion (Burnham and Anderson's "substantial
+#: support"), its weight at least exp(-1) of the chosen one's
+SUPPORT_WARNING = 1.0 / (1.0 + math.exp(-1.0))
 
 
 @dataclass(frozen=True)
@@ -527,6 +532,16 @@ class NoiseFit:
         ``"gls"``: a model the fit was not allowed (a Gauss-Markov term with
         ``markov="none"``, or with ``select`` other than ``"aic"``/``"bic"``) that describes
         the curve far better; the fit is then not :attr:`adequate`. None otherwise.
+    term_support : ndarray or None
+        ``"gls"`` with ``select="aic"``/``"bic"``, shape (5,): for each term, the weight of
+        the models that hold it among those the criterion judged (Akaike or Schwarz
+        weights; Burnham and Anderson's relative importance): near 1 where the curve needs
+        the term, near 0 where no model of any weight has it. A term in the model with
+        support below :data:`SUPPORT_WARNING` gets a warning: the curve hardly tells the
+        model from one without the term. None for other fits.
+    uncertainty_rule : str
+        ``"conditional"`` or ``"averaged"``: how the uncertainties treat the choice of the
+        model (``fit_noise(uncertainty=...)``).
 
     Notes
     -----
@@ -559,6 +574,8 @@ class NoiseFit:
     gof_chi2: Any = float("nan")
     selection: str = "none"
     better_model: str | None = None
+    term_support: np.ndarray | None = None
+    uncertainty_rule: str = "conditional"
 
     @property
     def rolloff(self) -> Any:
@@ -655,6 +672,22 @@ class NoiseFit:
                 f"a hump near {1.89 * mk.tau_c:.3g} s: it is in the model, not read as bias "
                 "instability or rate random walk"
             )
+        support = self.term_support
+        if support is not None:
+            for k in np.flatnonzero(np.asarray(self.coefficients) > 0):
+                if support[k] < SUPPORT_WARNING:
+                    name = TERM_NAMES[k]
+                    out.append(
+                        f"{name} is in the model, but models without it carry "
+                        f"{100 * (1 - support[k]):.0f} % of the {self.selection.upper()} "
+                        f"weight (term_support {support[k]:.2f}): the curve does not tell "
+                        "whether it is there; "
+                        + (
+                            "its uncertainty includes that doubt"
+                            if self.uncertainty_rule == "averaged"
+                            else "uncertainty='averaged' includes that doubt in its uncertainty"
+                        )
+                    )
         from adavar.core.fit_checks import tradeoff_warnings
 
         out.extend(tradeoff_warnings(self))

@@ -35,6 +35,7 @@ __all__ = [
     "DEPENDENCE_FIRST",
     "EFFICIENT_CHUNK",
     "FIT",
+    "FIT_OPTION_NAMES",
     "HOURLY_FALSE_ALARMS",
     "HOURLY_ONLY",
     "PAPER",
@@ -132,6 +133,10 @@ class ControllerSettings:
         return cls(l=options.segment, **values)
 
 
+#: the command line's names of the :class:`FitSettings` fields that differ from the field's
+FIT_OPTION_NAMES = {"method": "fit_method", "uncertainty": "fit_uncertainty"}
+
+
 @dataclass(frozen=True)
 class FitSettings:
     """The options of :func:`adavar.fit_noise` (see its docstring), with its defaults."""
@@ -152,14 +157,18 @@ class FitSettings:
     #: bound covers the truth in 43-66 %, the 99 % one in 87-91 %
     #: (benchmarks/bench_validation.py)
     bound_level: float = 0.99
+    #: "conditional": each term's uncertainty given the model chosen; "averaged": with the
+    #: doubt of the choice in it (the weight of the models without the term)
+    uncertainty: str = "averaged"
 
     @classmethod
     def from_options(cls, options: Any) -> FitSettings:
         """From an object with the command line's option names (``fit_method`` for
-        ``method``); an option it has not takes its default."""
-        values = {f.name: getattr(options, "fit_method" if f.name == "method" else f.name)
-                  for f in fields(cls)
-                  if hasattr(options, "fit_method" if f.name == "method" else f.name)}  # fmt: skip
+        ``method``, ``fit_uncertainty`` for ``uncertainty``); an option it has not takes
+        its default."""
+        names = {f.name: FIT_OPTION_NAMES.get(f.name, f.name) for f in fields(cls)}
+        values = {field: getattr(options, option) for field, option in names.items()
+                  if hasattr(options, option)}  # fmt: skip
         if values.get("terms") is not None:
             values["terms"] = tuple(values["terms"])
         return cls(**values)
@@ -252,7 +261,7 @@ CONTROLLER = PAPER
 FIT = FitSettings()
 
 _CONTROLLER_OPTIONS = {("segment" if k == "l" else k): v for k, v in asdict(CONTROLLER).items()}
-_FIT_OPTIONS = {("fit_method" if k == "method" else k): v for k, v in asdict(FIT).items()}
+_FIT_OPTIONS = {FIT_OPTION_NAMES.get(k, k): v for k, v in asdict(FIT).items()}
 
 
 class FileDefault(str):

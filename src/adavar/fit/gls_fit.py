@@ -73,6 +73,7 @@ import numpy as np
 
 from adavar.core.results import ADEQUATE_P
 from adavar.core.settings import FitSettings
+from adavar.core.terms import AVAR_FACTORS
 from adavar.fit.gls_core import (
     MARKOV,
     MAX_TAUS,
@@ -87,7 +88,13 @@ from adavar.fit.gls_core import (
     wald_sigma,
     whitened,
 )
-from adavar.fit.gls_select import choose, markov_range, profile_bound
+from adavar.fit.gls_select import (
+    choose,
+    markov_range,
+    profile_bound,
+    selection_sigma,
+    term_support,
+)
 
 __all__ = [
     "BOUND_Z",
@@ -106,6 +113,8 @@ DEFAULT_SELECT = FitSettings.select
 SIGNIFICANCE = 2.0
 #: Ways to choose the terms: information criteria, the old Wald elimination, or none.
 SELECTIONS = ("aic", "bic", "significance", "none")
+#: how a term's uncertainty treats the choice of the model (``fit_noise(uncertainty=)``)
+UNCERTAINTIES = ("conditional", "averaged")
 #: Standardised residual beyond which the shortest tau is excluded (``exclude="auto"``).
 EXCLUDE_Z = 3.0
 #: One-sided normal quantile of the ``uncertainty`` bound of a term left out (84.1 %).
@@ -165,6 +174,7 @@ class GlsOutcome:
     markov: MarkovFit | None
     correlation: np.ndarray
     better: str | None = None
+    support: np.ndarray | None = None
 
 
 def fit_curve(
@@ -188,6 +198,7 @@ def fit_curve(
     markov: str = "auto",
     bound_z: float = 2.3263478740408408,
     excess: float = 0.0,
+    uncertainty: str = "conditional",
 ) -> GlsOutcome:
     """Fit one curve (see the module docstring).
 
@@ -229,6 +240,9 @@ def fit_curve(
         Excess kurtosis of the white rate noise's samples (0 for Gaussian noise): its
         fourth cumulant enters the estimates' covariance
         (:func:`adavar.stats.avar_covariance.fourth_cumulant_basis`).
+    uncertainty : {"conditional", "averaged"}
+        ``"averaged"``: each selected term's 1-sigma with the weight of the models without
+        it (:func:`adavar.fit.gls_select.selection_sigma`; ``"aic"``/``"bic"`` only).
 
     Returns
     -------
@@ -276,8 +290,8 @@ def fit_curve(
     while True:
         idx = np.flatnonzero(used)
         forced = _rolloff_forced(signed, reasons, usable)
-        cols, dropped = choose(prob, idx, all_cols, n_iter, signed, select, significance,
-                                False, forced)  # fmt: skip
+        cols, dropped, _ = choose(prob, idx, all_cols, n_iter, signed, select, significance,
+                                   False, forced)  # fmt: skip
         state = evaluate(idx, cols)
         if last is not None and not _improves(state, idx.size, *last[3:5], last[5]):
             # leaving the point out did not make the model describe the rest better: the
@@ -340,8 +354,8 @@ def fit_curve(
     # 3 of 40 records, and N 12 % low, the fit adequate): its time is then kept
     # _ROLLOFF_MARKOV_OCTAVES above the shortest tau fitted
     floor = float(tau[idx[0]]) * 2.0**_ROLLOFF_MARKOV_OCTAVES if forced else 0.0
-    with_markov, dropped_m = choose(prob, idx, all_cols, n_iter, signed, how,
-                                     significance, True, forced, floor)  # fmt: skip
+    with_markov, dropped_m, rivals = choose(prob, idx, all_cols, n_iter, signed, how,
+                                             significance, True, forced, floor)  # fmt: skip
     if prob.markov_tau is not None:
         trial = evaluate(idx, with_markov)
         dof = idx.size - trial.n_params
@@ -381,6 +395,16 @@ def fit_curve(
     ieee = [j for j, c in enumerate(col_list) if c < 5]
     covariance[np.ix_(cols[ieee], cols[ieee])] = fisher[np.ix_(ieee, ieee)]
     unc[cols[ieee]] = sig[ieee]
+    support = None
+    if select in ("aic", "bic"):
+        # the rivals of the model kept: with a Gauss-Markov term every model judged, else
+        # the IEEE ones (a hump the gate turned down is no rival)
+        support = term_support(
+            [r for r in rivals if prob.markov_tau is not None or r.markov_tau is None]
+        )
+        if uncertainty == "averaged":
+            for k in cols[ieee]:
+                unc[k] = selection_sigma(coef[k], unc[k], support[k], AVAR_FACTORS[k])
     for k in terms:
         if k in col_list and coef[k] > 0:
             continue
@@ -406,6 +430,7 @@ def fit_curve(
         markov=markov_fit,
         correlation=_correlation(fisher, cols),
         better=better,
+        support=support,
     )
 
 

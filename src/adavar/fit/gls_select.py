@@ -7,7 +7,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -34,7 +34,9 @@ __all__ = [
     "markov_range",
     "own_fit",
     "profile_bound",
+    "selection_sigma",
     "subset_choice",
+    "term_support",
 ]
 
 MARKOV_PARAMS = 2  # sigma^2 and the correlation time
@@ -69,6 +71,8 @@ class Choice:
     markov_tau: float | None
     criterion: float
     coef: np.ndarray
+    #: every model judged by the criterion on the same taus, this one included
+    rivals: tuple[Choice, ...] = ()
 
 
 def own_fit(prob: Problem, idx: np.ndarray, cols, coef: np.ndarray, signed: bool,
@@ -116,6 +120,7 @@ def subset_choice(
         return abs(a.criterion - b.criterion) <= 1e-9 and len(a.cols) < len(b.cols)
 
     best: Choice | None = None
+    judged: list[Choice] = []
     subsets = [
         c for r in range(1, len(terms) + 1) for c in itertools.combinations(terms, r)
         if set(forced) <= set(c)
@@ -128,11 +133,13 @@ def subset_choice(
             continue  # no random term: no covariance, no likelihood
         coef = own_fit(prob, idx, cols, coef, signed, False)
         choice = judge(cols, coef, None)
+        judged.append(choice)
         if better(choice, best):
             best = choice
     if best is None:  # only a ramp or a signed tau^-2 term: the richest model
         return Choice(tuple(int(c) for c in terms if coef_full[c] != 0), None, math.inf,
                        coef_full)  # fmt: skip
+    best = replace(best, rivals=tuple(judged))
     if not markov:
         return best
     ieee_best = best
@@ -167,11 +174,14 @@ def subset_choice(
         return best
     sets = sorted(ranked, key=ranked.__getitem__)[:_MARKOV_CANDIDATES]
 
+    tried: dict[float, list[Choice]] = {}  # correlation time -> the models judged with it
+
     def trial(tc: float) -> Choice | None:
         """The best of the term sets with a Gauss-Markov term of correlation time tc."""
         prob.set_markov(tc)
         w = whitened(prob, idx, ieee_best.coef)
         found = None
+        tried[tc] = []
         for cols in sets:
             x, _ = solve(w, cols, signed, w.aw[:, MARKOV])
             coef = np.zeros(6)
@@ -180,8 +190,10 @@ def subset_choice(
             if coef[MARKOV] <= 0:
                 continue
             choice = judge(cols, own_fit(prob, idx, cols, coef, signed, True), tc)
-            if choice.markov_tau is not None and better(choice, found):
-                found = choice
+            if choice.markov_tau is not None:
+                tried[tc].append(choice)
+                if better(choice, found):
+                    found = choice
         return found
 
     # the likelihood's times: an octave apart, up to _MARKOV_REACH octaves either side of
@@ -201,7 +213,8 @@ def subset_choice(
             if choice is not None and choice.criterion < top.criterion:
                 top, t_top = choice, tc
     if top.criterion < ieee_best.criterion - MARKOV_MARGIN and better(top, best):
-        best = top
+        # the rivals: the IEEE models and the term sets tried with the chosen time
+        best = replace(top, rivals=(*judged, *tried[t_top]))
     prob.set_markov(best.markov_tau)
     return best
 
@@ -341,8 +354,9 @@ def profile_bound(prob: Problem, idx: np.ndarray, cols: list[int], k: int,
 def choose(prob, idx, all_cols, n_iter, signed, select, significance, markov, forced=(),
            markov_floor=0.0):  # fmt: skip
     """The columns of the final model (IEEE indices, then 5 for a Gauss-Markov term, whose
-    correlation time is left set in ``prob``, at least ``markov_floor``) and the candidate
-    terms dropped; ``forced`` terms stay in every model compared."""
+    correlation time is left set in ``prob``, at least ``markov_floor``), the candidate
+    terms dropped and the models the criterion judged (:attr:`Choice.rivals`, empty for
+    ``select`` "none" and "significance"); ``forced`` terms stay in every model compared."""
     prob.set_markov(None)
     if select in ("none", "significance"):
         cols = all_cols.copy()
@@ -358,7 +372,7 @@ def choose(prob, idx, all_cols, n_iter, signed, select, significance, markov, fo
                 break
             dropped.append(int(cols[worst]))
             cols = np.delete(cols, worst)
-        return cols, dropped
+        return cols, dropped, ()
     penalty = 2.0 if select == "aic" else math.log(max(idx.size, 2))
     coef, *_ = fit_terms(prob, idx, all_cols, n_iter, signed)
     terms = tuple(int(c) for c in all_cols)
@@ -366,4 +380,39 @@ def choose(prob, idx, all_cols, n_iter, signed, select, significance, markov, fo
     choice = subset_choice(prob, idx, coef, terms, signed, penalty, markov, forced,
                            markov_floor)  # fmt: skip
     cols = np.array(choice.cols + ((MARKOV,) if choice.markov_tau else ()), dtype=np.int64)
-    return cols, [int(c) for c in all_cols if c not in choice.cols]
+    return cols, [int(c) for c in all_cols if c not in choice.cols], choice.rivals
+
+
+def term_support(rivals: Sequence[Choice]) -> np.ndarray:
+    """The weight of the models that hold each term (Q..R), among the models the criterion
+    judged: each model weighs ``exp(-delta / 2)``, ``delta`` its criterion above the best
+    (Akaike weights for "aic", Schwarz weights for "bic"), the weights summing to 1.
+
+    Burnham and Anderson's relative importance of a variable (Model Selection and
+    Multimodel Inference, 2nd ed., 2002, section 4.2.7): 1 for a term every model of any
+    weight needs, near 0 for one none does; NaN for every term where fewer than two models
+    were judged.
+    """
+    support = np.full(5, np.nan)
+    if len(rivals) < 2:
+        return support
+    best = min(r.criterion for r in rivals)
+    weights = [math.exp(-0.5 * (r.criterion - best)) for r in rivals]
+    total = math.fsum(weights)  # exactly rounded: a term every model holds has exactly 1
+    for k in range(5):
+        support[k] = math.fsum(w for w, r in zip(weights, rivals, strict=True)
+                               if r.coef[k] > 0) / total  # fmt: skip
+    return support
+
+
+def selection_sigma(coefficient: float, sigma: float, support: float, factor: float) -> float:
+    """The 1-sigma of ``C = factor * v^2`` with the doubt of the choice in it: ``v``'s own
+    spread ``sigma_v`` and, with weight ``1 - support``, the models without the term
+    (``v = 0``): ``sqrt(sigma_v^2 + (1 - support) v^2)``, carried back to ``C`` by the
+    first-order rule of :class:`~adavar.core.results.NoiseTerm` (``sigma_C = 2 sqrt(factor
+    C) sigma_v``)."""
+    if not (coefficient > 0 and support == support):
+        return sigma
+    slope = 2.0 * math.sqrt(factor * coefficient)  # dC/dv
+    value = math.sqrt(coefficient / factor)
+    return math.hypot(sigma / slope, math.sqrt(max(1.0 - support, 0.0)) * value) * slope

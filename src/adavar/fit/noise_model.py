@@ -166,6 +166,7 @@ def fit_avar(
     cells: bool = True,
     markov: str = "auto",
     bound_level: float = FitSettings.bound_level,
+    uncertainty: str = FitSettings.uncertainty,
 ) -> NoiseFit:
     """Fit the noise model to raw Allan-variance arrays.
 
@@ -206,7 +207,7 @@ def fit_avar(
     method : {"auto", "wls", "slopes"}
         ``"wls"`` (what ``"auto"`` means here) or the slope-line read-offs (which need
         ``edf`` only for their uncertainties).
-    select, significance, exclude, rolloff
+    select, significance, exclude, rolloff, markov, bound_level, uncertainty
         See :func:`fit_noise` (full-covariance fit only; not applied here).
     reference : NoiseFit, optional
         See :func:`fit_noise`.
@@ -231,7 +232,8 @@ def fit_avar(
     """
     if units is not None:
         _check_units(units)
-    method = _check_options(method, select, significance, exclude, rolloff, markov, bound_level)
+    method = _check_options(method, select, significance, exclude, rolloff, markov, bound_level,
+                            uncertainty)  # fmt: skip
     if method == "gls":
         raise AdavarInputError(
             "method='gls' needs the record length and sample interval: fit the "
@@ -363,6 +365,7 @@ def _reference_columns(
 def _check_options(
     method: str, select: str, significance: float, exclude: str, rolloff: str,
     markov: str = "auto", bound_level: float = FitSettings.bound_level,
+    uncertainty: str = FitSettings.uncertainty,
 ) -> str:  # fmt: skip
     if method not in METHODS:
         raise AdavarInputError(f"unknown method {method!r}: use one of {', '.join(METHODS)}")
@@ -372,6 +375,10 @@ def _check_options(
         )
     if markov not in ("auto", "none"):
         raise AdavarInputError(f"unknown markov {markov!r}: use 'auto' or 'none'")
+    if uncertainty not in gls_fit.UNCERTAINTIES:
+        raise AdavarInputError(
+            f"unknown uncertainty {uncertainty!r}: use one of {', '.join(gls_fit.UNCERTAINTIES)}"
+        )
     try:
         level_ok = 0.5 < float(bound_level) < 1.0
     except (TypeError, ValueError):
@@ -496,6 +503,7 @@ def fit_noise(
     cells: bool = True,
     markov: str = "auto",
     bound_level: float = FitSettings.bound_level,
+    uncertainty: str = FitSettings.uncertainty,
     settings: FitSettings | None = None,
 ) -> NoiseFit:
     """Fit the IEEE noise model (docs/method.md section 4) to an Allan-deviation result.
@@ -589,10 +597,21 @@ def fit_noise(
         One-sided level of ``NoiseTerm.upper`` for terms at 0 (default 0.99: of the
         records where the selection leaves a real term out, its 99 % bound lies above
         the truth in 87-91 %, the 95 % one in 43-66 %).
+    uncertainty : {"conditional", "averaged"}
+        ``"gls"`` with ``select="aic"``/``"bic"``: ``"conditional"`` (default) gives each
+        term's 1-sigma given the model the selection chose; ``"averaged"`` puts the doubt of
+        that choice in it: ``sqrt(s^2 + (1 - w) v^2)`` for a term of value ``v`` and
+        conditional 1-sigma ``s``, ``w`` its :attr:`NoiseFit.term_support` (the weight of
+        the models that hold it). Where the curve cannot tell two terms apart (bias
+        instability or a rate random walk on a record a few crossover times long) the
+        conditional 1-sigma of the term chosen is too small for the case where the other
+        was the truth; the averaged one covers both, and is larger than needed when the
+        chosen term was right. Other fits ignore it.
     settings : FitSettings, optional
         ``terms``, ``n_reweight``, ``spacing``, ``method``, ``select``, ``significance``,
-        ``exclude``, ``rolloff``, ``tau_range``, ``bandwidth``, ``markov`` and
-        ``bound_level`` as one object (:class:`adavar.core.settings.FitSettings`, what
+        ``exclude``, ``rolloff``, ``tau_range``, ``bandwidth``, ``markov``,
+        ``bound_level`` and ``uncertainty`` as one object
+        (:class:`adavar.core.settings.FitSettings`, what
         :class:`adavar.core.request.AnalysisRequest` holds); its fields replace those keywords.
         A keyword also given with another value is an error.
 
@@ -624,7 +643,8 @@ def fit_noise(
     if settings is not None:
         given = {k: v for k, v in locals().items() if k not in ("result", "settings")}
         return fit_noise(result, **settings_keywords(fit_noise, given, (settings, FitSettings)))
-    method = _check_options(method, select, significance, exclude, rolloff, markov, bound_level)
+    method = _check_options(method, select, significance, exclude, rolloff, markov, bound_level,
+                            uncertainty)  # fmt: skip
     stat = getattr(result, "stat", None)
     if stat is not None and str(stat).lower() not in ALLAN_STATS:
         raise AdavarInputError(
@@ -711,7 +731,7 @@ def fit_noise(
         )
     return _unscale_fit(_gls(result, record, avar, keep, reasons, terms, units, n_reweight,
                              select, float(significance), exclude, rolloff, slopes,
-                             markov, float(bound_level)), k)  # fmt: skip
+                             markov, float(bound_level), uncertainty), k)  # fmt: skip
 
 
 def _normal_quantile(p: float) -> float:
@@ -762,7 +782,8 @@ def _record_of(result: Any) -> tuple[np.ndarray, int, float] | None:
 
 
 def _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
-         significance, exclude, rolloff, slopes, markov, bound_level) -> NoiseFit:  # fmt: skip
+         significance, exclude, rolloff, slopes, markov, bound_level,
+         uncertainty) -> NoiseFit:  # fmt: skip
     """The full-covariance fit of one curve (:mod:`adavar.fit.gls_fit`) as a NoiseFit."""
     terms = check_terms(terms)
     n_reweight = check_reweight(n_reweight)
@@ -784,6 +805,7 @@ def _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
         terms=sel, usable=usable, reasons=reasons, n_iter=int(n_reweight), select=select,
         significance=significance, exclude=exclude, rolloff=rolloff, markov=markov,
         bound_z=float(_normal_quantile(bound_level)), excess=gls_core.white_excess(result),
+        uncertainty=uncertainty,
     )  # fmt: skip
     red = out.chi2 / out.dof if out.dof > 0 else math.nan
     dropped = tuple(TERM_NAMES[k] for k in out.dropped)
@@ -823,4 +845,6 @@ def _gls(result, record, avar, keep, reasons, terms, units, n_reweight, select,
         gof_chi2=float(out.gof_chi2),
         selection=select,
         better_model=out.better,
+        term_support=out.support,
+        uncertainty_rule=uncertainty,
     )

@@ -461,6 +461,12 @@ def fit_json(fit: NoiseFit) -> dict[str, Any]:
     out["p_value"] = fit.p_value
     out["gof_chi2"] = fit.gof_chi2
     out["better_model"] = fit.better_model
+    support = fit.term_support
+    out["term_support"] = None if support is None else {
+        name: (None if not np.isfinite(v) else float(v))
+        for name, v in zip(TERM_NAMES, support, strict=True)
+    }  # fmt: skip
+    out["uncertainty_rule"] = fit.uncertainty_rule
     mk = fit.markov
     out["markov"] = None if mk is None else {
         "sigma": mk.sigma, "sigma_uncertainty": mk.sigma_uncertainty, "tau_c_s": mk.tau_c,
