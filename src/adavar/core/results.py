@@ -26,6 +26,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "ADEQUATE_P",
+    "SUPPORT_WARNING",
     "DavarResult",
     "DeviationResult",
     "MarkovTerm",
