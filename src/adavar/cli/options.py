@@ -510,9 +510,9 @@ def add_fit_arguments(cmd: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     cmd.add_argument(
         "--fit-uncertainty", default=FIT.uncertainty, choices=("conditional", "averaged"),
-        help="gls with --select aic/bic: each term's uncertainty given the model chosen "
-        "(default conditional), or with the doubt of that choice in it (averaged: the "
-        "weight of the models without the term)",
+        help="gls with --select aic/bic: each chosen term's uncertainty with the doubt of "
+        "the choice in it (default averaged: the weight of the models without the term), "
+        "or given the model chosen (conditional, before 0.3.0)",
     )  # fmt: skip
     cmd.add_argument(
         "--exclude", default=FIT.exclude, choices=("auto", "none"),

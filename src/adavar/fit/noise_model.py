@@ -598,15 +598,17 @@ def fit_noise(
         records where the selection leaves a real term out, its 99 % bound lies above
         the truth in 87-91 %, the 95 % one in 43-66 %).
     uncertainty : {"conditional", "averaged"}
-        ``"gls"`` with ``select="aic"``/``"bic"``: ``"conditional"`` (default) gives each
-        term's 1-sigma given the model the selection chose; ``"averaged"`` puts the doubt of
-        that choice in it: ``sqrt(s^2 + (1 - w) v^2)`` for a term of value ``v`` and
-        conditional 1-sigma ``s``, ``w`` its :attr:`NoiseFit.term_support` (the weight of
-        the models that hold it). Where the curve cannot tell two terms apart (bias
-        instability or a rate random walk on a record a few crossover times long) the
+        ``"gls"`` with ``select="aic"``/``"bic"``: ``"averaged"`` (default) puts the doubt
+        of the selection's choice in each chosen term's 1-sigma, ``"conditional"`` gives it
+        given the model chosen (before 0.3.0). Averaged: ``sqrt(s^2 + (1 - w) v^2)`` for a
+        term of value ``v`` and conditional 1-sigma ``s``, ``w`` its
+        :attr:`NoiseFit.term_support` (the weight of the models that hold it). Where the
+        curve cannot tell two terms apart (bias instability or a rate random walk on a
+        record a few crossover times long) the
         conditional 1-sigma of the term chosen is too small for the case where the other
         was the truth; the averaged one covers both, and is larger than needed when the
-        chosen term was right. Other fits ignore it.
+        chosen term was right (``benchmarks/bench_validation.py --part selection``). Other
+        fits ignore it.
     settings : FitSettings, optional
         ``terms``, ``n_reweight``, ``spacing``, ``method``, ``select``, ``significance``,
         ``exclude``, ``rolloff``, ``tau_range``, ``bandwidth``, ``markov``,
