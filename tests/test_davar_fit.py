@@ -89,3 +89,20 @@ def test_fit_needs_bounds():
     result = adavar.davar(x, window=300, taus="octave", confidence=None)
     with pytest.raises(ValueError, match="edf"):
         fit_noise(result)
+
+
+def test_windows_fitted_against_a_reference_that_misses_its_curve_say_so():
+    # a Gauss-Markov hump the five terms cannot describe (markov="none"): the whole-record
+    # fit that gives the windows their roll-off reference is inadequate, and every window
+    # inherits it (an independent audit found window fits silent about that)
+    from adavar import simulate
+
+    x = simulate.sensor(200_000, rate=10.0, angle_random_walk=1e-3, markov=(0.05, 30.0), seed=2)
+    surface = adavar.davar(x, rate=10.0, window=20_000, step=5_000, taus="octave")
+    windows = fit_noise(surface, markov="none")
+    assert "does not describe the record" in windows.reference_warning
+    assert "Gauss-Markov" in windows.reference_warning
+    assert windows.warnings == (windows.reference_warning,)
+    # the reference with its hump describes the record: nothing to say
+    assert fit_noise(surface).warnings == ()
+    assert fit_noise(surface, reference=None, markov="none").warnings == ()

@@ -110,6 +110,7 @@ def _davar_fit_json(fit: NoiseFit, times: np.ndarray) -> dict[str, Any]:
         "n_fitted": int(np.count_nonzero(fitted)),
         "coefficients": terms,
         "reduced_chi2": _series_stats(fit.reduced_chi2, times),
+        "warnings": list(fit.warnings),
     }
 
 
@@ -192,6 +193,7 @@ def _davar_summary(
             f"{fitted.size} windows fitted; median reduced chi2 = "
             + (f"{red:.3g}" if red is not None else "n/a")
         )
+        lines += [f"warning: {w}" for w in fit.warnings]
         if not fitted.all():
             lines.append(
                 f"({fitted.size - int(fitted.sum())} windows not fitted, too few taus for the "

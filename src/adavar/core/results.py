@@ -543,6 +543,10 @@ class NoiseFit:
     uncertainty_rule : str
         ``"conditional"`` or ``"averaged"``: how the uncertainties treat the choice of the
         model (``fit_noise(uncertainty=...)``).
+    reference_warning : str or None
+        A stack of windows fitted with a whole-record reference (``reference=``) that does
+        not describe its own curve: the line :attr:`warnings` gives (every window inherits
+        the reference's roll-off term and shortest tau). None otherwise.
 
     Notes
     -----
@@ -577,6 +581,7 @@ class NoiseFit:
     better_model: str | None = None
     term_support: np.ndarray | None = None
     uncertainty_rule: str = "conditional"
+    reference_warning: str | None = None
 
     @property
     def rolloff(self) -> Any:
@@ -631,9 +636,10 @@ class NoiseFit:
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        """One line per thing a user must know about this fit (one curve; else empty)."""
+        """One line per thing a user must know about this fit (one curve; for a stack of
+        windows, only a :attr:`reference_warning`)."""
         if np.ndim(self.chi2) != 0:
-            return ()
+            return () if self.reference_warning is None else (self.reference_warning,)
         out = []
         if self.better_model is not None:
             out.append(

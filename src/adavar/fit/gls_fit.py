@@ -130,6 +130,10 @@ _FAIR_P = 0.01  # an exclusion is kept when the fit of the rest reaches this p-v
 _MARKOV_GATE_P = 1e-6  # ... and a Gauss-Markov term when its model reaches this one
 #: next to a roll-off, a Gauss-Markov time at least this many octaves above the first tau
 _ROLLOFF_MARKOV_OCTAVES = 2.0
+# a filter's rise: the first peak of the deviation within this many octaves of the shortest
+# tau, followed by a fall below this fraction of it (short-tau estimates scatter by a few %)
+_RISE_OCTAVES = 6.0
+_RISE_FALL = 0.8
 
 
 @dataclass(frozen=True)
@@ -259,7 +263,7 @@ def fit_curve(
     # the taus thinned out are scored with their own variance only (2 model^2 / edf)
     between = np.flatnonzero(usable & ~thinned)
     dev = np.sqrt(np.where(usable, avar, np.nan))
-    tau_min_dev = tau[np.nanargmin(dev)] if np.any(usable) else np.inf
+    tau_min_dev = _descent_minimum(tau, dev) if np.any(usable) else np.inf
     n_cand = len(terms)
     signed = rolloff == "model"
     all_cols = np.array(terms, dtype=np.int64)
@@ -457,6 +461,32 @@ def _rolloff_forced(signed: bool, reasons: list[str], usable: np.ndarray) -> tup
         return ()
     hints = ("short-tau roll-off", "below ")
     return (0,) if any(r.startswith(hints) for r in reasons) else ()
+
+
+def _descent_minimum(tau: np.ndarray, dev: np.ndarray) -> float:
+    """The tau of the curve's minimum that ends the white noise's descent (NaN: unusable).
+
+    The global minimum, unless the curve first rises: behind a sensor's low-pass filter the
+    shortest taus lie below the white-noise line and the deviation climbs to a peak near
+    the filter's time before it falls; with a strong rate random walk the minimum after
+    that fall can lie above the shortest tau's deviation (an independent audit: a 10 Hz
+    Butterworth at 100 Hz, K crossing N at 1 s, in 7 of 20 records), and the exclusion of
+    the roll-off, bounded by this minimum, would never start. A rise counts when the
+    curve's first peak lies within :data:`_RISE_OCTAVES` of its shortest tau and the
+    deviation then falls below :data:`_RISE_FALL` of the peak.
+    """
+    ok = np.flatnonzero(np.isfinite(dev))
+    d = dev[ok]
+    peak = 0
+    while peak + 1 < d.size and d[peak + 1] >= d[peak]:
+        peak += 1
+    after = peak + int(np.argmin(d[peak:]))
+    rises = (
+        peak > 0
+        and tau[ok[peak]] <= tau[ok[0]] * 2.0**_RISE_OCTAVES
+        and d[after] < _RISE_FALL * d[peak]
+    )
+    return float(tau[ok[after]] if rises else tau[ok[int(np.argmin(d))]])
 
 
 def _improves(

@@ -253,9 +253,9 @@ def fit_avar(
         dev = np.sqrt(avar)
         return _unscale_fit(_slopes_fit(tau_a, dev, None, None, terms, units), k)
     drop, offset = _reference_columns(tau_a, keep, reference, reasons, k)
-    return _unscale_fit(fit_stack(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
-                             reasons=reasons, drop=drop, offset=offset, cells=cells),
-                        k)  # fmt: skip
+    fit = fit_stack(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
+                    reasons=reasons, drop=drop, offset=offset, cells=cells)  # fmt: skip
+    return _unscale_fit(_with_reference_warning(fit, reference), k)
 
 
 def _as_floats(values: Any, name: str) -> np.ndarray:
@@ -331,6 +331,23 @@ def _unscale_fit(fit: NoiseFit, k: int) -> NoiseFit:
         markov=markov,
         coefficient_upper=upper,
     )
+
+
+def _with_reference_warning(fit: NoiseFit, reference: NoiseFit | None) -> NoiseFit:
+    """``fit`` with :attr:`NoiseFit.reference_warning` set when its reference does not
+    describe its own curve: every window inherits its roll-off term and shortest tau."""
+    if reference is None or reference.method != "gls" or bool(reference.adequate):
+        return fit
+    why = (
+        f"a better model: {reference.better_model}"
+        if reference.better_model is not None
+        else f"reduced chi2 {float(reference.reduced_chi2):.3g}, p = {float(reference.p_value):.2g}"
+    )
+    return dataclasses.replace(fit, reference_warning=(
+        f"the whole-record fit that gives the windows their roll-off term and shortest tau "
+        f"does not describe the record ({why}): every window inherits it; read the "
+        f"whole-record fit's residuals, give the sensor's bandwidth or a tau range"
+    ))  # fmt: skip
 
 
 def _reference_columns(
@@ -723,9 +740,10 @@ def fit_noise(
         )  # fmt: skip
     if method == "wls" or record is None:
         drop, offset = _reference_columns(tau, keep, reference, reasons, k)
-        return _unscale_fit(fit_stack(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
-                                 time=time, reasons=reasons, slopes=slopes, drop=drop,
-                                 offset=offset, cells=cells), k)  # fmt: skip
+        fit = fit_stack(tau, avar, edf, terms, units, n_reweight, spacing=spacing, time=time,
+                        reasons=reasons, slopes=slopes, drop=drop, offset=offset,
+                        cells=cells)  # fmt: skip
+        return _unscale_fit(_with_reference_warning(fit, reference), k)
     if reference is not None:
         raise AdavarInputError(
             "reference is for the fit of DAVAR windows (method='wls'); a whole-record curve "
