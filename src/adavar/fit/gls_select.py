@@ -239,7 +239,7 @@ BOUND_RTOL = 1e-4
 
 def crossing(f: Callable[[float], float], lo: float, hi: float, rtol: float) -> float:
     """The bisection of a bracket ``f(lo) <= 0 < f(hi)`` of an increasing ``f``'s crossing
-    to ``rtol`` of its upper end, which it returns: the rule before 0.3.1, to the last bit,
+    to ``rtol`` of its upper end, which it returns: the rule before 0.3.0, to the last bit,
     in about half the evaluations of ``f``.
 
     False position with the Illinois modification (the end that stays twice running has its
@@ -298,7 +298,7 @@ def profile_bound(prob: Problem, idx: np.ndarray, cols: list[int], k: int,
     chi-square under the covariance of the model without the term.
 
     Each bound is the profile's :func:`crossing`, to ``BOUND_RTOL`` of itself: the bisection of
-    the versions before 0.3.1, bit for bit, in about half the refits."""
+    the versions before 0.3.0, bit for bit, in about half the refits."""
     column = prob.phi[idx, k]
     markov = MARKOV in cols
     ieee = [c for c in cols if c != MARKOV]

@@ -593,7 +593,8 @@ def fit_noise(
         curve (:attr:`DavarResult.record_curve`), and its full-covariance fit with the
         same options is the reference (:func:`record_reference`); None: no reference
         (the behaviour of adavar 0.2, whose window fits on a filtered sensor read N about
-        half the truth). A NoiseFit: that one. The
+        half the truth, and 0 in every window behind a filter at a fifth of the Nyquist
+        frequency with rounding). A NoiseFit: that one. The
         sensor's filter is the same in every window, so each window's fit leaves out the
         taus below the reference's shortest fitted tau and has the reference's roll-off
         term (``reference.rolloff / tau^2``) taken out of its variance first. On the
