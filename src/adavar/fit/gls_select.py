@@ -176,6 +176,18 @@ def subset_choice(
 
     tried: dict[float, list[Choice]] = {}  # correlation time -> the models judged with it
 
+    def with_markov(cols: tuple[int, ...], tc: float, w: Whitened) -> Choice | None:
+        """The term set ``cols`` and a Gauss-Markov term of correlation time ``tc``, judged
+        under its own covariance (None: no positive Gauss-Markov variance)."""
+        x, _ = solve(w, cols, signed, w.aw[:, MARKOV])
+        coef = np.zeros(6)
+        coef[list(cols)] = x[: len(cols)]
+        coef[MARKOV] = x[-1]
+        if coef[MARKOV] <= 0:
+            return None
+        choice = judge(cols, own_fit(prob, idx, cols, coef, signed, True), tc)
+        return choice if choice.markov_tau is not None else None
+
     def trial(tc: float) -> Choice | None:
         """The best of the term sets with a Gauss-Markov term of correlation time tc."""
         prob.set_markov(tc)
@@ -183,18 +195,26 @@ def subset_choice(
         found = None
         tried[tc] = []
         for cols in sets:
-            x, _ = solve(w, cols, signed, w.aw[:, MARKOV])
-            coef = np.zeros(6)
-            coef[list(cols)] = x[: len(cols)]
-            coef[MARKOV] = x[-1]
-            if coef[MARKOV] <= 0:
-                continue
-            choice = judge(cols, own_fit(prob, idx, cols, coef, signed, True), tc)
-            if choice.markov_tau is not None:
+            choice = with_markov(cols, tc, w)
+            if choice is not None:
                 tried[tc].append(choice)
                 if better(choice, found):
                     found = choice
         return found
+
+    def without_each(top: Choice, tc: float) -> list[Choice]:
+        """Rivals of ``top`` without each of its terms that every set tried holds: the
+        support of a term needs a model without it (:func:`term_support`)."""
+        prob.set_markov(tc)
+        w = whitened(prob, idx, ieee_best.coef)
+        out = []
+        for k in top.cols:
+            if any(k not in r.cols for r in tried[tc]):
+                continue
+            choice = with_markov(tuple(c for c in top.cols if c != k), tc, w)
+            if choice is not None:
+                out.append(choice)
+        return out
 
     # the likelihood's times: an octave apart, up to _MARKOV_REACH octaves either side of
     # the screen's (which an overshooting IEEE model pulls short by two or three)
@@ -214,7 +234,7 @@ def subset_choice(
                 top, t_top = choice, tc
     if top.criterion < ieee_best.criterion - MARKOV_MARGIN and better(top, best):
         # the rivals: the IEEE models and the term sets tried with the chosen time
-        best = replace(top, rivals=(*judged, *tried[t_top]))
+        best = replace(top, rivals=(*judged, *tried[t_top], *without_each(top, t_top)))
     prob.set_markov(best.markov_tau)
     return best
 
