@@ -448,6 +448,77 @@ def sampling_interval(
     return mean, 1.0 / mean, False
 
 
+#: Stamps lying within this many of their rounding step of a uniform grid (spread ``max -
+#: min`` about the grid of the span over the count, whose two ends are rounded too) are
+#: read as that grid rounded.
+_ROUNDED_SPREAD = 2.05
+#: ... when at least this share of the intervals (and 3) differ from the median one: a
+#: duplicated stamp or a dropped sample is a single irregular interval.
+_ROUNDED_SHARE = 0.005
+#: Samples at a time when the spread of the stamps about the grid is measured.
+_GRID_BLOCK = 1 << 20
+
+
+def _rounded_stamps(
+    t: np.ndarray, dt: np.ndarray, resolution: float, src: str
+) -> AdavarInputError | None:
+    """The error for stamps that are a uniform grid rounded to a coarser step, else None.
+
+    Such stamps (75 Hz written to 0.01 s; 100 Hz to whole seconds; seconds since 1970 as
+    float32 or with 7 digits) have intervals of a few multiples of their rounding ``q`` (0
+    among them when ``q`` is longer than the interval), many of them off the median one,
+    and every stamp lies within about ``q`` of the grid of the span over the count; a real
+    gap moves every later stamp a whole interval off it. Their rate is the span's, but the
+    gap and repeat checks would read them as gaps or duplicates (and a gap policy resample
+    at the most common interval): the error names the rate.
+    """
+    n = t.size
+    span = float(t[-1])
+    way_out = "read the samples as evenly spaced with --time-column none --rate HZ"
+    if n >= 3 and span == 0.0:
+        return fail(
+            f"{src}: every time stamp is the same ({n} samples): they are rounded to a step "
+            f"longer than the record (e.g. seconds since 1970 as float32 or to 7 digits): "
+            f"{way_out}, or write the stamps with more digits"
+        )
+    positive = dt[dt > 0]
+    if n < 3 or span <= 0 or positive.size == 0:
+        return None
+    repeats = dt.size - positive.size
+    if 2 * repeats > dt.size:  # most stamps repeat the one before: not duplicated rows
+        return fail(
+            f"{src}: {repeats} of {dt.size} time stamps repeat the one before: they are "
+            f"rounded to about {float(positive.min()):.4g} s, coarser than the sampling "
+            f"interval (e.g. seconds since 1970 as float32): {way_out}, or write the stamps "
+            "with more digits"
+        )
+    irregular = int(np.count_nonzero(np.abs(dt - np.median(dt)) > 2.0 * resolution))
+    if irregular < max(3, _ROUNDED_SHARE * dt.size):
+        return None
+    q = float(positive.min())
+    interval = span / (n - 1)
+    lo = hi = 0.0
+    for a in range(0, n, _GRID_BLOCK):
+        r = t[a : a + _GRID_BLOCK] - np.arange(a, min(a + _GRID_BLOCK, n)) * interval
+        lo, hi = min(lo, float(r.min())), max(hi, float(r.max()))
+    if hi - lo > _ROUNDED_SPREAD * q + 4.0 * resolution:
+        return None
+    steps = sorted({float(v) for v in np.unique(np.round(dt / q))})[:4]
+    shown = ", ".join(f"{v * q:.4g}" for v in steps)
+    rate = 1.0 / interval
+    for digits in range(1, 7):  # the roundest rate whose grid the stamps fit as well
+        rate = float(f"{1.0 / interval:.{digits}g}")
+        if abs(1.0 / rate - interval) * (n - 1) <= 0.5 * q:
+            break
+    within = 2.0 * q / span / interval  # both ends of the span rounded
+    return fail(
+        f"{src}: the time stamps are rounded to about {q:.4g} s, coarser than their interval "
+        f"(the intervals take the values {shown} s, and every stamp lies within about that "
+        f"of a uniform grid of {interval:.6g} s): {way_out} (the stamps give "
+        f"{rate:g} Hz to within {within:.2g} Hz), or write the stamps with more digits"
+    )
+
+
 def finish_record(
     raw: RawRecord,
     *,
@@ -486,7 +557,12 @@ def finish_record(
     t0 = t0 + float(t[0]) if t0 is not None else None
     t = t - t[0]
     dt = np.diff(t)
+    resolution = float(meta.get("time_resolution", 0.0)) + float(np.spacing(t[-1]))
     back = np.flatnonzero(dt <= 0)
+    if back.size and not np.any(dt < 0):
+        rounded = _rounded_stamps(t, dt, resolution, src)
+        if rounded is not None:
+            raise rounded
     if back.size:
         i = int(back[0])
         what = "repeats" if dt[i] == 0 else "goes back"
@@ -496,7 +572,6 @@ def finish_record(
             + "): sort the rows by time and remove duplicates"
         )
     step = float(np.median(dt))  # robust: gaps and outliers do not move it
-    resolution = float(meta.get("time_resolution", 0.0)) + float(np.spacing(t[-1]))
     interval, found, nominal = sampling_interval(dt, step, tol, resolution)
     if rate is not None:
         if abs(found - rate) > RATE_AGREEMENT * rate:
@@ -513,6 +588,12 @@ def finish_record(
         grid_step = interval
     long_ = np.flatnonzero(dt > (1.0 + tol) * step)
     short = np.flatnonzero(dt < (1.0 - tol) * step)
+    if long_.size or short.size:
+        # stamps rounded coarser than the interval look like gaps (75 Hz written to 0.01 s:
+        # intervals of 0.01 and 0.02 s), and any gap policy would resample at the wrong rate
+        rounded = _rounded_stamps(t, dt, resolution, src)
+        if rounded is not None:
+            raise rounded
     # stamps that jitter: intervals off the median both ways, in numbers (not one stamp
     # out of place), whose short ones make up for at least half of what the long ones add
     # (a gap adds time, nothing takes it back). Receive-time stamps (ROS, serial loggers)
