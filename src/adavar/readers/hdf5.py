@@ -78,10 +78,10 @@ def read_hdf5(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
                     f"({', '.join(f'{k}: {n}' for k, n in lengths.items())}): choose one "
                     "with --dataset PATH"
                 )
-            data = {k: dt64_ns(v[()]) for k, v in members.items()}
+            data = {k: _unpacked(v, v[()], src) for k, v in members.items()}
             names = list(data)
             tab = Table(
-                names, {k: numeric_kind(v.dtype) for k, v in members.items()},
+                names, {k: numeric_kind(data[k].dtype) for k in names},
                 data.__getitem__, next(iter(lengths.values())),
             )  # fmt: skip
             tab.units = {k: _attr_text(v.attrs.get("units")) for k, v in members.items()
@@ -102,7 +102,8 @@ def read_hdf5(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
                 arr = obj[()]
             except (TypeError, ValueError, OSError) as exc:
                 raise fail(f"cannot read dataset {obj.name!r} of {src}: {one_line(exc)}") from None
-            tab = array_table(np.asarray(arr), f"{src}:{obj.name}", obj.name.rsplit("/", 1)[-1])
+            arr = _unpacked(obj, np.asarray(arr), src)
+            tab = array_table(arr, f"{src}:{obj.name}", obj.name.rsplit("/", 1)[-1])
             if obj.attrs.get("units") is not None and len(tab.names) == 1:
                 tab.units = {tab.names[0]: _attr_text(obj.attrs["units"])}
             where = obj.name
@@ -114,6 +115,36 @@ def read_hdf5(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
     return RawRecord(channels, rel, t0, None, "sample", info)
 
 
+def _packing(obj: Any) -> tuple[float, float] | None:
+    """``(scale_factor, add_offset)`` of a dataset stored packed (the CF convention:
+    value = stored * scale_factor + add_offset), or None."""
+    scale, offset = obj.attrs.get("scale_factor"), obj.attrs.get("add_offset")
+    if scale is None and offset is None:
+        return None
+    return (1.0 if scale is None else scale), (0.0 if offset is None else offset)
+
+
+def _unpacked(obj: Any, values: np.ndarray, src: str) -> np.ndarray:
+    """``values`` of dataset ``obj`` unpacked by its ``scale_factor`` and ``add_offset``
+    (float64), as any CF reader does; else as they are (date-times as nanoseconds)."""
+    packing = _packing(obj)
+    if packing is None:
+        return dt64_ns(values)
+    try:
+        scale, offset = (float(np.asarray(v, dtype=float).reshape(-1)[0]) for v in packing)
+    except (TypeError, ValueError, IndexError):
+        raise fail(
+            f"dataset {obj.name!r} of {src} has a scale_factor or add_offset that is not a "
+            "number: fix the attribute, or store the values unpacked"
+        ) from None
+    if obj.dtype.names or numeric_kind(obj.dtype) != "num":
+        raise fail(
+            f"dataset {obj.name!r} of {src} has a scale_factor or add_offset but holds "
+            f"{obj.dtype} values: store numbers, or the values unpacked"
+        )
+    return np.asarray(values, dtype=np.float64) * scale + offset
+
+
 def _lazy_hdf5_ok(obj: Any, opts: dict[str, Any], src: str) -> bool:
     """A plain numeric 1-D/2-D dataset, no time column: readable piece by piece."""
     why = None
@@ -123,6 +154,8 @@ def _lazy_hdf5_ok(obj: Any, opts: dict[str, Any], src: str) -> bool:
         why = f"shape {obj.shape}"
     elif has_time_column(opts):
         why = "a time column needs every time stamp in memory"
+    elif _packing(obj) is not None:
+        why = "its values are packed (scale_factor, add_offset)"
     if why is not None and opts.get("lazy"):
         raise lazy_refused(src, why)
     return why is None

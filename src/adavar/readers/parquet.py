@@ -36,6 +36,7 @@ def _lazy_parquet(path: Path, src: str, opts: dict[str, Any], pa: Any, pq: Any) 
         return None
     kinds = {n: ("num" if ok else "text") for n, ok in numeric.items()}
     tab = Table(list(schema.names), kinds, lambda n: ParquetSource(path, n), int(meta.num_rows))
+    tab.units = _field_units(schema)
     timed = [
         n for n, typ in zip(schema.names, schema.types, strict=True)
         if time_name_unit(n)[0] or pa.types.is_timestamp(typ) or pa.types.is_date(typ)
@@ -95,8 +96,20 @@ def read_parquet(path: Path, src: str, opts: dict[str, Any]) -> RawRecord:
         return col.to_numpy()
 
     tab = Table(list(table.column_names), kinds, get, table.num_rows, None, why_not)
+    tab.units = _field_units(table.schema)
     channels, rel, t0, info = channels_from_table(
         tab, columns=opts["columns"], time_column=opts["time_column"],
         time_format=opts["time_format"], src=src,
     )  # fmt: skip
     return RawRecord(channels, rel, t0, None, "sample", info)
+
+
+def _field_units(schema: Any) -> dict[str, str]:
+    """The ``units`` (or ``unit``) metadata of each field that has one."""
+    out = {}
+    for field in schema:
+        meta = field.metadata or {}
+        value = meta.get(b"units", meta.get(b"unit"))
+        if value:
+            out[field.name] = value.decode("utf-8", "replace")
+    return out

@@ -38,6 +38,10 @@ _MJD_UNIX_EPOCH = 40587.0
 #: The longest median step (in the column's numbers) of a time column of no declared unit
 #: read as seconds: whole seconds 1 apart (1 Hz clocks), with room for jittery stamps.
 _MAX_ASSUMED_STEP = 1.01
+#: Stamps of no declared unit in this range (Modified Julian Days 1968-2077) whose steps
+#: would be faster than this many Hz as seconds are asked for their unit: days, most likely.
+_MJD_RANGE = (40000.0, 80000.0)
+_MJD_RATE = 1e5
 #: Column / field / key names taken for a time column when ``time_column`` is not given.
 _TIME_NAME = re.compile(
     r"^(?:t|time|times|timestamp|timestamps|time_stamp|datetime|date_time|stamp|epoch|utc"
@@ -95,6 +99,25 @@ def time_name_unit(name: str) -> tuple[bool, str | None]:
     return True, unit
 
 
+#: A unit written after a column's name, in brackets or parentheses: ``gx [rad/s]``.
+_UNIT_IN_NAME = re.compile(r"^.*?\S\s*[\[(]\s*(?P<unit>[^\[\]()]+?)\s*[\])]$")
+
+
+def unit_in_name(name: str) -> str | None:
+    """The unit written in a column's name (``gx [rad/s]``, ``ax (m/s^2)``), when adavar
+    knows it as a unit of samples; else None (a free label is no declaration)."""
+    from adavar.core.units import unit_info
+
+    match = _UNIT_IN_NAME.match(name.strip())
+    if match is None:
+        return None
+    try:
+        unit_info(match.group("unit"))
+    except (TypeError, ValueError):
+        return None
+    return match.group("unit")
+
+
 def is_iso(cell: str) -> bool:
     """Whether ``cell`` is an ISO 8601 date-time (starting with a year)."""
     cell = cell.strip()
@@ -147,10 +170,18 @@ def _pick_time(
     candidates = [
         n for n in tab.names if tab.kinds[n] != "text" and time_name_unit(n)[0]
     ]  # fmt: skip
-    if candidates:
-        if candidates[0] in exclude:  # a channel: the stamps would be analysed as data
-            raise _time_column_chosen(candidates[0], src)
-        return candidates[0]
+    free = [n for n in candidates if n not in exclude]
+    if len(free) > 1:  # 'T' (a temperature) beside 'time': no way to tell which
+        names = ", ".join(repr(n) for n in free)
+        raise fail(
+            f"{src} has several columns named like time stamps ({names}): name the time "
+            "column with --time-column NAME (time_column=), or --time-column none and "
+            "--rate HZ"
+        )
+    if free:
+        return free[0]
+    if candidates:  # a channel: the stamps would be analysed as data
+        raise _time_column_chosen(candidates[0], src)
     dated = [n for n in tab.names if n not in exclude and tab.kinds[n] in ("iso", "ns")]
     if len(dated) == 1:
         return dated[0]
@@ -247,6 +278,14 @@ def _check_seconds(values: np.ndarray, first: float, name: str, src: str) -> Non
     if stamps.size < 2:
         return
     step = float(np.median(np.diff(stamps)))
+    if _MJD_RANGE[0] <= first <= _MJD_RANGE[1] and 0 < step < 1.0 / _MJD_RATE:
+        # days since 1858 (MJD) in a column called time: as seconds, megahertz
+        raise fail(
+            f"time column {name!r} of {src} starts at {first:.10g} and steps by {step:.3g}: "
+            f"as seconds that is {1.0 / step:.4g} Hz, as Modified Julian Days "
+            f"{1.0 / (step * 86400.0):.6g} Hz: give its unit with time_format 'mjd' or 's' "
+            f"(--time-format), {named}"
+        )
     if not step > _MAX_ASSUMED_STEP:  # also NaN: stamps going back are reported later
         return
     if stamps.dtype.kind != "f" or np.array_equal(stamps, np.round(stamps)):
@@ -334,8 +373,9 @@ def channels_from_table(
         raise fail(f"a column is named twice in --column ({', '.join(chosen)}): name each once")
     channels = {n: as_channel(tab.get(n), n, src, tab.rows) for n in chosen}
     info: dict[str, Any] = {"columns": list(tab.names), "channels": list(chosen)}
-    if tab.units:
-        info["units"] = {n: tab.units[n] for n in chosen if n in tab.units}
+    units = {n: tab.units.get(n) or unit_in_name(n) for n in chosen}
+    if any(units.values()):
+        info["units"] = {n: u for n, u in units.items() if u}
     if tname is None:
         return channels, None, None, info
     rel, t0, tinfo = _time_from_table(tab, tname, time_format, src)
@@ -397,6 +437,12 @@ def array_table(arr: np.ndarray, src: str, label: str) -> Table:
     if arr.ndim == 1:
         return Table([label], {label: kind}, lambda n: dt64_ns(arr), len(arr))
     if arr.ndim == 2:
+        if arr.shape[0] < arr.shape[1]:  # (7, 20000) read as 7 samples of 20000 channels
+            raise fail(
+                f"{src} holds an array of shape {arr.shape}: fewer rows than columns, so it "
+                "looks stored as channels x samples; adavar reads samples x channels: save "
+                "its transpose (x.T)"
+            )
         names = [str(j) for j in range(arr.shape[1])]
         return Table(
             names, dict.fromkeys(names, kind), lambda n: dt64_ns(arr[:, int(n)]), arr.shape[0]

@@ -1,0 +1,86 @@
+"""Files that used to give a wrong number with exit 0 (an independent audit of the readers):
+two columns named like time, an array stored channels x samples, HDF5 values packed with a
+``scale_factor``, a unit written in a column's name or a Parquet field's metadata, and
+Modified Julian Days in a column called ``time``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from adavar.core.errors import AdavarInputError
+from adavar.readers.dispatch import read_record
+
+from .cli_helpers import run
+
+
+@pytest.fixture
+def samples():
+    return np.random.default_rng(4).standard_normal(20_000) * 0.05
+
+
+def test_two_columns_named_like_time_are_an_error_not_the_first_one(tmp_path, samples):
+    # 'T' (a temperature rising 0.0005 a row) was read as the time: 2000 Hz, silently
+    t = np.arange(samples.size) / 100.0
+    path = tmp_path / "tt.csv"
+    np.savetxt(path, np.c_[20.0 + 0.0005 * np.arange(samples.size), t, samples], delimiter=",",
+               header="T,time,gx", comments="", fmt="%.6f")  # fmt: skip
+    with pytest.raises(AdavarInputError, match=r"several columns named like time stamps"):
+        read_record(path, columns="gx")
+    assert read_record(path, columns="gx", time_column="time").rate == pytest.approx(100.0)
+    assert read_record(path, columns="T").rate == pytest.approx(100.0)  # the other is data
+
+
+def test_an_array_stored_channels_by_samples_is_an_error(tmp_path, samples):
+    path = tmp_path / "wide.npy"
+    np.save(path, np.stack([samples] * 7))  # (7, 20000): was read as 7 samples
+    with pytest.raises(AdavarInputError, match=r"shape \(7, 20000\).*transpose"):
+        read_record(path, columns=1, rate=100.0)
+    np.save(path, np.stack([samples] * 7).T)
+    assert read_record(path, columns=1, rate=100.0).channel().size == samples.size
+
+
+def test_hdf5_values_packed_with_a_scale_factor_are_unpacked(tmp_path, samples):
+    h5py = pytest.importorskip("h5py")
+    path = tmp_path / "packed.h5"
+    with h5py.File(path, "w") as f:
+        d = f.create_dataset("gx", data=np.round(samples / 0.001).astype(np.int16))
+        d.attrs["scale_factor"] = 0.001
+        d.attrs["add_offset"] = 0.25
+        d.attrs["units"] = "deg/s"
+    rec = read_record(path, rate=100.0)
+    want = np.round(samples / 0.001).astype(np.int16) * 0.001 + 0.25
+    np.testing.assert_allclose(rec.channel(), want, rtol=1e-15)
+    with pytest.raises(AdavarInputError, match=r"packed \(scale_factor, add_offset\)"):
+        read_record(path, rate=100.0, lazy=True)
+
+
+def test_a_unit_in_a_column_name_or_a_parquet_field_is_checked(capsys, tmp_path, samples):
+    path = tmp_path / "named.csv"
+    t = np.arange(samples.size) / 100.0
+    np.savetxt(path, np.c_[t, samples], delimiter=",", header="time,gx [rad/s]",
+               comments="", fmt="%.6f")  # fmt: skip
+    code, out, err = run(capsys, ["avar", str(path), "--column", "gx [rad/s]", "--units",
+                                  "deg/s"])  # fmt: skip
+    assert code == 2 and out == "" and "declares channel 'gx [rad/s]' in rad/s" in err
+    code, out, _ = run(capsys, ["avar", str(path), "--column", "gx [rad/s]", "--json"])
+    assert code == 0 and '"rad/s"' in out
+    pa = pytest.importorskip("pyarrow")
+    pq = pytest.importorskip("pyarrow.parquet")
+    field = pa.field("gx", pa.float64(), metadata={"units": "rad/s"})
+    schema = pa.schema([pa.field("time", pa.float64()), field])
+    table = pa.Table.from_arrays([pa.array(t), pa.array(samples)], schema=schema)
+    pq.write_table(table, tmp_path / "f.parquet")
+    code, out, err = run(capsys, ["avar", str(tmp_path / "f.parquet"), "--column", "gx",
+                                  "--units", "deg/s"])  # fmt: skip
+    assert code == 2 and "declares channel 'gx' in rad/s" in err
+
+
+def test_modified_julian_days_in_a_column_called_time_ask_for_their_unit(tmp_path, samples):
+    path = tmp_path / "mjd.csv"
+    days = 60374.5 + np.arange(samples.size) / (100.0 * 86400.0)
+    np.savetxt(path, np.c_[days, samples], delimiter=",", header="time,gx", comments="",
+               fmt=["%.12f", "%.6f"])  # fmt: skip
+    with pytest.raises(AdavarInputError, match=r"as Modified Julian Days 100(\.\d+)? Hz"):
+        read_record(path, columns="gx")
+    assert read_record(path, columns="gx", time_format="mjd").rate == pytest.approx(100.0, rel=1e-4)
