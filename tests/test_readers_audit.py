@@ -84,3 +84,31 @@ def test_modified_julian_days_in_a_column_called_time_ask_for_their_unit(tmp_pat
     with pytest.raises(AdavarInputError, match=r"as Modified Julian Days 100(\.\d+)? Hz"):
         read_record(path, columns="gx")
     assert read_record(path, columns="gx", time_format="mjd").rate == pytest.approx(100.0, rel=1e-4)
+
+
+def test_decimal_commas_without_a_header_are_an_error(tmp_path, samples):
+    path = tmp_path / "dc.txt"
+    path.write_text("\n".join(f"{v:.6f}".replace(".", ",") for v in samples[:2000]) + "\n")
+    with pytest.raises(AdavarInputError, match="decimal commas split in two"):
+        read_record(path, columns=1, rate=100.0)
+    # zero-padded integers are integers
+    padded = tmp_path / "padded.csv"
+    padded.write_text("\n".join(f"{i % 997:04d},{(7 * i) % 991:04d}" for i in range(2000)) + "\n")
+    assert read_record(padded, columns=1, rate=100.0).channel()[3] == 21.0
+
+
+def test_a_header_with_numbers_for_names_is_the_header(tmp_path, samples):
+    # 'time,100,200' was read as a data row (two of three cells numbers): n + 1 samples
+    t = np.arange(samples.size) / 100.0
+    path = tmp_path / "numhdr.csv"
+    np.savetxt(path, np.c_[t, samples, samples[::-1]], delimiter=",", header="time,100,200",
+               comments="", fmt="%.6f")  # fmt: skip
+    rec = read_record(path, columns="100")
+    assert rec.rate == pytest.approx(100.0) and rec.channel().size == samples.size
+    np.testing.assert_array_equal(rec.channel(), np.round(samples, 6))
+    # 'time,2,1': is column '1' the one so named or the second? Neither, silently
+    np.savetxt(path, np.c_[t, samples, samples[::-1]], delimiter=",", header="time,2,1",
+               comments="", fmt="%.6f")  # fmt: skip
+    with pytest.raises(AdavarInputError, match="both a column's name and the index of another"):
+        read_record(path, columns="1")
+    assert read_record(path, columns=1).names == ["2"]

@@ -59,6 +59,13 @@ def resolve(key: str | int, names: Sequence[str], src: str, what: str = "column"
     if isinstance(key, str):
         text = key.strip()
         if text in names:
+            if text.isdigit() and int(text) < len(names) and names[int(text)] != text:
+                # header 'time,2,1': is '1' the column named so, or the second one?
+                raise fail(
+                    f"{what} {key!r} of {src} is both a column's name and the index of "
+                    f"another ({names[int(text)]!r}): rename the columns, or give the "
+                    f"index as a number (columns=[{int(text)}] in Python)"
+                )
             return text
         folded = [n for n in names if n.casefold() == text.casefold()]
         if len(folded) == 1:

@@ -18,7 +18,7 @@ from typing import Any
 
 from adavar.readers.errors import fail
 from adavar.readers.record import RawRecord
-from adavar.readers.table import Table, channels_from_table, is_iso
+from adavar.readers.table import MISSING, Table, channels_from_table, is_iso
 from adavar.readers.textscan import (
     COMMENT_PREFIXES,
     HEAD,
@@ -52,6 +52,46 @@ def _is_data(cells: list[str], decimal: str) -> bool:
     filled = [cell for cell in cells if cell]
     values = sum(1 for cell in filled if _is_value(cell, decimal))
     return values > 0 and 2 * values >= len(filled)
+
+
+_WHOLE = re.compile(r"^[+-]?\d+$")
+
+
+def _split_decimal_commas(sample: list[str]) -> bool:
+    """Whether a comma-separated sample is whole numbers only, the first field of no row
+    with leading zeros and some later field with them (``0,012345``): numbers with decimal
+    commas split in two (zero-padded integers pad every field)."""
+    rows = [[c.strip() for c in line.split(",")] for line in sample if line.strip()]
+    if not rows or not all(_WHOLE.match(c) for row in rows for c in row):
+        return False
+
+    def padded(cell: str) -> bool:
+        digits = cell.lstrip("+-")
+        return len(digits) > 1 and digits.startswith("0")
+
+    # zero-padded integers (0817,0817) pad every field; an integer part is not padded
+    if any(padded(row[0]) for row in rows):
+        return False
+    return any(padded(c) for row in rows for c in row[1:])
+
+
+def _names_a_numeric_column(
+    lines: list[tuple[int, int, str]], delim: str | None, decimal: str, width: int, src: str
+) -> bool:
+    """Whether the file's first line, taken for data (most of its cells are numbers), is
+    the header: a cell that is no value over a column whose next rows all hold values."""
+    if len(lines) < 3:
+        return False
+    first = split(lines[0][2], delim, src, lines[0][0])
+    rows = [split(t, delim, src, n) for n, _, t in lines[1:11]]
+    rows = [r for r in rows if len(r) == width]
+    if len(first) != width or len(rows) < 2:
+        return False
+    return any(
+        cell and cell.casefold() not in MISSING and not _is_value(cell, decimal)
+        and all(_is_value(r[j], decimal) for r in rows)
+        for j, cell in enumerate(first)
+    )  # fmt: skip
 
 
 def _decimal(sample: list[str], delim: str | None) -> str:
@@ -159,6 +199,8 @@ def text_table(path: Path, src: str, *, preamble: bool) -> tuple[Table, dict[str
             raise fail(f"{src} has a header row but no data rows: give a file with samples")
         within = f" in its first {_SEARCHED} lines" if len(lines) > _SEARCHED else ""
         raise fail(f"{src} has no numeric data rows{within}: give a file with one sample per row")
+    if first_data == 0 and _names_a_numeric_column(lines, delim, decimal, width, src):
+        first_data = 1  # 'time,100,200': names, two of them numbers, over numeric columns
     number, offset, text = lines[first_data]
     n_cols = len(split(text, delim, src, number))
     if first_data > 1 and not preamble and n_cols > 1:
@@ -175,6 +217,13 @@ def text_table(path: Path, src: str, *, preamble: bool) -> tuple[Table, dict[str
         elif n_cols > 1 and not preamble:
             raise _header_mismatch(src, before[0], len(head), n_cols, delim)
     has_header = names is not None
+    if delim == "," and not has_header and _split_decimal_commas(scan.tail):
+        raise fail(
+            f"{src}: its comma-separated fields are whole numbers, the first without leading "
+            f"zeros and others with ({scan.tail[-1].strip()!r}): numbers with decimal commas "
+            "split in two: write them with decimal points, or separate the columns with ';' "
+            "or tabs"
+        )
     if names is None:
         names = [str(j) for j in range(n_cols)]
     dupes = sorted({n for n in names if names.count(n) > 1})
