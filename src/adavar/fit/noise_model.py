@@ -252,9 +252,9 @@ def fit_avar(
     if method == "slopes":
         dev = np.sqrt(avar)
         return _unscale_fit(_slopes_fit(tau_a, dev, None, None, terms, units), k)
-    drop, offset = _reference_columns(tau_a, keep, reference, reasons, k)
-    fit = fit_stack(tau, avar, edf, terms, units, n_reweight, spacing=spacing,
-                    reasons=reasons, drop=drop, offset=offset, cells=cells)  # fmt: skip
+    drop, offset, white = _reference_columns(tau_a, keep, reference, reasons, k, terms)
+    fit = fit_stack(tau, avar, edf, terms, units, n_reweight, spacing=spacing, reasons=reasons,
+                    drop=drop, offset=offset, white_rolloff=white, cells=cells)  # fmt: skip
     return _unscale_fit(_with_reference_warning(fit, reference), k)
 
 
@@ -351,17 +351,22 @@ def _with_reference_warning(fit: NoiseFit, reference: NoiseFit | None) -> NoiseF
 
 
 def _reference_columns(
-    tau: np.ndarray, keep: np.ndarray, reference: NoiseFit | None, reasons: list[str], k: int = 0
-) -> tuple[np.ndarray | None, np.ndarray | None]:
+    tau: np.ndarray, keep: np.ndarray, reference: NoiseFit | None, reasons: list[str],
+    k: int = 0, terms: Sequence[str] = TERM_NAMES,
+) -> tuple[np.ndarray | None, np.ndarray | None, float | None]:  # fmt: skip
     """The taus left out (``~keep``, and those below ``reference``'s shortest fitted one)
-    and the variance taken out of every curve (``reference``'s roll-off), for :func:`fit_stack`.
+    and ``reference``'s roll-off, for :func:`fit_stack`.
 
-    Returns ``(drop, offset)``: a boolean mask over ``tau`` (None: nothing left out) and
-    ``rolloff / tau**2`` scaled by ``4**-k`` (:func:`_scaled_avar`; None without a negative
-    roll-off). The fit reads ``where(drop, nan, avar) - offset``, block by block.
+    Returns ``(drop, offset, white_rolloff)``: a boolean mask over ``tau`` (None: nothing
+    left out); the roll-off as the white noise's: ``rolloff / C_-1`` of the reference (s),
+    so that each window's roll-off follows its own white level (a filter attenuates the
+    noise it is given: inside a stretch of doubled noise, a fixed roll-off put N 4-5 % low,
+    an independent audit); or, where the windows fit no white noise term or the reference
+    has none, the fixed ``rolloff / tau**2`` scaled by ``4**-k`` (:func:`_scaled_avar`)
+    taken out of every curve. None where there is no negative roll-off.
     """
     drop = ~np.asarray(keep, dtype=bool)
-    offset = None
+    offset = white = None
     if reference is not None:
         if not isinstance(reference, NoiseFit) or np.ndim(reference.coefficients) != 1:
             raise AdavarInputError("reference must be the NoiseFit of one whole-record curve")
@@ -374,9 +379,12 @@ def _reference_columns(
             reasons[j] = reasons[j] or f"below the whole-record fit's shortest tau {shortest:.3g} s"
         drop = drop | low
         roll = math.ldexp(float(reference.rolloff), -2 * k)
-        if roll < 0:
+        white_ref = math.ldexp(float(reference.coefficients[1]), -2 * k)
+        if roll < 0 and white_ref > 0 and "angle_random_walk" in terms:
+            white = roll / white_ref
+        elif roll < 0:
             offset = roll / tau**2
-    return (drop if drop.any() else None), offset
+    return (drop if drop.any() else None), offset, white
 
 
 def _check_options(
@@ -740,10 +748,10 @@ def fit_noise(
             bandwidth=bandwidth, rolloff=rolloff, markov=markov,
         )  # fmt: skip
     if method == "wls" or record is None:
-        drop, offset = _reference_columns(tau, keep, reference, reasons, k)
+        drop, offset, white = _reference_columns(tau, keep, reference, reasons, k, terms)
         fit = fit_stack(tau, avar, edf, terms, units, n_reweight, spacing=spacing, time=time,
                         reasons=reasons, slopes=slopes, drop=drop, offset=offset,
-                        cells=cells)  # fmt: skip
+                        white_rolloff=white, cells=cells)  # fmt: skip
         return _unscale_fit(_with_reference_warning(fit, reference), k)
     if reference is not None:
         raise AdavarInputError(

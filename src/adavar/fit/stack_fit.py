@@ -176,13 +176,17 @@ def fit_stack(
     slopes: SlopeReadoff | None = None,
     drop: np.ndarray | None = None,
     offset: np.ndarray | None = None,
+    white_rolloff: float | None = None,
     cells: bool = True,
 ) -> NoiseFit:
     """The diagonally weighted fit behind :func:`fit_avar` and :func:`fit_noise`.
 
     ``edf`` is an array broadcastable to ``avar``, an :class:`EdfRows` or None. Each
     curve is fitted to ``where(drop, nan, avar) - offset`` (``drop``: taus left out,
-    ``offset``: a variance per tau taken out). A stack is fitted in blocks of curves
+    ``offset``: a variance per tau taken out). ``white_rolloff`` (s, negative): a roll-off
+    that rides on the white noise's term, whose column is then ``1/tau + white_rolloff /
+    tau^2`` (each curve's roll-off in proportion to its own white level; the coefficients
+    stay the IEEE ones, the roll-off is not among them). A stack is fitted in blocks of curves
     (:data:`BLOCK_VALUES`), the same numbers as at once; ``cells=False`` leaves a stack's
     per-cell ``used`` and ``residuals`` out (None).
     """
@@ -245,7 +249,14 @@ def fit_stack(
     sel = np.array([_term_index(t) for t in terms], dtype=np.int64)
     powers = _POWERS[sel]
     tau_ref = float(np.exp(np.mean(np.log(tau))))
-    phi = np.ascontiguousarray((tau / tau_ref)[:, None] ** powers[None, :])
+    phi = (tau / tau_ref)[:, None] ** powers[None, :]
+    basis = (tau[:, None] ** _POWERS[None, :]).T
+    if white_rolloff is not None and 1 in sel:
+        # C_-1 (1/tau + r/tau^2) = (C_-1/tau_ref) ((tau/tau_ref)^-1 + (r/tau_ref)(tau/tau_ref)^-2)
+        white = int(np.flatnonzero(sel == 1)[0])
+        phi[:, white] += (white_rolloff / tau_ref) * (tau / tau_ref) ** -2
+        basis[1] += white_rolloff / tau**2
+    phi = np.ascontiguousarray(phi)
     sub_idx, sub_size, order = subsets(len(sel))
 
     coefficients = np.empty((n_curves, 5))
@@ -258,7 +269,6 @@ def fit_stack(
     cells = cells or not lead
     used = np.empty((n_curves, n_tau), dtype=bool) if cells else None
     resid = np.empty((n_curves, n_tau)) if cells else None
-    basis = (tau[:, None] ** _POWERS[None, :]).T
     step = block_rows(n_tau, KERNEL_VALUES)
     for a in range(0, n_curves, step):
         b = min(a + step, n_curves)
