@@ -112,3 +112,23 @@ def test_a_header_with_numbers_for_names_is_the_header(tmp_path, samples):
     with pytest.raises(AdavarInputError, match="both a column's name and the index of another"):
         read_record(path, columns="1")
     assert read_record(path, columns=1).names == ["2"]
+
+
+@pytest.mark.parametrize(
+    ("lines", "fragment"),
+    [
+        # a repeated header (files joined): not "column 'gx' is not numeric"
+        (["time,gx", "0.00,1.5", "0.01,2.5", "time,gx", "0.02,1.0", "0.03,0.5"],
+         "row 4 repeats the header"),
+        # quoted decimal commas in a comma-separated file: say so
+        (['"time","gx"', '"0,00","1,5"', '"0,01","2,5"', '"0,02","0,5"'], "decimal commas"),
+        # a time column in a format adavar does not read: not "has no time column"
+        (["time,gx", "03/05/2024 12:00:00.00,1.5", "03/05/2024 12:00:00.01,2.5",
+          "03/05/2024 12:00:00.02,0.5"], "named like time stamps but holds neither"),
+    ],
+)  # fmt: skip
+def test_messages_name_the_real_problem(tmp_path, lines, fragment):
+    path = tmp_path / "m.csv"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(AdavarInputError, match=fragment):
+        read_record(path, columns="gx")

@@ -177,6 +177,15 @@ def _pick_time(
     candidates = [
         n for n in tab.names if tab.kinds[n] != "text" and time_name_unit(n)[0]
     ]  # fmt: skip
+    unread = [n for n in tab.names if tab.kinds[n] == "text" and time_name_unit(n)[0]]
+    if not candidates and unread and unread[0] not in exclude:
+        name = unread[0]
+        raise fail(
+            f"column {name!r} of {src} is named like time stamps but holds neither numbers "
+            f"nor ISO 8601 times ({tab.why_not.get(name, 'text')}): write them as ISO 8601 "
+            "(2024-03-05T12:00:00.01) or as numbers, or read the samples without them: "
+            "--time-column none --rate HZ"
+        )
     free = [n for n in candidates if n not in exclude]
     if len(free) > 1:  # 'T' (a temperature) beside 'time': no way to tell which
         names = ", ".join(repr(n) for n in free)

@@ -198,7 +198,16 @@ def text_table(path: Path, src: str, *, preamble: bool) -> tuple[Table, dict[str
         if len(lines) == 1 and scan.complete:
             raise fail(f"{src} has a header row but no data rows: give a file with samples")
         within = f" in its first {_SEARCHED} lines" if len(lines) > _SEARCHED else ""
-        raise fail(f"{src} has no numeric data rows{within}: give a file with one sample per row")
+        cells = [c.strip().strip('"') for _, _, t in lines[1:50] for c in split(t, delim, src)]
+        why = ""
+        if delim == "," and cells and any(_DECIMAL_COMMA.match(c) for c in cells):
+            why = (
+                " (its quoted numbers have decimal commas, which a comma-separated file does "
+                "not read: write decimal points, or separate the columns with ';' or tabs)"
+            )
+        raise fail(
+            f"{src} has no numeric data rows{within}{why}: give a file with one sample per row"
+        )
     if first_data == 0 and _names_a_numeric_column(lines, delim, decimal, width, src):
         first_data = 1  # 'time,100,200': names, two of them numbers, over numeric columns
     number, offset, text = lines[first_data]
@@ -245,6 +254,11 @@ def text_table(path: Path, src: str, *, preamble: bool) -> tuple[Table, dict[str
             values[name] = column.cells
         elif column.bad is not None:
             row, cell = column.bad
+            if has_header and cell.strip() == name:
+                raise fail(
+                    f"{src}: row {row} repeats the header ({cell.strip()!r} under column "
+                    f"{name!r}; files joined?): remove the repeated header rows"
+                )
             hint = cell_hint(cell, decimal == ",", delim == ",")
             why_not[name] = f"row {row}: {cell!r}" + (f"; {hint}" if hint else "")
             bad[name] = column.bad
