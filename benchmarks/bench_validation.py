@@ -23,11 +23,15 @@ records each; the whole-record OADEV at octave taus is fitted by the default
 and with its doubt in it (``fit_noise(uncertainty=...)``): the pulls of the terms the record
 has, and of those it has not, at 1 and 3 hours at 100 Hz.
 
+``windows``: the per-window N and K of ``davar`` + ``fit_noise`` against the truth, on
+stationary mixes (white, rate random walk, a filter and rounding) and on a stretch of
+doubled noise behind a filter.
+
 ``events``: the adaptive window (``adaptive_davar`` defaults, the CLI's) and ICI on
 stationary records (false events per hour, heavy tails included) and on records with a
 change (step, burst, ramp, spike, long-tau changes): detection rate and start/end errors.
 
-Run: ``python benchmarks/bench_validation.py [--part fit|selection|events|all] [--seeds 40]
+Run: ``python benchmarks/bench_validation.py [--part fit|selection|windows|events|all] [--seeds 40]
 [--quick]``. ``--quick`` is the matrix of ``tests/test_validation.py``.
 """
 
@@ -48,7 +52,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _machine import describe  # noqa: E402
 
 import adavar  # noqa: E402
-from tests.independent_noise import MIXES, record  # noqa: E402
+from tests.independent_noise import MIXES, changing, low_pass, record  # noqa: E402
 
 LETTERS = {"N": "angle_random_walk", "B": "bias_instability", "K": "rate_random_walk"}
 #: (seconds, rate Hz) cells of the fit matrix: every length at 100 Hz, the extreme rates
@@ -213,6 +217,80 @@ def run_selection(seeds: int, quick: bool) -> None:
                 print(f"  {rule:11s} " + "; ".join(parts))
 
 
+#: the stationary mixes of the window part: (label, record() mix)
+WINDOW_MIXES = [
+    ("white", dict(N=1e-3)),
+    ("white + RRW (crossover 5 s)", dict(N=1e-3, K=math.sqrt(3) * 1e-3 / 5)),
+    ("filtered + quantised", dict(N=1e-3, bandwidth=0.2, lsb=0.25)),
+    ("filtered + quantised + RRW (1 s)", dict(N=1e-3, K=math.sqrt(3) * 1e-3, bandwidth=0.2,
+                                              lsb=0.25)),
+]  # fmt: skip
+
+
+def _window_pulls(fit, truth_n, truth_k, keep) -> dict:
+    out = {}
+    for letter, term, true in (
+        ("N", fit.angle_random_walk, truth_n),
+        ("K", fit.rate_random_walk, truth_k),
+    ):
+        if not np.any(true):
+            continue
+        v, u = np.asarray(term.value)[keep], np.asarray(term.uncertainty)[keep]
+        t = np.broadcast_to(true, np.shape(keep))[keep]
+        ok = (v > 0) & (u > 0)
+        out[letter] = (v / t, ((v - t) / u)[ok], float(np.mean(~ok)))
+    return out
+
+
+def run_windows(seeds: int, quick: bool) -> None:
+    """Per-window N and K of ``davar`` + ``fit_noise`` (the commands' defaults) against the
+    truth: stationary mixes, and N x2 for 10 minutes behind a filter (inside / outside)."""
+    rate, seconds = 100.0, 3600.0
+    windows = (300.0,) if quick else (60.0, 300.0)
+    print(f"\nwindow fits, {seeds} records of 1 h at 100 Hz a row, a window every 10 s: N and "
+          "K mean / truth, pull mean and sd ((estimate - truth) / uncertainty, windows "
+          "where the term is in the model; 'zero': share of windows without it)")  # fmt: skip
+    rows = []
+    for label, mix in WINDOW_MIXES:
+        for w in windows:
+            acc: dict = {}
+            for seed in range(seeds):
+                x, truth = record(mix, seconds, rate, seed=30_000 + seed)
+                s = adavar.davar(x, rate=rate, window=int(w * rate), step=1000, taus="octave")
+                fit = adavar.fit_noise(s)
+                keep = np.ones(np.shape(fit.chi2), dtype=bool)
+                for k, v in _window_pulls(fit, truth.N, truth.K, keep).items():
+                    acc.setdefault(k, []).append(v)
+            rows.append((label, w, acc))
+    for w in windows:  # a stretch of doubled noise behind a filter
+        acc_in: dict = {}
+        acc_out: dict = {}
+        for seed in range(seeds):
+            x, change = changing("step", seconds, rate, 30_000 + seed, N=1e-3, at=1500.0,
+                                 length=600.0, factor=2.0)  # fmt: skip
+            x = low_pass(x, 0.1 * rate, rate)
+            s = adavar.davar(x, rate=rate, window=int(w * rate), step=1000, taus="octave")
+            fit = adavar.fit_noise(s)
+            c = np.asarray(s.centre) / rate
+            inside = (c - w / 2 >= 1500.0) & (c + w / 2 < 2100.0)
+            outside = (c + w / 2 < 1500.0) | (c - w / 2 >= 2100.0)
+            level = 1e-3 * change.level[np.asarray(s.centre)]
+            for where, acc in ((inside, acc_in), (outside, acc_out)):
+                for k, v in _window_pulls(fit, level, 0.0, where).items():
+                    acc.setdefault(k, []).append(v)
+        rows.append(("filtered, N x2 stretch: inside", w, acc_in))
+        rows.append(("filtered, N x2 stretch: outside", w, acc_out))
+    for label, w, acc in rows:
+        parts = []
+        for letter, vals in acc.items():
+            ratio = np.concatenate([v[0] for v in vals])
+            pulls = np.concatenate([v[1] for v in vals])
+            zero = np.mean([v[2] for v in vals])
+            parts.append(f"{letter} {np.mean(ratio[ratio > 0]):.3f} pull {np.mean(pulls):+.2f} "
+                         f"sd {np.std(pulls):.2f} zero {zero:.2f}")  # fmt: skip
+        print(f"  {label:36s} {w:4.0f} s  " + " | ".join(parts))
+
+
 #: (kind, seconds, rate): the records with a change, and the stationary ones
 CHANGES = [("step", 3600, 100.0), ("burst", 3600, 100.0), ("ramp", 3600, 100.0),
            ("spike", 3600, 100.0), ("step", 6000, 1.0), ("rrw", 6 * 3600, 10.0),
@@ -294,7 +372,8 @@ def run_events(seeds: int, quick: bool) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--part", choices=("fit", "selection", "events", "all"), default="all")
+    parser.add_argument("--part", choices=("fit", "selection", "windows", "events", "all"),
+                        default="all")  # fmt: skip
     parser.add_argument("--seeds", type=int, default=40)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--mixes", nargs="*", choices=list(MIXES), help="the fit's mixes (all)")
@@ -304,6 +383,8 @@ def main() -> None:
         run_fit(args.seeds, args.quick, args.mixes)
     if args.part in ("selection", "all"):
         run_selection(args.seeds, args.quick)
+    if args.part in ("windows", "all"):
+        run_windows(args.seeds, args.quick)
     if args.part in ("events", "all"):
         run_events(args.seeds, args.quick)
 
