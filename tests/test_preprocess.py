@@ -332,3 +332,23 @@ def test_preprocess_errors_name_the_step():
     # min_samples can be relaxed
     y, _, _ = preprocess(x, rate=10.0, steps=["decimate:500"], min_samples=2)
     assert y.shape == (2,)
+
+
+def test_keep_decimation_of_rate_data_says_what_it_does_to_n(capsys, tmp_path):
+    # decimate:10 keeps 1 sample of 10 (the paper's step): N reads sqrt(10) times the
+    # record's, which the output now says; averaging, or phase data, alias nothing
+
+    from .cli_helpers import run
+
+    path = tmp_path / "w.npy"
+    np.save(path, np.random.default_rng(2).standard_normal(60_000) * 1e-2)
+    base = ["avar", str(path), "--rate", "100", "--units", "deg/s"]
+    code, out, _ = run(capsys, [*base, "--preprocess", "decimate:10", "--json"])
+    notes = json.loads(out)["input"]["preprocessing_notes"]
+    assert code == 0 and len(notes) == 1 and "sqrt(10) = 3.16 times" in notes[0]
+    code, out, _ = run(capsys, [*base, "--preprocess", "decimate:10"])
+    assert "note: decimate:10:keep kept 1 rate sample of 10" in out
+    for extra in (["--preprocess", "decimate:10:average"],
+                  ["--preprocess", "decimate:10", "--data-type", "phase"]):  # fmt: skip
+        code, out, _ = run(capsys, [*base, *extra, "--json"])
+        assert code == 0 and "preprocessing_notes" not in json.loads(out)["input"]

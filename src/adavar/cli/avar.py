@@ -87,6 +87,8 @@ def _cmd_avar(args: argparse.Namespace) -> int:
         payload.setdefault("input", {})["preprocessing"] = [
             step.get("spec", str(step)) for step in meta["preprocessing"]
         ]
+        if meta.get("preprocessing_notes"):
+            payload["input"]["preprocessing_notes"] = list(meta["preprocessing_notes"])
     text = dumps(payload)
 
     written: list[str] = []
@@ -196,7 +198,7 @@ def _avar_channel(
         + f", {100 * result.confidence:.1f} % confidence intervals",
         deviation_table(result),
     ]
-    lines += [f"note: {note}" for note in result.notes]
+    lines += [f"note: {note}" for note in (*meta.get("preprocessing_notes", ()), *result.notes)]
     if result.dev.size and not np.any(result.dev):  # a constant column (no full pass)
         lines.append(f"note: column {meta['column']!r} is constant: its deviation is 0")
     if fit is not None:

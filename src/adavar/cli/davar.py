@@ -178,7 +178,7 @@ def _davar_summary(
         lines.append(threshold_line(result.parameters))
     if meta.get("resolution"):
         lines.append(meta["resolution"])
-    lines += [f"note: {note}" for note in result.notes]
+    lines += [f"note: {note}" for note in (*meta.get("preprocessing_notes", ()), *result.notes)]
     if fit is None and meta.get("stat", "oavar") != "oavar":
         lines.append(f"({NO_FIT})")
     elif fit is None:
@@ -373,6 +373,8 @@ def _run_davar(args: argparse.Namespace, adaptive: bool, fmt: str) -> int:
             payload["input"]["preprocessing"] = [
                 step.get("spec", str(step)) for step in meta["preprocessing"]
             ]
+            if meta.get("preprocessing_notes"):
+                payload["input"]["preprocessing_notes"] = list(meta["preprocessing_notes"])
         text = dumps(payload)
         written = [f"{folders[name]}/" for name in names] + ["result.json"]
     else:
@@ -481,6 +483,8 @@ def _davar_channel(
         payload["input"]["preprocessing"] = [
             step.get("spec", str(step)) for step in meta["preprocessing"]
         ]
+        if meta.get("preprocessing_notes"):
+            payload["input"]["preprocessing_notes"] = list(meta["preprocessing_notes"])
     payload["parameters"]["resolution"] = meta.get("resolution")
     if adaptive:
         payload["parameters"]["controller"] = result.parameters

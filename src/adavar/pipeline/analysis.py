@@ -42,6 +42,7 @@ __all__ = [
     "AnalysisRun",
     "ChannelAnalysis",
     "LoadedInput",
+    "aliasing_notes",
     "analyse_channel",
     "controller_settings",
     "fit_keywords",
@@ -197,6 +198,7 @@ def read_input(
         "path": str(record.file), "column": name, "kind": read.kind,
         "rate_from": "declared" if declared is not None else "time stamps",
         "reader": read.meta, "preprocessing": steps, "columns": list(read.names),
+        "preprocessing_notes": aliasing_notes(steps, data_type),
         "pieces": None if not split else [
             [float(read.time[sl.start]), float(read.time[sl.stop - 1])]
             for sl in read.segments
@@ -685,6 +687,22 @@ def surface_shape(surface: Any) -> dict[str, Any] | None:
         (windows, taus), result = np.shape(surface.avar), surface
     return {"windows": int(windows), "taus": int(taus),
             "method": getattr(result, "method", "fixed")}  # fmt: skip
+
+
+def aliasing_notes(steps: list[dict[str, Any]], data_type: str) -> list[str]:
+    """A line for each ``decimate:K`` step that kept 1 sample of ``K`` of rate data: white
+    rate noise aliases, and its coefficient N reads ``sqrt(K)`` times the record's."""
+    out = []
+    for step in steps:
+        p = step.get("parameters", {})
+        if step.get("name") == "decimate" and p.get("method") == "keep" and data_type == "rate":
+            k = int(p["factor"])
+            out.append(
+                f"{step['spec']} kept 1 rate sample of {k} (the paper's step): white rate "
+                f"noise aliases, so N (and the short taus) read sqrt({k}) = {k**0.5:.3g} times "
+                f"the record's; decimate:{k}:average keeps them"
+            )
+    return out
 
 
 def controller_settings(args: Any) -> dict[str, Any]:
