@@ -145,6 +145,10 @@ def test_kalibr_yaml_from_a_ros2_bag(capsys, tmp_path):
     assert float(fields["update_rate"]) == pytest.approx(rate)
     assert fields["rostopic"].strip() == "/imu0"
     assert values  # the per-axis values are reported too
+    # which values are bounds, not fits, is said in both (an audit found it said nowhere)
+    assert set(values["bounds"]) == {"gyroscope_random_walk", "accelerometer_random_walk"}
+    assert all(len(labels) == 3 for labels in values["bounds"].values())
+    assert "# Upper bounds, not fitted values: gyroscope_random_walk of " in text
     code, _, err = run(capsys, ["kalibr", str(bag), "-o", str(out)])
     assert code == 2 and "--force" in err
 

@@ -165,12 +165,13 @@ def test_no_event_time_lies_outside_the_record():
     duration = t0 + 100.0
     events = find_events(window, centre, time, 1000, 0.01, {"angle_random_walk": n}, t0=t0,
                          duration=duration)  # fmt: skip
-    assert len(events) == 2
+    assert len(events) == 1
     for event in events:
         for when in (event.start_s, event.end_s):
             assert when is None or t0 <= when <= duration, (event.start_s, event.end_s)
-    # the lead in the extension (107.9 s before 0.3) is put at the record's end
-    assert events[-1].start_s == duration and events[-1].end_s is None
+    # the lead in the extension (107.9 s before 0.3, then put at the record's end) is no
+    # event: no sample there is new
+    assert events[0].start_s < duration
 
 
 def test_a_white_record_gives_no_event_after_its_end():
@@ -183,10 +184,15 @@ def test_a_white_record_gives_no_event_after_its_end():
             assert when is None or 0.0 <= when <= 1800.0, (event.start_s, event.end_s)
 
 
-def test_the_live_tracker_puts_a_lead_past_the_end_at_the_end():
+def test_the_live_tracker_drops_a_lead_past_the_end():
     from adavar.dynamic.events import EventTracker
 
     tracker = EventTracker(100, 0.1, lambda low, high, names=None: {}, level=None, t0=0.0)
     tracker.start(60.0)  # a lead in the extension of a record that ends at 50 s
+    assert tracker.advance(np.inf, final=True, end_of_record=50.0) == []
+    # a lead inside the record and a trail past its end: the trail is put at the end
+    tracker = EventTracker(100, 0.1, lambda low, high, names=None: {}, level=None, t0=0.0)
+    tracker.start(40.0)
+    tracker.end(55.0)
     (event,) = tracker.advance(np.inf, final=True, end_of_record=50.0)
-    assert (event.start_s, event.end_s) == (50.0, None)
+    assert event.start_s == 40.0 and event.end_s == 50.0

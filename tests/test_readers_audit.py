@@ -5,6 +5,8 @@ Modified Julian Days in a column called ``time``."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 
@@ -132,3 +134,21 @@ def test_messages_name_the_real_problem(tmp_path, lines, fragment):
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(AdavarInputError, match=fragment):
         read_record(path, columns="gx")
+
+
+def test_a_split_piece_says_where_its_times_start(capsys, tmp_path):
+    # --gaps split: the second piece's warning gave times from its own start (485 s for a
+    # change at 1495 s in the file) without saying so
+    rng = np.random.default_rng(5)
+    t = np.arange(300_000) / 100.0
+    x = rng.standard_normal(t.size) * np.where((t > 1500) & (t < 2100), 2.0, 1.0)
+    keep = ~((t >= 1000) & (t < 1010))
+    path = tmp_path / "gap.csv"
+    np.savetxt(path, np.c_[t[keep], x[keep]], delimiter=",", header="time,gx", comments="",
+               fmt=["%.2f", "%.6f"])  # fmt: skip
+    code, out, err = run(capsys, ["avar", str(path), "--column", "gx", "--units", "deg/s",
+                                  "--gaps", "split", "--json"])  # fmt: skip
+    assert code == 0, err
+    pieces = json.loads(out)["channels"]
+    assert pieces["gx piece 2"]["input"]["piece_start_s"] == pytest.approx(1010.0)
+    assert "(times from its first sample, 1010 s after the file's first)" in err

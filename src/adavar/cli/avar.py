@@ -157,6 +157,16 @@ def _check_columns(args: argparse.Namespace, columns: list[str]) -> None:
     )
 
 
+def _piece_start(meta: dict[str, Any]) -> float | None:
+    """The time (s after the file's first stamp) of the first sample of the ``--gaps
+    split`` piece that ``meta['column']`` names ("gx piece 2"), else None."""
+    pieces = meta.get("pieces")
+    name, _, k = str(meta["column"]).rpartition(" piece ")
+    if not pieces or not name or not k.isdigit() or not 1 <= int(k) <= len(pieces):
+        return None
+    return float(pieces[int(k) - 1][0])
+
+
 def _avar_channel(
     args: argparse.Namespace, analysis: Any, meta: dict[str, Any], tau0: float, do_fit: bool,
 ) -> dict[str, Any]:  # fmt: skip
@@ -180,10 +190,18 @@ def _avar_channel(
         "units": deviation_unit(args.stat, rate_u),
         **deviation_json(result),
     }
+    start = _piece_start(meta)
+    if start is not None:  # a piece of --gaps split: its times count from its first sample
+        payload["input"]["piece_start_s"] = start
     # not stationary: a warning, not an error (the exit code stays)
     payload["warnings"] = list(result.warnings)
+    origin = (
+        ""
+        if start is None
+        else f" (times from its first sample, {start:.6g} s after the file's first)"
+    )
     for text in result.warnings:
-        warn(f"column {meta['column']!r}: {text}")
+        warn(f"column {meta['column']!r}{origin}: {text}")
     if fit is not None:
         payload["fit"] = fit_json(fit)
     power_law, power_law_note = _power_law(args, result, units, do_fit)

@@ -205,6 +205,11 @@ def add_batch_parser(sub: Any, report: argparse.ArgumentParser) -> argparse.Argu
     # the analysis options are those of adavar report (the same objects: they cannot drift)
     bat.copy_options(report, skip=("help", "file", "output", "json", "force", "title",
                                    "debug", "config"))  # fmt: skip
+    column = bat.option("--column")
+    if column is not None:  # a report takes several, a batch one per file
+        column.metavar = "NAME"
+        column.help = ("header name or 0-based index of the channel, the same in every file "
+                       "(one: run one batch per column)")  # fmt: skip
     bat.add_argument("--out", metavar="DIR", required=True,
                      help="output folder (created; an earlier batch's folder is reused and "
                      "its finished files skipped)")  # fmt: skip

@@ -426,14 +426,18 @@ class EventTracker:
         """The events decided once every window up to ``horizon`` (s) is known.
 
         ``final``: the record has ended (at ``end_of_record``, s): every episode is
-        decided, an open stretch lasts to the end, every summary is made final. A lead
-        past ``end_of_record`` (a window whose leading edge reached into the mirrored
-        extension, where no sample is new) is put at the end of the record.
+        decided, an open stretch lasts to the end, every summary is made final. An
+        episode whose lead lies at or past ``end_of_record`` is dropped: its windows
+        shortened when their leading edge was already in the mirrored extension, where no
+        sample is new (on stationary records, zero-length events at the record's end,
+        an independent audit); other times past the end are put at the end.
         """
         new: list[Event] = []
         if final and end_of_record is not None:
+            end = float(end_of_record)
+            self._pending = [e for e in self._pending if e.lead < end]
             for episode in self._pending:
-                episode.clip(float(end_of_record))
+                episode.clip(end)
         while self._pending:
             episode = self._pending[0]
             following = self._pending[1].lead if len(self._pending) > 1 else None

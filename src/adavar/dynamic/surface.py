@@ -287,8 +287,14 @@ def davar(
         integral (angle, velocity, time error). Phase input is differenced first; windows,
         centres and lengths then count its first differences.
     taus : {"all", "octave", "decade", "log"} or sequence of float
-        Averaging times. ``"all"`` (the paper): ``m = 1 .. floor(Lmax / 3)``. Taus beyond a
-        third of a window are NaN for that window.
+        Averaging times. ``"all"`` (the paper, the default here): ``m = 1 .. floor(Lmax /
+        3)``. Taus beyond a third of a window are NaN for that window. The ``davar``
+        command chooses ``taus`` and ``step`` when they are not given (``"all"`` up to 200
+        taus, else ``"log"``; every centre while the surface fits ``--max-memory``, 200 MB,
+        else every ``step``-th: :func:`adavar.dynamic.window_defaults.surface_resolution`); here
+        the defaults are every tau and every centre, and a surface beyond the free memory
+        is an error that says so: give ``taus="log"`` or ``"octave"`` and a ``step`` for
+        long windows.
     edges : {"mirror", "valid"}
         ``"mirror"`` (docs/method.md section 6, the paper): every ``step``-th sample is a centre
         and windows at the ends run into the time-reversed record; ``"valid"``: only

@@ -394,8 +394,11 @@ def _as_names(names: Any, what: str) -> list[str] | None:
 
 
 def _axis_values(
-    fits: list[Any], term: str, unit: str, what: str, pinned: str, names: list[str] | None
-) -> list[float]:
+    fits: list[Any], term: str, unit: str, what: str, pinned: str, names: list[str] | None,
+    bounds: list[str] | None = None,
+) -> list[float]:  # fmt: skip
+    """The per-axis values of ``term`` in Kalibr's unit; the label of each axis whose value
+    is an upper bound (the fit pinned the term at 0, ``pinned``) is appended to ``bounds``."""
     sensor = rate_unit_info(unit).sensor
     target, _ = _KALIBR_TARGET[(sensor, term)]
     symbol = LETTERS[term]
@@ -427,8 +430,12 @@ def _axis_values(
                 has_upper = math.isfinite(up) and up > 0
                 if pinned == "bound" and has_upper:
                     v = up
+                    if bounds is not None:
+                        bounds.append(label)
                 elif pinned == "sigma" and bound:
                     v = u
+                    if bounds is not None:
+                        bounds.append(label)
                 elif pinned == "bound" and bound:
                     raise _fail(
                         f"the {what} fit of {label} has no {term} ({symbol} = {v:g}) and only "
@@ -478,8 +485,9 @@ def kalibr_values(
     dict
         ``accelerometer_noise_density``, ``accelerometer_random_walk``,
         ``gyroscope_noise_density``, ``gyroscope_random_walk`` (floats in Kalibr's units,
-        combined over the axes and multiplied by ``inflate``) and ``axes``: the same four
-        keys -> list of per-axis values before combination and inflation.
+        combined over the axes and multiplied by ``inflate``), ``axes``: the same four
+        keys -> list of per-axis values before combination and inflation, and ``bounds``:
+        those keys -> the axes whose value is an upper bound (``pinned``), where any is.
     """
     if combine not in _COMBINE:
         raise _fail(f"unknown combine {combine!r}: use 'max' (conservative) or 'mean'")
@@ -496,23 +504,29 @@ def kalibr_values(
     a_names = _as_names(accel_names, "accel")
     g_unit = _fit_unit(gyros, gyro_units, "gyro", "gyro", "rad/s")
     a_unit = _fit_unit(accels, accel_units, "accel", "accelerometer", "m/s^2")
+    bounds: dict[str, list[str]] = {key: [] for key in KALIBR_KEYS[:4]}
     axes = {
         "accelerometer_noise_density": _axis_values(
-            accels, "angle_random_walk", a_unit, "accel", pinned, a_names
+            accels, "angle_random_walk", a_unit, "accel", pinned, a_names,
+            bounds["accelerometer_noise_density"],
         ),
         "accelerometer_random_walk": _axis_values(
-            accels, "rate_random_walk", a_unit, "accel", pinned, a_names
+            accels, "rate_random_walk", a_unit, "accel", pinned, a_names,
+            bounds["accelerometer_random_walk"],
         ),
         "gyroscope_noise_density": _axis_values(
-            gyros, "angle_random_walk", g_unit, "gyro", pinned, g_names
+            gyros, "angle_random_walk", g_unit, "gyro", pinned, g_names,
+            bounds["gyroscope_noise_density"],
         ),
         "gyroscope_random_walk": _axis_values(
-            gyros, "rate_random_walk", g_unit, "gyro", pinned, g_names
+            gyros, "rate_random_walk", g_unit, "gyro", pinned, g_names,
+            bounds["gyroscope_random_walk"],
         ),
-    }
+    }  # fmt: skip
     reduce = max if combine == "max" else (lambda v: math.fsum(v) / len(v))
     out: dict[str, Any] = {key: reduce(vals) * inflate for key, vals in axes.items()}
     out["axes"] = axes
+    out["bounds"] = {key: labels for key, labels in bounds.items() if labels}
     out["gyro_units"] = g_unit
     out["accel_units"] = a_unit
     return out
@@ -678,6 +692,8 @@ def kalibr_imu_yaml(
         lines.append("#   (99 % unless set otherwise) is used.")
     elif pinned == "sigma":
         lines.append("# Where a fit pinned N or K at 0, its 84 % (1-sigma) upper bound is used.")
+    for key, labels in values["bounds"].items():
+        lines.append(f"# Upper bounds, not fitted values: {key} of {', '.join(labels)}.")
     topic_text = topic if _TOPIC.match(topic) else json.dumps(topic)
     rate_text = repr(rate) if "e" not in repr(rate) else _yaml_float(rate)
     comments = {
