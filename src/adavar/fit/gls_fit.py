@@ -202,7 +202,7 @@ def fit_curve(
     markov: str = "auto",
     bound_z: float = 2.3263478740408408,
     excess: float = 0.0,
-    uncertainty: str = "conditional",
+    uncertainty: str = FitSettings.uncertainty,
 ) -> GlsOutcome:
     """Fit one curve (see the module docstring).
 
