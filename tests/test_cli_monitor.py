@@ -45,6 +45,10 @@ def parse(out: str) -> list[dict]:
     for k, obj in enumerate(lines):
         assert obj.pop("event") == k
         assert obj.pop("units") == "deg/s"
+        # the levels' own units (an audit: N in deg/sqrt(s) under "units": "deg/s")
+        units = obj.pop("coefficient_units")
+        assert units["angle_random_walk"] == "deg/sqrt(s)"
+        assert units["rate_random_walk"] == "deg/s/sqrt(s)"
         obj.pop("final")
         assert obj.pop("lost_datagrams", 0) == obj.pop("bad_datagrams", 0) == 0  # UDP only
     return lines
@@ -273,7 +277,7 @@ def test_same_events_as_adaptive(tmp_path, capsys):
     assert code == 0, err
     printed = [json.loads(line) for line in out.splitlines()]
     for obj in printed:
-        del obj["event"], obj["units"], obj["final"]
+        del obj["event"], obj["units"], obj["final"], obj["coefficient_units"]
     assert printed == offline and offline
 
 
@@ -297,7 +301,7 @@ def test_ici_stdin_same_events_as_adaptive(tmp_path, capsys, monkeypatch):
     assert code == 0, err
     printed = [json.loads(line) for line in out.splitlines()]
     for obj in printed:
-        del obj["event"], obj["units"], obj["final"]
+        del obj["event"], obj["units"], obj["final"], obj["coefficient_units"]
     assert printed == offline and len(offline) == 1
     monkeypatch.setattr(sys, "stdin", io.StringIO("1\n"))
     assert_one_line_error(*run(capsys, ["monitor", "-", *flags, "--ici-edf", "engine"]),

@@ -106,7 +106,7 @@ def finished(proc: subprocess.Popen, out: Lines, err: Lines) -> tuple[list[dict]
     summary = printed.pop()["summary"]
     for k, obj in enumerate(printed):
         assert obj.pop("event") == k and obj.pop("final") is True
-        del obj["units"]
+        del obj["units"], obj["coefficient_units"]
     return printed, summary
 
 

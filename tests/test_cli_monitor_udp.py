@@ -69,5 +69,12 @@ def test_ten_thousand_datagrams_a_second_on_one_core():
     live.push(data.astype(float))
     live.finish()
     for obj in lines:
-        del obj["event"], obj["units"], obj["final"], obj["lost_datagrams"], obj["bad_datagrams"]
+        del (
+            obj["event"],
+            obj["units"],
+            obj["final"],
+            obj["coefficient_units"],
+            obj["lost_datagrams"],
+            obj["bad_datagrams"],
+        )
     assert lines == [e.as_dict() for e in live.events]

@@ -115,7 +115,7 @@ def test_a_filters_rolloff_follows_each_windows_white_level():
     # (an independent audit); riding on each window's white term, as outside the stretch
     from tests.independent_noise import changing, low_pass
 
-    x, truth = changing("step", 3600, 100.0, 5, N=1e-3, at=1500.0, length=600.0, factor=2.0)
+    x, _ = changing("step", 3600, 100.0, 5, N=1e-3, at=1500.0, length=600.0, factor=2.0)
     x = low_pass(x, 10.0, 100.0)
     surface = adavar.davar(x, rate=100.0, window=30_000, step=1_500, taus="octave")
     fit = fit_noise(surface)

@@ -335,7 +335,12 @@ class _Stop:
 
 
 def _event_line(live: Any, index: int, units: str, final: bool, extra: dict) -> str:
-    obj = {"event": index, **live.events[index].as_dict(), "units": units, "final": final}
+    from adavar.core.terms import TERM_NAMES
+    from adavar.core.units import term_unit
+
+    obj = {"event": index, **live.events[index].as_dict(), "units": units, "final": final,
+           # "units" is the samples'; the levels before/during/after are the terms'
+           "coefficient_units": {t: term_unit(t, units) for t in TERM_NAMES}}  # fmt: skip
     return json.dumps({**obj, **extra})
 
 
