@@ -31,6 +31,9 @@ def test_stamps_rounded_to_a_step_shorter_than_two_intervals_name_the_rate(tmp_p
     with pytest.raises(AdavarInputError, match=r"rounded to about 0\.01 s") as err:
         read_record(path, columns="gx", gaps=gaps)
     assert "--time-column none --rate HZ (the stamps give 75 Hz" in str(err.value)
+    # a declared rate is not "contradicted by the median interval" (100 Hz): same message
+    with pytest.raises(AdavarInputError, match=r"rounded to about 0\.01 s"):
+        read_record(path, columns="gx", gaps=gaps, rate=75.0)
 
 
 def test_stamps_rounded_to_whole_seconds_are_not_duplicates(tmp_path, samples):

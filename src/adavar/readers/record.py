@@ -572,6 +572,15 @@ def finish_record(
             + "): sort the rows by time and remove duplicates"
         )
     step = float(np.median(dt))  # robust: gaps and outliers do not move it
+    long_ = np.flatnonzero(dt > (1.0 + tol) * step)
+    short = np.flatnonzero(dt < (1.0 - tol) * step)
+    if long_.size or short.size:
+        # stamps rounded coarser than the interval look like gaps (75 Hz written to 0.01 s:
+        # intervals of 0.01 and 0.02 s), and any gap policy would resample at the wrong rate
+        # (checked before a declared rate, which the median interval would contradict)
+        rounded = _rounded_stamps(t, dt, resolution, src)
+        if rounded is not None:
+            raise rounded
     interval, found, nominal = sampling_interval(dt, step, tol, resolution)
     if rate is not None:
         if abs(found - rate) > RATE_AGREEMENT * rate:
@@ -586,14 +595,6 @@ def finish_record(
         rate = found
         meta["rate_source"] = _NOMINAL if nominal else _MEAN
         grid_step = interval
-    long_ = np.flatnonzero(dt > (1.0 + tol) * step)
-    short = np.flatnonzero(dt < (1.0 - tol) * step)
-    if long_.size or short.size:
-        # stamps rounded coarser than the interval look like gaps (75 Hz written to 0.01 s:
-        # intervals of 0.01 and 0.02 s), and any gap policy would resample at the wrong rate
-        rounded = _rounded_stamps(t, dt, resolution, src)
-        if rounded is not None:
-            raise rounded
     # stamps that jitter: intervals off the median both ways, in numbers (not one stamp
     # out of place), whose short ones make up for at least half of what the long ones add
     # (a gap adds time, nothing takes it back). Receive-time stamps (ROS, serial loggers)
