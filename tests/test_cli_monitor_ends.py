@@ -106,6 +106,34 @@ def test_wrongly_sized_datagram_is_dropped_and_counted(stream, capsys):
     assert f"udp://127.0.0.1:{port}: 48 datagrams, 0 lost, 1 malformed" in err
 
 
+def test_a_bad_text_datagram_is_dropped_and_counted(stream, capsys):
+    """One text datagram that is no line of numbers ended the stream (exit 2), where a
+    binary one of a wrong size is dropped and counted (an independent audit)."""
+    x, _, _ = stream
+    port = free_udp_port()
+
+    def sender():
+        wait_for_listener(port)
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            for i in range(0, x.size, 250):
+                if i == 4000:
+                    sock.sendto(b"hello\n", ("127.0.0.1", port))
+                block = "".join(f"{float(v)!r}\n" for v in x[i : i + 250])
+                sock.sendto(block.encode(), ("127.0.0.1", port))
+                time.sleep(0.002)
+
+    thread = threading.Thread(target=sender)
+    thread.start()
+    code, out, err = run(capsys, ["monitor", f"udp://127.0.0.1:{port}", *ARGS,
+                                  "--idle-timeout", "1", "--summary"])  # fmt: skip
+    thread.join()
+    assert code == 0, err
+    summary = json.loads(out.splitlines()[-1])["summary"]
+    assert summary["samples"] == x.size and summary["bad_datagrams"] == 1
+    assert summary["ended_by"] == "idle timeout"
+    assert "dropped a datagram that is not lines of numbers" in err
+
+
 @pytest.mark.skipif(not Path("/proc/net/udp").exists(), reason="Linux: SO_RXQ_OVFL, /proc")
 def test_kernel_drops_are_counted(monkeypatch):
     """Datagrams the kernel drops (a full receive buffer) are counted, to the datagram."""

@@ -261,6 +261,19 @@ class _TextDecoder:
         return ""
 
 
+def _datagram_check(column: int | None) -> Any:
+    """What is wrong with one text datagram (whole lines of numbers), or None: UDP drops and
+    counts a bad datagram as it does a binary one of a wrong size."""
+
+    def check(data: bytes) -> str | None:
+        decoder = _TextDecoder(column)
+        decoder.started = True  # a datagram holds samples, not a header
+        decoder(data, final=True)
+        return None if decoder.error is None else str(decoder.error)
+
+    return check
+
+
 class _BinaryDecoder:
     def __init__(self, dtype: str) -> None:
         self.dtype = np.dtype(dtype)
@@ -410,7 +423,8 @@ def _cmd_monitor(args: argparse.Namespace) -> int:
     units = args.units.strip()
     status = _Status()
     printed = 0  # events printed (confirmed, or final with --final)
-    source = open_source(args.source, args.idle_timeout, None if text else decode.dtype.itemsize)
+    source = open_source(args.source, args.idle_timeout, None if text else decode.dtype.itemsize,
+                         _datagram_check(args.column) if text else None)  # fmt: skip
 
     def emit() -> None:
         nonlocal printed

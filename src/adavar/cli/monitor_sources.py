@@ -33,7 +33,7 @@ import struct
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -268,12 +268,17 @@ class UdpSource(Source):
         Where to listen.
     itemsize : int or None
         Bytes a binary sample takes (a datagram must hold whole samples); None for text.
+    check_text : callable, optional
+        Text: what is wrong with a datagram (None: nothing); a bad one is dropped and
+        counted, as a binary one of a wrong size is, instead of ending the stream.
     """
 
     def __init__(
-        self, name: str, host: str, port: int, idle: float | None, itemsize: int | None
-    ) -> None:
+        self, name: str, host: str, port: int, idle: float | None, itemsize: int | None,
+        check_text: Callable[[bytes], str | None] | None = None,
+    ) -> None:  # fmt: skip
         super().__init__(name, idle)
+        self._check_text = check_text
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
         sock = socket.socket(family, socket.SOCK_DGRAM)
         try:
@@ -333,6 +338,15 @@ class UdpSource(Source):
                         self.notices.append(
                             f"{self.name}: dropped a datagram of {len(data)} bytes, not a whole "
                             f"number of {size}-byte samples (counted in bad_datagrams)"
+                        )
+                    continue
+                problem = self._check_text(data) if not size and self._check_text else None
+                if problem:
+                    self.bad += 1
+                    if self.bad == 1:
+                        self.notices.append(
+                            f"{self.name}: dropped a datagram that is not lines of numbers "
+                            f"({problem}; counted in bad_datagrams)"
                         )
                     continue
                 with lock:
@@ -419,10 +433,14 @@ class UdpSource(Source):
         self._sock.close()
 
 
-def open_source(source: str, idle: float | None, itemsize: int | None) -> Source:
+def open_source(
+    source: str, idle: float | None, itemsize: int | None,
+    check_text: Callable[[bytes], str | None] | None = None,
+) -> Source:  # fmt: skip
     """The source ``SOURCE`` names (``-``, ``udp://HOST:PORT`` or a file path).
 
-    ``itemsize``: bytes of a binary sample (None for text).
+    ``itemsize``: bytes of a binary sample (None for text); ``check_text``: for text
+    datagrams, what is wrong with one (:class:`UdpSource`).
     """
     if source == "-":
         return StdinSource("standard input", idle)
@@ -431,7 +449,7 @@ def open_source(source: str, idle: float | None, itemsize: int | None) -> Source
         if match is None or not 0 < int(match.group(2)) < 65536:
             raise UsageError(f"SOURCE {source!r}: give udp://127.0.0.1:PORT (PORT 1-65535)")
         host = "127.0.0.1" if match.group(1) == "localhost" else match.group(1)
-        return UdpSource(source, host, int(match.group(2)), idle, itemsize)
+        return UdpSource(source, host, int(match.group(2)), idle, itemsize, check_text)
     path = Path(source)
     if not path.exists():
         raise UsageError(f"SOURCE {source!r}: no such file (give -, a file or udp://HOST:PORT)")
