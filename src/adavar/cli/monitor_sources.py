@@ -332,21 +332,18 @@ class UdpSource(Source):
                         # the socket's drops so far, sent with the next datagram it keeps
                         self.lost = max(self.lost, struct.unpack("=I", value[:4])[0])
                 self._last = time.monotonic()
+                why = None
                 if size and len(data) % size:
+                    why = f"of {len(data)} bytes, not a whole number of {size}-byte samples"
+                elif not size and self._check_text is not None:
+                    problem = self._check_text(data)
+                    if problem:
+                        why = f"that is not lines of numbers ({problem})"
+                if why is not None:
                     self.bad += 1
-                    if self.bad == 1:
+                    if self.bad == 1:  # the first one said, every one counted
                         self.notices.append(
-                            f"{self.name}: dropped a datagram of {len(data)} bytes, not a whole "
-                            f"number of {size}-byte samples (counted in bad_datagrams)"
-                        )
-                    continue
-                problem = self._check_text(data) if not size and self._check_text else None
-                if problem:
-                    self.bad += 1
-                    if self.bad == 1:
-                        self.notices.append(
-                            f"{self.name}: dropped a datagram that is not lines of numbers "
-                            f"({problem}; counted in bad_datagrams)"
+                            f"{self.name}: dropped a datagram {why} (counted in bad_datagrams)"
                         )
                     continue
                 with lock:
